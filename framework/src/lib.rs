@@ -1,0 +1,1 @@
+//! hybrid-sched (in progress)

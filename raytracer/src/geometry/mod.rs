@@ -1,0 +1,19 @@
+//! Rays, bounds and primitive shapes, all in double precision.
+//!
+//! Conventions: world space is right-handed; `Ray::dir` is unit length;
+//! intersection distances are along `dir`, so `t` is a distance in scene
+//! units. Surface normals returned by intersection routines are unit length
+//! and point to the side the primitive's orientation calls "front" (for a
+//! Radiance polygon: the side from which its vertices appear counter-clockwise).
+
+mod aabb;
+mod ray;
+pub mod shape;
+mod shape_impl;
+
+pub use aabb::Aabb;
+pub use ray::Ray;
+pub use shape::{Shape, ShapeHit};
+
+/// Double-precision vector used for all geometry.
+pub type Vec3 = glam::DVec3;

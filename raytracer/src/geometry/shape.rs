@@ -1,0 +1,89 @@
+//! Primitive shapes. Data layout is the contract between the scene loaders
+//! (which build shapes) and the intersection code (which tests them).
+//!
+//! All constructors validate their input (finite coordinates, positive
+//! radii, non-degenerate polygons) and return a reason string on failure; the
+//! loaders attach file and line.
+
+use std::sync::Arc;
+
+use super::{Aabb, Ray, Vec3};
+
+/// A primitive surface.
+#[derive(Debug, Clone)]
+pub enum Shape {
+    /// A planar polygon, convex or concave, stored with its triangulation.
+    Polygon(Polygon),
+    /// Sphere; `inward` flips the normal (Radiance `bubble`).
+    Sphere { center: Vec3, radius: f64, inward: bool },
+    /// Truncated cone from `p0` (radius `r0`) to `p1` (radius `r1`); a
+    /// cylinder when `r0 == r1`. `inward` flips the normal (Radiance `cup`, `tube`).
+    /// Open ended: no caps, as in Radiance.
+    Cone { p0: Vec3, p1: Vec3, r0: f64, r1: f64, inward: bool },
+    /// Disk with a hole: points at distance in `[r_inner, r_outer]` from
+    /// `center` in the plane through `center` with unit `normal`.
+    Ring { center: Vec3, normal: Vec3, r_inner: f64, r_outer: f64 },
+    /// A transformed reference to shared geometry.
+    Instance(Instance),
+}
+
+/// A planar polygon with at least three vertices.
+#[derive(Debug, Clone)]
+pub struct Polygon {
+    /// Vertices in the order given in the input (defines orientation).
+    pub vertices: Vec<Vec3>,
+    /// Unit normal from the vertex order (Newell's method).
+    pub normal: Vec3,
+    /// Triangulation as indices into `vertices`, each triangle wound like the polygon.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// A similarity transform (rotation, uniform scale, mirror, translation), as
+/// Radiance's `xform` allows. Distances scale by `scale`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transform {
+    /// object -> world
+    pub to_world: glam::DMat4,
+    /// world -> object
+    pub to_object: glam::DMat4,
+    /// Uniform scale factor of `to_world` (always positive).
+    pub scale: f64,
+}
+
+/// Geometry shared by many instances (a Radiance `instance` of an octree, or
+/// a generator's repeated chair). Built once, referenced through `Arc`.
+#[derive(Debug)]
+pub struct InstanceGeometry {
+    /// A name for statistics and messages (the source file or generator name).
+    pub name: String,
+    pub objects: Vec<crate::scene::Object>,
+    /// Acceleration structure over `objects`, in object space.
+    pub accel: crate::accel::Octree,
+    pub bounds: Aabb,
+}
+
+#[derive(Debug, Clone)]
+pub struct Instance {
+    pub geometry: Arc<InstanceGeometry>,
+    pub transform: Transform,
+}
+
+/// Result of intersecting one shape.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShapeHit {
+    /// Distance along the (world-space) ray.
+    pub t: f64,
+    /// Unit geometric normal in world space, oriented by the shape (not towards the ray).
+    pub normal: Vec3,
+    /// For instances: index of the hit object inside `InstanceGeometry::objects`.
+    pub inner: Option<u32>,
+}
+
+// Intersection, bounds, area and sampling are implemented in `shape_impl.rs`
+// alongside the constructors; see the methods on `Shape`.
+#[allow(dead_code)]
+fn _assert_send_sync() {
+    fn f<T: Send + Sync>() {}
+    f::<Shape>();
+    f::<Ray>();
+}

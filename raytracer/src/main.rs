@@ -1,0 +1,3 @@
+fn main() {
+    std::process::exit(hybrid_rt::cli::main());
+}

@@ -1,0 +1,5 @@
+//! The scene model and its loaders.
+
+mod model;
+
+pub use model::*;
