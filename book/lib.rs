@@ -1,2 +1,19 @@
-//! The book's Rust code blocks, compiled and run as doctests of this crate.
-//! Each chapter is included here so `cargo test --doc -p hybrid-book` checks it.
+//! The book's Rust code blocks, compiled and run as doctests of this crate:
+//! `cargo test --doc -p hybrid-book` checks every chapter, so prose and code
+//! cannot drift apart. `mdbook test` is not needed.
+
+#[cfg(doctest)]
+#[doc = include_str!("src/introduction.md")]
+pub struct Introduction;
+
+#[cfg(doctest)]
+#[doc = include_str!("src/framework.md")]
+pub struct Framework;
+
+#[cfg(doctest)]
+#[doc = include_str!("src/rendering.md")]
+pub struct Rendering;
+
+#[cfg(doctest)]
+#[doc = include_str!("src/scenes.md")]
+pub struct Scenes;
