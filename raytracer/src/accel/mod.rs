@@ -1,5 +1,8 @@
 //! Acceleration: the octree, partitioning and pyramid clipping.
 
-/// PLACEHOLDER: replaced by the octree work.
-#[derive(Debug, Default)]
-pub struct Octree {}
+mod octree;
+
+pub use octree::{
+    intersect_brute_force, occluded_brute_force, Hit, LeafSpan, NodeId, NodeView, Octree,
+    OctreeParams, OctreeStats, MAX_DEPTH,
+};

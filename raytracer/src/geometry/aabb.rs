@@ -14,7 +14,10 @@ impl Default for Aabb {
 }
 
 impl Aabb {
-    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f64::INFINITY), max: Vec3::splat(f64::NEG_INFINITY) };
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f64::INFINITY),
+        max: Vec3::splat(f64::NEG_INFINITY),
+    };
 
     pub fn new(min: Vec3, max: Vec3) -> Self {
         Self { min, max }
@@ -30,17 +33,26 @@ impl Aabb {
 
     #[must_use]
     pub fn grow(self, p: Vec3) -> Self {
-        Self { min: self.min.min(p), max: self.max.max(p) }
+        Self {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
     }
 
     #[must_use]
     pub fn union(self, o: Aabb) -> Self {
-        Self { min: self.min.min(o.min), max: self.max.max(o.max) }
+        Self {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
 
     #[must_use]
     pub fn intersection(self, o: Aabb) -> Self {
-        Self { min: self.min.max(o.min), max: self.max.min(o.max) }
+        Self {
+            min: self.min.max(o.min),
+            max: self.max.min(o.max),
+        }
     }
 
     pub fn overlaps(&self, o: &Aabb) -> bool {

@@ -8,12 +8,17 @@
 
 mod aabb;
 mod ray;
+pub mod robust;
 pub mod shape;
 mod shape_impl;
+mod transform;
+mod triangulate;
 
 pub use aabb::Aabb;
-pub use ray::Ray;
-pub use shape::{Shape, ShapeHit};
+pub use ray::{PreparedRay, Ray};
+pub use robust::{offset_origin, offset_origin_scaled};
+pub use shape::{Instance, InstanceGeometry, Polygon, Shape, ShapeHit, Transform};
+pub use shape_impl::PLANARITY_TOLERANCE;
 
 /// Double-precision vector used for all geometry.
 pub type Vec3 = glam::DVec3;

@@ -15,14 +15,29 @@ pub enum Shape {
     /// A planar polygon, convex or concave, stored with its triangulation.
     Polygon(Polygon),
     /// Sphere; `inward` flips the normal (Radiance `bubble`).
-    Sphere { center: Vec3, radius: f64, inward: bool },
+    Sphere {
+        center: Vec3,
+        radius: f64,
+        inward: bool,
+    },
     /// Truncated cone from `p0` (radius `r0`) to `p1` (radius `r1`); a
     /// cylinder when `r0 == r1`. `inward` flips the normal (Radiance `cup`, `tube`).
     /// Open ended: no caps, as in Radiance.
-    Cone { p0: Vec3, p1: Vec3, r0: f64, r1: f64, inward: bool },
+    Cone {
+        p0: Vec3,
+        p1: Vec3,
+        r0: f64,
+        r1: f64,
+        inward: bool,
+    },
     /// Disk with a hole: points at distance in `[r_inner, r_outer]` from
     /// `center` in the plane through `center` with unit `normal`.
-    Ring { center: Vec3, normal: Vec3, r_inner: f64, r_outer: f64 },
+    Ring {
+        center: Vec3,
+        normal: Vec3,
+        r_inner: f64,
+        r_outer: f64,
+    },
     /// A transformed reference to shared geometry.
     Instance(Instance),
 }
@@ -36,6 +51,11 @@ pub struct Polygon {
     pub normal: Vec3,
     /// Triangulation as indices into `vertices`, each triangle wound like the polygon.
     pub triangles: Vec<[u32; 3]>,
+    /// Total area (sum of the triangles' areas).
+    pub area: f64,
+    /// Cumulative triangle areas divided by `area` (last entry 1): picks a
+    /// triangle proportionally to its area when sampling.
+    pub cdf: Vec<f64>,
 }
 
 /// A similarity transform (rotation, uniform scale, mirror, translation), as

@@ -1,0 +1,642 @@
+//! Adaptive octree over scene objects, after Radiance's `oconv`, with
+//! front-to-back traversal.
+//!
+//! Layout: all nodes (internal and leaves) live in one array and are named by
+//! a stable [`NodeId`] (the build order is deterministic: depth first,
+//! children in octant order). The root is node 0. An internal node's eight
+//! children are contiguous; child `i` covers the upper half of the parent's
+//! cell along x if `i & 1`, along y if `i & 2`, along z if `i & 4`. A leaf
+//! owns a contiguous slice of object ids (ascending) in one shared array. An
+//! object is listed in every leaf whose cell (enlarged by a small margin) its
+//! surface may overlap, so the traversal can stop at the first leaf that
+//! contains the nearest hit found so far.
+
+use serde::{Deserialize, Serialize};
+
+use crate::geometry::robust::next_up;
+use crate::geometry::{Aabb, PreparedRay, Ray, Vec3};
+use crate::scene::{Object, ObjectId};
+
+/// Index of an octree node (internal or leaf).
+pub type NodeId = u32;
+
+/// Hard limit on the octree depth (the root has depth 0).
+pub const MAX_DEPTH: u32 = 20;
+
+/// Build parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OctreeParams {
+    /// A cell with more objects than this is subdivided (Radiance `oconv -n`, default 6).
+    pub max_objects: usize,
+    /// Maximum depth of a leaf (root = 0; clamped to [`MAX_DEPTH`]). Depth 14
+    /// corresponds to `oconv`'s default resolution of 16384.
+    pub max_depth: u32,
+    /// Relative enlargement of the root cube beyond the scene's largest extent.
+    pub enlarge: f64,
+    /// Subdivision stops on a path after this many consecutive levels in
+    /// which a child kept all of its parent's objects (coincident or
+    /// mutually enclosing surfaces would otherwise subdivide to the maximum
+    /// depth everywhere).
+    pub max_stall: u32,
+}
+
+impl Default for OctreeParams {
+    fn default() -> Self {
+        Self {
+            max_objects: 6,
+            max_depth: 14,
+            enlarge: 1e-3,
+            max_stall: 3,
+        }
+    }
+}
+
+/// Counts like the paper's Table 1.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct OctreeStats {
+    /// Objects the octree was built over.
+    pub objects: usize,
+    pub leaf_nodes: usize,
+    pub internal_nodes: usize,
+    /// Leaves with no objects.
+    pub empty_leaves: usize,
+    /// Sum over leaves of the number of objects listed (the paper's "object references").
+    pub object_refs: usize,
+    /// Deepest leaf (root = 0).
+    pub max_depth: u32,
+    /// Largest number of objects in one leaf.
+    pub max_leaf_objects: usize,
+}
+
+/// Nearest intersection found by the octree.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Distance along the ray.
+    pub t: f64,
+    /// `ray.at(t)`.
+    pub point: Vec3,
+    /// Unit geometric normal, oriented by the shape (not towards the ray).
+    pub normal: Vec3,
+    /// The top-level object hit.
+    pub object: ObjectId,
+    /// For instances: index of the hit object in the instance's geometry (its
+    /// material is the one that shades the hit).
+    pub inner: Option<u32>,
+}
+
+/// One leaf a ray passes through, with the ray's entry and exit distances.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LeafSpan {
+    pub leaf: NodeId,
+    pub t_enter: f64,
+    pub t_exit: f64,
+}
+
+/// A node as seen from outside.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum NodeView<'a> {
+    /// Eight children in octant order (see the module documentation).
+    Internal { children: [NodeId; 8] },
+    /// Object ids in ascending order.
+    Leaf { objects: &'a [ObjectId] },
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Node {
+    Internal { first_child: u32 },
+    Leaf { start: u32, len: u32 },
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Cell {
+    center: Vec3,
+    half: f64,
+}
+
+impl Cell {
+    fn bounds(&self) -> Aabb {
+        Aabb::new(self.center - self.half, self.center + self.half)
+    }
+
+    #[inline]
+    fn child(&self, i: usize) -> Cell {
+        let q = self.half * 0.5;
+        let s = |bit: usize| if i & bit != 0 { q } else { -q };
+        Cell {
+            center: self.center + Vec3::new(s(1), s(2), s(4)),
+            half: q,
+        }
+    }
+}
+
+/// The octree. `Default` is the empty tree (no nodes; every query misses).
+#[derive(Debug, Clone, Default)]
+pub struct Octree {
+    nodes: Vec<Node>,
+    cells: Vec<Cell>,
+    parents: Vec<NodeId>,
+    depths: Vec<u8>,
+    subtree_refs: Vec<u64>,
+    leaf_objects: Vec<ObjectId>,
+    stats: OctreeStats,
+    /// Absolute margin by which cells are enlarged for the overlap tests.
+    margin: f64,
+}
+
+struct Builder<'a> {
+    objects: &'a [Object],
+    bounds: Vec<Aabb>,
+    params: OctreeParams,
+    margin: f64,
+    tree: Octree,
+}
+
+impl Builder<'_> {
+    fn overlaps(&self, id: ObjectId, cell: &Cell) -> bool {
+        let h = cell.half + self.margin;
+        let b = Aabb::new(cell.center - h, cell.center + h);
+        self.bounds[id as usize].overlaps(&b) && self.objects[id as usize].shape.overlaps_box(&b)
+    }
+
+    fn node(&mut self, id: NodeId, cell: Cell, cands: Vec<ObjectId>, depth: u32, stall: u32) {
+        let t = &mut self.tree;
+        t.cells[id as usize] = cell;
+        t.depths[id as usize] = depth as u8;
+        if cands.len() <= self.params.max_objects
+            || depth >= self.params.max_depth
+            || stall >= self.params.max_stall
+        {
+            let start = t.leaf_objects.len() as u32;
+            t.leaf_objects.extend_from_slice(&cands);
+            t.nodes[id as usize] = Node::Leaf {
+                start,
+                len: cands.len() as u32,
+            };
+            return;
+        }
+        let first = t.nodes.len() as u32;
+        t.nodes[id as usize] = Node::Internal { first_child: first };
+        for _ in 0..8 {
+            t.nodes.push(Node::Leaf { start: 0, len: 0 });
+            t.cells.push(cell);
+            t.parents.push(id);
+            t.depths.push(0);
+        }
+        for i in 0..8 {
+            let c = cell.child(i);
+            let sub: Vec<ObjectId> = cands
+                .iter()
+                .copied()
+                .filter(|&o| self.overlaps(o, &c))
+                .collect();
+            let s = if sub.len() == cands.len() {
+                stall + 1
+            } else {
+                0
+            };
+            self.node(first + i as u32, c, sub, depth + 1, s);
+        }
+    }
+}
+
+impl Octree {
+    /// Builds the octree over `objects` (ids are indices into `objects`).
+    /// Objects with empty bounds are left out. Deterministic.
+    pub fn build(objects: &[Object], params: &OctreeParams) -> Octree {
+        let mut params = params.clone();
+        params.max_depth = params.max_depth.min(MAX_DEPTH);
+        let bounds: Vec<Aabb> = objects.iter().map(|o| o.shape.bounds()).collect();
+        let scene = bounds.iter().fold(
+            Aabb::EMPTY,
+            |a, b| if b.is_empty() { a } else { a.union(*b) },
+        );
+        let (center, half) = if scene.is_empty() {
+            (Vec3::ZERO, 0.5)
+        } else {
+            let ext = scene.extent().max_element();
+            let mag = scene.magnitude();
+            // Never a zero-size cube (a single point or an axis-aligned flat scene).
+            let side = (ext * (1.0 + params.enlarge.max(0.0)))
+                .max(mag * 1e-9)
+                .max(f64::MIN_POSITIVE * 1e20);
+            (scene.center(), side * 0.5)
+        };
+        let margin = 1e-9 * (2.0 * half + center.abs().max_element());
+        let root = Cell { center, half };
+        let cands: Vec<ObjectId> = (0..objects.len() as u32)
+            .filter(|&i| !bounds[i as usize].is_empty())
+            .collect();
+        let tree = Octree {
+            nodes: vec![Node::Leaf { start: 0, len: 0 }],
+            cells: vec![root],
+            parents: vec![NodeId::MAX],
+            depths: vec![0],
+            margin,
+            ..Default::default()
+        };
+        let mut b = Builder {
+            objects,
+            bounds,
+            params,
+            margin,
+            tree,
+        };
+        b.node(0, root, cands, 0, 0);
+        let mut t = b.tree;
+        t.finish(objects.len());
+        t
+    }
+
+    fn finish(&mut self, objects: usize) {
+        let n = self.nodes.len();
+        self.subtree_refs = vec![0; n];
+        let mut s = OctreeStats {
+            objects,
+            ..Default::default()
+        };
+        for id in (0..n).rev() {
+            match self.nodes[id] {
+                Node::Leaf { len, .. } => {
+                    s.leaf_nodes += 1;
+                    s.object_refs += len as usize;
+                    s.max_leaf_objects = s.max_leaf_objects.max(len as usize);
+                    if len == 0 {
+                        s.empty_leaves += 1;
+                    }
+                    s.max_depth = s.max_depth.max(self.depths[id] as u32);
+                    self.subtree_refs[id] += len as u64;
+                }
+                Node::Internal { .. } => s.internal_nodes += 1,
+            }
+            if id > 0 {
+                let p = self.parents[id] as usize;
+                self.subtree_refs[p] += self.subtree_refs[id];
+            }
+        }
+        self.stats = s;
+    }
+
+    /// Table 1 statistics.
+    pub fn stats(&self) -> &OctreeStats {
+        &self.stats
+    }
+
+    /// The root node (0), or `None` for the empty (default) tree.
+    pub fn root(&self) -> Option<NodeId> {
+        if self.nodes.is_empty() {
+            None
+        } else {
+            Some(0)
+        }
+    }
+
+    /// The root cube (empty box for the empty tree).
+    pub fn root_bounds(&self) -> Aabb {
+        self.cells.first().map_or(Aabb::EMPTY, Cell::bounds)
+    }
+
+    /// Number of nodes; node ids are `0..node_count()`.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Kind and contents of a node.
+    pub fn node(&self, id: NodeId) -> NodeView<'_> {
+        match self.nodes[id as usize] {
+            Node::Internal { first_child } => NodeView::Internal {
+                children: std::array::from_fn(|i| first_child + i as u32),
+            },
+            Node::Leaf { start, len } => NodeView::Leaf {
+                objects: &self.leaf_objects[start as usize..(start + len) as usize],
+            },
+        }
+    }
+
+    pub fn is_leaf(&self, id: NodeId) -> bool {
+        matches!(self.nodes[id as usize], Node::Leaf { .. })
+    }
+
+    /// Children of an internal node (`None` for a leaf).
+    pub fn children(&self, id: NodeId) -> Option<[NodeId; 8]> {
+        match self.node(id) {
+            NodeView::Internal { children } => Some(children),
+            NodeView::Leaf { .. } => None,
+        }
+    }
+
+    /// Objects of a leaf, ascending (empty for internal nodes).
+    #[inline]
+    pub fn leaf_objects(&self, id: NodeId) -> &[ObjectId] {
+        match self.nodes[id as usize] {
+            Node::Leaf { start, len } => &self.leaf_objects[start as usize..(start + len) as usize],
+            Node::Internal { .. } => &[],
+        }
+    }
+
+    /// The node's cell (a cube).
+    pub fn node_bounds(&self, id: NodeId) -> Aabb {
+        self.cells[id as usize].bounds()
+    }
+
+    /// Depth of a node (root = 0).
+    pub fn depth(&self, id: NodeId) -> u32 {
+        self.depths[id as usize] as u32
+    }
+
+    /// Parent of a node (`None` for the root).
+    pub fn parent(&self, id: NodeId) -> Option<NodeId> {
+        let p = self.parents[id as usize];
+        (p != NodeId::MAX).then_some(p)
+    }
+
+    /// Object references in the leaves below (and including) a node: the
+    /// paper's cost function "objects per leaf, summed upwards".
+    pub fn subtree_refs(&self, id: NodeId) -> u64 {
+        self.subtree_refs[id as usize]
+    }
+
+    /// All leaf ids, ascending.
+    pub fn leaves(&self) -> impl Iterator<Item = NodeId> + '_ {
+        (0..self.nodes.len() as u32).filter(|&i| self.is_leaf(i))
+    }
+
+    /// The leaf whose cell contains `p` (points on a boundary go to the upper
+    /// side), or `None` outside the root.
+    pub fn find_leaf(&self, p: Vec3) -> Option<NodeId> {
+        if self.nodes.is_empty() || !self.root_bounds().contains(p) {
+            return None;
+        }
+        let mut id = 0u32;
+        while let Node::Internal { first_child } = self.nodes[id as usize] {
+            let c = self.cells[id as usize].center;
+            let i = (p.x >= c.x) as u32 | ((p.y >= c.y) as u32) << 1 | ((p.z >= c.z) as u32) << 2;
+            id = first_child + i;
+        }
+        Some(id)
+    }
+
+    /// Absolute margin by which cells were enlarged when objects were
+    /// assigned to leaves (an object may be listed in a leaf it only comes
+    /// within this distance of).
+    pub fn margin(&self) -> f64 {
+        self.margin
+    }
+
+    /// Approximate heap memory of the structure in bytes.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node>()
+            + self.cells.len() * std::mem::size_of::<Cell>()
+            + self.parents.len() * 4
+            + self.depths.len()
+            + self.subtree_refs.len() * 8
+            + self.leaf_objects.len() * 4
+    }
+
+    /// Parametric interval of the ray inside the root cube, clipped to `[tmin, tmax]`.
+    #[inline]
+    fn root_interval(&self, ray: &Ray, inv: Vec3, tmin: f64, tmax: f64) -> Option<(f64, f64)> {
+        let cell = self.cells.first()?;
+        let (lo, hi) = (cell.center - cell.half, cell.center + cell.half);
+        let (mut t0, mut t1) = (tmin, tmax);
+        for a in 0..3 {
+            let (o, d) = (ray.origin[a], ray.dir[a]);
+            if d == 0.0 {
+                if o < lo[a] || o > hi[a] {
+                    return None;
+                }
+            } else {
+                let ta = (lo[a] - o) * inv[a];
+                let tb = (hi[a] - o) * inv[a];
+                t0 = t0.max(ta.min(tb));
+                t1 = t1.min(ta.max(tb));
+            }
+        }
+        (t0 <= t1).then_some((t0, t1))
+    }
+
+    /// Visits the leaves the ray passes through in front-to-back order with
+    /// their `[t_enter, t_exit]`. `visit` gets a mutable cut-off distance:
+    /// leaves entered beyond it are not visited. `visit` returns true to stop.
+    #[inline]
+    fn traverse<F>(&self, ray: &Ray, inv: Vec3, tmin: f64, tmax: f64, visit: &mut F)
+    where
+        F: FnMut(NodeId, f64, f64, &mut f64) -> bool,
+    {
+        let Some((t0, t1)) = self.root_interval(ray, inv, tmin, tmax) else {
+            return;
+        };
+        let mut cut = tmax;
+        self.visit_node(0, self.cells[0], t0, t1, ray, inv, &mut cut, visit);
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn visit_node<F>(
+        &self,
+        id: NodeId,
+        cell: Cell,
+        t0: f64,
+        t1: f64,
+        ray: &Ray,
+        inv: Vec3,
+        cut: &mut f64,
+        visit: &mut F,
+    ) -> bool
+    where
+        F: FnMut(NodeId, f64, f64, &mut f64) -> bool,
+    {
+        if t0 > *cut {
+            return true;
+        }
+        let first = match self.nodes[id as usize] {
+            Node::Leaf { .. } => return visit(id, t0, t1, cut),
+            Node::Internal { first_child } => first_child,
+        };
+        let (o, d, c) = (ray.origin, ray.dir, cell.center);
+        let mut tm = [f64::INFINITY; 3];
+        let mut child = 0usize;
+        for a in 0..3 {
+            let bit = if d[a] == 0.0 {
+                o[a] >= c[a]
+            } else {
+                let t = (c[a] - o[a]) * inv[a];
+                if t.is_nan() {
+                    o[a] >= c[a]
+                } else {
+                    tm[a] = t;
+                    if t <= t0 {
+                        d[a] > 0.0
+                    } else {
+                        d[a] < 0.0
+                    }
+                }
+            };
+            if bit {
+                child |= 1 << a;
+            }
+        }
+        // Axes in order of their plane crossings.
+        let mut order = [0usize, 1, 2];
+        if tm[order[0]] > tm[order[1]] {
+            order.swap(0, 1);
+        }
+        if tm[order[1]] > tm[order[2]] {
+            order.swap(1, 2);
+        }
+        if tm[order[0]] > tm[order[1]] {
+            order.swap(0, 1);
+        }
+        let mut t = t0;
+        for a in order {
+            let ta = tm[a];
+            if ta > t0 && ta < t1 {
+                if self.visit_node(
+                    first + child as u32,
+                    cell.child(child),
+                    t,
+                    ta,
+                    ray,
+                    inv,
+                    cut,
+                    visit,
+                ) {
+                    return true;
+                }
+                child ^= 1 << a;
+                t = ta;
+            }
+        }
+        self.visit_node(
+            first + child as u32,
+            cell.child(child),
+            t,
+            t1,
+            ray,
+            inv,
+            cut,
+            visit,
+        )
+    }
+
+    /// Nearest hit with `tmin < t < tmax` among `objects` (the slice the tree
+    /// was built over). Equal distances resolve to the smaller object id, like
+    /// [`intersect_brute_force`].
+    pub fn intersect(&self, objects: &[Object], ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        let pre = PreparedRay::new(ray);
+        let mut best: Option<(f64, ObjectId, crate::geometry::ShapeHit)> = None;
+        let mut visit = |leaf: NodeId, _t0: f64, t1: f64, cut: &mut f64| {
+            for &id in self.leaf_objects(leaf) {
+                let bound = if best.is_some() { next_up(*cut) } else { *cut };
+                if let Some(h) = objects[id as usize]
+                    .shape
+                    .intersect_prepared(&pre, tmin, bound)
+                {
+                    if best.is_none_or(|(bt, bid, _)| h.t < bt || (h.t == bt && id < bid)) {
+                        best = Some((h.t, id, h));
+                        *cut = h.t;
+                    }
+                }
+            }
+            best.is_some_and(|(bt, _, _)| bt <= t1)
+        };
+        self.traverse(ray, pre.inv_dir, tmin, tmax, &mut visit);
+        best.map(|(t, id, h)| Hit {
+            t,
+            point: ray.at(t),
+            normal: h.normal,
+            object: id,
+            inner: h.inner,
+        })
+    }
+
+    /// True if any object other than `ignore` is hit with `tmin < t < tmax`.
+    pub fn occluded(
+        &self,
+        objects: &[Object],
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+        ignore: Option<ObjectId>,
+    ) -> bool {
+        let pre = PreparedRay::new(ray);
+        let mut found = false;
+        let mut visit = |leaf: NodeId, _t0: f64, _t1: f64, _cut: &mut f64| {
+            for &id in self.leaf_objects(leaf) {
+                if Some(id) != ignore
+                    && objects[id as usize]
+                        .shape
+                        .occludes_prepared(&pre, tmin, tmax)
+                {
+                    found = true;
+                    return true;
+                }
+            }
+            false
+        };
+        self.traverse(ray, pre.inv_dir, tmin, tmax, &mut visit);
+        found
+    }
+
+    /// Calls `f(leaf, t_enter, t_exit)` for every leaf (empty ones included)
+    /// the ray passes through within `[tmin, tmax]`, front to back; `f`
+    /// returns true to stop.
+    pub fn for_each_leaf_along_ray<F>(&self, ray: &Ray, tmin: f64, tmax: f64, mut f: F)
+    where
+        F: FnMut(NodeId, f64, f64) -> bool,
+    {
+        let inv = Vec3::ONE / ray.dir;
+        let mut visit = |leaf: NodeId, t0: f64, t1: f64, _cut: &mut f64| f(leaf, t0, t1);
+        self.traverse(ray, inv, tmin, tmax, &mut visit);
+    }
+
+    /// The leaves a ray passes through, in order along the ray (the cells a
+    /// migrating ray visits). Zero-length spans appear where the ray passes
+    /// exactly through a cell edge or corner.
+    pub fn leaves_along_ray(&self, ray: &Ray, tmin: f64, tmax: f64) -> Vec<LeafSpan> {
+        let mut out = Vec::new();
+        self.for_each_leaf_along_ray(ray, tmin, tmax, |leaf, t_enter, t_exit| {
+            out.push(LeafSpan {
+                leaf,
+                t_enter,
+                t_exit,
+            });
+            false
+        });
+        out
+    }
+}
+
+/// Reference nearest-hit over all objects (same tie rule as the octree).
+pub fn intersect_brute_force(objects: &[Object], ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+    let pre = PreparedRay::new(ray);
+    let mut best: Option<Hit> = None;
+    for (id, o) in objects.iter().enumerate() {
+        let bound = best.map_or(tmax, |b| next_up(b.t));
+        if let Some(h) = o.shape.intersect_prepared(&pre, tmin, bound) {
+            if best.is_none_or(|b| h.t < b.t) {
+                best = Some(Hit {
+                    t: h.t,
+                    point: ray.at(h.t),
+                    normal: h.normal,
+                    object: id as u32,
+                    inner: h.inner,
+                });
+            }
+        }
+    }
+    best
+}
+
+/// Reference any-hit over all objects.
+pub fn occluded_brute_force(
+    objects: &[Object],
+    ray: &Ray,
+    tmin: f64,
+    tmax: f64,
+    ignore: Option<ObjectId>,
+) -> bool {
+    let pre = PreparedRay::new(ray);
+    objects
+        .iter()
+        .enumerate()
+        .any(|(id, o)| Some(id as u32) != ignore && o.shape.occludes_prepared(&pre, tmin, tmax))
+}
