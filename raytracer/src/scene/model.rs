@@ -25,16 +25,34 @@ pub enum Material {
     /// Radiance `void`: the surface is invisible (no shading, no occlusion).
     Void,
     /// Diffuse + isotropic specular, uncoloured highlight.
-    Plastic { color: Color, specularity: f64, roughness: f64 },
+    Plastic {
+        color: Color,
+        specularity: f64,
+        roughness: f64,
+    },
     /// Like plastic but the highlight takes the material colour.
-    Metal { color: Color, specularity: f64, roughness: f64 },
+    Metal {
+        color: Color,
+        specularity: f64,
+        roughness: f64,
+    },
     /// Translucent plastic: `transmissivity` of the non-specular light passes
     /// through, `transmitted_specular` of that is specular (unscattered).
-    Trans { color: Color, specularity: f64, roughness: f64, transmissivity: f64, transmitted_specular: f64 },
+    Trans {
+        color: Color,
+        specularity: f64,
+        roughness: f64,
+        transmissivity: f64,
+        transmitted_specular: f64,
+    },
     /// Thin glass: transmission per channel at normal incidence, index (default 1.52).
     Glass { transmission: Color, index: f64 },
     /// Boundary between media: transmission per unit length, index, Hartmann constant.
-    Dielectric { transmission: Color, index: f64, hartmann: f64 },
+    Dielectric {
+        transmission: Color,
+        index: f64,
+        hartmann: f64,
+    },
     /// Perfect specular reflector.
     Mirror { color: Color },
     /// Emitter (light source when on a surface sampled as area light).
@@ -42,9 +60,16 @@ pub enum Material {
     /// Emitter that is not sampled as a light beyond `max_radius` (0 = never a source).
     Glow { radiance: Color, max_radius: f64 },
     /// Emitter for direct light only; seen directly or in reflections as its alternate material.
-    Illum { radiance: Color, alternate: Option<MaterialId> },
+    Illum {
+        radiance: Color,
+        alternate: Option<MaterialId>,
+    },
     /// Directional emitter: full output within `angle_deg` of `direction` (if given; else of the surface normal).
-    Spotlight { radiance: Color, angle_deg: f64, direction: Vec3 },
+    Spotlight {
+        radiance: Color,
+        angle_deg: f64,
+        direction: Vec3,
+    },
 }
 
 impl Material {
@@ -52,7 +77,10 @@ impl Material {
     pub fn is_emitter(&self) -> bool {
         matches!(
             self,
-            Material::Light { .. } | Material::Glow { .. } | Material::Illum { .. } | Material::Spotlight { .. }
+            Material::Light { .. }
+                | Material::Glow { .. }
+                | Material::Illum { .. }
+                | Material::Spotlight { .. }
         )
     }
 }
@@ -107,6 +135,8 @@ impl Scene {
 
     /// World bounds of all objects.
     pub fn bounds(&self) -> Aabb {
-        self.objects.iter().fold(Aabb::EMPTY, |b, o| b.union(o.shape.bounds()))
+        self.objects
+            .iter()
+            .fold(Aabb::EMPTY, |b, o| b.union(o.shape.bounds()))
     }
 }

@@ -1,0 +1,895 @@
+//! Turning raw Radiance primitives into a [`Scene`]: modifier lookup,
+//! materials, shapes, instances, lights and statistics.
+//!
+//! Records are interpreted in order, as `oconv` does: a modifier must be
+//! defined before it is used, a later definition of a name replaces the
+//! earlier one for the records that follow, and several files form one scene
+//! (later files may use earlier files' materials).
+
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use super::model::*;
+use super::rad::{Expander, RawPrim};
+use super::xform::{is_surface, parse_instance_xf};
+use crate::geometry::shape::{InstanceGeometry, Shape};
+use crate::geometry::Vec3;
+use crate::{Error, Result, SourceLoc};
+
+/// What a modifier name stands for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Mod {
+    Material(MaterialId),
+    /// An unsupported pattern/texture/mixture (ignored with a warning); the
+    /// material its modifier chain leads to, if any.
+    Pattern(Option<MaterialId>),
+}
+
+/// Pattern, texture and mixture types: accepted and ignored with a warning.
+const PATTERNS: &[&str] = &[
+    "brightfunc",
+    "colorfunc",
+    "texfunc",
+    "texdata",
+    "brightdata",
+    "colordata",
+    "colorpict",
+    "brighttext",
+    "colortext",
+    "mixfunc",
+    "mixdata",
+    "mixpict",
+    "mixtext",
+    "specfunc",
+    "specdata",
+    "specpict",
+];
+
+/// Builds a scene from raw primitives (and OBJ objects, see [`super::obj`]).
+pub(crate) struct Builder {
+    pub scene: Scene,
+    scope: HashMap<String, Mod>,
+    void_id: Option<MaterialId>,
+    default_id: Option<MaterialId>,
+    pub exp: Expander,
+    /// Instance geometry by source file (and material, for meshes).
+    inst_cache: HashMap<(PathBuf, Option<MaterialId>), Arc<InstanceGeometry>>,
+    inst_stack: Vec<PathBuf>,
+}
+
+impl Builder {
+    pub fn new() -> Self {
+        Self {
+            scene: Scene::default(),
+            scope: HashMap::new(),
+            void_id: None,
+            default_id: None,
+            exp: Expander::new(),
+            inst_cache: HashMap::new(),
+            inst_stack: Vec::new(),
+        }
+    }
+
+    pub fn warn(&mut self, loc: &SourceLoc, msg: impl Into<String>) {
+        self.scene.warnings.push((loc.clone(), msg.into()));
+    }
+
+    fn add_material(&mut self, name: &str, m: Material) -> MaterialId {
+        let id = self.scene.materials.len() as MaterialId;
+        self.scene.materials.push(m);
+        self.scene.material_names.push(name.to_string());
+        id
+    }
+
+    fn void_material(&mut self) -> MaterialId {
+        match self.void_id {
+            Some(id) => id,
+            None => {
+                let id = self.add_material("void", Material::Void);
+                self.void_id = Some(id);
+                id
+            }
+        }
+    }
+
+    /// The grey plastic used where an OBJ face has no material.
+    pub fn default_material(&mut self) -> MaterialId {
+        match self.default_id {
+            Some(id) => id,
+            None => {
+                let m = Material::Plastic {
+                    color: Color::splat(0.5),
+                    specularity: 0.0,
+                    roughness: 0.0,
+                };
+                let id = self.add_material("default_grey", m);
+                self.default_id = Some(id);
+                id
+            }
+        }
+    }
+
+    /// Registers a material under `name` in the current scope (OBJ loader).
+    pub fn define_material(&mut self, name: &str, m: Material) -> MaterialId {
+        let id = self.add_material(name, m);
+        self.scope.insert(name.to_string(), Mod::Material(id));
+        self.scene.stats.materials += 1;
+        id
+    }
+
+    /// Parses and adds a `.rad` file at top level.
+    pub fn add_rad_file(&mut self, path: &Path) -> Result<()> {
+        let mut prims = Vec::new();
+        self.exp.parse_file(path, None, &mut prims)?;
+        let mut objs = std::mem::take(&mut self.scene.objects);
+        let r = self.add_prims(&prims, &mut objs, true);
+        self.scene.objects = objs;
+        r
+    }
+
+    /// Parses and adds scene text at top level.
+    pub fn add_rad_text(&mut self, text: &str, name: &Path) -> Result<()> {
+        let mut prims = Vec::new();
+        self.exp.parse_text(text, name, &mut prims)?;
+        let mut objs = std::mem::take(&mut self.scene.objects);
+        let r = self.add_prims(&prims, &mut objs, true);
+        self.scene.objects = objs;
+        r
+    }
+
+    fn lookup(&self, name: &str, loc: &SourceLoc, user: &RawPrim) -> Result<Mod> {
+        self.scope.get(name).copied().ok_or_else(|| {
+            Error::parse(
+                loc.clone(),
+                format!(
+                    "{} '{}': undefined modifier '{name}' (modifiers must be defined before use)",
+                    user.ptype, user.id
+                ),
+            )
+        })
+    }
+
+    /// The material a surface with modifier `name` is made of.
+    fn surface_material(&mut self, p: &RawPrim) -> Result<MaterialId> {
+        if p.modifier == "void" {
+            return Ok(self.void_material());
+        }
+        match self.lookup(&p.modifier, &p.loc, p)? {
+            Mod::Material(id) => Ok(id),
+            Mod::Pattern(Some(id)) => Ok(id),
+            Mod::Pattern(None) => Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{} '{}': modifier '{}' is a pattern whose modifier chain leads to no material",
+                    p.ptype, p.id, p.modifier
+                ),
+            )),
+        }
+    }
+
+    /// Interprets raw primitives in order; surfaces go to `objects`. Lights
+    /// are only collected at top level (`top`).
+    pub fn add_prims(
+        &mut self,
+        prims: &[RawPrim],
+        objects: &mut Vec<Object>,
+        top: bool,
+    ) -> Result<()> {
+        for p in prims {
+            self.add_prim(p, objects, top)?;
+        }
+        Ok(())
+    }
+
+    fn add_prim(&mut self, p: &RawPrim, objects: &mut Vec<Object>, top: bool) -> Result<()> {
+        let t = p.ptype.as_str();
+        if t == "alias" {
+            return self.add_alias(p);
+        }
+        if is_surface(t) {
+            return self.add_surface(p, objects, top);
+        }
+        if PATTERNS.contains(&t) {
+            let chain = match p.modifier.as_str() {
+                "void" => None,
+                m => match self.lookup(m, &p.loc, p)? {
+                    Mod::Material(id) => Some(id),
+                    Mod::Pattern(x) => x,
+                },
+            };
+            self.warn(
+                &p.loc,
+                format!(
+                    "{t} '{}' is not supported yet and is ignored: materials it modifies render unpatterned",
+                    p.id
+                ),
+            );
+            self.scene.stats.materials += 1;
+            self.scope.insert(p.id.clone(), Mod::Pattern(chain));
+            return Ok(());
+        }
+        let Some(m) = self.material(p)? else {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!("unknown primitive type '{t}' (identifier '{}')", p.id),
+            ));
+        };
+        match p.modifier.as_str() {
+            "void" => {}
+            name => {
+                if let Mod::Material(_) = self.lookup(name, &p.loc, p)? {
+                    self.warn(
+                        &p.loc,
+                        format!("{t} '{}': its modifier '{name}' is a material, which has no effect here", p.id),
+                    );
+                }
+            }
+        }
+        let id = self.add_material(&p.id, m);
+        self.scene.stats.materials += 1;
+        self.scope.insert(p.id.clone(), Mod::Material(id));
+        Ok(())
+    }
+
+    fn add_alias(&mut self, p: &RawPrim) -> Result<()> {
+        let target = &p.strs[0];
+        let m = if target == "void" {
+            Mod::Material(self.void_material())
+        } else {
+            self.lookup(target, &p.loc, p)?
+        };
+        match p.modifier.as_str() {
+            "void" | "inherit" => {}
+            other => {
+                if let Mod::Pattern(_) = self.lookup(other, &p.loc, p)? {
+                    self.warn(
+                        &p.loc,
+                        format!("alias '{}': pattern modifier '{other}' is not supported yet and is ignored", p.id),
+                    );
+                }
+            }
+        }
+        self.scope.insert(p.id.clone(), m);
+        Ok(())
+    }
+
+    /// Checks the string and integer argument counts of a material.
+    fn counts(p: &RawPrim, strs: std::ops::RangeInclusive<usize>) -> Result<()> {
+        if !strs.contains(&p.strs.len()) {
+            let want = if strs.start() == strs.end() {
+                strs.start().to_string()
+            } else {
+                format!("{strs:?}")
+            };
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{} '{}': expected {want} string arguments, got {}",
+                    p.ptype,
+                    p.id,
+                    p.strs.len()
+                ),
+            ));
+        }
+        if !p.ints.is_empty() {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{} '{}': expected 0 integer arguments, got {}",
+                    p.ptype,
+                    p.id,
+                    p.ints.len()
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    fn reals(p: &RawPrim, allowed: &[usize], meaning: &str) -> Result<()> {
+        if allowed.contains(&p.reals.len()) {
+            return Ok(());
+        }
+        let want: Vec<String> = allowed.iter().map(|n| n.to_string()).collect();
+        Err(Error::parse(
+            p.loc.clone(),
+            format!(
+                "{} '{}': expected {} real arguments ({meaning}), got {}",
+                p.ptype,
+                p.id,
+                want.join(" or "),
+                p.reals.len()
+            ),
+        ))
+    }
+
+    /// The material a material record defines, `None` if `p` is not a material type.
+    fn material(&mut self, p: &RawPrim) -> Result<Option<Material>> {
+        let r = &p.reals;
+        let rgb = |k: usize| Color::new(r[k], r[k + 1], r[k + 2]);
+        let m = match p.ptype.as_str() {
+            "plastic" | "metal" => {
+                Self::counts(p, 0..=0)?;
+                Self::reals(p, &[5], "red green blue specularity roughness")?;
+                let (color, specularity, roughness) = (rgb(0), r[3], r[4]);
+                if p.ptype == "plastic" {
+                    Material::Plastic {
+                        color,
+                        specularity,
+                        roughness,
+                    }
+                } else {
+                    Material::Metal {
+                        color,
+                        specularity,
+                        roughness,
+                    }
+                }
+            }
+            "trans" => {
+                Self::counts(p, 0..=0)?;
+                Self::reals(
+                    p,
+                    &[7],
+                    "red green blue specularity roughness transmissivity transmitted_specular",
+                )?;
+                Material::Trans {
+                    color: rgb(0),
+                    specularity: r[3],
+                    roughness: r[4],
+                    transmissivity: r[5],
+                    transmitted_specular: r[6],
+                }
+            }
+            "glass" => {
+                Self::counts(p, 0..=0)?;
+                Self::reals(p, &[3, 4], "red green blue transmission [index]")?;
+                Material::Glass {
+                    transmission: rgb(0),
+                    index: r.get(3).copied().unwrap_or(1.52),
+                }
+            }
+            "dielectric" => {
+                Self::counts(p, 0..=0)?;
+                Self::reals(p, &[5], "red green blue index hartmann")?;
+                Material::Dielectric {
+                    transmission: rgb(0),
+                    index: r[3],
+                    hartmann: r[4],
+                }
+            }
+            "mirror" => {
+                Self::counts(p, 0..=1)?;
+                Self::reals(p, &[3], "red green blue")?;
+                if let Some(alt) = p.strs.first() {
+                    self.warn(
+                        &p.loc,
+                        format!("mirror '{}': alternate material '{alt}' is ignored (the mirror is not a virtual source)", p.id),
+                    );
+                }
+                Material::Mirror { color: rgb(0) }
+            }
+            "light" => {
+                Self::counts(p, 0..=0)?;
+                Self::reals(p, &[3], "red green blue radiance")?;
+                Material::Light { radiance: rgb(0) }
+            }
+            "glow" => {
+                Self::counts(p, 0..=0)?;
+                Self::reals(p, &[4], "red green blue max_radius")?;
+                Material::Glow {
+                    radiance: rgb(0),
+                    max_radius: r[3],
+                }
+            }
+            "illum" => {
+                Self::counts(p, 0..=1)?;
+                Self::reals(p, &[3], "red green blue radiance")?;
+                let alternate = match p.strs.first().map(String::as_str) {
+                    None | Some("void") => None,
+                    Some(name) => Some(match self.lookup(name, &p.loc, p)? {
+                        Mod::Material(id) | Mod::Pattern(Some(id)) => id,
+                        Mod::Pattern(None) => {
+                            return Err(Error::parse(
+                                p.loc.clone(),
+                                format!(
+                                    "illum '{}': alternate '{name}' leads to no material",
+                                    p.id
+                                ),
+                            ))
+                        }
+                    }),
+                };
+                Material::Illum {
+                    radiance: rgb(0),
+                    alternate,
+                }
+            }
+            "spotlight" => {
+                Self::counts(p, 0..=0)?;
+                Self::reals(p, &[7], "red green blue angle xdir ydir zdir")?;
+                if !(r[3] > 0.0 && r[3] <= 360.0) {
+                    return Err(Error::parse(
+                        p.loc.clone(),
+                        format!(
+                            "spotlight '{}': cone angle {} must be in (0, 360] degrees",
+                            p.id, r[3]
+                        ),
+                    ));
+                }
+                Material::Spotlight {
+                    radiance: rgb(0),
+                    angle_deg: r[3],
+                    direction: Vec3::new(r[4], r[5], r[6]),
+                }
+            }
+            other => return self.substitute(p, other),
+        };
+        Ok(Some(m))
+    }
+
+    /// Materials we do not simulate: a stand-in and a warning saying which.
+    fn substitute(&mut self, p: &RawPrim, t: &str) -> Result<Option<Material>> {
+        let r = &p.reals;
+        let rgb = |k: usize| Color::new(r[k], r[k + 1], r[k + 2]);
+        let (m, what) = match t {
+            "plasfunc" | "plasdata" | "metfunc" | "metdata" if r.len() == 5 => {
+                let (color, specularity, roughness) = (rgb(0), r[3], r[4]);
+                if t.starts_with("plas") {
+                    (
+                        Material::Plastic {
+                            color,
+                            specularity,
+                            roughness,
+                        },
+                        "plain plastic with the same reals",
+                    )
+                } else {
+                    (
+                        Material::Metal {
+                            color,
+                            specularity,
+                            roughness,
+                        },
+                        "plain metal with the same reals",
+                    )
+                }
+            }
+            "plastic2" | "metal2" if r.len() == 6 => {
+                let (color, specularity, roughness) = (rgb(0), r[3], (r[4] * r[5]).abs().sqrt());
+                if t == "plastic2" {
+                    (
+                        Material::Plastic {
+                            color,
+                            specularity,
+                            roughness,
+                        },
+                        "isotropic plastic (mean roughness)",
+                    )
+                } else {
+                    (
+                        Material::Metal {
+                            color,
+                            specularity,
+                            roughness,
+                        },
+                        "isotropic metal (mean roughness)",
+                    )
+                }
+            }
+            "transfunc" | "transdata" if r.len() == 7 => (
+                Material::Trans {
+                    color: rgb(0),
+                    specularity: r[3],
+                    roughness: r[4],
+                    transmissivity: r[5],
+                    transmitted_specular: r[6],
+                },
+                "plain trans with the same reals",
+            ),
+            "trans2" if r.len() == 8 => (
+                Material::Trans {
+                    color: rgb(0),
+                    specularity: r[3],
+                    roughness: (r[4] * r[5]).abs().sqrt(),
+                    transmissivity: r[6],
+                    transmitted_specular: r[7],
+                },
+                "isotropic trans (mean roughness)",
+            ),
+            "interface" if r.len() == 8 => (
+                Material::Dielectric {
+                    transmission: rgb(4),
+                    index: if r[3] != 0.0 { r[7] / r[3] } else { r[7] },
+                    hartmann: 0.0,
+                },
+                "a dielectric with the relative index",
+            ),
+            "antimatter" | "mist" | "prism1" | "prism2" => {
+                (Material::Void, "void (its surfaces are invisible)")
+            }
+            "plasfunc" | "plasdata" | "metfunc" | "metdata" | "plastic2" | "metal2"
+            | "transfunc" | "transdata" | "trans2" | "interface" | "BRTDfunc" | "BSDF"
+            | "aBSDF" | "ashik2" | "WGMDfunc" => (
+                Material::Plastic {
+                    color: Color::splat(0.5),
+                    specularity: 0.0,
+                    roughness: 0.0,
+                },
+                "grey plastic (reflectance 0.5)",
+            ),
+            _ => return Ok(None),
+        };
+        self.warn(
+            &p.loc,
+            format!(
+                "material type {t} ('{}') is not supported yet; rendered as {what}",
+                p.id
+            ),
+        );
+        Ok(Some(m))
+    }
+
+    fn geometry_error(p: &RawPrim, reason: String) -> Error {
+        Error::Geometry {
+            loc: p.loc.clone(),
+            reason: format!("{} '{}': {reason}", p.ptype, p.id),
+        }
+    }
+
+    fn add_surface(&mut self, p: &RawPrim, objects: &mut Vec<Object>, top: bool) -> Result<()> {
+        if !p.ints.is_empty() {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{} '{}': expected 0 integer arguments, got {}",
+                    p.ptype,
+                    p.id,
+                    p.ints.len()
+                ),
+            ));
+        }
+        let material = self.surface_material(p)?;
+        let t = p.ptype.as_str();
+        if t == "source" {
+            return self.add_source(p, material, top);
+        }
+        if t != "instance" && t != "mesh" && !p.strs.is_empty() {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{t} '{}': expected 0 string arguments, got {}",
+                    p.id,
+                    p.strs.len()
+                ),
+            ));
+        }
+        let shape = if t == "instance" || t == "mesh" {
+            self.instance_shape(p, material)?
+        } else {
+            self.primitive_shape(p)?
+        };
+        self.push_object(p, objects, top, shape, material);
+        Ok(())
+    }
+
+    fn primitive_shape(&self, p: &RawPrim) -> Result<Shape> {
+        let t = p.ptype.as_str();
+        let r = &p.reals;
+        let v = |k: usize| Vec3::new(r[k], r[k + 1], r[k + 2]);
+        match t {
+            "polygon" => {
+                if r.len() % 3 != 0 || r.len() < 9 {
+                    return Err(Error::parse(
+                        p.loc.clone(),
+                        format!(
+                            "polygon '{}': expected a multiple of 3 real arguments (at least 9: three vertices), got {}",
+                            p.id,
+                            r.len()
+                        ),
+                    ));
+                }
+                let verts = (0..r.len() / 3).map(|k| v(3 * k)).collect();
+                Shape::polygon(verts)
+            }
+            "sphere" | "bubble" => {
+                Self::reals(p, &[4], "xcent ycent zcent radius")?;
+                Shape::sphere(v(0), r[3], t == "bubble")
+            }
+            "cone" | "cup" => {
+                Self::reals(p, &[8], "x0 y0 z0 x1 y1 z1 r0 r1")?;
+                Shape::cone(v(0), v(3), r[6], r[7], t == "cup")
+            }
+            "cylinder" | "tube" => {
+                Self::reals(p, &[7], "x0 y0 z0 x1 y1 z1 radius")?;
+                Shape::cone(v(0), v(3), r[6], r[6], t == "tube")
+            }
+            "ring" => {
+                Self::reals(p, &[8], "xcent ycent zcent xdir ydir zdir r_inner r_outer")?;
+                Shape::ring(v(0), v(3), r[6], r[7])
+            }
+            _ => Err(format!("not a primitive shape type: {t}")),
+        }
+        .map_err(|reason| Self::geometry_error(p, reason))
+    }
+
+    fn push_object(
+        &mut self,
+        p: &RawPrim,
+        objects: &mut Vec<Object>,
+        top: bool,
+        shape: Shape,
+        material: MaterialId,
+    ) {
+        let t = p.ptype.as_str();
+        let id = objects.len() as ObjectId;
+        objects.push(Object {
+            name: p.id.clone(),
+            shape,
+            material,
+        });
+        let is_light = is_light_material(self.scene.material(material));
+        if is_light && t != "instance" && t != "mesh" {
+            if top {
+                self.scene.lights.push(Light {
+                    kind: LightKind::Area { object: id },
+                    material,
+                });
+            } else {
+                self.warn(
+                    &p.loc,
+                    format!(
+                        "{t} '{}': emitting surfaces inside instanced geometry are not sampled as light sources",
+                        p.id
+                    ),
+                );
+            }
+        }
+    }
+
+    fn add_source(&mut self, p: &RawPrim, material: MaterialId, top: bool) -> Result<()> {
+        if !p.strs.is_empty() {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "source '{}': expected 0 string arguments, got {}",
+                    p.id,
+                    p.strs.len()
+                ),
+            ));
+        }
+        Self::reals(p, &[4], "xdir ydir zdir angle")?;
+        let r = &p.reals;
+        let dir = Vec3::new(r[0], r[1], r[2]);
+        if !(dir.length() > 0.0) {
+            return Err(Self::geometry_error(p, "direction is zero".into()));
+        }
+        if !(r[3] > 0.0 && r[3] <= 180.0) {
+            return Err(Self::geometry_error(
+                p,
+                format!("angle {} must be in (0, 180] degrees", r[3]),
+            ));
+        }
+        if !self.scene.material(material).is_emitter() {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "source '{}': modifier '{}' is not a light, glow, illum or spotlight material",
+                    p.id, p.modifier
+                ),
+            ));
+        }
+        if !top {
+            self.warn(
+                &p.loc,
+                format!("source '{}' inside instanced geometry is ignored", p.id),
+            );
+            return Ok(());
+        }
+        let half = (r[3] * 0.5).to_radians();
+        let solid_angle = 2.0 * std::f64::consts::PI * (1.0 - half.cos());
+        self.scene.lights.push(Light {
+            kind: LightKind::Distant {
+                dir: dir.normalize(),
+                solid_angle,
+            },
+            material,
+        });
+        Ok(())
+    }
+
+    /// `instance` (of an octree, loaded from its `.rad` source) or `mesh`
+    /// (of an `.rtm`, loaded from a sibling `.obj`), with the transform from
+    /// its string arguments followed by any enclosing `!xform`.
+    fn instance_shape(&mut self, p: &RawPrim, material: MaterialId) -> Result<Shape> {
+        let t = p.ptype.as_str();
+        let Some(file) = p.strs.first() else {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{t} '{}': expected the {} file name as first string argument",
+                    p.id,
+                    if t == "mesh" { "mesh" } else { "octree" }
+                ),
+            ));
+        };
+        let xf = parse_instance_xf(&p.strs[1..], &p.loc)
+            .map_err(|e| retag(e, &format!("{t} '{}': ", p.id)))?
+            .then(&p.post.unwrap_or_default());
+        let named = p.base_dir().join(file);
+        let (source, want) = if t == "instance" {
+            (named.with_extension("rad"), "rad")
+        } else {
+            (named.with_extension("obj"), "obj")
+        };
+        let ext_ok = match named.extension().and_then(|e| e.to_str()) {
+            Some("oct") => t == "instance",
+            Some("rtm") => t == "mesh",
+            Some(e) => e == want,
+            None => false,
+        };
+        if !ext_ok || !source.is_file() {
+            let kind = if t == "instance" {
+                "an octree"
+            } else {
+                "a compiled mesh"
+            };
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{t} '{}': cannot read {kind} '{}': this loader reads scene sources, not {} files; \
+                     put '{}' beside it (its source, with the same name)",
+                    p.id,
+                    named.display(),
+                    if t == "instance" { "oconv" } else { "obj2mesh" },
+                    source.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(),
+                ),
+            ));
+        }
+        let key = std::fs::canonicalize(&source).unwrap_or_else(|_| source.clone());
+        let cache_key = (key.clone(), if t == "mesh" { Some(material) } else { None });
+        let geometry = match self.inst_cache.get(&cache_key) {
+            Some(g) => g.clone(),
+            None => {
+                if self.inst_stack.contains(&key) {
+                    return Err(Error::parse(
+                        p.loc.clone(),
+                        format!(
+                            "{t} '{}': '{}' instances itself (instance cycle)",
+                            p.id,
+                            source.display()
+                        ),
+                    ));
+                }
+                self.inst_stack.push(key);
+                let r = self.load_instance_geometry(p, &source, material);
+                self.inst_stack.pop();
+                let g = Arc::new(r?);
+                self.inst_cache.insert(cache_key, g.clone());
+                g
+            }
+        };
+        Shape::instance(geometry, xf).map_err(|reason| Self::geometry_error(p, reason))
+    }
+
+    fn load_instance_geometry(
+        &mut self,
+        p: &RawPrim,
+        source: &Path,
+        material: MaterialId,
+    ) -> Result<InstanceGeometry> {
+        let saved = std::mem::take(&mut self.scope);
+        let mut objects = Vec::new();
+        let r = if p.ptype == "mesh" {
+            let mat = if Some(material) == self.void_id {
+                None
+            } else {
+                Some(material)
+            };
+            super::obj::load_obj_into(self, source, mat, Some(&p.loc), &mut objects)
+        } else {
+            let mut prims = Vec::new();
+            self.exp
+                .parse_file(source, Some(&p.loc), &mut prims)
+                .and_then(|()| self.add_prims(&prims, &mut objects, false))
+        };
+        self.scope = saved;
+        r?;
+        if objects.is_empty() {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{} '{}': '{}' contains no surfaces",
+                    p.ptype,
+                    p.id,
+                    source.display()
+                ),
+            ));
+        }
+        Ok(InstanceGeometry::new(source.display().to_string(), objects))
+    }
+
+    /// Loads an OBJ file at top level; its emitting faces become area lights.
+    pub fn add_obj_file(&mut self, path: &Path) -> Result<()> {
+        let mut objs = std::mem::take(&mut self.scene.objects);
+        let start = objs.len();
+        let r = super::obj::load_obj_into(self, path, None, None, &mut objs);
+        for (k, o) in objs.iter().enumerate().skip(start) {
+            if is_light_material(self.scene.material(o.material)) {
+                self.scene.lights.push(Light {
+                    kind: LightKind::Area {
+                        object: k as ObjectId,
+                    },
+                    material: o.material,
+                });
+            }
+        }
+        self.scene.objects = objs;
+        r
+    }
+
+    /// Fills in the statistics and hands over the scene.
+    pub fn finish(mut self) -> Scene {
+        let mut seen = HashSet::new();
+        let mut primitives = 0;
+        let mut instances = 0;
+        count(
+            &self.scene.objects,
+            &mut seen,
+            &mut primitives,
+            &mut instances,
+            1,
+        );
+        self.scene.stats.objects = self.scene.objects.len();
+        self.scene.stats.primitives = primitives;
+        self.scene.stats.instances = instances;
+        self.scene
+    }
+}
+
+/// Counts primitives (each shared geometry once) and instance references
+/// (every placement, nested ones multiplied out).
+fn count(
+    objects: &[Object],
+    seen: &mut HashSet<*const InstanceGeometry>,
+    primitives: &mut usize,
+    instances: &mut usize,
+    mult: usize,
+) {
+    for o in objects {
+        match &o.shape {
+            Shape::Instance(inst) => {
+                *instances += mult;
+                let g = Arc::as_ptr(&inst.geometry);
+                let first = seen.insert(g);
+                let mut prims = 0;
+                count(&inst.geometry.objects, seen, &mut prims, instances, mult);
+                if first {
+                    *primitives += prims;
+                }
+            }
+            _ => *primitives += 1,
+        }
+    }
+}
+
+/// Surfaces of these materials are sampled as area lights: light, illum,
+/// spotlight, and glow with a positive radius of influence.
+pub(crate) fn is_light_material(m: &Material) -> bool {
+    match m {
+        Material::Light { .. } | Material::Illum { .. } | Material::Spotlight { .. } => true,
+        Material::Glow { max_radius, .. } => *max_radius > 0.0,
+        _ => false,
+    }
+}
+
+/// Prefixes the reason of a parse error.
+fn retag(e: Error, prefix: &str) -> Error {
+    match e {
+        Error::Parse { loc, reason } => Error::Parse {
+            loc,
+            reason: format!("{prefix}{reason}"),
+        },
+        other => other,
+    }
+}

@@ -1,0 +1,1 @@
+//! Built-in procedural scenes, written as Radiance scene text.
