@@ -22,3 +22,6 @@ pub use shape_impl::PLANARITY_TOLERANCE;
 
 /// Double-precision vector used for all geometry.
 pub type Vec3 = glam::DVec3;
+
+#[cfg(test)]
+mod tests;

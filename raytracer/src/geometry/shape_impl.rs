@@ -102,7 +102,7 @@ impl Shape {
             area += 0.5 * (b - a).cross(cc - a).length();
             cdf.push(area);
         }
-        if triangles.is_empty() || !(area > 0.0) {
+        if triangles.is_empty() || area.is_nan() || area <= 0.0 {
             return Err("degenerate polygon: zero area after triangulation".into());
         }
         for x in &mut cdf {
@@ -158,7 +158,7 @@ impl Shape {
         }
         let h = (p1 - p0).length();
         let mag = p0.abs().max(p1.abs()).max_element();
-        if !(h > 1e-12 * mag) || h == 0.0 {
+        if h.is_nan() || h <= 1e-12 * mag || h == 0.0 {
             return Err(format!(
                 "zero-length cone axis: {} to {}",
                 fmt_v(p0),
@@ -185,7 +185,7 @@ impl Shape {
             ));
         }
         let l = normal.length();
-        if !(l > 0.0) || !l.is_finite() {
+        if !l.is_finite() || l <= 0.0 {
             return Err("ring normal has zero length".into());
         }
         if !r_inner.is_finite() || !r_outer.is_finite() || r_inner < 0.0 {
@@ -211,7 +211,7 @@ impl Shape {
         geometry: Arc<InstanceGeometry>,
         transform: Transform,
     ) -> Result<Shape, String> {
-        if !transform.is_finite() || !(transform.scale > 0.0) {
+        if !transform.is_finite() || transform.scale <= 0.0 {
             return Err(format!(
                 "instance '{}': transform is not finite or has non-positive scale",
                 geometry.name
