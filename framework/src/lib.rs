@@ -1,1 +1,52 @@
-//! hybrid-sched (in progress)
+//! # hybrid-sched
+//!
+//! A generic, actor-based framework for hybrid task scheduling after Reinhard,
+//! Chalmers and Jansen, "Hybrid Scheduling for Parallel Rendering using
+//! Coherent Ray Tasks": coherent work runs *demand-driven* anywhere after
+//! fetching (and caching) its small data set, incoherent work runs
+//! *data-parallel* by migrating to the processors that own its data.
+//!
+//! * An application implements [`Workload`].
+//! * Each processor is a [`Processor`] state machine (private state, a priority
+//!   [`Mailbox`], a [`DataStore`] with a byte-budgeted LRU [`ByteLru`] cache);
+//!   the [`Master`] hands out root tasks and detects termination.
+//! * A runtime moves [`Packet`]s between them: [`run_threads`] (tokio) or
+//!   [`run_sequential`] (the reference); a simulator or MPI transport can drive
+//!   the same state machines through [`runtime::Node`].
+//!
+//! See `SEMANTICS.md` for the guarantees and the book chapter for a tutorial.
+
+pub mod bundle;
+pub mod cache;
+pub mod clock;
+pub mod config;
+pub mod error;
+pub mod flow;
+pub mod mailbox;
+pub mod master;
+pub mod message;
+pub mod policy;
+pub mod processor;
+pub mod runtime;
+pub mod stats;
+pub mod store;
+pub mod workload;
+
+#[cfg(test)]
+mod tests;
+
+pub use cache::ByteLru;
+pub use clock::{Clock, Time, WallClock};
+pub use config::{BundleConfig, Config};
+pub use error::{ConfigError, RunError};
+pub use mailbox::Mailbox;
+pub use master::Master;
+pub use message::{Addr, Class, Msg, Packet};
+pub use policy::Policy;
+pub use processor::{Processor, Step};
+pub use runtime::sequential::{run_sequential, Sequential};
+pub use runtime::threads::{run_threads, Threads};
+pub use runtime::{Node, RunReport, Runtime};
+pub use stats::{ProcStats, RunStats, State};
+pub use store::DataStore;
+pub use workload::{ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};

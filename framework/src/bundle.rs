@@ -1,0 +1,174 @@
+//! The sending side of a processor: per-destination bundling gated by credits.
+//!
+//! Urgent messages (control, data requests and replies) become packets at
+//! once. Credit-limited messages (results and tasks) wait in a *lane* per
+//! destination and class until the lane is due (enough messages or bytes for a
+//! bundle, its oldest message old enough, or the processor ran out of work)
+//! and credits allow; then they leave as one packet. Nothing is ever dropped:
+//! a lane without credit simply keeps its messages (the send backlog).
+
+use std::collections::VecDeque;
+
+use crate::clock::Time;
+use crate::config::BundleConfig;
+use crate::flow::Credits;
+use crate::message::{is_credit_limited, Addr, Class, Msg, Packet, HEADER_BYTES};
+use crate::workload::Workload;
+
+struct Lane<W: Workload> {
+    items: VecDeque<(Msg<W>, usize, Time)>,
+    bytes: usize,
+}
+
+impl<W: Workload> Default for Lane<W> {
+    fn default() -> Self {
+        Lane {
+            items: VecDeque::new(),
+            bytes: 0,
+        }
+    }
+}
+
+/// Outgoing message buffer of one actor.
+pub struct Outbox<W: Workload> {
+    me: Addr,
+    procs: usize,
+    bundle: BundleConfig,
+    max_age: Time,
+    /// `lanes[dest_slot][class]`; only credit-limited classes are used.
+    lanes: Vec<[Lane<W>; 5]>,
+    credits: Credits,
+    ready: Vec<Packet<W>>,
+    backlog: usize,
+    backlog_high_water: usize,
+}
+
+impl<W: Workload> Outbox<W> {
+    /// Outbox of `me` in a run with `procs` workers.
+    pub fn new(me: Addr, procs: usize, bundle: BundleConfig, credits_per_link: u32) -> Self {
+        let slots = procs + 1;
+        let max_age = u64::try_from(bundle.max_age.as_nanos()).unwrap_or(u64::MAX);
+        Outbox {
+            me,
+            procs,
+            bundle,
+            max_age,
+            lanes: (0..slots).map(|_| Default::default()).collect(),
+            credits: Credits::new(slots, credits_per_link),
+            ready: Vec::new(),
+            backlog: 0,
+            backlog_high_water: 0,
+        }
+    }
+
+    /// Queues `msg` for `to`. Urgent messages become packets immediately.
+    pub fn push(&mut self, to: Addr, msg: Msg<W>, now: Time) {
+        let class = msg.class();
+        if !is_credit_limited(self.me, class) {
+            self.ready.push(Packet::single(self.me, to, msg));
+            return;
+        }
+        let slot = to.slot(self.procs);
+        let bytes = msg.byte_size();
+        let lane = &mut self.lanes[slot][class.index()];
+        lane.items.push_back((msg, bytes, now));
+        lane.bytes += bytes;
+        self.backlog += 1;
+        self.backlog_high_water = self.backlog_high_water.max(self.backlog);
+        self.pump_lane(slot, class, now, false);
+    }
+
+    /// Credits came back from `from`; lanes towards it may move again.
+    pub fn grant(&mut self, from: Addr, credits: u32, now: Time) {
+        let slot = from.slot(self.procs);
+        self.credits.grant(slot, credits);
+        for class in Class::ALL {
+            self.pump_lane(slot, class, now, false);
+        }
+    }
+
+    /// Sends every lane that is due; with `flush`, every lane that has credit.
+    pub fn pump(&mut self, now: Time, flush: bool) {
+        if self.backlog == 0 {
+            return;
+        }
+        for slot in 0..self.lanes.len() {
+            for class in Class::ALL {
+                self.pump_lane(slot, class, now, flush);
+            }
+        }
+    }
+
+    fn pump_lane(&mut self, slot: usize, class: Class, now: Time, flush: bool) {
+        let to = Addr::from_slot(slot, self.procs);
+        loop {
+            let lane = &mut self.lanes[slot][class.index()];
+            let Some(&(_, _, oldest)) = lane.items.front() else {
+                return;
+            };
+            let due = flush
+                || !self.bundle.enabled
+                || lane.items.len() >= self.bundle.max_items
+                || lane.bytes >= self.bundle.max_bytes
+                || now.saturating_sub(oldest) >= self.max_age;
+            let credit = self.credits.available(slot) as usize;
+            if !due || credit == 0 {
+                return;
+            }
+            let cap = if self.bundle.enabled {
+                self.bundle.max_items.min(credit)
+            } else {
+                1
+            };
+            let mut items = Vec::new();
+            let mut bytes = HEADER_BYTES;
+            while items.len() < cap && bytes - HEADER_BYTES < self.bundle.max_bytes {
+                let Some((msg, b, _)) = lane.items.pop_front() else {
+                    break;
+                };
+                lane.bytes -= b;
+                bytes += b;
+                items.push(msg);
+            }
+            self.backlog -= items.len();
+            self.credits.consume(slot, items.len() as u32);
+            self.ready.push(Packet {
+                from: self.me,
+                to,
+                class,
+                items,
+                bytes,
+            });
+        }
+    }
+
+    /// Packets ready to transmit, in the order they became ready.
+    pub fn take_ready(&mut self) -> Vec<Packet<W>> {
+        std::mem::take(&mut self.ready)
+    }
+
+    /// Whether packets are ready to transmit.
+    pub fn has_ready(&self) -> bool {
+        !self.ready.is_empty()
+    }
+
+    /// Messages waiting in lanes (for a bundle or for credit).
+    pub fn backlog(&self) -> usize {
+        self.backlog
+    }
+
+    /// Most messages ever waiting in lanes.
+    pub fn backlog_high_water(&self) -> usize {
+        self.backlog_high_water
+    }
+
+    /// Whether nothing at all is waiting to go out.
+    pub fn is_empty(&self) -> bool {
+        self.backlog == 0 && self.ready.is_empty()
+    }
+
+    /// Credits available towards `to` (for tests and diagnostics).
+    pub fn credits_towards(&self, to: Addr) -> u32 {
+        self.credits.available(to.slot(self.procs))
+    }
+}

@@ -1,0 +1,231 @@
+//! Run configuration and its validation.
+
+use std::time::Duration;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::ConfigError;
+use crate::policy::Policy;
+
+/// Largest number of worker processors accepted.
+pub const MAX_PROCS: usize = 4096;
+/// Largest cache budget accepted (2^60 bytes): keeps all byte arithmetic far
+/// from overflow.
+pub const MAX_CACHE_BYTES: u64 = 1 << 60;
+/// Largest credit count per link accepted.
+pub const MAX_CREDITS: usize = 1 << 20;
+
+/// Bundling of low-priority messages per destination.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BundleConfig {
+    /// Whether results and tasks are bundled at all. When off, every message
+    /// travels alone (useful to measure what bundling saves).
+    pub enabled: bool,
+    /// Send a bundle once it holds this many messages.
+    pub max_items: usize,
+    /// Send a bundle once it holds this many bytes.
+    pub max_bytes: usize,
+    /// Send a bundle once its oldest message has waited this long (in the
+    /// runtime's time: wall clock for threads, virtual for the simulator).
+    /// A processor with nothing to do flushes all bundles at once anyway.
+    pub max_age: Duration,
+}
+
+impl Default for BundleConfig {
+    fn default() -> Self {
+        BundleConfig {
+            enabled: true,
+            max_items: 32,
+            max_bytes: 64 * 1024,
+            max_age: Duration::from_millis(2),
+        }
+    }
+}
+
+/// Everything a run needs besides the workload.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Config {
+    /// Number of worker processors (the master is an extra actor).
+    pub procs: usize,
+    /// Placement of demand-driven child tasks.
+    pub policy: Policy,
+    /// Cache budget in bytes per processor (`None`: unlimited).
+    pub cache_bytes: Option<u64>,
+    /// Bundling of low-priority traffic.
+    pub bundle: BundleConfig,
+    /// Flow control: how many credit-limited messages (tasks and results) one
+    /// worker may have unconsumed at one receiver. Bounds every input buffer
+    /// by `credits_per_link * procs` messages.
+    pub credits_per_link: usize,
+    /// A processor asks for new demand-driven work while fewer than this many
+    /// of its tasks wait for data (latency hiding versus memory).
+    pub max_waiting_tasks: usize,
+    /// Threads for the threads runtime (`None`: available parallelism).
+    pub threads: Option<usize>,
+    /// Abort the run with [`crate::RunError::TimedOut`] after this long.
+    pub time_limit: Option<Duration>,
+}
+
+impl Config {
+    /// Defaults for `procs` workers: `Local` policy, unlimited cache,
+    /// bundling on, 64 credits per link.
+    pub fn new(procs: usize) -> Self {
+        Config {
+            procs,
+            policy: Policy::Local,
+            cache_bytes: None,
+            bundle: BundleConfig::default(),
+            credits_per_link: 64,
+            max_waiting_tasks: 2,
+            threads: None,
+            time_limit: None,
+        }
+    }
+
+    /// Sets the policy.
+    pub fn with_policy(mut self, policy: Policy) -> Self {
+        self.policy = policy;
+        self
+    }
+
+    /// Sets the cache budget.
+    pub fn with_cache_bytes(mut self, bytes: Option<u64>) -> Self {
+        self.cache_bytes = bytes;
+        self
+    }
+
+    /// Turns bundling on or off.
+    pub fn with_bundling(mut self, enabled: bool) -> Self {
+        self.bundle.enabled = enabled;
+        self
+    }
+
+    /// Sets the credits per link.
+    pub fn with_credits(mut self, credits: usize) -> Self {
+        self.credits_per_link = credits;
+        self
+    }
+
+    /// Sets the time limit.
+    pub fn with_time_limit(mut self, limit: Duration) -> Self {
+        self.time_limit = Some(limit);
+        self
+    }
+
+    /// Checks every field; the first problem found is returned.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if self.procs == 0 {
+            return Err(ConfigError::NoProcessors);
+        }
+        if self.procs > MAX_PROCS {
+            return Err(ConfigError::TooManyProcessors {
+                procs: self.procs,
+                max: MAX_PROCS,
+            });
+        }
+        match self.cache_bytes {
+            Some(0) => return Err(ConfigError::ZeroCache),
+            Some(b) if b > MAX_CACHE_BYTES => {
+                return Err(ConfigError::CacheTooLarge {
+                    bytes: b,
+                    max: MAX_CACHE_BYTES,
+                })
+            }
+            _ => {}
+        }
+        if self.bundle.max_items == 0 {
+            return Err(ConfigError::ZeroBundleItems);
+        }
+        if self.bundle.max_bytes == 0 {
+            return Err(ConfigError::ZeroBundleBytes);
+        }
+        if self.credits_per_link == 0 {
+            return Err(ConfigError::ZeroCredits);
+        }
+        if self.credits_per_link > MAX_CREDITS {
+            return Err(ConfigError::TooManyCredits {
+                credits: self.credits_per_link,
+                max: MAX_CREDITS,
+            });
+        }
+        if self.max_waiting_tasks == 0 {
+            return Err(ConfigError::ZeroWaitingTasks);
+        }
+        if self.threads == Some(0) {
+            return Err(ConfigError::ZeroThreads);
+        }
+        if self.time_limit == Some(Duration::ZERO) {
+            return Err(ConfigError::ZeroTimeLimit);
+        }
+        Ok(())
+    }
+
+    /// The most credit-limited messages any one actor can hold unconsumed:
+    /// every worker (including, for the master, all of them) may have
+    /// `credits_per_link` outstanding towards it. Input buffer high-water marks
+    /// never exceed this (checked by the flow-control tests).
+    pub fn input_buffer_bound(&self) -> usize {
+        self.procs * self.credits_per_link
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid() {
+        assert_eq!(Config::new(4).validate(), Ok(()));
+    }
+
+    #[test]
+    fn bad_configs_give_clear_errors() {
+        let cases: Vec<(Config, &str)> = vec![
+            (Config::new(0), "at least 1"),
+            (Config::new(MAX_PROCS + 1), "maximum"),
+            (Config::new(2).with_cache_bytes(Some(0)), "cache budget"),
+            (Config::new(2).with_cache_bytes(Some(u64::MAX)), "absurd"),
+            (Config::new(2).with_credits(0), "credit"),
+            (
+                Config {
+                    bundle: BundleConfig {
+                        max_items: 0,
+                        ..BundleConfig::default()
+                    },
+                    ..Config::new(2)
+                },
+                "bundle size",
+            ),
+            (
+                Config {
+                    bundle: BundleConfig {
+                        max_bytes: 0,
+                        ..BundleConfig::default()
+                    },
+                    ..Config::new(2)
+                },
+                "bundle byte",
+            ),
+            (
+                Config {
+                    max_waiting_tasks: 0,
+                    ..Config::new(2)
+                },
+                "max_waiting_tasks",
+            ),
+            (
+                Config {
+                    threads: Some(0),
+                    ..Config::new(2)
+                },
+                "threads",
+            ),
+            (Config::new(2).with_time_limit(Duration::ZERO), "time limit"),
+        ];
+        for (cfg, needle) in cases {
+            let err = cfg.validate().expect_err("must be rejected");
+            let text = err.to_string();
+            assert!(text.contains(needle), "{text:?} should mention {needle:?}");
+        }
+    }
+}

@@ -1,0 +1,154 @@
+//! Flow control: credits per link and input-buffer accounting.
+//!
+//! Every worker may have at most `credits_per_link` credit-limited messages
+//! (results and tasks, see [`crate::message::is_credit_limited`]) sent to one
+//! receiver and not yet consumed there. The receiver returns credits as it
+//! consumes them (merges a result, starts a task, hands a pooled task out).
+//! A sender never blocks: messages without credit wait in its outbox, and it
+//! goes on with other work. Data requests and replies, and control messages,
+//! never need credit, so a task waiting for data can always get it and the
+//! receiver can always make progress; consumption returns credits, so no
+//! cycle of full buffers can form (see SEMANTICS.md).
+
+use serde::{Deserialize, Serialize};
+
+/// Sender side: credits available towards each destination slot.
+#[derive(Clone, Debug)]
+pub struct Credits {
+    available: Vec<u32>,
+}
+
+impl Credits {
+    /// `per_link` credits towards each of `slots` destinations.
+    pub fn new(slots: usize, per_link: u32) -> Self {
+        Credits {
+            available: vec![per_link; slots],
+        }
+    }
+
+    /// Credits available towards `slot`.
+    pub fn available(&self, slot: usize) -> u32 {
+        self.available[slot]
+    }
+
+    /// Uses `n` credits towards `slot`.
+    pub fn consume(&mut self, slot: usize, n: u32) {
+        debug_assert!(self.available[slot] >= n, "credit underflow");
+        self.available[slot] -= n;
+    }
+
+    /// `n` credits came back from `slot`.
+    pub fn grant(&mut self, slot: usize, n: u32) {
+        self.available[slot] += n;
+    }
+}
+
+/// Receiver side: consumed messages whose credit has not been returned yet.
+/// Credits go back in batches (half a window at a time) to keep control
+/// traffic small, and all at once when the receiver runs out of work.
+#[derive(Clone, Debug)]
+pub struct CreditLedger {
+    owed: Vec<u32>,
+    batch: u32,
+}
+
+impl CreditLedger {
+    /// Ledger for `slots` senders with `per_link` credits each.
+    pub fn new(slots: usize, per_link: u32) -> Self {
+        CreditLedger {
+            owed: vec![0; slots],
+            batch: per_link.div_ceil(2).max(1),
+        }
+    }
+
+    /// One message from `slot` was consumed.
+    pub fn consumed(&mut self, slot: usize) {
+        self.owed[slot] += 1;
+    }
+
+    /// Credits to return now: those that reached a batch, or all when `flush`.
+    pub fn take_due(&mut self, flush: bool) -> Vec<(usize, u32)> {
+        let mut due = Vec::new();
+        for (slot, owed) in self.owed.iter_mut().enumerate() {
+            if *owed > 0 && (flush || *owed >= self.batch) {
+                due.push((slot, *owed));
+                *owed = 0;
+            }
+        }
+        due
+    }
+
+    /// Whether any credit is owed.
+    pub fn any_owed(&self) -> bool {
+        self.owed.iter().any(|&o| o > 0)
+    }
+}
+
+/// Current size and high-water mark of the credit-limited part of an input
+/// buffer (messages received, not yet consumed).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct InputBuffer {
+    /// Messages held now.
+    pub items: usize,
+    /// Bytes held now.
+    pub bytes: usize,
+    /// Most messages ever held.
+    pub high_water_items: usize,
+    /// Most bytes ever held.
+    pub high_water_bytes: usize,
+}
+
+impl InputBuffer {
+    /// A message arrived.
+    pub fn add(&mut self, bytes: usize) {
+        self.items += 1;
+        self.bytes += bytes;
+        self.high_water_items = self.high_water_items.max(self.items);
+        self.high_water_bytes = self.high_water_bytes.max(self.bytes);
+    }
+
+    /// A message was consumed.
+    pub fn remove(&mut self, bytes: usize) {
+        self.items -= 1;
+        self.bytes -= bytes;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ledger_batches_and_flushes() {
+        let mut l = CreditLedger::new(3, 4);
+        l.consumed(1);
+        assert!(l.take_due(false).is_empty());
+        l.consumed(1);
+        assert_eq!(l.take_due(false), vec![(1, 2)]);
+        l.consumed(2);
+        assert!(l.any_owed());
+        assert_eq!(l.take_due(true), vec![(2, 1)]);
+        assert!(!l.any_owed());
+    }
+
+    #[test]
+    fn credits_round_trip() {
+        let mut c = Credits::new(2, 3);
+        c.consume(0, 3);
+        assert_eq!(c.available(0), 0);
+        c.grant(0, 2);
+        assert_eq!(c.available(0), 2);
+        assert_eq!(c.available(1), 3);
+    }
+
+    #[test]
+    fn input_buffer_high_water() {
+        let mut b = InputBuffer::default();
+        b.add(10);
+        b.add(5);
+        b.remove(10);
+        b.add(1);
+        assert_eq!((b.items, b.bytes), (2, 6));
+        assert_eq!((b.high_water_items, b.high_water_bytes), (2, 15));
+    }
+}

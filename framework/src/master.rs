@@ -1,0 +1,318 @@
+//! The master: hands out root tasks, pools `ViaMaster` children, merges
+//! results addressed to it, and detects termination.
+//!
+//! The master is an extra actor, not a worker (the paper's master also
+//! traced; keeping it apart keeps it responsive, which matters most for the
+//! `ViaMaster` policy, and costs one mostly idle thread).
+//!
+//! # Termination detection
+//! Counters with a confirmation wave (Mattern's four-counter method). Every
+//! actor counts the *basic* messages (everything but credits, probes and
+//! termination) it has sent and received. When the master holds no work (no
+//! roots left, no pooled tasks, empty mailbox) and every worker has a work
+//! request parked with it, it sends a probe wave. A worker answers only when
+//! passive (no queued, ready, deferred or waiting task, empty send backlog)
+//! with its two counters. When all answers are in, the master adds its own
+//! counters, taken at that moment and only if it is itself passive, giving the
+//! wave's totals (S, R). Termination is declared when a wave's S equals the
+//! previous complete wave's R (then S = R, too).
+//!
+//! Why this is exact: let wave 1 end at t1 and wave 2 start after t1. Every
+//! wave-1 report was taken at or before t1 and every wave-2 report after t1,
+//! and counters only grow, so R1 <= R(t1) <= S(t1) <= S2. If R1 = S2 all are
+//! equal: no basic message was in transit at t1, and no actor received one
+//! between its wave-1 report and t1. Each was passive at its report and only
+//! a basic message can give a passive actor work, so all were passive at t1
+//! with nothing in transit: no work existed anywhere and none could appear.
+//! Conversely, once the computation is over every worker is passive with a
+//! parked request, so two more waves always end the run: no hang.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use tracing::{debug, info};
+
+use crate::bundle::Outbox;
+use crate::clock::Time;
+use crate::config::Config;
+use crate::error::RunError;
+use crate::flow::{CreditLedger, InputBuffer};
+use crate::mailbox::Mailbox;
+use crate::message::{is_credit_limited, Addr, DdEnvelope, Incoming, Msg, Packet};
+use crate::processor::Step;
+use crate::stats::{ProcStats, State};
+use crate::workload::Workload;
+
+struct Wave {
+    id: u64,
+    answered: Vec<bool>,
+    count: usize,
+    sent: u64,
+    received: u64,
+}
+
+/// The master actor. See the module documentation.
+pub struct Master<W: Workload> {
+    procs: usize,
+    workload: Arc<W>,
+    roots: VecDeque<W::DdTask>,
+    pool: VecDeque<(DdEnvelope<W>, Addr, usize)>,
+    parked: VecDeque<usize>,
+    mailbox: Mailbox<Incoming<W>>,
+    outbox: Outbox<W>,
+    ledger: CreditLedger,
+    inbuf: InputBuffer,
+    acc: W::Accumulator,
+    stats: ProcStats,
+    basic_sent: u64,
+    basic_received: u64,
+    wave: Option<Wave>,
+    previous: Option<(u64, u64)>,
+    next_wave: u64,
+    finished: bool,
+}
+
+impl<W: Workload> Master<W> {
+    /// The master of a run with `config.procs` workers.
+    pub fn new(workload: Arc<W>, config: &Config) -> Self {
+        let procs = config.procs;
+        let credits = config.credits_per_link as u32;
+        Master {
+            procs,
+            roots: workload.root_tasks(procs).into(),
+            pool: VecDeque::new(),
+            parked: VecDeque::new(),
+            mailbox: Mailbox::new(),
+            outbox: Outbox::new(Addr::Master, procs, config.bundle.clone(), credits),
+            ledger: CreditLedger::new(procs + 1, credits),
+            inbuf: InputBuffer::default(),
+            acc: W::Accumulator::default(),
+            stats: ProcStats::new(Addr::Master),
+            basic_sent: 0,
+            basic_received: 0,
+            wave: None,
+            previous: None,
+            next_wave: 0,
+            finished: false,
+            workload,
+        }
+    }
+
+    /// Statistics so far.
+    pub fn stats(&self) -> &ProcStats {
+        &self.stats
+    }
+
+    /// Adds `ns` to the time spent in `state`.
+    pub fn account(&mut self, state: State, ns: Time) {
+        self.stats.time_ns.add(state, ns);
+    }
+
+    /// Whether termination has been declared.
+    pub fn is_finished(&self) -> bool {
+        self.finished
+    }
+
+    /// A packet arrived.
+    pub fn deliver(&mut self, packet: Packet<W>, _now: Time) {
+        self.stats
+            .received
+            .record(packet.class, packet.items.len(), packet.bytes);
+        let from = packet.from;
+        for msg in packet.items {
+            if msg.is_basic() {
+                self.basic_received += 1;
+            }
+            let class = msg.class();
+            let bytes = msg.byte_size();
+            let credited = is_credit_limited(from, class);
+            if credited {
+                self.inbuf.add(bytes);
+            }
+            self.mailbox.push(
+                class,
+                Incoming {
+                    from,
+                    msg,
+                    bytes,
+                    credited,
+                },
+            );
+        }
+    }
+
+    /// Handles one message, or, with none left, does the idle duties.
+    pub fn step(&mut self, now: Time) -> Result<Step, RunError> {
+        if self.finished {
+            return Ok(Step::Finished);
+        }
+        let Some((_, inc)) = self.mailbox.pop() else {
+            self.return_credits(true, now);
+            self.maybe_start_wave(now);
+            return Ok(Step::Idle);
+        };
+        let from = inc.from;
+        let worker = match from {
+            Addr::Proc(p) if p < self.procs => p,
+            _ => {
+                return Err(RunError::Workload {
+                    at: Addr::Master,
+                    message: format!("message {:?} from unexpected sender {from}", inc.msg),
+                })
+            }
+        };
+        match inc.msg {
+            Msg::WorkRequest => {
+                if let Some((env, sender, bytes)) = self.pool.pop_front() {
+                    self.hand_out(worker, env, now);
+                    self.consume(sender, bytes, now);
+                } else if let Some(task) = self.roots.pop_front() {
+                    self.stats.tasks.roots += 1;
+                    let env = DdEnvelope {
+                        task,
+                        origin: None,
+                        handout: true,
+                    };
+                    self.hand_out(worker, env, now);
+                } else {
+                    self.parked.push_back(worker);
+                }
+            }
+            Msg::Dd(env) => {
+                // A `ViaMaster` child: to the first processor asking for work.
+                self.stats.tasks.pooled += 1;
+                if let Some(w) = self.parked.pop_front() {
+                    self.hand_out(w, env, now);
+                    self.consume(from, inc.bytes, now);
+                } else {
+                    self.pool.push_back((env, from, inc.bytes));
+                }
+            }
+            Msg::Result(r) => {
+                self.workload.merge(&mut self.acc, r);
+                self.stats.tasks.results_merged += 1;
+                self.consume(from, inc.bytes, now);
+            }
+            Msg::ProbeReply {
+                wave,
+                sent,
+                received,
+            } => self.on_probe_reply(worker, wave, sent, received, now),
+            other => {
+                return Err(RunError::Workload {
+                    at: Addr::Master,
+                    message: format!("unexpected message {other:?} from {from}"),
+                })
+            }
+        }
+        Ok(Step::Worked(State::Receiving))
+    }
+
+    fn hand_out(&mut self, worker: usize, mut env: DdEnvelope<W>, now: Time) {
+        env.handout = true;
+        self.send(Addr::Proc(worker), Msg::Dd(env), now);
+    }
+
+    /// A credit-limited message from `from` is consumed. Pooled tasks stay in
+    /// the input buffer until handed out, so the pool is bounded by credits.
+    fn consume(&mut self, from: Addr, bytes: usize, now: Time) {
+        self.inbuf.remove(bytes);
+        self.ledger.consumed(from.slot(self.procs));
+        self.return_credits(false, now);
+    }
+
+    fn return_credits(&mut self, flush: bool, now: Time) {
+        for (slot, n) in self.ledger.take_due(flush) {
+            self.send(Addr::from_slot(slot, self.procs), Msg::Credit(n), now);
+        }
+    }
+
+    fn send(&mut self, to: Addr, msg: Msg<W>, now: Time) {
+        if msg.is_basic() {
+            self.basic_sent += 1;
+        }
+        self.outbox.push(to, msg, now);
+    }
+
+    /// Holds no work: no roots, no pooled tasks, nothing unprocessed.
+    fn is_passive(&self) -> bool {
+        self.roots.is_empty() && self.pool.is_empty() && self.mailbox.is_empty()
+    }
+
+    fn maybe_start_wave(&mut self, now: Time) {
+        if self.wave.is_some() || !self.is_passive() || self.parked.len() < self.procs {
+            return;
+        }
+        let id = self.next_wave;
+        self.next_wave += 1;
+        self.stats.termination_waves += 1;
+        debug!(wave = id, "termination probe wave");
+        self.wave = Some(Wave {
+            id,
+            answered: vec![false; self.procs],
+            count: 0,
+            sent: 0,
+            received: 0,
+        });
+        for p in 0..self.procs {
+            self.send(Addr::Proc(p), Msg::Probe(id), now);
+        }
+    }
+
+    fn on_probe_reply(&mut self, worker: usize, id: u64, sent: u64, received: u64, now: Time) {
+        let Some(wave) = self.wave.as_mut() else {
+            return;
+        };
+        if wave.id != id || wave.answered[worker] {
+            return;
+        }
+        wave.answered[worker] = true;
+        wave.count += 1;
+        wave.sent += sent;
+        wave.received += received;
+        if wave.count < self.procs {
+            return;
+        }
+        let wave = self.wave.take().expect("checked above");
+        if !self.is_passive() {
+            // The master's own report must be taken while passive; this wave
+            // cannot serve as the first of a confirming pair.
+            self.previous = None;
+            return;
+        }
+        let s = wave.sent + self.basic_sent;
+        let r = wave.received + self.basic_received;
+        match self.previous {
+            Some((_, r_prev)) if r_prev == s && s == r => {
+                info!(
+                    waves = self.stats.termination_waves,
+                    messages = s,
+                    "termination detected"
+                );
+                self.finished = true;
+                for p in 0..self.procs {
+                    self.send(Addr::Proc(p), Msg::Terminate, now);
+                }
+            }
+            _ => self.previous = Some((s, r)),
+        }
+    }
+
+    /// Packets to transmit now.
+    pub fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
+        self.outbox.pump(now, false);
+        let packets = self.outbox.take_ready();
+        for p in &packets {
+            self.stats.sent.record(p.class, p.items.len(), p.bytes);
+        }
+        packets
+    }
+
+    /// Ends the run: the master's accumulator and statistics.
+    pub fn finish(mut self) -> (W::Accumulator, ProcStats) {
+        self.stats.memory.input_buffer_items = self.inbuf.high_water_items;
+        self.stats.memory.input_buffer_bytes = self.inbuf.high_water_bytes;
+        self.stats.memory.mailbox_items = self.mailbox.high_water();
+        (self.acc, self.stats)
+    }
+}

@@ -1,0 +1,280 @@
+//! Addresses, priority classes and the messages processors exchange.
+//!
+//! Everything here is `serde`-serialisable so that a transport other than
+//! in-process channels (MPI, a file for replay) can carry it unchanged.
+
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+use crate::workload::{ByteSize, Workload};
+
+/// Address of an actor: the master or worker processor `i` (`0..procs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum Addr {
+    /// The master: hands out root tasks, detects termination, gathers results.
+    Master,
+    /// Worker processor `i`.
+    Proc(usize),
+}
+
+impl Addr {
+    /// Dense index: workers `0..procs`, the master `procs`.
+    pub fn slot(self, procs: usize) -> usize {
+        match self {
+            Addr::Proc(i) => i,
+            Addr::Master => procs,
+        }
+    }
+
+    /// Inverse of [`Addr::slot`].
+    pub fn from_slot(slot: usize, procs: usize) -> Addr {
+        if slot == procs {
+            Addr::Master
+        } else {
+            Addr::Proc(slot)
+        }
+    }
+}
+
+impl fmt::Display for Addr {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Addr::Master => write!(f, "master"),
+            Addr::Proc(i) => write!(f, "p{i}"),
+        }
+    }
+}
+
+/// Message priority classes, highest first (the derive order is the priority
+/// order). Control traffic is tiny and unblocks others (credits, probes), data
+/// requests/replies are what waiting tasks wait for, results free memory at the
+/// sender, and data-parallel work is preferred over demand-driven work because
+/// it is bound to its data while demand-driven work can go anywhere.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum Class {
+    /// Credits, work requests, termination probes, termination.
+    Control,
+    /// Data requests and replies.
+    Data,
+    /// Results travelling to their destination.
+    Result,
+    /// Migrating data-parallel tasks.
+    DataParallel,
+    /// Demand-driven tasks (root hand-outs and policy-placed children).
+    DemandDriven,
+}
+
+impl Class {
+    /// All classes, highest priority first.
+    pub const ALL: [Class; 5] = [
+        Class::Control,
+        Class::Data,
+        Class::Result,
+        Class::DataParallel,
+        Class::DemandDriven,
+    ];
+
+    /// Position in [`Class::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Urgent classes are sent at once, unbundled, and are never held back by
+    /// flow control (data traffic must never wait for task traffic, or a
+    /// waiting task could deadlock against a full input buffer).
+    pub fn is_urgent(self) -> bool {
+        matches!(self, Class::Control | Class::Data)
+    }
+}
+
+/// A demand-driven task in transit.
+#[derive(Serialize, Deserialize)]
+#[serde(bound = "")]
+pub struct DdEnvelope<W: Workload> {
+    /// The task.
+    pub task: W::DdTask,
+    /// The processor that ran the root task this one descends from (`None`
+    /// for a root that has not run yet). Used by the `ToOrigin` policy.
+    pub origin: Option<usize>,
+    /// Whether the master sent it in answer to a work request.
+    pub handout: bool,
+}
+
+/// A data-parallel task in transit.
+#[derive(Serialize, Deserialize)]
+#[serde(bound = "")]
+pub struct DpEnvelope<W: Workload> {
+    /// The task.
+    pub task: W::DpTask,
+    /// Origin of the root task it descends from (see [`DdEnvelope::origin`]).
+    pub origin: Option<usize>,
+}
+
+/// One logical message. Several of the same class may travel in one
+/// [`Packet`] (a bundle).
+#[derive(Serialize, Deserialize)]
+#[serde(bound = "")]
+pub enum Msg<W: Workload> {
+    /// Please send these items (all owned by the receiver).
+    DataRequest(Vec<W::DataId>),
+    /// The requested items.
+    DataReply(Vec<(W::DataId, W::DataItem)>),
+    /// A result to merge at the receiver.
+    Result(W::Result),
+    /// A data-parallel task.
+    Dp(DpEnvelope<W>),
+    /// A demand-driven task.
+    Dd(DdEnvelope<W>),
+    /// A worker asks the master for a demand-driven task.
+    WorkRequest,
+    /// Flow control: the receiver has consumed this many of the sender's
+    /// credit-limited items.
+    Credit(u32),
+    /// Termination detection: report your counters for wave `n` once passive.
+    Probe(u64),
+    /// Answer to [`Msg::Probe`]: basic messages sent and received so far.
+    ProbeReply {
+        /// The wave answered.
+        wave: u64,
+        /// Basic messages sent by this processor so far.
+        sent: u64,
+        /// Basic messages received by this processor so far.
+        received: u64,
+    },
+    /// The computation is over.
+    Terminate,
+}
+
+/// Bytes accounted for a control message or a packet header.
+pub const HEADER_BYTES: usize = 32;
+
+impl<W: Workload> Msg<W> {
+    /// The priority class.
+    pub fn class(&self) -> Class {
+        match self {
+            Msg::DataRequest(_) | Msg::DataReply(_) => Class::Data,
+            Msg::Result(_) => Class::Result,
+            Msg::Dp(_) => Class::DataParallel,
+            Msg::Dd(_) => Class::DemandDriven,
+            Msg::WorkRequest
+            | Msg::Credit(_)
+            | Msg::Probe(_)
+            | Msg::ProbeReply { .. }
+            | Msg::Terminate => Class::Control,
+        }
+    }
+
+    /// Basic messages are those counted by termination detection: everything
+    /// that carries or asks for work, data or results. Credits, probes and
+    /// termination are not (they never create work).
+    pub fn is_basic(&self) -> bool {
+        !matches!(
+            self,
+            Msg::Credit(_) | Msg::Probe(_) | Msg::ProbeReply { .. } | Msg::Terminate
+        )
+    }
+
+    /// Accounted size in bytes.
+    pub fn byte_size(&self) -> usize {
+        let id = std::mem::size_of::<W::DataId>();
+        match self {
+            Msg::DataRequest(ids) => 8 + ids.len() * id,
+            Msg::DataReply(items) => {
+                8 + items
+                    .iter()
+                    .map(|(_, item)| id + item.byte_size())
+                    .sum::<usize>()
+            }
+            Msg::Result(r) => r.byte_size(),
+            Msg::Dp(e) => 8 + e.task.byte_size(),
+            Msg::Dd(e) => 8 + e.task.byte_size(),
+            _ => 16,
+        }
+    }
+}
+
+impl<W: Workload> fmt::Debug for Msg<W> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Msg::DataRequest(ids) => write!(f, "DataRequest({ids:?})"),
+            Msg::DataReply(items) => write!(f, "DataReply({} items)", items.len()),
+            Msg::Result(r) => write!(f, "Result({r:?})"),
+            Msg::Dp(e) => write!(f, "Dp({:?})", e.task),
+            Msg::Dd(e) => write!(f, "Dd({:?}, handout={})", e.task, e.handout),
+            Msg::WorkRequest => write!(f, "WorkRequest"),
+            Msg::Credit(n) => write!(f, "Credit({n})"),
+            Msg::Probe(w) => write!(f, "Probe({w})"),
+            Msg::ProbeReply {
+                wave,
+                sent,
+                received,
+            } => write!(
+                f,
+                "ProbeReply(wave {wave}, sent {sent}, received {received})"
+            ),
+            Msg::Terminate => write!(f, "Terminate"),
+        }
+    }
+}
+
+/// What a transport carries: one or more messages of one class from one actor
+/// to another. A packet with more than one item is a bundle.
+#[derive(Serialize, Deserialize)]
+#[serde(bound = "")]
+pub struct Packet<W: Workload> {
+    /// Sender.
+    pub from: Addr,
+    /// Receiver.
+    pub to: Addr,
+    /// Class of every item.
+    pub class: Class,
+    /// The messages, in send order.
+    pub items: Vec<Msg<W>>,
+    /// Accounted size: header plus items.
+    pub bytes: usize,
+}
+
+impl<W: Workload> fmt::Debug for Packet<W> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Packet")
+            .field("from", &self.from)
+            .field("to", &self.to)
+            .field("class", &self.class)
+            .field("items", &self.items)
+            .field("bytes", &self.bytes)
+            .finish()
+    }
+}
+
+impl<W: Workload> Packet<W> {
+    /// A packet holding a single message.
+    pub fn single(from: Addr, to: Addr, msg: Msg<W>) -> Self {
+        let bytes = HEADER_BYTES + msg.byte_size();
+        Packet {
+            from,
+            to,
+            class: msg.class(),
+            items: vec![msg],
+            bytes,
+        }
+    }
+}
+
+/// Whether a message from `from` of class `class` is limited by credits.
+/// Pushed task and result traffic from workers is; urgent traffic is not, and
+/// neither are the master's hand-outs (each answers a work request, so at most
+/// one per worker is ever in flight).
+pub fn is_credit_limited(from: Addr, class: Class) -> bool {
+    matches!(from, Addr::Proc(_)) && !class.is_urgent()
+}
+
+/// A message in a mailbox, with what the receiver needs to know about it.
+pub(crate) struct Incoming<W: Workload> {
+    pub from: Addr,
+    pub msg: Msg<W>,
+    pub bytes: usize,
+    /// Whether consuming it returns a credit to `from` (and it counts in the
+    /// bounded input buffer).
+    pub credited: bool,
+}

@@ -1,0 +1,554 @@
+//! The worker processor: a plain state machine.
+//!
+//! A runtime drives it with three calls: [`Processor::deliver`] (a packet
+//! arrived), [`Processor::step`] (do one unit of work) and
+//! [`Processor::take_packets`] (what to transmit). The processor never blocks,
+//! never reads a clock and never touches a channel, so a thread pool, a
+//! discrete-event simulator and an MPI rank can all run it unchanged.
+//!
+//! Each step does exactly one thing, in this order of preference:
+//! 1. the highest-priority message among control, data and results (serve a
+//!    data request, store a data reply, merge a result);
+//! 2. a demand-driven task whose data has just arrived (its cache items are
+//!    pinned, so it should release them soon);
+//! 3. a data-parallel task (bound to local data, preferred to coherent work);
+//! 4. a demand-driven task: data selection, then either run it (all data
+//!    local), wait for data, wait for cache space, or fall back to
+//!    data-parallel work when its data can never fit the cache;
+//! 5. nothing runnable: flush bundles and credits, ask the master for work if
+//!    there is room for more, answer a termination probe if passive.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use tracing::{debug, trace};
+
+use crate::bundle::Outbox;
+use crate::clock::Time;
+use crate::config::Config;
+use crate::error::RunError;
+use crate::flow::{CreditLedger, InputBuffer};
+use crate::mailbox::Mailbox;
+use crate::message::{
+    is_credit_limited, Addr, Class, DdEnvelope, DpEnvelope, Incoming, Msg, Packet,
+};
+use crate::policy::{PlaceCtx, Placer, Target};
+use crate::stats::{ProcStats, State};
+use crate::store::{Admission, DataStore, Directory, ReadyTask};
+use crate::workload::{Ctx, DpOutcome, Workload};
+
+/// What one [`Processor::step`] (or [`crate::master::Master::step`]) did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    /// Did some work, accounted to this state.
+    Worked(State),
+    /// Nothing to do until a packet arrives.
+    Idle,
+    /// The run is over for this actor.
+    Finished,
+}
+
+/// A worker processor. See the module documentation.
+pub struct Processor<W: Workload> {
+    id: usize,
+    addr: Addr,
+    procs: usize,
+    workload: Arc<W>,
+    mailbox: Mailbox<Incoming<W>>,
+    ready: VecDeque<ReadyTask<W>>,
+    deferred: VecDeque<(DdEnvelope<W>, Vec<W::DataId>)>,
+    store: DataStore<W>,
+    outbox: Outbox<W>,
+    ledger: CreditLedger,
+    inbuf: InputBuffer,
+    placer: Placer,
+    acc: W::Accumulator,
+    stats: ProcStats,
+    max_waiting: usize,
+    requested_work: bool,
+    probe: Option<u64>,
+    terminated: bool,
+    basic_sent: u64,
+    basic_received: u64,
+    last_charges: Vec<(&'static str, u64)>,
+    queued_high_water: usize,
+}
+
+impl<W: Workload> Processor<W> {
+    /// Worker `id` of `config.procs`, loading its partition from the workload.
+    /// The configuration must already be valid.
+    pub fn new(id: usize, workload: Arc<W>, config: &Config) -> Result<Self, RunError> {
+        let procs = config.procs;
+        let placement_err = |m: String| RunError::Config(crate::ConfigError::Placement(m));
+        let dir = Directory::build(workload.placement(procs), procs).map_err(placement_err)?;
+        let resident = workload.load_partition(id, procs);
+        let store = DataStore::new(id, resident, dir, config.cache_bytes).map_err(placement_err)?;
+        let addr = Addr::Proc(id);
+        let credits = config.credits_per_link as u32;
+        Ok(Processor {
+            id,
+            addr,
+            procs,
+            mailbox: Mailbox::new(),
+            ready: VecDeque::new(),
+            deferred: VecDeque::new(),
+            store,
+            outbox: Outbox::new(addr, procs, config.bundle.clone(), credits),
+            ledger: CreditLedger::new(procs + 1, credits),
+            inbuf: InputBuffer::default(),
+            placer: Placer::new(config.policy, id, procs),
+            acc: W::Accumulator::default(),
+            stats: ProcStats::new(addr),
+            max_waiting: config.max_waiting_tasks,
+            requested_work: false,
+            probe: None,
+            terminated: false,
+            basic_sent: 0,
+            basic_received: 0,
+            last_charges: Vec::new(),
+            queued_high_water: 0,
+            workload,
+        })
+    }
+
+    /// This processor's index.
+    pub fn id(&self) -> usize {
+        self.id
+    }
+
+    /// This processor's address.
+    pub fn addr(&self) -> Addr {
+        self.addr
+    }
+
+    /// Statistics so far.
+    pub fn stats(&self) -> &ProcStats {
+        &self.stats
+    }
+
+    /// The accumulator results are merged into.
+    pub fn accumulator(&self) -> &W::Accumulator {
+        &self.acc
+    }
+
+    /// The data store (for inspection).
+    pub fn store(&self) -> &DataStore<W> {
+        &self.store
+    }
+
+    /// Work charged during the last step (the simulator's cost model input).
+    pub fn last_charges(&self) -> &[(&'static str, u64)] {
+        &self.last_charges
+    }
+
+    /// Adds `ns` to the time spent in `state` (the runtime measures).
+    pub fn account(&mut self, state: State, ns: Time) {
+        self.stats.time_ns.add(state, ns);
+    }
+
+    /// The state to account time to while blocked waiting for a packet.
+    pub fn blocked_state(&self) -> State {
+        if self.store.waiting_len() > 0 || !self.deferred.is_empty() {
+            State::WaitingData
+        } else {
+            State::Idle
+        }
+    }
+
+    /// Whether [`Processor::step`] would only return [`Step::Idle`] (runtimes
+    /// may block for a packet right away).
+    pub fn is_finished(&self) -> bool {
+        self.terminated
+    }
+
+    /// Passive: holds no work at all, so it can only become active again by
+    /// receiving a basic message (the termination-detection premise).
+    pub fn is_passive(&self) -> bool {
+        self.mailbox.is_empty()
+            && self.ready.is_empty()
+            && self.deferred.is_empty()
+            && self.store.waiting_len() == 0
+            && self.outbox.backlog() == 0
+    }
+
+    /// A packet arrived.
+    pub fn deliver(&mut self, packet: Packet<W>, now: Time) {
+        self.stats
+            .received
+            .record(packet.class, packet.items.len(), packet.bytes);
+        let from = packet.from;
+        for msg in packet.items {
+            if msg.is_basic() {
+                self.basic_received += 1;
+            }
+            match msg {
+                Msg::Credit(n) => self.outbox.grant(from, n, now),
+                Msg::Probe(wave) => self.probe = Some(wave),
+                Msg::Terminate => {
+                    debug!(proc = self.id, passive = self.is_passive(), "terminate");
+                    self.terminated = true;
+                }
+                msg => {
+                    let class = msg.class();
+                    let bytes = msg.byte_size();
+                    let credited = is_credit_limited(from, class);
+                    if credited {
+                        self.inbuf.add(bytes);
+                    }
+                    if let Msg::Dd(env) = &msg {
+                        if env.handout {
+                            self.requested_work = false;
+                            if env.origin.is_none() {
+                                self.stats.tasks.roots += 1;
+                            }
+                        }
+                    }
+                    self.mailbox.push(
+                        class,
+                        Incoming {
+                            from,
+                            msg,
+                            bytes,
+                            credited,
+                        },
+                    );
+                }
+            }
+        }
+        self.note_queues();
+    }
+
+    /// Does one unit of work (see the module documentation).
+    pub fn step(&mut self, now: Time) -> Result<Step, RunError> {
+        if self.terminated {
+            return Ok(Step::Finished);
+        }
+        self.last_charges.clear();
+        let result = self.step_inner(now);
+        self.note_queues();
+        result.map_err(|message| RunError::Workload {
+            at: self.addr,
+            message,
+        })
+    }
+
+    fn step_inner(&mut self, now: Time) -> Result<Step, String> {
+        if let Some(Class::Control | Class::Data | Class::Result) = self.mailbox.peek_class() {
+            let (_, inc) = self.mailbox.pop().expect("peeked");
+            return self.handle(inc, now).map(Step::Worked);
+        }
+        if let Some(task) = self.ready.pop_front() {
+            self.execute_dd(task, now)?;
+            return Ok(Step::Worked(State::Executing));
+        }
+        if let Some(inc) = self.mailbox.pop_class(Class::DataParallel) {
+            return self.handle(inc, now).map(Step::Worked);
+        }
+        // New demand-driven work only while there is room to wait for its
+        // data: this keeps the waiting table bounded and leaves further tasks
+        // in the (credit-bounded) input buffer.
+        if self.room_for_more_waiting() {
+            if let Some(inc) = self.mailbox.pop_class(Class::DemandDriven) {
+                return self.handle(inc, now).map(Step::Worked);
+            }
+        }
+        self.on_idle(now);
+        Ok(Step::Idle)
+    }
+
+    fn room_for_more_waiting(&self) -> bool {
+        self.deferred.is_empty() && self.store.waiting_len() < self.max_waiting
+    }
+
+    fn handle(&mut self, inc: Incoming<W>, now: Time) -> Result<State, String> {
+        if inc.credited {
+            self.consume_credit(inc.from, inc.bytes, now);
+        }
+        match inc.msg {
+            Msg::DataRequest(ids) => {
+                let items = self.store.serve(&ids)?;
+                self.stats.data_requests_served += 1;
+                self.stats.data_items_served += items.len() as u64;
+                trace!(proc = self.id, to = %inc.from, n = items.len(), "serve data");
+                self.send(inc.from, Msg::DataReply(items), now);
+                Ok(State::ServingData)
+            }
+            Msg::DataReply(items) => {
+                let woken = self.store.on_reply(items)?;
+                self.ready.extend(woken);
+                Ok(State::Receiving)
+            }
+            Msg::Result(r) => {
+                self.workload.merge(&mut self.acc, r);
+                self.stats.tasks.results_merged += 1;
+                Ok(State::Receiving)
+            }
+            Msg::Dp(env) => {
+                self.execute_dp(env, now)?;
+                Ok(State::Executing)
+            }
+            Msg::Dd(env) => {
+                self.select(env, now)?;
+                Ok(State::Selecting)
+            }
+            other => Err(format!("unexpected message {other:?} from {}", inc.from)),
+        }
+    }
+
+    fn consume_credit(&mut self, from: Addr, bytes: usize, now: Time) {
+        self.inbuf.remove(bytes);
+        self.ledger.consumed(from.slot(self.procs));
+        self.return_credits(false, now);
+    }
+
+    fn return_credits(&mut self, flush: bool, now: Time) {
+        for (slot, n) in self.ledger.take_due(flush) {
+            self.send(Addr::from_slot(slot, self.procs), Msg::Credit(n), now);
+        }
+    }
+
+    fn send(&mut self, to: Addr, msg: Msg<W>, now: Time) {
+        // Basic messages are counted when handed to the outbox: a message in
+        // the backlog is "sent" for termination detection, which can only
+        // make detection more conservative.
+        if msg.is_basic() {
+            self.basic_sent += 1;
+        }
+        self.outbox.push(to, msg, now);
+    }
+
+    fn push_local(&mut self, msg: Msg<W>) {
+        let class = msg.class();
+        let bytes = msg.byte_size();
+        self.mailbox.push(
+            class,
+            Incoming {
+                from: self.addr,
+                msg,
+                bytes,
+                credited: false,
+            },
+        );
+    }
+
+    fn select(&mut self, mut env: DdEnvelope<W>, now: Time) -> Result<(), String> {
+        // The processor that runs a root task is the origin of its family.
+        let origin = *env.origin.get_or_insert(self.id);
+        let mut ctx = Ctx::new(self.id, self.procs);
+        let ids = self.workload.select_data(&env.task, &mut ctx);
+        self.stats.tasks.selections += 1;
+        self.dispatch(ctx, Some(origin), now)?;
+        self.admit(env, ids, now)
+    }
+
+    fn admit(&mut self, env: DdEnvelope<W>, ids: Vec<W::DataId>, now: Time) -> Result<(), String> {
+        let admission = self.store.admit(env, ids)?;
+        if let Admission::Deferred(..) = admission {
+            self.stats.tasks.deferred += 1;
+        }
+        self.apply_admission(admission, now)
+    }
+
+    fn execute_dd(&mut self, task: ReadyTask<W>, now: Time) -> Result<(), String> {
+        let ReadyTask { env, pinned } = task;
+        let origin = env.origin;
+        let mut ctx = Ctx::new(self.id, self.procs);
+        {
+            let view = self.store.view();
+            self.workload.execute_dd(env.task, &view, &mut ctx);
+            // Recency of the pinned items is refreshed by the release below.
+        }
+        self.store.release(&pinned);
+        self.stats.tasks.demand_driven += 1;
+        self.dispatch(ctx, origin, now)?;
+        // Releasing pins may have made room for deferred tasks.
+        while let Some((env, ids)) = self.deferred.pop_front() {
+            match self.store.admit(env, ids)? {
+                Admission::Deferred(env, ids) => {
+                    self.deferred.push_front((env, ids));
+                    break;
+                }
+                other => self.apply_admission(other, now)?,
+            }
+        }
+        Ok(())
+    }
+
+    fn apply_admission(&mut self, adm: Admission<W>, now: Time) -> Result<(), String> {
+        match adm {
+            Admission::Ready(task) => self.ready.push_back(task),
+            Admission::Waiting(requests) => {
+                // One request per owner, sent once selection is complete.
+                for (owner, ids) in requests {
+                    self.stats.data_requests_sent += 1;
+                    self.stats.data_items_requested += ids.len() as u64;
+                    trace!(proc = self.id, owner, n = ids.len(), "request data");
+                    self.send(Addr::Proc(owner), Msg::DataRequest(ids), now);
+                }
+            }
+            Admission::Deferred(env, ids) => self.deferred.push_back((env, ids)),
+            Admission::TooBig(env) => {
+                self.stats.tasks.fallbacks += 1;
+                debug!(proc = self.id, task = ?env.task, "data exceeds cache budget: data-parallel fallback");
+                let mut ctx = Ctx::new(self.id, self.procs);
+                self.workload.to_data_parallel(env.task, &mut ctx);
+                self.dispatch(ctx, env.origin, now)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn execute_dp(&mut self, env: DpEnvelope<W>, now: Time) -> Result<(), String> {
+        let origin = env.origin;
+        let mut ctx = Ctx::new(self.id, self.procs);
+        let (outcome, touched) = {
+            let view = self.store.view();
+            let outcome = self.workload.execute_dp(env.task, &view, &mut ctx);
+            (outcome, view.into_touched())
+        };
+        self.store.touch(&touched);
+        self.stats.tasks.data_parallel_steps += 1;
+        match outcome {
+            DpOutcome::Finished => self.stats.tasks.data_parallel_finished += 1,
+            DpOutcome::Migrate(task) => {
+                let id = self.workload.route_dp(&task).ok_or_else(|| {
+                    format!(
+                        "data-parallel task {task:?} asked to migrate but route_dp needs no data"
+                    )
+                })?;
+                if self.store.is_local(&id) {
+                    return Err(format!(
+                        "data-parallel task {task:?} asked to migrate towards {id:?}, which is local"
+                    ));
+                }
+                let owner = self
+                    .store
+                    .directory()
+                    .owner(&id)
+                    .ok_or_else(|| format!("data-parallel task needs unknown data {id:?}"))?;
+                self.store.record_miss();
+                self.stats.tasks.migrations += 1;
+                self.send(Addr::Proc(owner), Msg::Dp(DpEnvelope { task, origin }), now);
+            }
+        }
+        self.dispatch(ctx, origin, now)
+    }
+
+    /// Schedules everything a hook emitted and records its charged work.
+    fn dispatch(&mut self, ctx: Ctx<W>, origin: Option<usize>, now: Time) -> Result<(), String> {
+        self.stats.charge(&ctx.charges);
+        for &(kind, units) in &ctx.charges {
+            match self.last_charges.iter_mut().find(|(k, _)| *k == kind) {
+                Some(e) => e.1 += units,
+                None => self.last_charges.push((kind, units)),
+            }
+        }
+        if !ctx.has_emissions() {
+            return Ok(());
+        }
+        for task in ctx.dd {
+            self.stats.tasks.children_spawned += 1;
+            let env = DdEnvelope {
+                task,
+                origin,
+                handout: false,
+            };
+            match self.placer.place(PlaceCtx { origin }) {
+                Target::Local => self.push_local(Msg::Dd(env)),
+                Target::Master => self.send(Addr::Master, Msg::Dd(env), now),
+                Target::Proc(p) => self.send(Addr::Proc(p), Msg::Dd(env), now),
+            }
+        }
+        for task in ctx.dp {
+            let target = match self.workload.route_dp(&task) {
+                Some(id) if !self.store.is_local(&id) => Some(
+                    self.store
+                        .directory()
+                        .owner(&id)
+                        .ok_or_else(|| format!("data-parallel task needs unknown data {id:?}"))?,
+                ),
+                _ => None,
+            };
+            let msg = Msg::Dp(DpEnvelope { task, origin });
+            match target {
+                Some(owner) => self.send(Addr::Proc(owner), msg, now),
+                None => self.push_local(msg),
+            }
+        }
+        for (dest, result) in ctx.results {
+            match dest {
+                d if d == self.addr => {
+                    self.workload.merge(&mut self.acc, result);
+                    self.stats.tasks.results_merged += 1;
+                }
+                Addr::Proc(p) if p >= self.procs => {
+                    return Err(format!(
+                        "result sent to processor {p} but there are only {}",
+                        self.procs
+                    ))
+                }
+                d => self.send(d, Msg::Result(result), now),
+            }
+        }
+        Ok(())
+    }
+
+    fn on_idle(&mut self, now: Time) {
+        // Nothing else to do: waiting for fuller bundles would only add
+        // latency, so everything with credit goes now, and all owed credits
+        // go back.
+        self.outbox.pump(now, true);
+        self.return_credits(true, now);
+        if !self.requested_work && self.room_for_more_waiting() {
+            self.requested_work = true;
+            self.send(Addr::Master, Msg::WorkRequest, now);
+        }
+        if let Some(wave) = self.probe {
+            if self.is_passive() {
+                self.probe = None;
+                let reply = Msg::ProbeReply {
+                    wave,
+                    sent: self.basic_sent,
+                    received: self.basic_received,
+                };
+                self.send(Addr::Master, reply, now);
+            }
+        }
+    }
+
+    /// Packets to transmit now (bundles that became due by age included).
+    pub fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
+        self.outbox.pump(now, false);
+        let packets = self.outbox.take_ready();
+        for p in &packets {
+            self.stats.sent.record(p.class, p.items.len(), p.bytes);
+            if p.items.len() > 1 {
+                self.stats.bundles_sent += 1;
+            }
+        }
+        packets
+    }
+
+    fn note_queues(&mut self) {
+        let queued = self.mailbox.len_of(Class::DataParallel)
+            + self.mailbox.len_of(Class::DemandDriven)
+            + self.ready.len()
+            + self.deferred.len();
+        self.queued_high_water = self.queued_high_water.max(queued);
+    }
+
+    /// Ends the run for this processor: its accumulator and statistics.
+    pub fn finish(mut self) -> (W::Accumulator, ProcStats) {
+        let m = &mut self.stats.memory;
+        m.resident_bytes = self.store.resident_bytes();
+        m.cached_bytes = self.store.cache().high_water();
+        (m.waiting_tasks, m.waiting_task_bytes) = self.store.waiting_high_water();
+        m.input_buffer_items = self.inbuf.high_water_items;
+        m.input_buffer_bytes = self.inbuf.high_water_bytes;
+        m.mailbox_items = self.mailbox.high_water();
+        m.queued_tasks = self.queued_high_water;
+        m.send_backlog = self.outbox.backlog_high_water();
+        self.stats.cache = self.store.cache().counters();
+        (self.acc, self.stats)
+    }
+}

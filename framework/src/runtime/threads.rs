@@ -1,0 +1,180 @@
+//! The threads runtime: one tokio task per actor on a multi-thread runtime,
+//! unbounded channels between them.
+//!
+//! Channels are unbounded on purpose: a send must never block (a blocked
+//! sender could not consume its own input, which is how distributed deadlocks
+//! start). Memory is bounded by the credit-based flow control inside the
+//! actors instead (see `flow.rs`). Each actor yields to the scheduler after
+//! every step, so many actors share few threads fairly, and awaits its channel
+//! only when it has nothing to do. This is the only module that names tokio.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use tokio::sync::mpsc::{unbounded_channel, UnboundedReceiver, UnboundedSender};
+use tokio::task::JoinSet;
+use tracing::Instrument;
+
+use super::{assemble, Node, RunReport, Runtime};
+use crate::clock::{Clock, WallClock};
+use crate::config::Config;
+use crate::error::RunError;
+use crate::message::{Addr, Packet};
+use crate::processor::Step;
+use crate::stats::{ProcStats, State};
+use crate::workload::Workload;
+
+/// The threads runtime (see the module documentation).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Threads;
+
+impl Runtime for Threads {
+    fn name(&self) -> &'static str {
+        "threads"
+    }
+
+    fn run<W: Workload>(
+        &self,
+        workload: Arc<W>,
+        config: &Config,
+    ) -> Result<RunReport<W>, RunError> {
+        run_threads(workload, config)
+    }
+}
+
+/// Runs `workload` on a fresh tokio multi-thread runtime with one actor per
+/// processor plus the master. Blocks until termination is detected, an actor
+/// fails, or the configured time limit passes.
+pub fn run_threads<W: Workload>(
+    workload: Arc<W>,
+    config: &Config,
+) -> Result<RunReport<W>, RunError> {
+    let nodes = Node::build_all(&workload, config)?;
+    let threads = config.threads.unwrap_or_else(|| {
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(2)
+    });
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(threads.clamp(1, nodes.len()))
+        .enable_time()
+        .build()
+        .map_err(|e| RunError::Runtime(format!("cannot start tokio: {e}")))?;
+    rt.block_on(run_actors(nodes, config))
+}
+
+type Finished<W> = (Addr, <W as Workload>::Accumulator, ProcStats);
+
+async fn run_actors<W: Workload>(
+    nodes: Vec<Node<W>>,
+    config: &Config,
+) -> Result<RunReport<W>, RunError> {
+    let clock = Arc::new(WallClock::new());
+    let procs = nodes.len() - 1;
+    let mut txs = Vec::with_capacity(nodes.len());
+    let mut rxs = Vec::with_capacity(nodes.len());
+    for _ in 0..nodes.len() {
+        let (tx, rx) = unbounded_channel();
+        txs.push(tx);
+        rxs.push(rx);
+    }
+    let txs = Arc::new(txs);
+    let mut set = JoinSet::new();
+    let mut addrs = HashMap::new();
+    for (node, rx) in nodes.into_iter().zip(rxs) {
+        let addr = node.addr();
+        let span = tracing::debug_span!("actor", %addr);
+        let handle = set.spawn(actor(node, rx, txs.clone(), clock.clone(), procs).instrument(span));
+        addrs.insert(handle.id(), addr);
+    }
+    drop(txs);
+    let collect = async {
+        let mut done: Vec<Finished<W>> = Vec::new();
+        while let Some(joined) = set.join_next_with_id().await {
+            match joined {
+                Ok((_, Ok(finished))) => done.push(finished),
+                Ok((_, Err(e))) => return Err(e),
+                Err(e) => {
+                    let at = addrs.get(&e.id()).copied().unwrap_or(Addr::Master);
+                    let message = if e.is_panic() {
+                        let payload = e.into_panic();
+                        payload
+                            .downcast_ref::<&str>()
+                            .map(|s| s.to_string())
+                            .or_else(|| payload.downcast_ref::<String>().cloned())
+                            .unwrap_or_else(|| "non-string panic".to_string())
+                    } else {
+                        "cancelled".to_string()
+                    };
+                    return Err(RunError::Panicked { at, message });
+                }
+            }
+        }
+        Ok(done)
+    };
+    // On any error the JoinSet is dropped on return, which aborts all actors.
+    let finished = match config.time_limit {
+        Some(limit) => tokio::time::timeout(limit, collect)
+            .await
+            .map_err(|_| RunError::TimedOut { limit })??,
+        None => collect.await?,
+    };
+    Ok(assemble("threads", procs, finished, clock.now()))
+}
+
+async fn actor<W: Workload>(
+    mut node: Node<W>,
+    mut rx: UnboundedReceiver<Packet<W>>,
+    txs: Arc<Vec<UnboundedSender<Packet<W>>>>,
+    clock: Arc<WallClock>,
+    procs: usize,
+) -> Result<Finished<W>, RunError> {
+    let addr = node.addr();
+    loop {
+        let t0 = clock.now();
+        let mut received = false;
+        while let Ok(packet) = rx.try_recv() {
+            node.deliver(packet, t0);
+            received = true;
+        }
+        let t1 = clock.now();
+        if received {
+            node.account(State::Receiving, t1 - t0);
+        }
+        let step = node.step(t1)?;
+        let t2 = clock.now();
+        match step {
+            Step::Worked(state) => node.account(state, t2 - t1),
+            _ => node.account(State::Sending, t2 - t1),
+        }
+        let packets = node.take_packets(t2);
+        if !packets.is_empty() {
+            for packet in packets {
+                let to = packet.to;
+                txs[to.slot(procs)].send(packet).map_err(|_| {
+                    RunError::Runtime(format!(
+                        "{addr} sent a message to {to}, which has already finished"
+                    ))
+                })?;
+            }
+            node.account(State::Sending, clock.now() - t2);
+        }
+        match step {
+            Step::Finished => break,
+            Step::Worked(_) => tokio::task::yield_now().await,
+            Step::Idle => {
+                let blocked = node.blocked_state();
+                let t = clock.now();
+                let packet = rx
+                    .recv()
+                    .await
+                    .ok_or_else(|| RunError::Runtime(format!("{addr}: every sender is gone")))?;
+                let t4 = clock.now();
+                node.account(blocked, t4 - t);
+                node.deliver(packet, t4);
+            }
+        }
+    }
+    let (acc, stats) = node.finish();
+    Ok((addr, acc, stats))
+}

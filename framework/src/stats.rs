@@ -1,0 +1,320 @@
+//! Per-processor instrumentation, exported as JSON.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use crate::cache::CacheCounters;
+use crate::clock::Time;
+use crate::message::{Addr, Class};
+
+/// What a processor is doing; time is accounted per state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum State {
+    /// Running task code (tracing rays, checksumming blocks).
+    Executing,
+    /// Data selection (pyramid clipping).
+    Selecting,
+    /// Nothing runnable, but tasks are waiting for data.
+    WaitingData,
+    /// Nothing to do at all.
+    Idle,
+    /// Handing packets to the transport.
+    Sending,
+    /// Taking packets from the transport, merging results, filling the cache.
+    Receiving,
+    /// Answering data requests.
+    ServingData,
+}
+
+impl State {
+    /// Every state, in report order.
+    pub const ALL: [State; 7] = [
+        State::Executing,
+        State::Selecting,
+        State::WaitingData,
+        State::Idle,
+        State::Sending,
+        State::Receiving,
+        State::ServingData,
+    ];
+}
+
+/// Nanoseconds spent per [`State`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StateTimes {
+    /// See [`State::Executing`].
+    pub executing: u64,
+    /// See [`State::Selecting`].
+    pub selecting: u64,
+    /// See [`State::WaitingData`].
+    pub waiting_data: u64,
+    /// See [`State::Idle`].
+    pub idle: u64,
+    /// See [`State::Sending`].
+    pub sending: u64,
+    /// See [`State::Receiving`].
+    pub receiving: u64,
+    /// See [`State::ServingData`].
+    pub serving_data: u64,
+}
+
+impl StateTimes {
+    /// Adds `ns` to `state`.
+    pub fn add(&mut self, state: State, ns: Time) {
+        let slot = self.get_mut(state);
+        *slot = slot.saturating_add(ns);
+    }
+
+    /// Time in `state`.
+    pub fn get(&self, state: State) -> u64 {
+        match state {
+            State::Executing => self.executing,
+            State::Selecting => self.selecting,
+            State::WaitingData => self.waiting_data,
+            State::Idle => self.idle,
+            State::Sending => self.sending,
+            State::Receiving => self.receiving,
+            State::ServingData => self.serving_data,
+        }
+    }
+
+    fn get_mut(&mut self, state: State) -> &mut u64 {
+        match state {
+            State::Executing => &mut self.executing,
+            State::Selecting => &mut self.selecting,
+            State::WaitingData => &mut self.waiting_data,
+            State::Idle => &mut self.idle,
+            State::Sending => &mut self.sending,
+            State::Receiving => &mut self.receiving,
+            State::ServingData => &mut self.serving_data,
+        }
+    }
+
+    /// Sum over all states.
+    pub fn total(&self) -> u64 {
+        State::ALL.iter().map(|&s| self.get(s)).sum()
+    }
+}
+
+/// Packets, messages and bytes of one class in one direction.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Traffic {
+    /// Transport packets (a bundle counts once).
+    pub packets: u64,
+    /// Logical messages.
+    pub messages: u64,
+    /// Accounted bytes.
+    pub bytes: u64,
+}
+
+/// [`Traffic`] per [`Class`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ClassTraffic {
+    /// Control.
+    pub control: Traffic,
+    /// Data requests and replies.
+    pub data: Traffic,
+    /// Results.
+    pub result: Traffic,
+    /// Data-parallel tasks.
+    pub data_parallel: Traffic,
+    /// Demand-driven tasks.
+    pub demand_driven: Traffic,
+}
+
+impl ClassTraffic {
+    /// The counters of `class`.
+    pub fn get(&self, class: Class) -> &Traffic {
+        match class {
+            Class::Control => &self.control,
+            Class::Data => &self.data,
+            Class::Result => &self.result,
+            Class::DataParallel => &self.data_parallel,
+            Class::DemandDriven => &self.demand_driven,
+        }
+    }
+
+    /// Mutable counters of `class`.
+    pub fn get_mut(&mut self, class: Class) -> &mut Traffic {
+        match class {
+            Class::Control => &mut self.control,
+            Class::Data => &mut self.data,
+            Class::Result => &mut self.result,
+            Class::DataParallel => &mut self.data_parallel,
+            Class::DemandDriven => &mut self.demand_driven,
+        }
+    }
+
+    /// Records one packet.
+    pub fn record(&mut self, class: Class, messages: usize, bytes: usize) {
+        let t = self.get_mut(class);
+        t.packets += 1;
+        t.messages += messages as u64;
+        t.bytes += bytes as u64;
+    }
+
+    /// Sum over classes.
+    pub fn total(&self) -> Traffic {
+        let mut sum = Traffic::default();
+        for c in Class::ALL {
+            let t = self.get(c);
+            sum.packets += t.packets;
+            sum.messages += t.messages;
+            sum.bytes += t.bytes;
+        }
+        sum
+    }
+}
+
+/// Task counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TaskCounters {
+    /// Root tasks handed out (master) or received by hand-out (worker).
+    pub roots: u64,
+    /// Data selections run.
+    pub selections: u64,
+    /// Demand-driven tasks executed.
+    pub demand_driven: u64,
+    /// Data-parallel execution steps (a migrating task counts once per
+    /// processor it runs on).
+    pub data_parallel_steps: u64,
+    /// Data-parallel tasks finished.
+    pub data_parallel_finished: u64,
+    /// Data-parallel tasks sent on to another processor.
+    pub migrations: u64,
+    /// Demand-driven tasks converted to data-parallel work because their data
+    /// could never fit the cache.
+    pub fallbacks: u64,
+    /// Demand-driven tasks that had to wait for cache space (pins).
+    pub deferred: u64,
+    /// Child demand-driven tasks spawned.
+    pub children_spawned: u64,
+    /// Child tasks pooled at the master (master only).
+    pub pooled: u64,
+    /// Results merged here.
+    pub results_merged: u64,
+}
+
+/// Memory high-water marks by category.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MemoryHighWater {
+    /// Resident (owned) data bytes.
+    pub resident_bytes: u64,
+    /// Cached data bytes.
+    pub cached_bytes: u64,
+    /// Tasks waiting for data (count).
+    pub waiting_tasks: usize,
+    /// Bytes of tasks waiting for data.
+    pub waiting_task_bytes: usize,
+    /// Credit-limited messages received and not consumed (the bounded part of
+    /// the input buffer; the master counts its pooled tasks here too).
+    pub input_buffer_items: usize,
+    /// Bytes of the above.
+    pub input_buffer_bytes: usize,
+    /// Everything in the mailbox, including local work and urgent traffic.
+    pub mailbox_items: usize,
+    /// Tasks queued for execution here (local and remote).
+    pub queued_tasks: usize,
+    /// Messages held in the outbox for a bundle or for credit.
+    pub send_backlog: usize,
+}
+
+/// Everything measured at one actor.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ProcStats {
+    /// Which actor.
+    pub addr: Addr,
+    /// Time per state (nanoseconds, wall or virtual).
+    pub time_ns: StateTimes,
+    /// Counted work units per kind (see [`crate::Ctx::charge`]).
+    pub work: BTreeMap<String, u64>,
+    /// Traffic sent.
+    pub sent: ClassTraffic,
+    /// Traffic received.
+    pub received: ClassTraffic,
+    /// Packets sent holding more than one message.
+    pub bundles_sent: u64,
+    /// Task counters.
+    pub tasks: TaskCounters,
+    /// Cache counters.
+    pub cache: CacheCounters,
+    /// Data request messages sent.
+    pub data_requests_sent: u64,
+    /// Data items requested.
+    pub data_items_requested: u64,
+    /// Data requests answered.
+    pub data_requests_served: u64,
+    /// Data items sent in replies.
+    pub data_items_served: u64,
+    /// Memory high-water marks.
+    pub memory: MemoryHighWater,
+    /// Termination-detection waves (master only).
+    pub termination_waves: u64,
+}
+
+impl ProcStats {
+    /// Empty statistics for `addr`.
+    pub fn new(addr: Addr) -> Self {
+        ProcStats {
+            addr,
+            time_ns: StateTimes::default(),
+            work: BTreeMap::new(),
+            sent: ClassTraffic::default(),
+            received: ClassTraffic::default(),
+            bundles_sent: 0,
+            tasks: TaskCounters::default(),
+            cache: CacheCounters::default(),
+            data_requests_sent: 0,
+            data_items_requested: 0,
+            data_requests_served: 0,
+            data_items_served: 0,
+            memory: MemoryHighWater::default(),
+            termination_waves: 0,
+        }
+    }
+
+    /// Adds counted work.
+    pub fn charge(&mut self, charges: &[(&'static str, u64)]) {
+        for (kind, units) in charges {
+            let e = self.work.entry((*kind).to_string()).or_default();
+            *e = e.saturating_add(*units);
+        }
+    }
+
+    /// Cache hit rate in `[0, 1]` (`None` without lookups).
+    pub fn cache_hit_rate(&self) -> Option<f64> {
+        let n = self.cache.hits + self.cache.misses;
+        (n > 0).then(|| self.cache.hits as f64 / n as f64)
+    }
+}
+
+/// Statistics of a whole run.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RunStats {
+    /// Which runtime produced them.
+    pub runtime: String,
+    /// Worker statistics, by processor index.
+    pub procs: Vec<ProcStats>,
+    /// Master statistics.
+    pub master: ProcStats,
+    /// Run time in nanoseconds (wall or virtual).
+    pub elapsed_ns: u64,
+}
+
+impl RunStats {
+    /// Pretty JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("statistics are plain data")
+    }
+
+    /// Sum of a counter over all workers.
+    pub fn sum<F: Fn(&ProcStats) -> u64>(&self, f: F) -> u64 {
+        self.procs.iter().map(f).sum()
+    }
+
+    /// Total packets sent by every actor (master included).
+    pub fn packets_sent(&self) -> u64 {
+        self.sum(|p| p.sent.total().packets) + self.master.sent.total().packets
+    }
+}

@@ -1,0 +1,372 @@
+//! A processor's data: resident items, the byte-budgeted cache of fetched
+//! items, the replicated ownership directory, and the table of tasks waiting
+//! for data.
+//!
+//! The protocol for a demand-driven task (see [`DataStore::admit`]):
+//! 1. after data selection, the non-resident ids are checked against the
+//!    budget: if they can never fit, the task is handed back for the
+//!    data-parallel fallback; if they do not fit *now* (other tasks have pinned
+//!    the space), the task is deferred until pins are released;
+//! 2. otherwise cached ids are pinned, space for the missing ones is reserved,
+//!    and one request per owner is produced listing the ids nobody has asked
+//!    for yet (ids already in flight for another task are shared, not asked
+//!    for twice);
+//! 3. replies fill the cache (pinned) and wake the tasks whose last missing id
+//!    arrived; after execution the task's pins are released.
+
+use std::collections::{BTreeMap, HashMap};
+
+use crate::cache::ByteLru;
+use crate::message::DdEnvelope;
+use crate::workload::{ByteSize, DataView, Placement, Workload};
+
+/// The replicated ownership directory: data id -> (owner, bytes).
+#[derive(Clone, Debug)]
+pub struct Directory<Id> {
+    map: HashMap<Id, (usize, u64)>,
+}
+
+impl<Id: std::hash::Hash + Eq + Clone + std::fmt::Debug> Directory<Id> {
+    /// Builds the directory, rejecting duplicate ids and owners out of range.
+    pub fn build(placement: Vec<Placement<Id>>, procs: usize) -> Result<Self, String> {
+        let mut map = HashMap::with_capacity(placement.len());
+        for p in placement {
+            if p.owner >= procs {
+                return Err(format!(
+                    "data {:?} is placed on processor {} but there are only {procs}",
+                    p.id, p.owner
+                ));
+            }
+            if map.insert(p.id.clone(), (p.owner, p.bytes)).is_some() {
+                return Err(format!("data {:?} is placed twice", p.id));
+            }
+        }
+        Ok(Directory { map })
+    }
+
+    /// Owner of `id`.
+    pub fn owner(&self, id: &Id) -> Option<usize> {
+        self.map.get(id).map(|&(o, _)| o)
+    }
+
+    /// Size of `id` in bytes.
+    pub fn bytes(&self, id: &Id) -> Option<u64> {
+        self.map.get(id).map(|&(_, b)| b)
+    }
+
+    /// Number of ids.
+    pub fn len(&self) -> usize {
+        self.map.len()
+    }
+
+    /// Whether the directory is empty.
+    pub fn is_empty(&self) -> bool {
+        self.map.is_empty()
+    }
+}
+
+/// Data items with their ids, as carried by a data reply.
+pub type Items<W> = Vec<(<W as Workload>::DataId, <W as Workload>::DataItem)>;
+
+/// Key of a task in the waiting table.
+pub type TaskKey = u64;
+
+struct WaitingTask<W: Workload> {
+    env: DdEnvelope<W>,
+    pinned: Vec<W::DataId>,
+    missing: usize,
+    bytes: usize,
+}
+
+struct InFlight {
+    bytes: u64,
+    waiters: Vec<TaskKey>,
+}
+
+/// A demand-driven task whose data is all local (its cached items pinned).
+pub struct ReadyTask<W: Workload> {
+    /// The task.
+    pub env: DdEnvelope<W>,
+    /// Non-resident ids pinned for it; release them after execution.
+    pub pinned: Vec<W::DataId>,
+}
+
+/// Outcome of [`DataStore::admit`].
+pub enum Admission<W: Workload> {
+    /// All data is local; run it.
+    Ready(ReadyTask<W>),
+    /// Registered as waiting; send these requests (owner, ids).
+    Waiting(Vec<(usize, Vec<W::DataId>)>),
+    /// Fits the budget, but not while other tasks hold their pins: try again
+    /// (with these non-resident ids) after a release.
+    Deferred(DdEnvelope<W>, Vec<W::DataId>),
+    /// Its non-resident data exceeds the whole budget: use the data-parallel
+    /// fallback.
+    TooBig(DdEnvelope<W>),
+}
+
+/// The data store of one processor. See the module documentation.
+pub struct DataStore<W: Workload> {
+    me: usize,
+    resident: HashMap<W::DataId, W::DataItem>,
+    resident_bytes: u64,
+    cache: ByteLru<W::DataId, W::DataItem>,
+    dir: Directory<W::DataId>,
+    in_flight: HashMap<W::DataId, InFlight>,
+    waiting: HashMap<TaskKey, WaitingTask<W>>,
+    next_key: TaskKey,
+    waiting_bytes: usize,
+    waiting_high_water: usize,
+    waiting_bytes_high_water: usize,
+}
+
+impl<W: Workload> DataStore<W> {
+    /// A store for processor `me` holding `resident`, checked against `dir`.
+    pub fn new(
+        me: usize,
+        resident: Vec<(W::DataId, W::DataItem)>,
+        dir: Directory<W::DataId>,
+        cache_bytes: Option<u64>,
+    ) -> Result<Self, String> {
+        let mut map = HashMap::with_capacity(resident.len());
+        let mut resident_bytes = 0u64;
+        for (id, item) in resident {
+            match dir.map.get(&id) {
+                Some(&(owner, _)) if owner != me => {
+                    return Err(format!(
+                        "processor {me} loaded data {id:?}, which the directory places on {owner}"
+                    ))
+                }
+                None => {
+                    return Err(format!(
+                        "processor {me} loaded data {id:?}, which the directory does not know"
+                    ))
+                }
+                Some(&(_, bytes)) if bytes != item.byte_size() as u64 => {
+                    return Err(format!(
+                        "data {id:?} is {} bytes but the directory says {bytes}",
+                        item.byte_size()
+                    ))
+                }
+                _ => {}
+            }
+            resident_bytes += item.byte_size() as u64;
+            if map.insert(id.clone(), item).is_some() {
+                return Err(format!("processor {me} loaded data {id:?} twice"));
+            }
+        }
+        let expected = dir.map.values().filter(|&&(o, _)| o == me).count();
+        if expected != map.len() {
+            return Err(format!(
+                "processor {me} loaded {} items but the directory places {expected} on it",
+                map.len()
+            ));
+        }
+        Ok(DataStore {
+            me,
+            resident: map,
+            resident_bytes,
+            cache: ByteLru::new(cache_bytes),
+            dir,
+            in_flight: HashMap::new(),
+            waiting: HashMap::new(),
+            next_key: 0,
+            waiting_bytes: 0,
+            waiting_high_water: 0,
+            waiting_bytes_high_water: 0,
+        })
+    }
+
+    /// The directory.
+    pub fn directory(&self) -> &Directory<W::DataId> {
+        &self.dir
+    }
+
+    /// The cache.
+    pub fn cache(&self) -> &ByteLru<W::DataId, W::DataItem> {
+        &self.cache
+    }
+
+    /// Bytes of resident data.
+    pub fn resident_bytes(&self) -> u64 {
+        self.resident_bytes
+    }
+
+    /// Whether `id` is resident or cached.
+    pub fn is_local(&self, id: &W::DataId) -> bool {
+        self.resident.contains_key(id) || self.cache.contains(id)
+    }
+
+    /// A read-only view of local data for a hook.
+    pub fn view(&self) -> DataView<'_, W> {
+        DataView::new(&self.resident, Some(&self.cache))
+    }
+
+    /// Refreshes LRU recency of cached items a hook used (counted as hits).
+    pub fn touch(&mut self, ids: &[W::DataId]) {
+        for id in ids {
+            self.cache.touch(id);
+        }
+    }
+
+    /// Counts a cache miss (a data-parallel task leaving for missing data).
+    pub fn record_miss(&mut self) {
+        self.cache.record_miss();
+    }
+
+    /// Tasks waiting for data.
+    pub fn waiting_len(&self) -> usize {
+        self.waiting.len()
+    }
+
+    /// (count, bytes) high-water marks of waiting tasks.
+    pub fn waiting_high_water(&self) -> (usize, usize) {
+        (self.waiting_high_water, self.waiting_bytes_high_water)
+    }
+
+    /// Copies of resident items for a data request.
+    pub fn serve(&self, ids: &[W::DataId]) -> Result<Items<W>, String> {
+        ids.iter()
+            .map(|id| match self.resident.get(id) {
+                Some(item) => Ok((id.clone(), item.clone())),
+                None => Err(format!(
+                    "processor {} was asked for data {id:?} that it does not own",
+                    self.me
+                )),
+            })
+            .collect()
+    }
+
+    /// Admits a demand-driven task whose selection returned `ids`.
+    pub fn admit(
+        &mut self,
+        env: DdEnvelope<W>,
+        mut ids: Vec<W::DataId>,
+    ) -> Result<Admission<W>, String> {
+        ids.sort();
+        ids.dedup();
+        let mut remote = Vec::new();
+        let (mut total, mut to_pin, mut new_bytes) = (0u64, 0u64, 0u64);
+        for id in ids {
+            if self.resident.contains_key(&id) {
+                continue;
+            }
+            let bytes = self
+                .dir
+                .bytes(&id)
+                .ok_or_else(|| format!("data selection named unknown data {id:?}"))?;
+            total = total.saturating_add(bytes);
+            if self.cache.contains(&id) {
+                if !self.cache.is_pinned(&id) {
+                    to_pin += bytes;
+                }
+            } else if !self.in_flight.contains_key(&id) {
+                new_bytes += bytes;
+            }
+            remote.push(id);
+        }
+        if total > self.cache.budget() {
+            return Ok(Admission::TooBig(env));
+        }
+        if !self.cache.can_pin_more(to_pin.saturating_add(new_bytes)) {
+            return Ok(Admission::Deferred(env, remote));
+        }
+        // Admitted. Pin what is cached first so that the reservation below
+        // cannot evict it.
+        for id in &remote {
+            if self.cache.pin(id) {
+                self.cache.record_hit();
+            } else {
+                self.cache.record_miss();
+            }
+        }
+        let reserved = self.cache.reserve(new_bytes);
+        debug_assert!(reserved, "admission checked the budget");
+        let key = self.next_key;
+        self.next_key += 1;
+        let mut missing = 0;
+        let mut requests: BTreeMap<usize, Vec<W::DataId>> = BTreeMap::new();
+        for id in &remote {
+            if self.cache.is_pinned(id) {
+                continue;
+            }
+            missing += 1;
+            match self.in_flight.get_mut(id) {
+                Some(f) => f.waiters.push(key),
+                None => {
+                    let bytes = self.dir.bytes(id).unwrap_or(0);
+                    self.in_flight.insert(
+                        id.clone(),
+                        InFlight {
+                            bytes,
+                            waiters: vec![key],
+                        },
+                    );
+                    let owner = self.dir.owner(id).unwrap_or(self.me);
+                    requests.entry(owner).or_default().push(id.clone());
+                }
+            }
+        }
+        if missing == 0 {
+            return Ok(Admission::Ready(ReadyTask {
+                env,
+                pinned: remote,
+            }));
+        }
+        let bytes = env.task.byte_size();
+        self.waiting.insert(
+            key,
+            WaitingTask {
+                env,
+                pinned: remote,
+                missing,
+                bytes,
+            },
+        );
+        self.waiting_bytes += bytes;
+        self.waiting_high_water = self.waiting_high_water.max(self.waiting.len());
+        self.waiting_bytes_high_water = self.waiting_bytes_high_water.max(self.waiting_bytes);
+        Ok(Admission::Waiting(requests.into_iter().collect()))
+    }
+
+    /// Stores the items of a data reply and returns the tasks it completed,
+    /// in the order they were admitted.
+    pub fn on_reply(&mut self, items: Items<W>) -> Result<Vec<ReadyTask<W>>, String> {
+        let mut woken = Vec::new();
+        for (id, item) in items {
+            let Some(f) = self.in_flight.remove(&id) else {
+                return Err(format!("received data {id:?} that was not requested"));
+            };
+            let pins = f.waiters.len() as u32;
+            self.cache.insert_reserved(id, item, f.bytes, f.bytes, pins);
+            for key in f.waiters {
+                let Some(t) = self.waiting.get_mut(&key) else {
+                    continue;
+                };
+                t.missing -= 1;
+                if t.missing == 0 {
+                    woken.push(key);
+                }
+            }
+        }
+        woken.sort_unstable();
+        Ok(woken
+            .into_iter()
+            .filter_map(|key| self.waiting.remove(&key))
+            .map(|t| {
+                self.waiting_bytes -= t.bytes;
+                ReadyTask {
+                    env: t.env,
+                    pinned: t.pinned,
+                }
+            })
+            .collect())
+    }
+
+    /// Releases the pins of a task that has run.
+    pub fn release(&mut self, pinned: &[W::DataId]) {
+        for id in pinned {
+            self.cache.unpin(id);
+        }
+    }
+}

@@ -1,0 +1,248 @@
+//! The `Workload` trait: where an application plugs into the framework.
+//!
+//! A workload describes its data (ids, items, who owns what), its two kinds of
+//! task and its results, and provides the hooks the processors call. Hooks are
+//! plain synchronous functions: they never see a runtime, a channel or a clock,
+//! which is what lets the same workload run on threads, in a simulation or over
+//! MPI. Anything a hook produces (new tasks, results, counted work) goes through
+//! the [`Ctx`] it is handed.
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::fmt::Debug;
+use std::hash::Hash;
+
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+
+use crate::cache::ByteLru;
+use crate::message::Addr;
+
+/// Size of a value in bytes as the framework should account for it (memory
+/// high-water marks, cache budget, message sizes). It need not be exact, but it
+/// must be deterministic.
+pub trait ByteSize {
+    /// Approximate size in bytes, including owned heap data.
+    fn byte_size(&self) -> usize;
+}
+
+/// What every value that travels in a message must be: cloneable, printable,
+/// sendable between threads and (for the later MPI runtime) serialisable.
+pub trait Payload: Clone + Debug + Send + Sync + Serialize + DeserializeOwned + 'static {}
+impl<T: Clone + Debug + Send + Sync + Serialize + DeserializeOwned + 'static> Payload for T {}
+
+/// Where one data item lives: the replicated ownership directory is built from
+/// a list of these (see [`Workload::placement`]).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Placement<Id> {
+    /// The data id.
+    pub id: Id,
+    /// The processor that holds the item permanently (its "resident" copy).
+    pub owner: usize,
+    /// The item's size in bytes; the directory knows sizes before an item is
+    /// fetched so that a processor can decide whether a task's data fits its
+    /// cache before asking for it.
+    pub bytes: u64,
+}
+
+/// What happened to a data-parallel task after [`Workload::execute_dp`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum DpOutcome<T> {
+    /// The task is complete (it may have emitted results and new tasks).
+    Finished,
+    /// The task needs data that is not local; it is sent to the owner of
+    /// [`Workload::route_dp`]'s answer for this (updated) task.
+    Migrate(T),
+}
+
+/// The application. All associated types travel in messages, hence the serde
+/// bounds.
+///
+/// # Contract
+/// * Results must not depend on *where* a task runs, and [`Workload::merge`]
+///   must be commutative and associative: merge order differs between runs.
+///   (This is what makes "parallel equals sequential" testable.)
+/// * [`Workload::execute_dp`] must return [`DpOutcome::Migrate`] only when the
+///   data named by [`Workload::route_dp`] is not available in the view; a task
+///   that asks to migrate towards data it already has is reported as an error.
+/// * [`Workload::load_partition`] for processor `p` must return exactly the
+///   items that [`Workload::placement`] assigns to `p` (checked at start-up).
+pub trait Workload: Send + Sync + Sized + 'static {
+    /// Identifies one unit of data (an octree cell, an object, a block).
+    type DataId: Payload + Hash + Eq + Ord;
+    /// One unit of data. Its [`ByteSize`] is what the cache budget counts.
+    type DataItem: Payload + ByteSize;
+    /// A demand-driven task: coherent work whose (small) data set is known
+    /// after data selection; it can run on any processor.
+    type DdTask: Payload + ByteSize;
+    /// A data-parallel task: incoherent work that migrates to its data.
+    type DpTask: Payload + ByteSize;
+    /// A result, merged at a destination processor (or the master).
+    type Result: Payload + ByteSize;
+    /// The per-processor merge target for results (e.g. a processor's pixels).
+    type Accumulator: Clone + Debug + Default + Send + Serialize + DeserializeOwned + 'static;
+
+    /// The replicated ownership directory for a run on `procs` processors.
+    fn placement(&self, procs: usize) -> Vec<Placement<Self::DataId>>;
+
+    /// The resident items of processor `proc` (of `procs`).
+    fn load_partition(&self, proc: usize, procs: usize) -> Vec<(Self::DataId, Self::DataItem)>;
+
+    /// The root demand-driven tasks the master hands out on request (e.g. screen
+    /// tiles), in hand-out order.
+    fn root_tasks(&self, procs: usize) -> Vec<Self::DdTask>;
+
+    /// Data selection: every data id `task` will read. Selection may be costly
+    /// (pyramid clipping); charge its work to `ctx`. Resident ids may be
+    /// included; duplicates are ignored.
+    fn select_data(&self, task: &Self::DdTask, ctx: &mut Ctx<Self>) -> Vec<Self::DataId>;
+
+    /// Executes a demand-driven task. Every id returned by
+    /// [`Workload::select_data`] is present in `data`. May emit results,
+    /// data-parallel tasks and child demand-driven tasks through `ctx`.
+    fn execute_dd(&self, task: Self::DdTask, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>);
+
+    /// Fallback for a demand-driven task whose selected non-resident data does
+    /// not fit in the cache budget at all: turn it into data-parallel work
+    /// (emitted through `ctx`) that computes the same results. The framework
+    /// never lets such a task wait for data that can never be held.
+    fn to_data_parallel(&self, task: Self::DdTask, ctx: &mut Ctx<Self>);
+
+    /// The data id a data-parallel task needs next, or `None` when it needs no
+    /// further data and can finish wherever it is.
+    fn route_dp(&self, task: &Self::DpTask) -> Option<Self::DataId>;
+
+    /// Runs a data-parallel task as far as local (resident or cached) data
+    /// allows.
+    fn execute_dp(
+        &self,
+        task: Self::DpTask,
+        data: &DataView<'_, Self>,
+        ctx: &mut Ctx<Self>,
+    ) -> DpOutcome<Self::DpTask>;
+
+    /// Merges a result into the accumulator of the processor it was sent to.
+    fn merge(&self, acc: &mut Self::Accumulator, result: Self::Result);
+}
+
+/// The hook context: everything a hook may do besides reading data.
+///
+/// Emitted work is collected here and scheduled by the framework after the
+/// hook returns (demand-driven children by the [`crate::Policy`], data-parallel
+/// tasks by [`Workload::route_dp`], results to their destination).
+#[derive(Debug)]
+pub struct Ctx<W: Workload> {
+    proc: usize,
+    procs: usize,
+    pub(crate) charges: Vec<(&'static str, u64)>,
+    pub(crate) dd: Vec<W::DdTask>,
+    pub(crate) dp: Vec<W::DpTask>,
+    pub(crate) results: Vec<(Addr, W::Result)>,
+}
+
+impl<W: Workload> Ctx<W> {
+    /// A context for processor `proc` of `procs`.
+    pub fn new(proc: usize, procs: usize) -> Self {
+        Ctx {
+            proc,
+            procs,
+            charges: Vec::new(),
+            dd: Vec::new(),
+            dp: Vec::new(),
+            results: Vec::new(),
+        }
+    }
+
+    /// The processor running the hook. Informational only: results must not
+    /// depend on it (see the [`Workload`] contract).
+    pub fn proc_id(&self) -> usize {
+        self.proc
+    }
+
+    /// Number of worker processors in the run.
+    pub fn procs(&self) -> usize {
+        self.procs
+    }
+
+    /// Records `units` of counted work of kind `kind` (e.g. "intersect",
+    /// "clip"). The simulator turns these into virtual time with a cost model;
+    /// all runtimes report them in the statistics.
+    pub fn charge(&mut self, kind: &'static str, units: u64) {
+        if let Some(entry) = self.charges.iter_mut().find(|(k, _)| *k == kind) {
+            entry.1 = entry.1.saturating_add(units);
+        } else {
+            self.charges.push((kind, units));
+        }
+    }
+
+    /// Emits a child demand-driven task (placed by the scheduling policy).
+    pub fn spawn_dd(&mut self, task: W::DdTask) {
+        self.dd.push(task);
+    }
+
+    /// Emits a data-parallel task (sent towards its next data).
+    pub fn spawn_dp(&mut self, task: W::DpTask) {
+        self.dp.push(task);
+    }
+
+    /// Emits a result to be merged at `dest`.
+    pub fn emit_result(&mut self, dest: Addr, result: W::Result) {
+        self.results.push((dest, result));
+    }
+
+    /// The work charged since the context was created or last drained.
+    pub fn charges(&self) -> &[(&'static str, u64)] {
+        &self.charges
+    }
+
+    pub(crate) fn has_emissions(&self) -> bool {
+        !(self.dd.is_empty() && self.dp.is_empty() && self.results.is_empty())
+    }
+}
+
+/// Read-only access to the data local to a processor: its resident items and
+/// whatever its cache holds. Lookups of cached items are remembered so that the
+/// processor can refresh their LRU recency after the hook returns.
+pub struct DataView<'a, W: Workload> {
+    resident: &'a HashMap<W::DataId, W::DataItem>,
+    cache: Option<&'a ByteLru<W::DataId, W::DataItem>>,
+    touched: RefCell<Vec<W::DataId>>,
+}
+
+impl<'a, W: Workload> DataView<'a, W> {
+    /// A view over resident items and an optional cache.
+    pub fn new(
+        resident: &'a HashMap<W::DataId, W::DataItem>,
+        cache: Option<&'a ByteLru<W::DataId, W::DataItem>>,
+    ) -> Self {
+        DataView {
+            resident,
+            cache,
+            touched: RefCell::new(Vec::new()),
+        }
+    }
+
+    /// The item, if it is resident or cached here.
+    pub fn get(&self, id: &W::DataId) -> Option<&'a W::DataItem> {
+        if let Some(item) = self.resident.get(id) {
+            return Some(item);
+        }
+        let item = self.cache?.peek(id)?;
+        self.touched.borrow_mut().push(id.clone());
+        Some(item)
+    }
+
+    /// Whether the item is resident or cached here.
+    pub fn is_local(&self, id: &W::DataId) -> bool {
+        self.resident.contains_key(id) || self.cache.is_some_and(|c| c.contains(id))
+    }
+
+    /// Whether the item is resident (owned) here.
+    pub fn is_resident(&self, id: &W::DataId) -> bool {
+        self.resident.contains_key(id)
+    }
+
+    pub(crate) fn into_touched(self) -> Vec<W::DataId> {
+        self.touched.into_inner()
+    }
+}
