@@ -661,7 +661,7 @@ impl Builder {
         Self::reals(p, &[4], "xdir ydir zdir angle")?;
         let r = &p.reals;
         let dir = Vec3::new(r[0], r[1], r[2]);
-        if !(dir.length() > 0.0) {
+        if dir.length() == 0.0 || !dir.length().is_finite() {
             return Err(Self::geometry_error(p, "direction is zero".into()));
         }
         if !(r[3] > 0.0 && r[3] <= 180.0) {
