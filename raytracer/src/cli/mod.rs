@@ -1,6 +1,76 @@
-//! cli (in progress)
+//! The `hybrid-rt` command-line program: `render` and `bench`.
+//!
+//! Errors print as `error: <file:line: reason>` on stderr; the exit code
+//! is 2 for usage errors and 1 for everything else. No input makes the
+//! program panic.
+
+mod args;
+mod bench;
+mod render;
+
+pub use args::{translate, BenchArgs, Cli, Command, RenderArgs};
+
+use clap::Parser;
+
+use crate::render::RenderOptions;
+use crate::{Error, Result};
 
 /// Entry point of the `hybrid-rt` binary; returns the process exit code.
 pub fn main() -> i32 {
-    0
+    init_logging();
+    let argv = translate(std::env::args().collect());
+    let cli = match Cli::try_parse_from(argv) {
+        Ok(c) => c,
+        Err(e) => {
+            // Help and version are not errors.
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return code;
+        }
+    };
+    let result = match cli.command {
+        Command::Render(a) => render::run(&a),
+        Command::Bench(a) => bench::run(&a),
+    };
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {e}");
+            e.exit_code()
+        }
+    }
+}
+
+/// `tracing` to stderr, filtered by `RUST_LOG` (default: warnings).
+fn init_logging() {
+    use tracing_subscriber::EnvFilter;
+    let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("warn"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+}
+
+/// Render options from Radiance arguments and a seed.
+fn options_from(radiance: &args::RadianceArgs, seed: u64) -> Result<RenderOptions> {
+    let mut o = RenderOptions {
+        seed,
+        ..RenderOptions::default()
+    };
+    for (name, values) in radiance.given() {
+        o.set(name, &values)?;
+    }
+    o.validate()?;
+    Ok(o)
+}
+
+/// Prints the scene loader's warnings.
+fn print_scene_warnings(scene: &crate::scene::Scene) {
+    for (loc, msg) in &scene.warnings {
+        eprintln!("warning: {loc}: {msg}");
+    }
+}
+
+fn usage(msg: impl Into<String>) -> Error {
+    Error::Usage(msg.into())
 }

@@ -1,0 +1,281 @@
+//! Command-line arguments. Radiance spells its options with one dash and
+//! several letters (`-ds 0.2`, `-av 1 1 1`, `-vp 0 0 1`), which clap
+//! cannot express; [`translate`] rewrites them into long options first.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+use crate::render::RADIANCE_OPTIONS;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "hybrid-rt",
+    version,
+    about = "A Radiance-style ray tracer, sequential reference of a hybrid-scheduled parallel renderer",
+    after_help = "Radiance options may be written Radiance's way: -ds 0.2 -dj 0.5 -dt 0.05 -dc 0.5 -lr 8 -lw 0.002 -av 0.1 0.1 0.1 -ps 1, and view options -vf FILE -vtv -vp X Y Z -vd X Y Z -vu X Y Z -vh A -vv A.\nLogging: set RUST_LOG (e.g. RUST_LOG=info)."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Render a scene to a PNG or Radiance HDR picture.
+    Render(RenderArgs),
+    /// Measure primary and shadow ray throughput on a scene.
+    Bench(BenchArgs),
+}
+
+/// Radiance rendering options (long forms of `-ds`, `-dj`, ...).
+#[derive(Debug, Args, Default)]
+pub struct RadianceArgs {
+    /// -ds: source subdivision ratio [default: 0.2]
+    #[arg(long = "ds", value_name = "RATIO", allow_hyphen_values = true)]
+    pub ds: Option<String>,
+    /// -dj: source jitter 0..1 [default: 0]
+    #[arg(long = "dj", value_name = "FRAC", allow_hyphen_values = true)]
+    pub dj: Option<String>,
+    /// -dt: direct threshold of adaptive shadow testing [default: 0.05]
+    #[arg(long = "dt", value_name = "FRAC", allow_hyphen_values = true)]
+    pub dt: Option<String>,
+    /// -dc: direct certainty 0..1 [default: 0.5]
+    #[arg(long = "dc", value_name = "FRAC", allow_hyphen_values = true)]
+    pub dc: Option<String>,
+    /// -lr: reflection depth limit [default: 7]
+    #[arg(long = "lr", value_name = "N", allow_hyphen_values = true)]
+    pub lr: Option<String>,
+    /// -lw: ray weight limit [default: 0.002]
+    #[arg(long = "lw", value_name = "W", allow_hyphen_values = true)]
+    pub lw: Option<String>,
+    /// -av: constant ambient radiance [default: 0 0 0]
+    #[arg(long = "av", num_args = 3, value_names = ["R", "G", "B"], allow_hyphen_values = true)]
+    pub av: Option<Vec<String>>,
+    /// -ab: ambient bounces (only 0 is supported yet)
+    #[arg(long = "ab", value_name = "N", allow_hyphen_values = true)]
+    pub ab: Option<String>,
+    /// -st: specular sampling threshold [default: 0.15]
+    #[arg(long = "st", value_name = "FRAC", allow_hyphen_values = true)]
+    pub st: Option<String>,
+    /// -ss: specular sampling jitter [default: 1]
+    #[arg(long = "ss", value_name = "FRAC", allow_hyphen_values = true)]
+    pub ss: Option<String>,
+    /// -ps: pixel sample spacing (only 1 is supported yet)
+    #[arg(long = "ps", value_name = "N", allow_hyphen_values = true)]
+    pub ps: Option<String>,
+    /// -pj: pixel jitter 0..1 [default: 0]
+    #[arg(long = "pj", value_name = "FRAC", allow_hyphen_values = true)]
+    pub pj: Option<String>,
+}
+
+impl RadianceArgs {
+    /// (name, values) pairs of the options given, in table order.
+    pub fn given(&self) -> Vec<(&'static str, Vec<&str>)> {
+        fn one(o: &Option<String>) -> Option<Vec<&str>> {
+            o.as_deref().map(|s| vec![s])
+        }
+        let mut v = Vec::new();
+        for (name, vals) in [
+            ("ds", one(&self.ds)),
+            ("dj", one(&self.dj)),
+            ("dt", one(&self.dt)),
+            ("dc", one(&self.dc)),
+            ("lr", one(&self.lr)),
+            ("lw", one(&self.lw)),
+            (
+                "av",
+                self.av
+                    .as_ref()
+                    .map(|a| a.iter().map(String::as_str).collect()),
+            ),
+            ("ab", one(&self.ab)),
+            ("st", one(&self.st)),
+            ("ss", one(&self.ss)),
+            ("ps", one(&self.ps)),
+            ("pj", one(&self.pj)),
+        ] {
+            if let Some(vals) = vals {
+                v.push((name, vals));
+            }
+        }
+        v
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// Scene files (.rad or .obj), read in order into one scene.
+    #[arg(required = true, value_name = "SCENE")]
+    pub scenes: Vec<PathBuf>,
+    /// Radiance view file (also -vf).
+    #[arg(long = "view-file", value_name = "FILE")]
+    pub view_file: Option<PathBuf>,
+    /// Radiance view options, e.g. "-vtv -vp 0 0 1 -vd 0 1 0 -vh 60 -vv 45" (applied after --view-file).
+    #[arg(long = "view", value_name = "OPTIONS", allow_hyphen_values = true)]
+    pub view: Option<String>,
+    /// View options given Radiance's way on the command line (collected by the translator).
+    #[arg(long = "view-words", hide = true, allow_hyphen_values = true)]
+    pub view_words: Vec<String>,
+    /// Maximum image width; reduced to keep pixels square (rpict -x).
+    #[arg(long, default_value_t = 512, value_name = "W")]
+    pub width: u32,
+    /// Maximum image height; reduced to keep pixels square (rpict -y).
+    #[arg(long, default_value_t = 512, value_name = "H")]
+    pub height: u32,
+    /// Output picture: .png (tone mapped) or .hdr (Radiance RGBE).
+    #[arg(short = 'o', long = "output", value_name = "FILE")]
+    pub output: PathBuf,
+    /// Write render statistics as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    pub stats: Option<PathBuf>,
+    /// Exposure: a multiplier (2.5) or stops with a sign (+1, -2) like pfilt -e. Default: automatic (mean brightness to 0.5).
+    #[arg(long, value_name = "E", allow_hyphen_values = true)]
+    pub exposure: Option<String>,
+    /// Display gamma for PNG instead of the sRGB curve.
+    #[arg(long, value_name = "G")]
+    pub gamma: Option<f64>,
+    /// Seed of the random streams.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    #[command(flatten)]
+    pub radiance: RadianceArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Built-in scene (cornell, studio, conference) or a scene file.
+    #[arg(long, default_value = "cornell")]
+    pub scene: String,
+    /// View file for a scene file (default: the .vf next to it).
+    #[arg(long = "view-file", value_name = "FILE")]
+    pub view_file: Option<PathBuf>,
+    #[arg(long, default_value_t = 256)]
+    pub width: u32,
+    #[arg(long, default_value_t = 256)]
+    pub height: u32,
+    /// Also run a full render and report its throughput.
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub render: bool,
+    #[command(flatten)]
+    pub radiance: RadianceArgs,
+}
+
+/// Number of values each Radiance view option takes.
+fn view_arity(word: &str) -> Option<usize> {
+    match word {
+        w if w.starts_with("-vt") && w.len() == 4 => Some(0),
+        "-vp" | "-vd" | "-vu" => Some(3),
+        "-vh" | "-vv" | "-vo" | "-va" | "-vs" | "-vl" => Some(1),
+        _ => None,
+    }
+}
+
+/// Rewrites Radiance-style options into clap's long options: `-ds 0.2`
+/// becomes `--ds 0.2`, `-vf F` becomes `--view-file F`, and view options
+/// (`-vtv -vp 0 0 1 ...`) are collected into one hidden `--view-words`
+/// argument each. Everything else passes through unchanged. Values are
+/// taken verbatim (a negative number is a value, not an option).
+pub fn translate(args: Vec<String>) -> Vec<String> {
+    let mut out = Vec::with_capacity(args.len());
+    let mut it = args.into_iter().peekable();
+    if let Some(prog) = it.next() {
+        out.push(prog);
+    }
+    while let Some(a) = it.next() {
+        if a == "--" {
+            out.push(a);
+            out.extend(it);
+            break;
+        }
+        let name = a.strip_prefix('-').filter(|n| !n.starts_with('-'));
+        if let Some(opt) = name.and_then(|n| RADIANCE_OPTIONS.iter().find(|o| o.name == n)) {
+            out.push(format!("--{}", opt.name));
+            for _ in 0..opt.arity {
+                if let Some(v) = it.next() {
+                    out.push(v);
+                }
+            }
+        } else if a == "-vf" {
+            out.push("--view-file".into());
+            if let Some(v) = it.next() {
+                out.push(v);
+            }
+        } else if let Some(n) = view_arity(&a) {
+            let mut words = vec![a];
+            for _ in 0..n {
+                if let Some(v) = it.next() {
+                    words.push(v);
+                }
+            }
+            out.push(format!("--view-words={}", words.join(" ")));
+        } else {
+            out.push(a);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn s(v: &[&str]) -> Vec<String> {
+        v.iter().map(|x| x.to_string()).collect()
+    }
+
+    #[test]
+    fn translates_radiance_options() {
+        let t = translate(s(&[
+            "hybrid-rt",
+            "render",
+            "a.rad",
+            "-ds",
+            "0.1",
+            "-av",
+            "1",
+            "2",
+            "3",
+            "-vtv",
+            "-vp",
+            "-1",
+            "0",
+            "2",
+            "-vf",
+            "v.vf",
+            "-o",
+            "x.png",
+            "-lr",
+            "-3",
+        ]));
+        assert_eq!(
+            t,
+            s(&[
+                "hybrid-rt",
+                "render",
+                "a.rad",
+                "--ds",
+                "0.1",
+                "--av",
+                "1",
+                "2",
+                "3",
+                "--view-words=-vtv",
+                "--view-words=-vp -1 0 2",
+                "--view-file",
+                "v.vf",
+                "-o",
+                "x.png",
+                "--lr",
+                "-3"
+            ])
+        );
+        let cli = Cli::try_parse_from(t).unwrap();
+        let Command::Render(r) = cli.command else {
+            panic!()
+        };
+        assert_eq!(r.radiance.ds.as_deref(), Some("0.1"));
+        assert_eq!(r.radiance.lr.as_deref(), Some("-3"));
+        assert_eq!(r.view_words, s(&["-vtv", "-vp -1 0 2"]));
+    }
+}

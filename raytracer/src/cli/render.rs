@@ -1,0 +1,139 @@
+//! `hybrid-rt render`.
+
+use std::io::IsTerminal;
+use std::path::Path;
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+use super::args::RenderArgs;
+use super::{options_from, print_scene_warnings, usage};
+use crate::image::{write_image, Exposure, HdrInfo, ImageFormat, ToneMap, Transfer};
+use crate::render::{check_resolution, Renderer};
+use crate::scene::{self, View};
+use crate::{Error, Result, SourceLoc};
+
+/// The view from `--view-file`, then `--view`, then Radiance-style words.
+pub(super) fn build_view(
+    file: Option<&Path>,
+    options: Option<&str>,
+    words: &[String],
+) -> Result<View> {
+    let mut view = match file {
+        Some(f) => View::from_file(f)?,
+        None => View::default(),
+    };
+    let mut given = file.is_some();
+    let mut apply = |text: &str, what: &str| -> Result<()> {
+        let loc = SourceLoc::new(what, 1);
+        view.apply_options(text, &loc)?;
+        view.validate().map_err(|r| Error::parse(loc, r))
+    };
+    if let Some(o) = options {
+        apply(o, "<--view>")?;
+        given = true;
+    }
+    if !words.is_empty() {
+        apply(&words.join(" "), "<command line>")?;
+        given = true;
+    }
+    if !given {
+        return Err(usage(
+            "no view given: use --view-file FILE or --view \"-vtv -vp ... -vd ...\"",
+        ));
+    }
+    Ok(view)
+}
+
+/// Exposure from `--exposure`: a plain multiplier or signed stops.
+pub(super) fn parse_exposure(s: &str) -> Result<f64> {
+    let bad = || {
+        usage(format!(
+            "--exposure {s:?}: expected a positive multiplier or signed stops like +1"
+        ))
+    };
+    let t = s.trim();
+    let v = if t.starts_with('+') || t.starts_with('-') {
+        let stops: f64 = t.parse().map_err(|_| bad())?;
+        2f64.powf(stops)
+    } else {
+        t.parse::<f64>().map_err(|_| bad())?
+    };
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(bad())
+    }
+}
+
+pub(super) fn run(a: &RenderArgs) -> Result<()> {
+    // Check everything cheap before the expensive work.
+    ImageFormat::from_path(&a.output)?;
+    let options = options_from(&a.radiance, a.seed)?;
+    let exposure = a.exposure.as_deref().map(parse_exposure).transpose()?;
+    if let Some(g) = a.gamma {
+        if !(g.is_finite() && g > 0.0) {
+            return Err(usage(format!("--gamma {g}: must be a positive number")));
+        }
+    }
+    check_resolution(a.width as usize, a.height as usize)?;
+    let view = build_view(a.view_file.as_deref(), a.view.as_deref(), &a.view_words)?;
+    let (view, width, height) = view.fit_aspect(a.width, a.height);
+    let (width, height) = (width as usize, height as usize);
+    check_resolution(width, height)?;
+
+    let t0 = std::time::Instant::now();
+    let scene = scene::load(&a.scenes)?;
+    print_scene_warnings(&scene);
+    tracing::info!(
+        objects = scene.stats.objects,
+        lights = scene.lights.len(),
+        seconds = t0.elapsed().as_secs_f64(),
+        "scene loaded"
+    );
+    let renderer = Renderer::new(&scene, options)?;
+    for w in renderer.warnings() {
+        eprintln!("warning: {w}");
+    }
+    tracing::info!(effects = ?renderer.effects(), "effects");
+
+    let bar = if std::io::stderr().is_terminal() && width * height >= 64 * 64 {
+        let b = ProgressBar::new(height as u64);
+        if let Ok(style) = ProgressStyle::with_template(
+            "{spinner} rendering [{bar:40}] {pos}/{len} rows {elapsed_precise} (eta {eta})",
+        ) {
+            b.set_style(style.progress_chars("=> "));
+        }
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    let (film, stats) = renderer.render_with_progress(&view, width, height, &mut |rows| {
+        bar.set_position(rows as u64)
+    })?;
+    bar.finish_and_clear();
+
+    let tone = ToneMap {
+        exposure: exposure.map_or(Exposure::Auto, Exposure::Fixed),
+        transfer: a.gamma.map_or(Transfer::Srgb, Transfer::Gamma),
+    };
+    let info = HdrInfo {
+        view: Some(view.to_options()),
+        software: Some(format!("hybrid-rt {}", env!("CARGO_PKG_VERSION"))),
+    };
+    write_image(&film, &a.output, &tone, &info)?;
+    if let Some(path) = &a.stats {
+        let json = serde_json::to_string_pretty(&stats)
+            .map_err(|e| Error::Other(format!("statistics: {e}")))?;
+        std::fs::write(path, json + "\n").map_err(|e| Error::io(path, e))?;
+    }
+    tracing::info!(
+        width,
+        height,
+        seconds = stats.time.render_s,
+        primary = stats.rays.primary,
+        shadow = stats.rays.shadow.tested,
+        "rendered {}",
+        a.output.display()
+    );
+    Ok(())
+}

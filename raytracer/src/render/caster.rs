@@ -1,0 +1,49 @@
+//! What shading needs from the geometry: nearest hit and any hit.
+//!
+//! The sequential renderer casts against the whole octree; the parallel
+//! renderer will implement [`RayCaster`] over the cells a processor holds.
+
+use crate::accel::{intersect_brute_force, occluded_brute_force, Hit, Octree};
+use crate::geometry::Ray;
+use crate::scene::{Object, ObjectId};
+
+/// Ray queries against scene geometry.
+pub trait RayCaster {
+    /// Nearest hit with `tmin < t < tmax`.
+    fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit>;
+    /// True if an object other than `ignore` is hit with `tmin < t < tmax`.
+    fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> bool;
+}
+
+/// Casts rays through an octree built over `objects`.
+#[derive(Debug, Clone, Copy)]
+pub struct OctreeCaster<'a> {
+    pub octree: &'a Octree,
+    pub objects: &'a [Object],
+}
+
+impl RayCaster for OctreeCaster<'_> {
+    #[inline]
+    fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        self.octree.intersect(self.objects, ray, tmin, tmax)
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> bool {
+        self.octree.occluded(self.objects, ray, tmin, tmax, ignore)
+    }
+}
+
+/// Tests every object: the reference the octree is checked against.
+#[derive(Debug, Clone, Copy)]
+pub struct BruteForceCaster<'a>(pub &'a [Object]);
+
+impl RayCaster for BruteForceCaster<'_> {
+    fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        intersect_brute_force(self.0, ray, tmin, tmax)
+    }
+
+    fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> bool {
+        occluded_brute_force(self.0, ray, tmin, tmax, ignore)
+    }
+}

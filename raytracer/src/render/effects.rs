@@ -1,0 +1,281 @@
+//! "Only the effects a scene calls for are simulated": one look at the
+//! scene and the options decides which kinds of secondary work can occur,
+//! and says why, so a render's statistics explain themselves.
+
+use serde::{Deserialize, Serialize};
+
+use super::light::PreparedLight;
+use super::material::FTINY;
+use super::options::RenderOptions;
+use crate::geometry::Shape;
+use crate::scene::{Material, MaterialId, Object, Scene};
+
+/// Whether an effect runs, and the reason.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Effect {
+    pub enabled: bool,
+    pub reason: String,
+}
+
+impl Effect {
+    fn on(reason: impl Into<String>) -> Self {
+        Self {
+            enabled: true,
+            reason: reason.into(),
+        }
+    }
+    fn off(reason: impl Into<String>) -> Self {
+        Self {
+            enabled: false,
+            reason: reason.into(),
+        }
+    }
+}
+
+/// The effects a render simulates.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct EffectsReport {
+    /// Direct light from area sources: shadow bundles over subdivided patches.
+    pub area_shadows: Effect,
+    /// Direct light from distant sources: one shadow ray each.
+    pub distant_shadows: Effect,
+    /// Adaptive shadow testing (`-dt` > 0).
+    pub adaptive_shadow_testing: Effect,
+    /// Shadow rays that pass through glass, trans or invisible surfaces.
+    pub transparent_shadows: Effect,
+    /// Specular reflection rays (mirror, glass, dielectric, specular plastic/metal/trans).
+    pub reflection: Effect,
+    /// Refraction / specular transmission rays (glass, dielectric, trans).
+    pub refraction: Effect,
+    /// Absorption inside dielectrics.
+    pub absorption: Effect,
+    /// Constant ambient term (`-av`).
+    pub ambient: Effect,
+    /// Diffuse inter-reflection (`-ab`).
+    pub diffuse_interreflection: Effect,
+}
+
+/// Materials some surface actually uses (instances included; an `illum`'s
+/// alternate counts too).
+fn used_materials(scene: &Scene) -> Vec<bool> {
+    let mut used = vec![false; scene.materials.len()];
+    fn visit(objects: &[Object], used: &mut Vec<bool>, seen: &mut Vec<*const ()>) {
+        for o in objects {
+            if let Some(u) = used.get_mut(o.material as usize) {
+                *u = true;
+            }
+            if let Shape::Instance(inst) = &o.shape {
+                let key = std::sync::Arc::as_ptr(&inst.geometry) as *const ();
+                if !seen.contains(&key) {
+                    seen.push(key);
+                    visit(&inst.geometry.objects, used, seen);
+                }
+            }
+        }
+    }
+    visit(&scene.objects, &mut used, &mut Vec::new());
+    // Follow illum alternates.
+    let mut changed = true;
+    while changed {
+        changed = false;
+        for (i, m) in scene.materials.iter().enumerate() {
+            if let (
+                true,
+                Material::Illum {
+                    alternate: Some(a), ..
+                },
+            ) = (used[i], m)
+            {
+                if let Some(u) = used.get_mut(*a as usize) {
+                    if !*u {
+                        *u = true;
+                        changed = true;
+                    }
+                }
+            }
+        }
+    }
+    used
+}
+
+fn names(scene: &Scene, ids: &[MaterialId]) -> String {
+    let mut v: Vec<&str> = ids
+        .iter()
+        .map(|&i| {
+            scene
+                .material_names
+                .get(i as usize)
+                .map_or("?", |s| s.as_str())
+        })
+        .collect();
+    let more = v.len().saturating_sub(4);
+    v.truncate(4);
+    let mut s = v.join(", ");
+    if more > 0 {
+        s.push_str(&format!(" and {more} more"));
+    }
+    s
+}
+
+impl EffectsReport {
+    /// Analyses `scene` under `options` with the sampled `lights`.
+    pub fn analyse(scene: &Scene, options: &RenderOptions, lights: &[PreparedLight]) -> Self {
+        let used = used_materials(scene);
+        let mut reflective = Vec::new();
+        let mut refractive = Vec::new();
+        let mut absorbing = Vec::new();
+        let mut see_through = Vec::new();
+        let mut diffuse = false;
+        for (i, m) in scene.materials.iter().enumerate() {
+            if !used[i] {
+                continue;
+            }
+            let id = i as MaterialId;
+            match m {
+                Material::Mirror { .. } => reflective.push(id),
+                Material::Glass { transmission, .. } => {
+                    reflective.push(id);
+                    if transmission.max_element() > 1e-15 {
+                        refractive.push(id);
+                        see_through.push(id);
+                    }
+                }
+                Material::Dielectric { transmission, .. } => {
+                    reflective.push(id);
+                    refractive.push(id);
+                    if transmission.min_element() < 1.0 {
+                        absorbing.push(id);
+                    }
+                }
+                Material::Plastic {
+                    specularity,
+                    roughness,
+                    ..
+                }
+                | Material::Metal {
+                    specularity,
+                    roughness,
+                    ..
+                } => {
+                    diffuse = true;
+                    // Pure specular (roughness 0) always reflects; rough only above -st.
+                    if *specularity > FTINY
+                        && (roughness * roughness <= FTINY || *specularity > options.st)
+                    {
+                        reflective.push(id);
+                    }
+                }
+                Material::Trans {
+                    specularity,
+                    roughness,
+                    transmissivity,
+                    transmitted_specular,
+                    ..
+                } => {
+                    diffuse = true;
+                    let pure = roughness * roughness <= FTINY;
+                    // Fresnel can raise a pure surface's specularity, so any is enough there.
+                    if *specularity > FTINY && (pure || *specularity > options.st) {
+                        reflective.push(id);
+                    }
+                    let tspec = transmissivity * transmitted_specular;
+                    if tspec > FTINY && (pure || tspec > options.st) {
+                        refractive.push(id);
+                    }
+                    if pure && tspec > FTINY {
+                        see_through.push(id);
+                    }
+                }
+                Material::Void
+                | Material::Illum {
+                    alternate: None, ..
+                } => see_through.push(id),
+                _ => {}
+            }
+        }
+        let area = lights.iter().filter(|l| !l.is_distant()).count();
+        let distant = lights.len() - area;
+        let area_shadows = if area > 0 && diffuse {
+            Effect::on(format!(
+                "{area} area source(s): shadow bundles over patches with size/distance below -ds {}",
+                options.ds
+            ))
+        } else if area > 0 {
+            Effect::off("no diffuse or rough surface to light (only specular materials)")
+        } else {
+            Effect::off("no area light sources in the scene")
+        };
+        let distant_shadows = if distant > 0 && diffuse {
+            Effect::on(format!("{distant} distant source(s): one shadow ray each"))
+        } else if distant > 0 {
+            Effect::off("no diffuse or rough surface to light (only specular materials)")
+        } else {
+            Effect::off("no distant (`source`) light sources in the scene")
+        };
+        let adaptive_shadow_testing = if options.dt > 0.0 {
+            Effect::on(format!(
+                "-dt {} -dc {}: shadow rays for minor patches are estimated",
+                options.dt, options.dc
+            ))
+        } else {
+            Effect::off("-dt 0: every patch gets a shadow ray")
+        };
+        let transparent_shadows = if see_through.is_empty() {
+            Effect::off("no glass, clear trans or invisible surfaces: shadow rays need only an any-hit test")
+        } else {
+            Effect::on(format!(
+                "shadow rays pass through {}",
+                names(scene, &see_through)
+            ))
+        };
+        let reflection = if reflective.is_empty() {
+            Effect::off(format!(
+                "no mirror, glass, dielectric or specular material (specularity above -st {} or roughness 0)",
+                options.st
+            ))
+        } else if options.lr == 0 {
+            Effect::off("-lr 0 limits rays to primary rays")
+        } else {
+            Effect::on(format!(
+                "reflective materials: {}",
+                names(scene, &reflective)
+            ))
+        };
+        let refraction = if refractive.is_empty() {
+            Effect::off("no glass, dielectric or transmitting trans material")
+        } else if options.lr == 0 {
+            Effect::off("-lr 0 limits rays to primary rays")
+        } else {
+            Effect::on(format!(
+                "transmitting materials: {}",
+                names(scene, &refractive)
+            ))
+        };
+        let absorption = if absorbing.is_empty() {
+            Effect::off("no dielectric with transmission below 1")
+        } else {
+            Effect::on(format!("absorbing media: {}", names(scene, &absorbing)))
+        };
+        let ambient = if options.av != crate::scene::Color::ZERO {
+            Effect::on(format!(
+                "-av {} {} {}",
+                options.av.x, options.av.y, options.av.z
+            ))
+        } else {
+            Effect::off("-av 0 0 0")
+        };
+        let diffuse_interreflection =
+            Effect::off("-ab 0 (diffuse inter-reflection is not implemented yet)");
+        Self {
+            area_shadows,
+            distant_shadows,
+            adaptive_shadow_testing,
+            transparent_shadows,
+            reflection,
+            refraction,
+            absorption,
+            ambient,
+            diffuse_interreflection,
+        }
+    }
+}

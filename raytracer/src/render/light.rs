@@ -1,0 +1,813 @@
+//! Light sources prepared for sampling: area sources split into patches
+//! after Radiance's `srcsamp.c`, distant sources as one direction.
+//!
+//! A source is split recursively along its longest dimension until every
+//! patch's size over its distance from the shaded point is below `-ds`
+//! (at most [`MAX_PATCHES`] patches, Radiance's `MAXSPART`). Each patch
+//! contributes one sample point, at its centre for `-dj 0` and moved
+//! towards a uniformly random point of the patch by the fraction `-dj`.
+
+use std::f64::consts::PI;
+
+use glam::DVec2;
+
+use super::rng::Rng;
+use crate::geometry::robust::orthonormal_basis;
+use crate::geometry::{Shape, Vec3};
+use crate::scene::{Color, LightKind, Material, ObjectId, Scene};
+
+/// Radiance's `MAXSPART`: the most patches one source is split into.
+pub const MAX_PATCHES: usize = 64;
+
+/// One sample towards a light from a shaded point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PatchSample {
+    /// Unit direction from the shaded point to the sample point.
+    pub dir: Vec3,
+    /// Distance to the sample point (infinite for distant sources).
+    pub dist: f64,
+    /// Solid angle the patch subtends (projected towards the point).
+    pub omega: f64,
+    /// Unit normal of the source at the sample (zero for distant sources).
+    pub normal: Vec3,
+}
+
+/// How a source's geometry is sampled.
+#[derive(Debug, Clone)]
+enum Geometry {
+    /// Planar polygon: patches are rectangles of its bounding rectangle in
+    /// the plane frame `(u, v)`, clipped to the polygon's triangles.
+    Polygon {
+        origin: Vec3,
+        u: Vec3,
+        v: Vec3,
+        normal: Vec3,
+        rect: [f64; 4],
+        tris: Vec<[DVec2; 3]>,
+        area: f64,
+    },
+    /// Sphere, seen as the disk facing the point (Radiance's sphere sources).
+    Sphere { center: Vec3, radius: f64 },
+    /// Disk or annulus facing `normal`: patches are polar cells, split in
+    /// radius or angle.
+    Ring {
+        center: Vec3,
+        normal: Vec3,
+        r_inner: f64,
+        r_outer: f64,
+    },
+    /// Any other shape with an area-uniform `(u, v)` parameterisation
+    /// (cones): patches are rectangles of the parameter square.
+    Param { area: f64 },
+    /// Distant source (Radiance `source`).
+    Distant {
+        dir: Vec3,
+        solid_angle: f64,
+        cos_half: f64,
+    },
+}
+
+/// A light ready for sampling.
+#[derive(Debug, Clone)]
+pub struct PreparedLight {
+    /// Index into `Scene::lights`.
+    pub index: usize,
+    /// The emitting object (None for distant sources).
+    pub object: Option<ObjectId>,
+    /// The light's emitting material (already resolved).
+    pub material: Material,
+    geometry: Geometry,
+}
+
+/// Prepares all of the scene's lights. Lights that cannot be sampled
+/// (emitters inside instances, glow `source`s that Radiance never samples)
+/// are left out with a warning each.
+pub fn prepare_lights(scene: &Scene) -> (Vec<PreparedLight>, Vec<String>) {
+    let mut out = Vec::new();
+    let mut warnings = Vec::new();
+    for (index, light) in scene.lights.iter().enumerate() {
+        let Some(material) = scene.materials.get(light.material as usize).cloned() else {
+            warnings.push(format!(
+                "light {index}: material {} does not exist; ignored",
+                light.material
+            ));
+            continue;
+        };
+        let name = |o: ObjectId| {
+            scene
+                .objects
+                .get(o as usize)
+                .map_or("?", |o| o.name.as_str())
+                .to_string()
+        };
+        let geometry = match &light.kind {
+            LightKind::Distant { dir, solid_angle } => {
+                if matches!(material, Material::Glow { .. }) {
+                    // Radiance (source.c): a glow `source` is seen, never sampled.
+                    continue;
+                }
+                let len = dir.length();
+                if !(len.is_finite() && len > 0.0 && solid_angle.is_finite() && *solid_angle > 0.0)
+                {
+                    warnings.push(format!(
+                        "distant light {index}: bad direction or solid angle; ignored"
+                    ));
+                    continue;
+                }
+                let omega = solid_angle.min(4.0 * PI);
+                Geometry::Distant {
+                    dir: *dir / len,
+                    solid_angle: omega,
+                    cos_half: 1.0 - omega / (2.0 * PI),
+                }
+            }
+            LightKind::Area { object } => {
+                let Some(obj) = scene.objects.get(*object as usize) else {
+                    warnings.push(format!(
+                        "light {index}: object {object} does not exist; ignored"
+                    ));
+                    continue;
+                };
+                match &obj.shape {
+                    Shape::Polygon(p) => polygon_geometry(&p.vertices, &p.triangles, p.normal),
+                    Shape::Sphere { center, radius, .. } => Geometry::Sphere {
+                        center: *center,
+                        radius: *radius,
+                    },
+                    Shape::Ring {
+                        center,
+                        normal,
+                        r_inner,
+                        r_outer,
+                    } => Geometry::Ring {
+                        center: *center,
+                        normal: *normal,
+                        r_inner: *r_inner,
+                        r_outer: *r_outer,
+                    },
+                    Shape::Cone { .. } => Geometry::Param {
+                        area: obj.shape.area(),
+                    },
+                    Shape::Instance(_) => {
+                        warnings.push(format!(
+                            "light source {:?} is an instance; emitters inside instances are not sampled as lights",
+                            name(*object)
+                        ));
+                        continue;
+                    }
+                }
+            }
+        };
+        let object = match light.kind {
+            LightKind::Area { object } => Some(object),
+            LightKind::Distant { .. } => None,
+        };
+        out.push(PreparedLight {
+            index,
+            object,
+            material,
+            geometry,
+        });
+    }
+    (out, warnings)
+}
+
+fn polygon_geometry(vertices: &[Vec3], triangles: &[[u32; 3]], normal: Vec3) -> Geometry {
+    let origin = vertices[0];
+    // Frame: u along the longest edge, so rectangles fit rectangular sources.
+    let mut u = Vec3::ZERO;
+    let mut best = 0.0;
+    for i in 0..vertices.len() {
+        let e = vertices[(i + 1) % vertices.len()] - vertices[i];
+        let e = e - normal * e.dot(normal);
+        if e.length_squared() > best {
+            best = e.length_squared();
+            u = e;
+        }
+    }
+    let u = if best > 0.0 {
+        u.normalize()
+    } else {
+        orthonormal_basis(normal).0
+    };
+    let v = normal.cross(u);
+    let to2 = |p: Vec3| DVec2::new((p - origin).dot(u), (p - origin).dot(v));
+    let mut rect = [
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for &p in vertices {
+        let q = to2(p);
+        rect = [
+            rect[0].min(q.x),
+            rect[1].max(q.x),
+            rect[2].min(q.y),
+            rect[3].max(q.y),
+        ];
+    }
+    let tris: Vec<[DVec2; 3]> = triangles
+        .iter()
+        .map(|t| {
+            [
+                to2(vertices[t[0] as usize]),
+                to2(vertices[t[1] as usize]),
+                to2(vertices[t[2] as usize]),
+            ]
+        })
+        .collect();
+    let area = tris.iter().map(|t| tri_area(t[0], t[1], t[2])).sum();
+    Geometry::Polygon {
+        origin,
+        u,
+        v,
+        normal,
+        rect,
+        tris,
+        area,
+    }
+}
+
+#[inline]
+fn tri_area(a: DVec2, b: DVec2, c: DVec2) -> f64 {
+    0.5 * (b - a).perp_dot(c - a).abs()
+}
+
+/// Clips triangle `t` to the rectangle `r = [u0, u1, v0, v1]` (Sutherland-
+/// Hodgman on a fixed-size buffer). Returns the clipped convex polygon.
+fn clip_triangle(t: &[DVec2; 3], r: [f64; 4]) -> ([DVec2; 8], usize) {
+    let mut a = [DVec2::ZERO; 8];
+    let mut b = [DVec2::ZERO; 8];
+    a[..3].copy_from_slice(t);
+    let mut n = 3;
+    // (axis, bound, keep if coordinate >= bound when sign > 0)
+    let planes = [
+        (0usize, r[0], 1.0),
+        (0, r[1], -1.0),
+        (1, r[2], 1.0),
+        (1, r[3], -1.0),
+    ];
+    for (axis, bound, sign) in planes {
+        let d = |p: DVec2| sign * (p[axis] - bound);
+        let mut m = 0;
+        for i in 0..n {
+            let (p, q) = (a[i], a[(i + 1) % n]);
+            let (dp, dq) = (d(p), d(q));
+            if dp >= 0.0 {
+                b[m] = p;
+                m += 1;
+            }
+            if (dp >= 0.0) != (dq >= 0.0) {
+                let s = dp / (dp - dq);
+                b[m] = p + (q - p) * s;
+                m += 1;
+            }
+            if m >= 8 {
+                break;
+            }
+        }
+        std::mem::swap(&mut a, &mut b);
+        n = m;
+        if n < 3 {
+            return (a, 0);
+        }
+    }
+    (a, n)
+}
+
+/// Area and area-weighted centroid of a convex polygon (fan from vertex 0).
+fn poly_area_centroid(p: &[DVec2]) -> (f64, DVec2) {
+    let mut area = 0.0;
+    let mut c = DVec2::ZERO;
+    for i in 1..p.len().saturating_sub(1) {
+        let a = tri_area(p[0], p[i], p[i + 1]);
+        area += a;
+        c += (p[0] + p[i] + p[i + 1]) * (a / 3.0);
+    }
+    if area > 0.0 {
+        (area, c / area)
+    } else {
+        (0.0, p.first().copied().unwrap_or(DVec2::ZERO))
+    }
+}
+
+/// A uniformly distributed point of the convex polygon `p` with area `area`.
+fn uniform_in_poly(p: &[DVec2], area: f64, rng: &mut Rng) -> DVec2 {
+    let target = rng.next_f64() * area;
+    let (r1, r2) = (rng.next_f64(), rng.next_f64());
+    let mut acc = 0.0;
+    let last = p.len() - 2;
+    for i in 1..=last {
+        let a = tri_area(p[0], p[i], p[i + 1]);
+        acc += a;
+        if acc >= target || i == last {
+            let s = r1.sqrt();
+            return p[0] * (1.0 - s) + p[i] * (s * (1.0 - r2)) + p[i + 1] * (s * r2);
+        }
+    }
+    p[0]
+}
+
+/// Radiance's `-dj` blend: the cell centre moved by `dj` towards `random`.
+#[inline]
+fn jitter(center: f64, random: f64, dj: f64) -> f64 {
+    center + dj * (random - center)
+}
+
+impl PreparedLight {
+    /// True for distant sources.
+    pub fn is_distant(&self) -> bool {
+        matches!(self.geometry, Geometry::Distant { .. })
+    }
+
+    /// Emitted radiance from a sample towards the shaded point, after the
+    /// light material (glow's radius of influence, spotlight's cone).
+    pub fn emission(&self, s: &PatchSample) -> Color {
+        match &self.material {
+            Material::Light { radiance } | Material::Illum { radiance, .. } => *radiance,
+            Material::Glow {
+                radiance,
+                max_radius,
+            } => {
+                if *max_radius > 0.0 && s.dist > *max_radius {
+                    Color::ZERO
+                } else {
+                    *radiance
+                }
+            }
+            Material::Spotlight {
+                radiance,
+                angle_deg,
+                direction,
+            } => {
+                let aim = if direction.length_squared() > 0.0 {
+                    direction.normalize()
+                } else {
+                    s.normal
+                };
+                if spot_admits(aim, *angle_deg, -s.dir) {
+                    *radiance
+                } else {
+                    Color::ZERO
+                }
+            }
+            _ => Color::ZERO,
+        }
+    }
+
+    /// A cheap estimate of the light's total solid angle and direction from
+    /// `p` (one sample at its centre, no subdivision): used only to weigh
+    /// the threshold of adaptive shadow testing across lights.
+    pub fn rough_sample(&self, scene: &Scene, p: Vec3) -> Option<PatchSample> {
+        match &self.geometry {
+            Geometry::Distant {
+                dir, solid_angle, ..
+            } => Some(PatchSample {
+                dir: *dir,
+                dist: f64::INFINITY,
+                omega: *solid_angle,
+                normal: Vec3::ZERO,
+            }),
+            Geometry::Polygon {
+                origin,
+                u,
+                v,
+                normal,
+                rect,
+                area,
+                ..
+            } => {
+                let c =
+                    *origin + *u * (0.5 * (rect[0] + rect[1])) + *v * (0.5 * (rect[2] + rect[3]));
+                flat_sample(p, c, *normal, *area)
+            }
+            Geometry::Sphere { center, radius } => {
+                let d = *center - p;
+                let dist = d.length();
+                (dist > *radius).then(|| PatchSample {
+                    dir: d / dist,
+                    dist,
+                    omega: PI * radius * radius / (dist * dist),
+                    normal: -d / dist,
+                })
+            }
+            Geometry::Ring {
+                center,
+                normal,
+                r_inner,
+                r_outer,
+            } => {
+                let area = PI * (r_outer - r_inner) * (r_outer + r_inner);
+                flat_sample(p, *center, *normal, area)
+            }
+            Geometry::Param { area } => {
+                let shape = &scene.objects[self.object? as usize].shape;
+                let c = shape.bounds().center();
+                let d = c - p;
+                let dist = d.length();
+                (dist > 0.0).then(|| PatchSample {
+                    dir: d / dist,
+                    dist,
+                    omega: 0.5 * area / (dist * dist),
+                    normal: -d / dist,
+                })
+            }
+        }
+    }
+
+    /// Calls `f` with one sample per patch of this light as seen from the
+    /// point `p`, in a fixed order. Patches that face away from `p` are
+    /// skipped; random numbers come from `rng` only when `dj > 0`.
+    pub fn for_each_patch<F: FnMut(PatchSample)>(
+        &self,
+        scene: &Scene,
+        p: Vec3,
+        ds: f64,
+        dj: f64,
+        rng: &mut Rng,
+        mut f: F,
+    ) {
+        match &self.geometry {
+            Geometry::Distant {
+                dir,
+                solid_angle,
+                cos_half,
+            } => {
+                let mut d = *dir;
+                if dj > 0.0 {
+                    // A direction within the source's cone, pulled towards its centre by dj.
+                    let cos_t = 1.0 - dj * rng.next_f64() * (1.0 - cos_half);
+                    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+                    let phi = 2.0 * PI * rng.next_f64();
+                    let (a, b) = orthonormal_basis(*dir);
+                    d = (*dir * cos_t + (a * phi.cos() + b * phi.sin()) * sin_t).normalize();
+                }
+                f(PatchSample {
+                    dir: d,
+                    dist: f64::INFINITY,
+                    omega: *solid_angle,
+                    normal: Vec3::ZERO,
+                });
+            }
+            Geometry::Polygon {
+                origin,
+                u,
+                v,
+                normal,
+                rect,
+                tris,
+                ..
+            } => {
+                // Sources are one-sided: nothing reaches points behind them.
+                if (p - *origin).dot(*normal) <= 0.0 {
+                    return;
+                }
+                let frame = (origin, u, v);
+                let to3 = |q: DVec2| *frame.0 + *frame.1 * q.x + *frame.2 * q.y;
+                let mut leaf = |r: [f64; 4], rng: &mut Rng| {
+                    let mut area = 0.0;
+                    let mut cen = DVec2::ZERO;
+                    for t in tris {
+                        let (c, n) = clip_triangle(t, r);
+                        if n >= 3 {
+                            let (a, ce) = poly_area_centroid(&c[..n]);
+                            area += a;
+                            cen += ce * a;
+                        }
+                    }
+                    if area <= 0.0 {
+                        return;
+                    }
+                    let cen = cen / area;
+                    let mut q = cen;
+                    if dj > 0.0 {
+                        // A uniform point of the clipped region, then blended.
+                        let target = rng.next_f64() * area;
+                        let mut acc = 0.0;
+                        let mut chosen = cen;
+                        for t in tris {
+                            let (c, n) = clip_triangle(t, r);
+                            if n >= 3 {
+                                let (a, _) = poly_area_centroid(&c[..n]);
+                                acc += a;
+                                if acc >= target && a > 0.0 {
+                                    chosen = uniform_in_poly(&c[..n], a, rng);
+                                    break;
+                                }
+                            }
+                        }
+                        q = DVec2::new(jitter(cen.x, chosen.x, dj), jitter(cen.y, chosen.y, dj));
+                    }
+                    if let Some(s) = flat_sample(p, to3(q), *normal, area) {
+                        f(s);
+                    }
+                };
+                let centre =
+                    |r: [f64; 4]| to3(DVec2::new(0.5 * (r[0] + r[1]), 0.5 * (r[2] + r[3])));
+                split_rect(
+                    *rect,
+                    MAX_PATCHES,
+                    &|r| (r[1] - r[0], r[3] - r[2], centre(r)),
+                    p,
+                    ds,
+                    rng,
+                    &mut leaf,
+                );
+            }
+            Geometry::Sphere { center, radius } => {
+                let w = p - *center;
+                let d = w.length();
+                if d <= *radius {
+                    return;
+                }
+                let w = w / d;
+                polar_patches(p, *center, w, 0.0, *radius, ds, dj, rng, &mut f);
+            }
+            Geometry::Ring {
+                center,
+                normal,
+                r_inner,
+                r_outer,
+            } => {
+                if (p - *center).dot(*normal) <= 0.0 {
+                    return;
+                }
+                polar_patches(p, *center, *normal, *r_inner, *r_outer, ds, dj, rng, &mut f);
+            }
+            Geometry::Param { area } => {
+                let Some(obj) = self.object.and_then(|o| scene.objects.get(o as usize)) else {
+                    return;
+                };
+                let shape = &obj.shape;
+                let dims = |c: [f64; 4]| {
+                    let (um, vm) = (0.5 * (c[0] + c[1]), 0.5 * (c[2] + c[3]));
+                    let pm = shape.sample(um, vm).0;
+                    let du = (shape.sample(c[1], vm).0 - shape.sample(c[0], vm).0).length();
+                    let dv = (shape.sample(um, c[2]).0 - pm).length()
+                        + (pm - shape.sample(um, c[3]).0).length();
+                    (du, dv, pm)
+                };
+                let mut leaf = |c: [f64; 4], rng: &mut Rng| {
+                    let cell_area = area * (c[1] - c[0]) * (c[3] - c[2]);
+                    let uu = jitter(
+                        0.5 * (c[0] + c[1]),
+                        c[0] + (c[1] - c[0]) * rng_if(rng, dj),
+                        dj,
+                    );
+                    let vv = jitter(
+                        0.5 * (c[2] + c[3]),
+                        c[2] + (c[3] - c[2]) * rng_if(rng, dj),
+                        dj,
+                    );
+                    let (q, n) =
+                        shape.sample(uu.min(1.0 - f64::EPSILON), vv.min(1.0 - f64::EPSILON));
+                    if let Some(s) = flat_sample(p, q, n, cell_area) {
+                        f(s);
+                    }
+                };
+                split_rect(
+                    [0.0, 1.0, 0.0, 1.0],
+                    MAX_PATCHES,
+                    &dims,
+                    p,
+                    ds,
+                    rng,
+                    &mut leaf,
+                );
+            }
+        }
+    }
+}
+
+/// Patches of the annulus `r_inner..r_outer` around `center` in the plane
+/// with unit normal `n` (emitting towards `n`): polar cells split in radius
+/// or angle, whichever is longer, sampled at their area centroid (moved
+/// towards a uniform random point by `dj`).
+#[allow(clippy::too_many_arguments)]
+fn polar_patches<F: FnMut(PatchSample)>(
+    p: Vec3,
+    center: Vec3,
+    n: Vec3,
+    r_inner: f64,
+    r_outer: f64,
+    ds: f64,
+    dj: f64,
+    rng: &mut Rng,
+    f: &mut F,
+) {
+    let (a, b) = orthonormal_basis(n);
+    let point = |r: f64, phi: f64| center + (a * phi.cos() + b * phi.sin()) * r;
+    // Cells are [r0, r1, phi0, phi1].
+    let dims = |c: [f64; 4]| {
+        let (rm, pm) = (0.5 * (c[0] + c[1]), 0.5 * (c[2] + c[3]));
+        (c[1] - c[0], rm * (c[3] - c[2]), point(rm, pm))
+    };
+    let mut leaf = |c: [f64; 4], rng: &mut Rng| {
+        let (r0, r1) = (c[0], c[1]);
+        let area = 0.5 * (c[3] - c[2]) * (r1 - r0) * (r1 + r0);
+        if area <= 0.0 {
+            return;
+        }
+        // Area centroid radius of the cell, and a uniform-by-area random one.
+        let rc = 2.0 / 3.0 * (r1 * r1 * r1 - r0 * r0 * r0) / ((r1 - r0) * (r1 + r0));
+        let pc = 0.5 * (c[2] + c[3]);
+        let (mut r, mut phi) = (rc, pc);
+        if dj > 0.0 {
+            let ru = (r0 * r0 + rng.next_f64() * (r1 - r0) * (r1 + r0)).sqrt();
+            let pu = c[2] + rng.next_f64() * (c[3] - c[2]);
+            r = jitter(rc, ru, dj);
+            phi = jitter(pc, pu, dj);
+        }
+        if let Some(s) = flat_sample(p, point(r, phi), n, area) {
+            f(s);
+        }
+    };
+    split_rect(
+        [r_inner, r_outer, 0.0, 2.0 * PI],
+        MAX_PATCHES,
+        &dims,
+        p,
+        ds,
+        rng,
+        &mut leaf,
+    );
+}
+
+/// A random number only when jitter is on (so `-dj 0` consumes none).
+#[inline]
+fn rng_if(rng: &mut Rng, dj: f64) -> f64 {
+    if dj > 0.0 {
+        rng.next_f64()
+    } else {
+        0.5
+    }
+}
+
+/// A sample at `q` of a one-sided emitting patch with unit normal `n` and
+/// area `area`, seen from `p`: None if `p` is behind the patch.
+#[inline]
+fn flat_sample(p: Vec3, q: Vec3, n: Vec3, area: f64) -> Option<PatchSample> {
+    let d = q - p;
+    let dist = d.length();
+    if !(dist > 0.0 && dist.is_finite()) {
+        return None;
+    }
+    let dir = d / dist;
+    let cos_l = -dir.dot(n);
+    if cos_l <= 0.0 {
+        return None;
+    }
+    Some(PatchSample {
+        dir,
+        dist,
+        omega: area * cos_l / (dist * dist),
+        normal: n,
+    })
+}
+
+/// Radiance's recursive partition (`flt_partit`): split the cell along its
+/// longer dimension while its size over the distance from `p` exceeds
+/// `ds`, giving each half half of the remaining patch budget `mp`.
+/// `dims(cell)` returns the cell's two world-space sizes and its centre.
+/// Returns the number of leaves produced.
+fn split_rect<D, L>(
+    cell: [f64; 4],
+    mp: usize,
+    dims: &D,
+    p: Vec3,
+    ds: f64,
+    rng: &mut Rng,
+    leaf: &mut L,
+) -> usize
+where
+    D: Fn([f64; 4]) -> (f64, f64, Vec3),
+    L: FnMut([f64; 4], &mut Rng),
+{
+    let (su, sv, c) = dims(cell);
+    let d2 = (c - p).length_squared();
+    let lim = ds * ds * d2;
+    if mp < 2 || ds <= 0.0 || (su * su <= lim && sv * sv <= lim) {
+        leaf(cell, rng);
+        return 1;
+    }
+    let (a, b) = if su >= sv {
+        let m = 0.5 * (cell[0] + cell[1]);
+        (
+            [cell[0], m, cell[2], cell[3]],
+            [m, cell[1], cell[2], cell[3]],
+        )
+    } else {
+        let m = 0.5 * (cell[2] + cell[3]);
+        (
+            [cell[0], cell[1], cell[2], m],
+            [cell[0], cell[1], m, cell[3]],
+        )
+    };
+    let n1 = split_rect(a, mp / 2, dims, p, ds, rng, leaf);
+    n1 + split_rect(b, mp - n1, dims, p, ds, rng, leaf)
+}
+
+/// Radiance's spotlight test: `to_point` (unit, from the light towards the
+/// lit point) lies within the cone of full angle `angle_deg` about `aim`.
+pub fn spot_admits(aim: Vec3, angle_deg: f64, to_point: Vec3) -> bool {
+    let half = (0.5 * angle_deg).to_radians();
+    aim.dot(to_point) >= half.cos()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clipping_preserves_area() {
+        let t = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(2.0, 0.0),
+            DVec2::new(0.0, 2.0),
+        ];
+        let whole = tri_area(t[0], t[1], t[2]);
+        let mut sum = 0.0;
+        for i in 0..4 {
+            for j in 0..4 {
+                let r = [
+                    i as f64 * 0.5,
+                    (i + 1) as f64 * 0.5,
+                    j as f64 * 0.5,
+                    (j + 1) as f64 * 0.5,
+                ];
+                let (c, n) = clip_triangle(&t, r);
+                if n >= 3 {
+                    sum += poly_area_centroid(&c[..n]).0;
+                }
+            }
+        }
+        assert!((sum - whole).abs() < 1e-12, "{sum} vs {whole}");
+    }
+
+    #[test]
+    fn split_respects_ratio_and_budget() {
+        let dims = |c: [f64; 4]| {
+            (
+                c[1] - c[0],
+                c[3] - c[2],
+                Vec3::new(0.5 * (c[0] + c[1]), 0.5 * (c[2] + c[3]), 0.0),
+            )
+        };
+        let mut rng = Rng::new(1);
+        let p = Vec3::new(0.5, 0.5, 2.0);
+        let mut cells = Vec::new();
+        let n = split_rect(
+            [0.0, 1.0, 0.0, 1.0],
+            MAX_PATCHES,
+            &dims,
+            p,
+            0.2,
+            &mut rng,
+            &mut |c, _| cells.push(c),
+        );
+        assert_eq!(n, cells.len());
+        let area: f64 = cells.iter().map(|c| (c[1] - c[0]) * (c[3] - c[2])).sum();
+        assert!((area - 1.0).abs() < 1e-12);
+        for c in &cells {
+            let (su, sv, cen) = dims(*c);
+            assert!(su.max(sv) <= 0.2 * (cen - p).length() + 1e-12);
+        }
+        let mut count = 0;
+        split_rect(
+            [0.0, 1.0, 0.0, 1.0],
+            MAX_PATCHES,
+            &dims,
+            Vec3::new(0.5, 0.5, 0.01),
+            0.2,
+            &mut rng,
+            &mut |_, _| count += 1,
+        );
+        assert!(count <= MAX_PATCHES && count > 16, "{count}");
+        let mut one = 0;
+        split_rect(
+            [0.0, 1.0, 0.0, 1.0],
+            MAX_PATCHES,
+            &dims,
+            p,
+            0.0,
+            &mut rng,
+            &mut |_, _| one += 1,
+        );
+        assert_eq!(one, 1, "-ds 0 means no subdivision");
+    }
+
+    #[test]
+    fn spot_cone() {
+        assert!(spot_admits(
+            Vec3::Z,
+            90.0,
+            Vec3::new(0.0, 0.5, 1.0).normalize()
+        ));
+        assert!(!spot_admits(
+            Vec3::Z,
+            90.0,
+            Vec3::new(0.0, 1.5, 1.0).normalize()
+        ));
+    }
+}

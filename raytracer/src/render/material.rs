@@ -1,0 +1,855 @@
+//! Shading of one hit point, after Radiance's material routines
+//! (`normal.c` for plastic, metal and trans; `glass.c`; `dielectric.c`;
+//! `m_mirror.c`; emitters from `source.c`).
+//!
+//! [`shade`] never traces anything itself. It returns the part of the
+//! result it can compute locally (emission, constant ambient) and appends
+//! the secondary work it needs to `out`, each item with its coefficient:
+//! - [`Request::Shadow`]: direct light from one source (a shadow bundle,
+//!   a coherent demand-driven task in the parallel renderer);
+//! - [`Request::Trace`]: a reflected, refracted or passed-through ray (a
+//!   data-parallel task).
+//!
+//! The pixel's value is `base + sum of (coefficient x result)` over the
+//! requests in order, then attenuated by the medium the ray crossed. The
+//! sequential renderer evaluates requests recursively in that order; a
+//! parallel renderer can run them anywhere and add the results in the same
+//! order. Each request carries its own random seed derived from its
+//! parent's, so where and when it runs cannot change the image.
+
+use std::f64::consts::PI;
+
+use serde::{Deserialize, Serialize};
+
+use super::effects::EffectsReport;
+use super::light::PreparedLight;
+use super::options::RenderOptions;
+use super::rng::{child_seed, Rng};
+use crate::accel::Hit;
+use crate::geometry::robust::orthonormal_basis;
+use crate::geometry::{offset_origin_scaled, Ray, Shape, Vec3};
+use crate::image::brightness;
+use crate::scene::{Color, Material, Scene};
+
+/// Radiance's `FTINY`.
+pub const FTINY: f64 = 1e-6;
+/// Radiance's `FRESTHRESH`: minimum specularity for the Fresnel estimate.
+const FRESTHRESH: f64 = 0.017999;
+/// Radiance's `MAXITER`: attempts to sample a rough specular direction.
+const MAXITER: usize = 10;
+/// Radiance's `MLAMBDA`: mean wavelength (nm) for Hartmann's formula.
+const MLAMBDA: f64 = 500.0;
+/// Longest chain of `illum` alternates followed before giving up.
+const MAX_ALTERNATES: usize = 8;
+
+/// Radiance's Fresnel estimate `FRESNE(ci)`.
+#[inline]
+fn fresne(ci: f64) -> f64 {
+    (-5.85 * ci).exp() - 0.00287989916
+}
+
+/// Radiance's `intens()`: the largest component.
+#[inline]
+pub fn intens(c: Color) -> f64 {
+    c.max_element()
+}
+
+/// What a secondary ray is for (its statistics bucket).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RayKind {
+    Primary,
+    Reflection,
+    Refraction,
+    /// A ray continued unchanged through an invisible surface (`void`,
+    /// `illum` without alternate).
+    PassThrough,
+}
+
+/// A ray to trace and shade.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RayTask {
+    pub ray: Ray,
+    pub tmin: f64,
+    pub tmax: f64,
+    pub kind: RayKind,
+    /// Reflection depth: 0 for primary rays (Radiance's `rlvl`).
+    pub depth: u32,
+    /// Product of the coefficients leading to this ray (Radiance's `rweight`).
+    pub weight: f64,
+    /// Seed of this ray's random numbers.
+    pub seed: u64,
+    /// Extinction coefficient per unit length of the medium the ray starts in.
+    pub extinction: Color,
+    /// A sampled rough-specular ray: it sees sampled light sources as black,
+    /// because direct lighting already includes their specular highlight.
+    pub sampled: bool,
+}
+
+impl RayTask {
+    /// A primary ray.
+    pub fn primary(ray: Ray, tmin: f64, tmax: f64, seed: u64) -> Self {
+        Self {
+            ray,
+            tmin,
+            tmax,
+            kind: RayKind::Primary,
+            depth: 0,
+            weight: 1.0,
+            seed,
+            extinction: Color::ZERO,
+            sampled: false,
+        }
+    }
+}
+
+/// Specularity flags of `normal.c`.
+pub mod spec {
+    pub const REFL: u8 = 1;
+    pub const TRAN: u8 = 2;
+    pub const PURE: u8 = 4;
+    pub const FLAT: u8 = 8;
+    pub const RBLT: u8 = 16;
+    pub const TBLT: u8 = 32;
+}
+
+/// The data `normal.c`'s `dirnorm()` needs to weigh light from a direction
+/// (Radiance's `NORMDAT`): everything a shadow bundle must carry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NormalBsdf {
+    pub mcolor: Color,
+    pub scolor: Color,
+    pub alpha2: f64,
+    pub rdiff: f64,
+    pub rspec: f64,
+    pub trans: f64,
+    pub tdiff: f64,
+    pub tspec: f64,
+    pub specfl: u8,
+    /// Surface normal turned towards the incoming ray.
+    pub pnorm: Vec3,
+    /// Cosine between `pnorm` and the reversed ray (at least 0.001).
+    pub pdot: f64,
+    /// Incoming ray direction.
+    pub rdir: Vec3,
+    /// Specular transmission direction.
+    pub prdir: Vec3,
+}
+
+impl NormalBsdf {
+    /// Radiance's `dirnorm()`: the coefficient for light arriving from unit
+    /// direction `ldir` within solid angle `omega`.
+    pub fn coefficient(&self, ldir: Vec3, omega: f64) -> Color {
+        let mut cval = Color::ZERO;
+        let ldot = self.pnorm.dot(ldir);
+        if if ldot < 0.0 {
+            self.trans <= FTINY
+        } else {
+            self.trans >= 1.0 - FTINY
+        } {
+            return cval; // wrong side
+        }
+        let mut lrdiff = self.rdiff;
+        let mut ltdiff = self.tdiff;
+        if self.specfl & spec::PURE != 0
+            && self.rspec >= FRESTHRESH
+            && (lrdiff > FTINY || ltdiff > FTINY)
+        {
+            let d = 1.0 - fresne(ldot.abs());
+            lrdiff *= d;
+            ltdiff *= d;
+        }
+        if ldot > FTINY && lrdiff > FTINY {
+            cval += self.mcolor * (ldot * omega * lrdiff / PI);
+        }
+        if ldot > FTINY && self.specfl & (spec::REFL | spec::PURE) == spec::REFL {
+            let mut dtmp = self.alpha2;
+            if self.specfl & spec::FLAT != 0 {
+                dtmp += omega * (0.25 / PI);
+            }
+            let h = ldir - self.rdir;
+            let mut d2 = h.dot(self.pnorm);
+            d2 *= d2;
+            let d2 = (h.dot(h) - d2) / d2;
+            let g = (-d2 / dtmp).exp() / (4.0 * PI * self.pdot * dtmp);
+            if g > FTINY {
+                cval += self.scolor * (g * omega);
+            }
+        }
+        if ldot < -FTINY && ltdiff > FTINY {
+            cval += self.mcolor * (-ldot * omega * ltdiff / PI);
+        }
+        if ldot < -FTINY && self.specfl & (spec::TRAN | spec::PURE) == spec::TRAN {
+            let dtmp = self.alpha2 + omega / PI;
+            let g = ((2.0 * self.prdir.dot(ldir) - 2.0) / dtmp).exp() / (PI * dtmp);
+            if g > FTINY {
+                cval += self.mcolor * (g * self.tspec * omega * (-ldot / self.pdot).sqrt());
+            }
+        }
+        cval
+    }
+
+    /// True if no light direction can contribute (pure specular surface).
+    pub fn is_black_to_lights(&self) -> bool {
+        self.rdiff <= FTINY
+            && self.tdiff <= FTINY
+            && self.specfl & (spec::REFL | spec::PURE) != spec::REFL
+            && self.specfl & (spec::TRAN | spec::PURE) != spec::TRAN
+    }
+}
+
+/// Direct light from one source to one surface point: a shadow bundle.
+/// Everything needed to run it is in here (no references), so it can be
+/// shipped to another processor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShadowBundle {
+    /// Index into the prepared lights.
+    pub light: u32,
+    /// The surface point and its geometric normal (shadow ray origins are
+    /// offset from it to the side each ray leaves through).
+    pub point: Vec3,
+    pub normal: Vec3,
+    /// Magnitude the origin offset must cover (see [`offset_origin_scaled`]).
+    pub offset_scale: f64,
+    pub surface: NormalBsdf,
+    /// Brightness already known at this point (ambient term plus the rough
+    /// potential of the *other* sources): the base of the `-dt` threshold.
+    pub reference: f64,
+    /// Weight of the ray that hit the point (the threshold is `-dt / weight`).
+    pub weight: f64,
+    pub seed: u64,
+}
+
+/// Secondary work a shaded point asks for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Request {
+    /// Trace `task` and add `coef` times its radiance.
+    Trace { task: RayTask, coef: Color },
+    /// Run the shadow bundle and add its (already weighted) result.
+    Shadow(ShadowBundle),
+}
+
+/// The locally computed part of a shaded point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shaded {
+    /// Emission and constant ambient.
+    pub base: Color,
+    /// Extinction to apply over the ray's length `t` (Radiance sets it when
+    /// a ray reaches a dielectric from inside).
+    pub extinction: Color,
+}
+
+/// Everything shading reads: scene, options, lights, enabled effects.
+#[derive(Debug, Clone, Copy)]
+pub struct ShadeContext<'a> {
+    pub scene: &'a Scene,
+    pub options: &'a RenderOptions,
+    pub lights: &'a [PreparedLight],
+    pub effects: &'a EffectsReport,
+}
+
+/// The object a hit landed on and the material shading it (instances
+/// resolve to the inner object).
+pub fn hit_object<'a>(scene: &'a Scene, hit: &Hit) -> &'a crate::scene::Object {
+    let top = &scene.objects[hit.object as usize];
+    match (&top.shape, hit.inner) {
+        (Shape::Instance(inst), Some(i)) => inst.geometry.objects.get(i as usize).unwrap_or(top),
+        _ => top,
+    }
+}
+
+/// Writes requests for one hit point; see the module documentation.
+struct Emitter<'c, 'o> {
+    ctx: &'c ShadeContext<'c>,
+    task: &'c RayTask,
+    hit: &'c Hit,
+    out: &'o mut Vec<Request>,
+    start: usize,
+    offset_scale: f64,
+}
+
+impl Emitter<'_, '_> {
+    fn next_seed(&self) -> u64 {
+        child_seed(self.task.seed, (self.out.len() - self.start) as u32)
+    }
+
+    /// Spawns a ray if the depth and weight limits allow it (Radiance's
+    /// `rayorigin()` test).
+    fn spawn(&mut self, kind: RayKind, dir: Vec3, coef: Color, extinction: Color) {
+        self.spawn_ray(
+            kind,
+            dir,
+            coef,
+            extinction,
+            kind == RayKind::PassThrough && self.task.sampled,
+        )
+    }
+
+    fn spawn_ray(
+        &mut self,
+        kind: RayKind,
+        dir: Vec3,
+        coef: Color,
+        extinction: Color,
+        sampled: bool,
+    ) {
+        let enabled = match kind {
+            RayKind::Reflection => self.ctx.effects.reflection.enabled,
+            RayKind::Refraction => self.ctx.effects.refraction.enabled,
+            _ => true,
+        };
+        if !enabled {
+            return;
+        }
+        let (depth, weight) = if kind == RayKind::PassThrough {
+            (self.task.depth, self.task.weight)
+        } else {
+            (self.task.depth + 1, self.task.weight * intens(coef))
+        };
+        if depth > self.ctx.options.lr
+            || weight < self.ctx.options.lw
+            || weight.is_nan()
+            || weight <= 0.0
+        {
+            return;
+        }
+        let len = dir.length();
+        if !(len > 0.0 && len.is_finite()) {
+            return;
+        }
+        let dir = dir / len;
+        let origin = offset_origin_scaled(self.hit.point, self.hit.normal, dir, self.offset_scale);
+        let seed = self.next_seed();
+        let task = RayTask {
+            ray: Ray { origin, dir },
+            tmin: 0.0,
+            tmax: f64::INFINITY,
+            kind,
+            depth,
+            weight,
+            seed,
+            extinction,
+            sampled,
+        };
+        self.out.push(Request::Trace { task, coef });
+    }
+
+    /// One shadow bundle per light that can reach this surface.
+    fn direct(&mut self, bsdf: &NormalBsdf, base: Color) {
+        let ctx = self.ctx;
+        if ctx.lights.is_empty() || bsdf.is_black_to_lights() {
+            return;
+        }
+        // Rough potential of every source, for the threshold reference.
+        let point = self.hit.point;
+        let potential = |l: &PreparedLight| {
+            l.rough_sample(ctx.scene, point).map_or(0.0, |s| {
+                brightness(bsdf.coefficient(s.dir, s.omega) * l.emission(&s))
+            })
+        };
+        let total: f64 = ctx.lights.iter().map(potential).sum();
+        for (i, l) in ctx.lights.iter().enumerate() {
+            let others = (total - potential(l)).max(0.0);
+            let seed = self.next_seed();
+            self.out.push(Request::Shadow(ShadowBundle {
+                light: i as u32,
+                point,
+                normal: self.hit.normal,
+                offset_scale: self.offset_scale,
+                surface: *bsdf,
+                reference: brightness(base) + others,
+                weight: self.task.weight,
+                seed,
+            }));
+        }
+    }
+}
+
+/// Shades `hit` of the ray `task`: returns the local part and appends the
+/// requests (see the module documentation).
+pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Request>) -> Shaded {
+    let obj = hit_object(ctx.scene, hit);
+    let flat = matches!(obj.shape, Shape::Polygon(_) | Shape::Ring { .. });
+    let mut material = ctx.scene.material(obj.material);
+    // Rays other than shadow rays see an illum as its alternate material.
+    let mut hops = 0;
+    while let Material::Illum {
+        alternate: Some(a), ..
+    } = material
+    {
+        hops += 1;
+        if hops > MAX_ALTERNATES {
+            break;
+        }
+        material = ctx.scene.material(*a);
+    }
+    let offset_scale = task.ray.origin.abs().max_element().max(hit.t);
+    let mut em = Emitter {
+        ctx,
+        task,
+        hit,
+        out,
+        start: 0,
+        offset_scale,
+    };
+    em.start = em.out.len();
+    let mut shaded = Shaded {
+        base: Color::ZERO,
+        extinction: task.extinction,
+    };
+    let dir = task.ray.dir;
+    let rod = -dir.dot(hit.normal);
+    match material {
+        Material::Void | Material::Illum { .. } => {
+            em.spawn(RayKind::PassThrough, dir, Color::ONE, task.extinction);
+        }
+        // Sampled specular rays skip emitters that direct lighting samples.
+        Material::Light { .. } | Material::Spotlight { .. } if task.sampled => {}
+        Material::Glow { max_radius, .. } if task.sampled && *max_radius > 0.0 => {}
+        Material::Light { radiance } | Material::Glow { radiance, .. } => shaded.base = *radiance,
+        Material::Spotlight {
+            radiance,
+            angle_deg,
+            direction,
+        } => {
+            let aim = if direction.length_squared() > 0.0 {
+                direction.normalize()
+            } else {
+                hit.normal
+            };
+            if super::light::spot_admits(aim, *angle_deg, -dir) {
+                shaded.base = *radiance;
+            }
+        }
+        Material::Mirror { color } => {
+            // Back is black (m_mirror.c).
+            if rod >= 0.0 {
+                em.spawn(
+                    RayKind::Reflection,
+                    dir + hit.normal * (2.0 * rod),
+                    *color,
+                    task.extinction,
+                );
+            }
+        }
+        Material::Plastic {
+            color,
+            specularity,
+            roughness,
+        } => {
+            shaded.base = normal(
+                &mut em,
+                Kind::Plastic,
+                *color,
+                *specularity,
+                *roughness,
+                0.0,
+                0.0,
+                flat,
+            )
+        }
+        Material::Metal {
+            color,
+            specularity,
+            roughness,
+        } => {
+            shaded.base = normal(
+                &mut em,
+                Kind::Metal,
+                *color,
+                *specularity,
+                *roughness,
+                0.0,
+                0.0,
+                flat,
+            )
+        }
+        Material::Trans {
+            color,
+            specularity,
+            roughness,
+            transmissivity,
+            transmitted_specular,
+        } => {
+            shaded.base = normal(
+                &mut em,
+                Kind::Trans,
+                *color,
+                *specularity,
+                *roughness,
+                *transmissivity,
+                *transmitted_specular,
+                flat,
+            )
+        }
+        Material::Glass {
+            transmission,
+            index,
+        } => glass(&mut em, *transmission, *index),
+        Material::Dielectric {
+            transmission,
+            index,
+            hartmann,
+        } => {
+            if let Some(ext) = dielectric(&mut em, *transmission, *index, *hartmann) {
+                shaded.extinction = ext;
+            }
+        }
+    }
+    shaded
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Kind {
+    Plastic,
+    Metal,
+    Trans,
+}
+
+/// `m_normal()` for plastic, metal and trans.
+#[allow(clippy::too_many_arguments)]
+fn normal(
+    em: &mut Emitter,
+    kind: Kind,
+    color: Color,
+    specularity: f64,
+    roughness: f64,
+    transmissivity: f64,
+    tspec_frac: f64,
+    flat: bool,
+) -> Color {
+    let opts = em.ctx.options;
+    let task = em.task;
+    let dir = task.ray.dir;
+    let mut n = em.hit.normal;
+    let mut rod = -dir.dot(n);
+    if rod < 0.0 {
+        // Back faces are visible (Radiance's -bv default): turn the surface.
+        n = -n;
+        rod = -rod;
+    }
+    let mut b = NormalBsdf {
+        mcolor: color,
+        scolor: Color::ZERO,
+        alpha2: roughness * roughness,
+        rdiff: 0.0,
+        rspec: specularity,
+        trans: 0.0,
+        tdiff: 0.0,
+        tspec: 0.0,
+        specfl: 0,
+        pnorm: n,
+        pdot: rod.max(0.001),
+        rdir: dir,
+        prdir: dir,
+    };
+    if b.alpha2 <= FTINY {
+        b.specfl |= spec::PURE;
+    }
+    if flat {
+        b.specfl |= spec::FLAT;
+    }
+    let pure = b.specfl & spec::PURE != 0;
+    let fest = if pure && b.rspec >= FRESTHRESH {
+        let f = fresne(rod);
+        b.rspec += f * (1.0 - b.rspec);
+        f
+    } else {
+        0.0
+    };
+    if kind == Kind::Trans {
+        b.trans = transmissivity * (1.0 - b.rspec);
+        b.tspec = b.trans * tspec_frac;
+        b.tdiff = b.trans - b.tspec;
+        if b.tspec > FTINY {
+            b.specfl |= spec::TRAN;
+            if !pure && opts.st >= b.tspec - FTINY {
+                b.specfl |= spec::TBLT;
+            }
+        }
+    }
+    // Specular transmission straight through (no refraction for a thin surface).
+    if b.specfl & (spec::TRAN | spec::PURE | spec::TBLT) == (spec::TRAN | spec::PURE) {
+        em.spawn(
+            RayKind::Refraction,
+            b.prdir,
+            b.mcolor * b.tspec,
+            task.extinction,
+        );
+    }
+    let mut vrefl = dir;
+    if b.rspec > FTINY {
+        b.specfl |= spec::REFL;
+        b.scolor = if kind != Kind::Metal {
+            Color::splat(b.rspec)
+        } else if fest > FTINY {
+            let d = b.rspec * (1.0 - fest);
+            Color::splat(fest) + b.mcolor * d
+        } else {
+            b.mcolor * b.rspec
+        };
+        if !pure && opts.st >= b.rspec - FTINY {
+            b.specfl |= spec::RBLT;
+        }
+        vrefl = dir + n * (2.0 * b.pdot);
+    }
+    if b.specfl & (spec::REFL | spec::PURE | spec::RBLT) == (spec::REFL | spec::PURE) {
+        em.spawn(RayKind::Reflection, vrefl, b.scolor, task.extinction);
+    }
+    b.rdiff = 1.0 - b.trans - b.rspec;
+    if pure && b.rdiff <= FTINY && b.tdiff <= FTINY {
+        return Color::ZERO; // 100% pure specular
+    }
+    if !pure {
+        gaussamp(em, &b);
+    }
+    let mut base = Color::ZERO;
+    let av = opts.av;
+    if av != Color::ZERO {
+        if b.rdiff > FTINY {
+            let f = if b.specfl & spec::RBLT != 0 {
+                1.0 - b.trans
+            } else {
+                b.rdiff
+            };
+            base += b.mcolor * f * av;
+        }
+        if b.tdiff > FTINY {
+            let f = if b.specfl & spec::TBLT != 0 {
+                b.trans
+            } else {
+                b.tdiff
+            };
+            base += b.mcolor * f * av;
+        }
+    }
+    em.direct(&b, base);
+    base
+}
+
+/// `gaussamp()`: one sampled ray for a rough specular reflection and/or
+/// transmission above the `-st` threshold.
+fn gaussamp(em: &mut Emitter, b: &NormalBsdf) {
+    let refl = b.specfl & (spec::REFL | spec::RBLT) == spec::REFL;
+    let tran = b.specfl & (spec::TRAN | spec::TBLT) == spec::TRAN;
+    if !refl && !tran {
+        return;
+    }
+    let (u, v) = orthonormal_basis(b.pnorm);
+    let ss = em.ctx.options.ss;
+    let dir = b.rdir;
+    let mut rng = Rng::new(child_seed(em.task.seed, 0x6761_7573));
+    let ext = em.task.extinction;
+    if refl {
+        for _ in 0..MAXITER {
+            let phi = 2.0 * PI * rng.next_f64();
+            let r1 = 1.0 - ss * rng.next_f64();
+            let d = if r1 <= FTINY {
+                1.0
+            } else {
+                (b.alpha2 * -r1.ln()).sqrt()
+            };
+            let h = b.pnorm + (u * phi.cos() + v * phi.sin()) * d;
+            let k = -2.0 * h.dot(dir) / (1.0 + d * d);
+            let rdir = dir + h * k;
+            if rdir.dot(b.pnorm) > FTINY {
+                em.spawn_ray(RayKind::Reflection, rdir, b.scolor, ext, true);
+                break;
+            }
+        }
+    }
+    if tran {
+        for _ in 0..MAXITER {
+            let phi = 2.0 * PI * rng.next_f64();
+            let r1 = 1.0 - ss * rng.next_f64();
+            let d = if r1 <= FTINY {
+                1.0
+            } else {
+                (b.alpha2 * -r1.ln()).sqrt()
+            };
+            let rdir = b.prdir + (u * phi.cos() + v * phi.sin()) * d;
+            if rdir.dot(b.pnorm) < -FTINY {
+                em.spawn_ray(RayKind::Refraction, rdir, b.mcolor * b.tspec, ext, true);
+                break;
+            }
+        }
+    }
+}
+
+/// Thin glass (`glass.c`): transmitted and reflected fractions per channel
+/// for a ray meeting the surface at cosine `pdot` (0 < pdot <= 1).
+/// Returns `(transmission, reflection)`.
+pub fn glass_coefficients(transmission: Color, index: f64, pdot: f64) -> (Color, Color) {
+    let pdot = pdot.clamp(1e-9, 1.0);
+    let n = if index.is_finite() && index > 0.0 {
+        index
+    } else {
+        1.52
+    };
+    let hastrans = intens(transmission) > 1e-15;
+    let mut mcolor = transmission.max(Color::splat(1e-15));
+    let cos2 = ((1.0 - 1.0 / (n * n)) + pdot * pdot / (n * n)).sqrt();
+    if hastrans {
+        mcolor = Color::new(
+            mcolor.x.powf(1.0 / cos2),
+            mcolor.y.powf(1.0 / cos2),
+            mcolor.z.powf(1.0 / cos2),
+        );
+    }
+    let r1e = ((pdot - n * cos2) / (pdot + n * cos2)).powi(2);
+    let r1m = ((1.0 / pdot - n / cos2) / (1.0 / pdot + n / cos2)).powi(2);
+    let mut trans = Color::ZERO;
+    if hastrans {
+        for i in 0..3 {
+            let d = mcolor[i];
+            trans[i] = 0.5 * (1.0 - r1e).powi(2) * d / (1.0 - r1e * r1e * d * d)
+                + 0.5 * (1.0 - r1m).powi(2) * d / (1.0 - r1m * r1m * d * d);
+        }
+    }
+    let mut refl = Color::ZERO;
+    for i in 0..3 {
+        let d = mcolor[i] * mcolor[i];
+        refl[i] = 0.5 * r1e * (1.0 + (1.0 - 2.0 * r1e) * d) / (1.0 - r1e * r1e * d)
+            + 0.5 * r1m * (1.0 + (1.0 - 2.0 * r1m) * d) / (1.0 - r1m * r1m * d);
+    }
+    (trans, refl)
+}
+
+fn glass(em: &mut Emitter, transmission: Color, index: f64) {
+    let dir = em.task.ray.dir;
+    let mut n = em.hit.normal;
+    let mut pdot = -dir.dot(n);
+    if pdot < 0.0 {
+        n = -n;
+        pdot = -pdot;
+    }
+    let (trans, refl) = glass_coefficients(transmission, index, pdot);
+    let ext = em.task.extinction;
+    if intens(trans) > 0.0 {
+        em.spawn(RayKind::Refraction, dir, trans, ext);
+    }
+    em.spawn(RayKind::Reflection, dir + n * (2.0 * pdot), refl, ext);
+}
+
+/// Radiance's `mylog()` for extinction coefficients.
+fn mylog(x: f64) -> f64 {
+    if x < 1e-40 {
+        -100.0
+    } else if x >= 1.0 {
+        0.0
+    } else {
+        x.ln()
+    }
+}
+
+/// Fresnel reflectance of a dielectric boundary (unpolarised), the cosine
+/// of the refracted ray, or `None` for total internal reflection.
+/// `nratio` is n(incident side) / n(other side); `cos1` in (0, 1].
+pub fn fresnel_dielectric(nratio: f64, cos1: f64) -> (f64, Option<f64>) {
+    let d2 = 1.0 - nratio * nratio * (1.0 - cos1 * cos1);
+    if d2 < FTINY {
+        return (1.0, None);
+    }
+    let cos2 = d2.sqrt();
+    let a = (cos1 - nratio * cos2) / (cos1 + nratio * cos2);
+    let b = (1.0 / cos1 - nratio / cos2) / (1.0 / cos1 + nratio / cos2);
+    (0.5 * (a * a + b * b), Some(cos2))
+}
+
+/// `m_dielectric()`. Returns the extinction of the ray being shaded when
+/// it reached the surface from inside the medium.
+fn dielectric(em: &mut Emitter, transmission: Color, index: f64, hartmann: f64) -> Option<Color> {
+    let dir = em.task.ray.dir;
+    let mut dnorm = em.hit.normal;
+    let mut cos1 = -dir.dot(dnorm);
+    let mut nratio = index + hartmann / MLAMBDA;
+    if !(nratio.is_finite() && nratio > 0.0) {
+        nratio = 1.0;
+    }
+    let medium = Color::new(
+        -mylog(transmission.x),
+        -mylog(transmission.y),
+        -mylog(transmission.z),
+    );
+    let (inside_ext, ctrans);
+    if cos1 < 0.0 {
+        // Inside, leaving the medium: this ray travelled through it.
+        cos1 = -cos1;
+        dnorm = -dnorm;
+        inside_ext = Some(medium);
+        ctrans = Color::ZERO;
+    } else {
+        nratio = 1.0 / nratio;
+        inside_ext = None;
+        ctrans = medium;
+    }
+    let cos1 = cos1.max(1e-12);
+    let own_ext = inside_ext.unwrap_or(em.task.extinction);
+    let (refl, cos2) = fresnel_dielectric(nratio, cos1);
+    if let Some(cos2) = cos2 {
+        let trans = (1.0 - refl) * nratio * nratio; // solid angle ratio
+        let d1 = nratio * cos1 - cos2;
+        let rdir = dir * nratio + dnorm * d1;
+        em.spawn(RayKind::Refraction, rdir, Color::splat(trans), ctrans);
+    }
+    em.spawn(
+        RayKind::Reflection,
+        dir + dnorm * (2.0 * cos1),
+        Color::splat(refl),
+        own_ext,
+    );
+    inside_ext
+}
+
+/// How a shadow ray fares at a surface of `material` it meets at cosine
+/// `rod` (either sign): `Some(filter)` if it passes with that per-channel
+/// transmission (invisible surfaces pass unchanged, thin glass and pure
+/// specular trans pass their specular transmission, as in Radiance's
+/// shadow-ray shading), `None` if the surface blocks it. A dielectric
+/// bends the ray away from the source, so it blocks.
+pub fn shadow_filter(scene: &Scene, material: &Material, rod: f64) -> Option<Color> {
+    let mut material = material;
+    let mut hops = 0;
+    while let Material::Illum {
+        alternate: Some(a), ..
+    } = material
+    {
+        // For rays aimed at *another* source an illum is its alternate.
+        hops += 1;
+        if hops > MAX_ALTERNATES {
+            return None;
+        }
+        material = scene.material(*a);
+    }
+    let pdot = rod.abs();
+    match material {
+        Material::Void
+        | Material::Illum {
+            alternate: None, ..
+        } => Some(Color::ONE),
+        Material::Glass {
+            transmission,
+            index,
+        } => {
+            let (t, _) = glass_coefficients(*transmission, *index, pdot);
+            Some(t)
+        }
+        Material::Trans {
+            color,
+            specularity,
+            roughness,
+            transmissivity,
+            transmitted_specular,
+        } => {
+            if roughness * roughness > FTINY {
+                return None;
+            }
+            let mut rspec = *specularity;
+            if rspec >= FRESTHRESH {
+                rspec += fresne(pdot) * (1.0 - rspec);
+            }
+            let tspec = transmissivity * (1.0 - rspec) * transmitted_specular;
+            (tspec > FTINY).then(|| *color * tspec)
+        }
+        _ => None,
+    }
+}

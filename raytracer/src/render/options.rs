@@ -1,0 +1,291 @@
+//! Render options under Radiance's names and with `rpict`'s defaults.
+
+use serde::{Deserialize, Serialize};
+
+use crate::scene::Color;
+use crate::{Error, Result};
+
+/// Rendering parameters. Field names follow Radiance's options (`-ds` is
+/// `ds`, ...); defaults are `rpict`'s unless noted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RenderOptions {
+    /// `-ds`: source subdivision ratio. An area source is split until every
+    /// patch's size over its distance is below this (0 = never split).
+    pub ds: f64,
+    /// `-dj`: source jitter in [0, 1]: 0 aims at patch centres, 1 at a
+    /// uniformly random point of each patch.
+    pub dj: f64,
+    /// `-dt`: direct threshold for adaptive shadow testing (0 = test all).
+    pub dt: f64,
+    /// `-dc`: direct certainty in [0, 1]: how far ahead in the sorted list
+    /// the threshold test looks (`n^dc` patches, as Radiance's `direct()`).
+    pub dc: f64,
+    /// `-lr`: maximum reflection/refraction depth (primary rays are depth 0).
+    pub lr: u32,
+    /// `-lw`: minimum ray weight; lighter secondary rays are not traced.
+    pub lw: f64,
+    /// `-av`: constant ambient radiance, multiplied by diffuse reflectance.
+    pub av: Color,
+    /// `-ab`: ambient bounces. Diffuse inter-reflection is a later issue:
+    /// only 0 is accepted.
+    pub ab: u32,
+    /// `-st`: specular threshold: rough specular components at or below this
+    /// are not sampled with a ray (their energy goes to the diffuse ambient).
+    pub st: f64,
+    /// `-ss`: specular sampling jitter in [0, 1] for rough specular rays.
+    pub ss: f64,
+    /// `-ps`: pixel sample spacing. Only 1 (every pixel sampled once, no
+    /// super-sampling, as in the paper) is supported.
+    pub ps: u32,
+    /// `-pj`: pixel jitter in [0, 1]. Default 0 here (rpict uses 0.67) so a
+    /// reference image samples pixel centres.
+    pub pj: f64,
+    /// Seed of all random streams (per pixel, derived from seed, x, y).
+    pub seed: u64,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        Self {
+            ds: 0.2,
+            dj: 0.0,
+            dt: 0.05,
+            dc: 0.5,
+            lr: 7,
+            lw: 0.002,
+            av: Color::ZERO,
+            ab: 0,
+            st: 0.15,
+            ss: 1.0,
+            ps: 1,
+            pj: 0.0,
+            seed: 0,
+        }
+    }
+}
+
+/// One Radiance option this renderer understands.
+#[derive(Debug, Clone, Copy)]
+pub struct RadianceOption {
+    /// Name without the dash, as Radiance spells it (`ds`).
+    pub name: &'static str,
+    /// Number of values it takes.
+    pub arity: usize,
+    pub help: &'static str,
+}
+
+/// Every Radiance rendering option accepted by [`RenderOptions::set`].
+pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
+    RadianceOption {
+        name: "ds",
+        arity: 1,
+        help: "source subdivision ratio (default 0.2)",
+    },
+    RadianceOption {
+        name: "dj",
+        arity: 1,
+        help: "source jitter 0..1 (default 0)",
+    },
+    RadianceOption {
+        name: "dt",
+        arity: 1,
+        help: "direct threshold for adaptive shadow testing (default 0.05)",
+    },
+    RadianceOption {
+        name: "dc",
+        arity: 1,
+        help: "direct certainty 0..1 (default 0.5)",
+    },
+    RadianceOption {
+        name: "lr",
+        arity: 1,
+        help: "reflection depth limit (default 7)",
+    },
+    RadianceOption {
+        name: "lw",
+        arity: 1,
+        help: "ray weight limit (default 0.002)",
+    },
+    RadianceOption {
+        name: "av",
+        arity: 3,
+        help: "ambient value r g b (default 0 0 0)",
+    },
+    RadianceOption {
+        name: "ab",
+        arity: 1,
+        help: "ambient bounces (only 0 supported yet)",
+    },
+    RadianceOption {
+        name: "st",
+        arity: 1,
+        help: "specular threshold (default 0.15)",
+    },
+    RadianceOption {
+        name: "ss",
+        arity: 1,
+        help: "specular jitter 0..1 (default 1)",
+    },
+    RadianceOption {
+        name: "ps",
+        arity: 1,
+        help: "pixel sample spacing (only 1 supported)",
+    },
+    RadianceOption {
+        name: "pj",
+        arity: 1,
+        help: "pixel jitter 0..1 (default 0)",
+    },
+];
+
+fn number(name: &str, s: &str) -> Result<f64> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(Error::Usage(format!(
+            "-{name}: expected a finite number, got {s:?}"
+        ))),
+    }
+}
+
+fn integer(name: &str, s: &str) -> Result<u32> {
+    s.trim().parse::<u32>().map_err(|_| {
+        Error::Usage(format!(
+            "-{name}: expected a non-negative integer, got {s:?}"
+        ))
+    })
+}
+
+fn in_range(name: &str, v: f64, lo: f64, hi: f64) -> Result<f64> {
+    if (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        Err(Error::Usage(format!(
+            "-{name} {v}: must be between {lo} and {hi}"
+        )))
+    }
+}
+
+fn non_negative(name: &str, v: f64) -> Result<f64> {
+    if v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(Error::Usage(format!("-{name} {v}: must not be negative")))
+    }
+}
+
+impl RenderOptions {
+    /// Sets the Radiance option `-name` from its textual values. Unknown
+    /// names, wrong value counts, non-numbers, NaN, out-of-range values and
+    /// features that are not implemented yet are usage errors.
+    pub fn set(&mut self, name: &str, values: &[&str]) -> Result<()> {
+        let name = name.trim_start_matches('-');
+        let Some(opt) = RADIANCE_OPTIONS.iter().find(|o| o.name == name) else {
+            return Err(Error::Usage(format!("-{name}: unknown rendering option")));
+        };
+        if values.len() != opt.arity {
+            return Err(Error::Usage(format!(
+                "-{name} takes {} value(s), got {}",
+                opt.arity,
+                values.len()
+            )));
+        }
+        let v0 = values[0];
+        match name {
+            "ds" => self.ds = non_negative(name, number(name, v0)?)?,
+            "dj" => self.dj = in_range(name, number(name, v0)?, 0.0, 1.0)?,
+            "dt" => self.dt = non_negative(name, number(name, v0)?)?,
+            "dc" => self.dc = in_range(name, number(name, v0)?, 0.0, 1.0)?,
+            "lr" => self.lr = integer(name, v0)?,
+            "lw" => self.lw = in_range(name, number(name, v0)?, 0.0, 1.0)?,
+            "av" => {
+                let mut c = [0.0; 3];
+                for (i, s) in values.iter().enumerate() {
+                    c[i] = non_negative(name, number(name, s)?)?;
+                }
+                self.av = Color::from_array(c);
+            }
+            "ab" => self.ab = integer(name, v0)?,
+            "st" => self.st = in_range(name, number(name, v0)?, 0.0, 1.0)?,
+            "ss" => self.ss = in_range(name, number(name, v0)?, 0.0, 1.0)?,
+            "ps" => self.ps = integer(name, v0)?,
+            "pj" => self.pj = in_range(name, number(name, v0)?, 0.0, 1.0)?,
+            _ => unreachable!("option table and match disagree"),
+        }
+        self.validate()
+    }
+
+    /// Checks the whole set (also for options built in code): finite values
+    /// in range, and no request for a feature that is not implemented yet.
+    pub fn validate(&self) -> Result<()> {
+        let finite = [
+            self.ds, self.dj, self.dt, self.dc, self.lw, self.st, self.ss, self.pj,
+        ];
+        if finite.iter().any(|v| !v.is_finite()) || !self.av.is_finite() {
+            return Err(Error::Usage(
+                "rendering options must be finite numbers".into(),
+            ));
+        }
+        non_negative("ds", self.ds)?;
+        in_range("dj", self.dj, 0.0, 1.0)?;
+        non_negative("dt", self.dt)?;
+        in_range("dc", self.dc, 0.0, 1.0)?;
+        in_range("lw", self.lw, 0.0, 1.0)?;
+        in_range("st", self.st, 0.0, 1.0)?;
+        in_range("ss", self.ss, 0.0, 1.0)?;
+        in_range("pj", self.pj, 0.0, 1.0)?;
+        if self.av.min_element() < 0.0 {
+            return Err(Error::Usage(
+                "-av: ambient value must not be negative".into(),
+            ));
+        }
+        if self.ab > 0 {
+            return Err(Error::Usage(format!(
+                "-ab {}: diffuse inter-reflection (ambient bounces) is not yet supported; use -ab 0 and -av for a constant ambient",
+                self.ab
+            )));
+        }
+        if self.ps != 1 {
+            return Err(Error::Usage(format!(
+                "-ps {}: adaptive pixel sampling is not yet supported; only -ps 1 (every pixel traced once) is",
+                self.ps
+            )));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_radiance_like() {
+        let o = RenderOptions::default();
+        o.validate().unwrap();
+        assert_eq!((o.ds, o.dj, o.dt, o.dc, o.ps), (0.2, 0.0, 0.05, 0.5, 1));
+    }
+
+    #[test]
+    fn set_parses_and_rejects() {
+        let mut o = RenderOptions::default();
+        o.set("-ds", &["0.1"]).unwrap();
+        o.set("av", &["0.1", "0.2", "0.3"]).unwrap();
+        assert_eq!(o.ds, 0.1);
+        assert_eq!(o.av, Color::new(0.1, 0.2, 0.3));
+        for (n, v) in [
+            ("dj", "2"),
+            ("dt", "NaN"),
+            ("ds", "-1"),
+            ("lr", "x"),
+            ("ab", "1"),
+            ("ps", "4"),
+            ("zz", "1"),
+        ] {
+            let e = o.clone().set(n, &[v]).unwrap_err();
+            assert_eq!(e.exit_code(), 2, "{n} {v}: {e}");
+        }
+        let e = o.clone().set("ab", &["2"]).unwrap_err().to_string();
+        assert!(e.contains("not yet supported"), "{e}");
+        assert!(o.set("av", &["1"]).is_err());
+    }
+}

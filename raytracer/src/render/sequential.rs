@@ -1,0 +1,411 @@
+//! The sequential reference renderer: every pixel's primary ray, its hit
+//! shaded by [`shade`], the requested secondary work evaluated depth first
+//! in request order. It is the oracle the parallel renderer must match.
+
+use std::ops::Range;
+use std::time::{Duration, Instant};
+
+use super::caster::{OctreeCaster, RayCaster};
+use super::direct::{run_shadow_bundle, Contribution};
+use super::effects::EffectsReport;
+use super::light::{prepare_lights, PreparedLight};
+use super::material::{shade, RayKind, RayTask, Request, ShadeContext};
+use super::options::RenderOptions;
+use super::rng::{pixel_seed, Rng};
+use super::stats::{EffectTimes, RayCounts, RenderStats, Timings};
+use crate::accel::{Octree, OctreeParams};
+use crate::geometry::{Ray, Vec3};
+use crate::image::Film;
+use crate::scene::{Color, LightKind, Material, Scene};
+use crate::{Error, Result};
+
+/// Largest accepted image side, and pixel count.
+pub const MAX_SIDE: usize = 1 << 16;
+pub const MAX_PIXELS: usize = 1 << 28;
+
+/// Maps image coordinates to primary rays: `x` in [0, 1] left to right,
+/// `y` in [0, 1] **bottom to top** (Radiance's convention). Returns the
+/// ray and its valid distance range, or `None` where the view has no ray
+/// (outside a fisheye's circle).
+pub trait Camera {
+    fn ray(&self, x: f64, y: f64) -> Option<(Ray, f64, f64)>;
+}
+
+impl<F: Fn(f64, f64) -> Option<(Ray, f64, f64)>> Camera for F {
+    fn ray(&self, x: f64, y: f64) -> Option<(Ray, f64, f64)> {
+        self(x, y)
+    }
+}
+
+impl Camera for crate::scene::View {
+    fn ray(&self, x: f64, y: f64) -> Option<(Ray, f64, f64)> {
+        crate::scene::View::ray(self, x, y)
+    }
+}
+
+/// A rectangle of pixels: columns `x`, rows `y` (row 0 at the top).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Region {
+    pub x: Range<usize>,
+    pub y: Range<usize>,
+}
+
+/// Per-thread working memory and tallies: reused buffers (so tracing does
+/// not allocate per ray) and the counts and times of the work done.
+#[derive(Debug, Default)]
+pub struct TraceState {
+    requests: Vec<Request>,
+    patches: Vec<Contribution>,
+    pub counts: RayCounts,
+    pub times: EffectTimes,
+    nested: Duration,
+}
+
+#[derive(Clone, Copy)]
+enum Bucket {
+    Primary,
+    Direct,
+    Reflection,
+    Refraction,
+}
+
+/// A visible distant source (for rays that leave the scene).
+#[derive(Debug, Clone)]
+struct SkySource {
+    dir: Vec3,
+    cos_half: f64,
+    solid_angle: f64,
+    radiance: Color,
+    /// Sampled by direct lighting (so sampled specular rays skip it).
+    sampled: bool,
+}
+
+/// The sequential renderer for one scene and option set.
+#[derive(Debug)]
+pub struct Renderer<'s> {
+    scene: &'s Scene,
+    options: RenderOptions,
+    octree: Octree,
+    lights: Vec<PreparedLight>,
+    sky: Vec<SkySource>,
+    effects: EffectsReport,
+    warnings: Vec<String>,
+    build_s: f64,
+}
+
+impl<'s> Renderer<'s> {
+    /// Validates the options, builds the octree with default parameters,
+    /// prepares the lights and analyses which effects the scene needs.
+    pub fn new(scene: &'s Scene, options: RenderOptions) -> Result<Self> {
+        Self::with_octree(scene, options, &OctreeParams::default())
+    }
+
+    pub fn with_octree(
+        scene: &'s Scene,
+        options: RenderOptions,
+        params: &OctreeParams,
+    ) -> Result<Self> {
+        options.validate()?;
+        let t0 = Instant::now();
+        let octree = Octree::build(&scene.objects, params);
+        let build_s = t0.elapsed().as_secs_f64();
+        let (lights, warnings) = prepare_lights(scene);
+        let effects = EffectsReport::analyse(scene, &options, &lights);
+        let sky = scene
+            .lights
+            .iter()
+            .filter_map(
+                |l| match (&l.kind, scene.materials.get(l.material as usize)?) {
+                    (LightKind::Distant { dir, solid_angle }, m) => {
+                        let (radiance, sampled) = match m {
+                            Material::Light { radiance } => (*radiance, true),
+                            Material::Glow { radiance, .. } => (*radiance, false),
+                            _ => return None, // illum/spot seen directly: nothing to show
+                        };
+                        let len = dir.length();
+                        (len > 0.0 && solid_angle.is_finite() && *solid_angle > 0.0).then(|| {
+                            SkySource {
+                                dir: *dir / len,
+                                cos_half: 1.0
+                                    - solid_angle.min(4.0 * std::f64::consts::PI)
+                                        / (2.0 * std::f64::consts::PI),
+                                solid_angle: *solid_angle,
+                                radiance,
+                                sampled,
+                            }
+                        })
+                    }
+                    _ => None,
+                },
+            )
+            .collect();
+        Ok(Self {
+            scene,
+            options,
+            octree,
+            lights,
+            sky,
+            effects,
+            warnings,
+            build_s,
+        })
+    }
+
+    pub fn scene(&self) -> &Scene {
+        self.scene
+    }
+    pub fn options(&self) -> &RenderOptions {
+        &self.options
+    }
+    pub fn octree(&self) -> &Octree {
+        &self.octree
+    }
+    pub fn lights(&self) -> &[PreparedLight] {
+        &self.lights
+    }
+    pub fn effects(&self) -> &EffectsReport {
+        &self.effects
+    }
+    /// Warnings from preparing the render (not the scene loader's).
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    /// The shading context (what [`shade`] reads).
+    pub fn context(&self) -> ShadeContext<'_> {
+        ShadeContext {
+            scene: self.scene,
+            options: &self.options,
+            lights: &self.lights,
+            effects: &self.effects,
+        }
+    }
+
+    /// The ray caster over the whole octree.
+    pub fn caster(&self) -> OctreeCaster<'_> {
+        OctreeCaster {
+            octree: &self.octree,
+            objects: &self.scene.objects,
+        }
+    }
+
+    fn timed<R>(st: &mut TraceState, bucket: Bucket, f: impl FnOnce(&mut TraceState) -> R) -> R {
+        let t0 = Instant::now();
+        let outer = std::mem::take(&mut st.nested);
+        let r = f(st);
+        let total = t0.elapsed();
+        let own = total.saturating_sub(st.nested);
+        let slot = match bucket {
+            Bucket::Primary => &mut st.times.primary,
+            Bucket::Direct => &mut st.times.direct,
+            Bucket::Reflection => &mut st.times.reflection,
+            Bucket::Refraction => &mut st.times.refraction,
+        };
+        *slot += own;
+        st.nested = outer + total;
+        r
+    }
+
+    /// Radiance arriving along `task.ray` (recursive; see the module docs).
+    pub fn radiance(&self, task: &RayTask, st: &mut TraceState) -> Color {
+        let bucket = match task.kind {
+            RayKind::Primary | RayKind::PassThrough => Bucket::Primary,
+            RayKind::Reflection => Bucket::Reflection,
+            RayKind::Refraction => Bucket::Refraction,
+        };
+        Self::timed(st, bucket, |st| self.radiance_untimed(task, st))
+    }
+
+    fn radiance_untimed(&self, task: &RayTask, st: &mut TraceState) -> Color {
+        match task.kind {
+            RayKind::Primary => st.counts.primary += 1,
+            RayKind::Reflection => st.counts.reflection += 1,
+            RayKind::Refraction => st.counts.refraction += 1,
+            RayKind::PassThrough => st.counts.pass_through += 1,
+        }
+        let caster = self.caster();
+        let Some(hit) = caster.intersect(&task.ray, task.tmin, task.tmax) else {
+            return self.sky(task);
+        };
+        let ctx = self.context();
+        let start = st.requests.len();
+        let shaded = shade(&ctx, task, &hit, &mut st.requests);
+        let end = st.requests.len();
+        let mut sum = shaded.base;
+        for i in start..end {
+            match st.requests[i] {
+                Request::Trace { task: child, coef } => {
+                    let c = self.radiance(&child, st);
+                    sum += coef * c;
+                }
+                Request::Shadow(bundle) => {
+                    let c = Self::timed(st, Bucket::Direct, |st| {
+                        run_shadow_bundle(
+                            &ctx,
+                            &caster,
+                            &bundle,
+                            &mut st.patches,
+                            &mut st.counts.shadow,
+                        )
+                    });
+                    sum += c;
+                }
+            }
+        }
+        st.requests.truncate(start);
+        if shaded.extinction != Color::ZERO {
+            let e = shaded.extinction * hit.t;
+            sum *= Color::new((-e.x).exp(), (-e.y).exp(), (-e.z).exp());
+        }
+        sum
+    }
+
+    /// What a ray that leaves the scene sees: the smallest distant source
+    /// containing its direction, else black.
+    fn sky(&self, task: &RayTask) -> Color {
+        let mut best: Option<&SkySource> = None;
+        for s in &self.sky {
+            if (task.sampled && s.sampled) || task.ray.dir.dot(s.dir) < s.cos_half {
+                continue;
+            }
+            if best.is_none_or(|b| s.solid_angle < b.solid_angle) {
+                best = Some(s);
+            }
+        }
+        best.map_or(Color::ZERO, |s| s.radiance)
+    }
+
+    /// Radiance of pixel (`x`, `y`) of a `width` x `height` image (row 0 at
+    /// the top). Uses only the pixel's own random stream.
+    pub fn pixel<C: Camera + ?Sized>(
+        &self,
+        camera: &C,
+        width: usize,
+        height: usize,
+        x: usize,
+        y: usize,
+        st: &mut TraceState,
+    ) -> Color {
+        let seed = pixel_seed(self.options.seed, x as u32, y as u32);
+        let (mut jx, mut jy) = (0.5, 0.5);
+        if self.options.pj > 0.0 {
+            let mut rng = Rng::new(seed ^ 0x7069_7865_6c6a_6974);
+            jx = 0.5 + self.options.pj * (rng.next_f64() - 0.5);
+            jy = 0.5 + self.options.pj * (rng.next_f64() - 0.5);
+        }
+        let fx = (x as f64 + jx) / width as f64;
+        let fy = 1.0 - (y as f64 + jy) / height as f64;
+        let Some((ray, tmin, tmax)) = camera.ray(fx, fy) else {
+            return Color::ZERO;
+        };
+        if !(ray.origin.is_finite() && ray.dir.is_finite()) {
+            return Color::ZERO;
+        }
+        self.radiance(&RayTask::primary(ray, tmin, tmax, seed), st)
+    }
+
+    /// Renders `region` of a `width` x `height` image into `film`.
+    pub fn render_region<C: Camera + ?Sized>(
+        &self,
+        camera: &C,
+        width: usize,
+        height: usize,
+        region: &Region,
+        film: &mut Film,
+        st: &mut TraceState,
+    ) {
+        for y in region.y.clone() {
+            for x in region.x.clone() {
+                let c = self.pixel(camera, width, height, x, y, st);
+                film.set(x, y, c);
+            }
+        }
+    }
+
+    /// Renders the whole image row by row, calling `progress(rows_done)`
+    /// after each row.
+    pub fn render_with_progress<C: Camera + ?Sized>(
+        &self,
+        camera: &C,
+        width: usize,
+        height: usize,
+        progress: &mut dyn FnMut(usize),
+    ) -> Result<(Film, RenderStats)> {
+        check_resolution(width, height)?;
+        let mut film = Film::new(width, height);
+        let mut st = TraceState::default();
+        let t0 = Instant::now();
+        for y in 0..height {
+            self.render_region(
+                camera,
+                width,
+                height,
+                &Region {
+                    x: 0..width,
+                    y: y..y + 1,
+                },
+                &mut film,
+                &mut st,
+            );
+            progress(y + 1);
+        }
+        let render_s = t0.elapsed().as_secs_f64();
+        Ok((film, self.stats(width, height, &st, render_s)))
+    }
+
+    /// Renders the whole image.
+    pub fn render<C: Camera + ?Sized>(
+        &self,
+        camera: &C,
+        width: usize,
+        height: usize,
+    ) -> Result<(Film, RenderStats)> {
+        self.render_with_progress(camera, width, height, &mut |_| {})
+    }
+
+    /// Statistics for work tallied in `st`.
+    pub fn stats(
+        &self,
+        width: usize,
+        height: usize,
+        st: &TraceState,
+        render_s: f64,
+    ) -> RenderStats {
+        let rays = st.counts;
+        let per_s = (rays.primary + rays.shadow.tested) as f64 / render_s.max(1e-9) / 1e6;
+        RenderStats {
+            width,
+            height,
+            rays,
+            mrays_per_s: per_s,
+            effects: self.effects.clone(),
+            time: Timings {
+                octree_build_s: self.build_s,
+                render_s,
+                primary_s: st.times.primary.as_secs_f64(),
+                direct_s: st.times.direct.as_secs_f64(),
+                reflection_s: st.times.reflection.as_secs_f64(),
+                refraction_s: st.times.refraction.as_secs_f64(),
+            },
+            octree: self.octree.stats().clone(),
+            scene: self.scene.stats.clone(),
+            options: self.options.clone(),
+            warnings: self.warnings.clone(),
+        }
+    }
+}
+
+/// Rejects impossible resolutions with a usage error.
+pub fn check_resolution(width: usize, height: usize) -> Result<()> {
+    if width == 0
+        || height == 0
+        || width > MAX_SIDE
+        || height > MAX_SIDE
+        || width * height > MAX_PIXELS
+    {
+        return Err(Error::Usage(format!(
+            "resolution {width}x{height}: width and height must be between 1 and {MAX_SIDE} (at most {MAX_PIXELS} pixels)"
+        )));
+    }
+    Ok(())
+}

@@ -1,0 +1,95 @@
+//! What a render did: rays by kind, effects and why, time per effect,
+//! octree and scene statistics. Serialised by `--stats out.json`.
+
+use std::time::Duration;
+
+use serde::{Deserialize, Serialize};
+
+use super::direct::ShadowCounts;
+use super::effects::EffectsReport;
+use super::options::RenderOptions;
+use crate::accel::OctreeStats;
+use crate::scene::SceneStats;
+
+/// Rays by kind. Counts are sums over pixels, so they do not depend on
+/// the order in which the image was rendered.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RayCounts {
+    pub primary: u64,
+    pub reflection: u64,
+    pub refraction: u64,
+    /// Rays continued through invisible surfaces (`void`, bare `illum`).
+    pub pass_through: u64,
+    pub shadow: ShadowCounts,
+}
+
+impl RayCounts {
+    pub fn add(&mut self, o: &RayCounts) {
+        self.primary += o.primary;
+        self.reflection += o.reflection;
+        self.refraction += o.refraction;
+        self.pass_through += o.pass_through;
+        self.shadow.add(&o.shadow);
+    }
+
+    /// Every ray cast into the octree.
+    pub fn traced(&self) -> u64 {
+        self.primary
+            + self.reflection
+            + self.refraction
+            + self.pass_through
+            + self.shadow.tested
+            + self.shadow.transparent_segments
+    }
+}
+
+/// Where the time went, in seconds. Effect times are exclusive: the time
+/// of a reflected ray does not include the shadow bundles run at its hit
+/// point, which count as `direct_s`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Timings {
+    pub octree_build_s: f64,
+    /// Wall-clock time of the pixel loop.
+    pub render_s: f64,
+    /// Tracing and shading primary rays (and rays passed through invisible surfaces).
+    pub primary_s: f64,
+    /// Shadow bundles: patch subdivision, potentials, shadow rays.
+    pub direct_s: f64,
+    pub reflection_s: f64,
+    pub refraction_s: f64,
+}
+
+/// Accumulated per-effect durations (kept as `Duration` while rendering).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct EffectTimes {
+    pub primary: Duration,
+    pub direct: Duration,
+    pub reflection: Duration,
+    pub refraction: Duration,
+}
+
+impl EffectTimes {
+    pub fn add(&mut self, o: &EffectTimes) {
+        self.primary += o.primary;
+        self.direct += o.direct;
+        self.reflection += o.reflection;
+        self.refraction += o.refraction;
+    }
+}
+
+/// Everything `--stats` writes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RenderStats {
+    pub width: usize,
+    pub height: usize,
+    pub rays: RayCounts,
+    /// Primary plus traced shadow rays per second of pixel loop, in millions.
+    pub mrays_per_s: f64,
+    pub effects: EffectsReport,
+    pub time: Timings,
+    pub octree: OctreeStats,
+    pub scene: SceneStats,
+    pub options: RenderOptions,
+    /// Warnings from preparing the render (lights that cannot be sampled).
+    pub warnings: Vec<String>,
+}

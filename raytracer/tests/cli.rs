@@ -1,0 +1,264 @@
+//! The `hybrid-rt` program: exit codes, messages, outputs.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const CORNELL: &str = include_str!("data/radiance-cornell.rad");
+const CORNELL_VF: &str = include_str!("data/radiance-cornell.vf");
+
+fn exe() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_hybrid-rt"))
+}
+
+/// A fresh directory for one test's files.
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("hybrid-rt-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn run(args: &[&str]) -> Output {
+    exe().args(args).output().expect("run hybrid-rt")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn cornell_files(dir: &Path) -> (String, String) {
+    let rad = write(dir, "cornell.rad", CORNELL);
+    let vf = write(dir, "cornell.vf", CORNELL_VF);
+    (
+        rad.to_string_lossy().into_owned(),
+        vf.to_string_lossy().into_owned(),
+    )
+}
+
+#[test]
+fn renders_png_hdr_and_stats() {
+    let d = tmpdir("ok");
+    let (rad, vf) = cornell_files(&d);
+    let png = d.join("c.png");
+    let hdr = d.join("c.hdr");
+    let json = d.join("s.json");
+    let o = run(&[
+        "render",
+        &rad,
+        "--view-file",
+        &vf,
+        "--width",
+        "48",
+        "--height",
+        "48",
+        "-o",
+        png.to_str().unwrap(),
+        "--stats",
+        json.to_str().unwrap(),
+        "-ds",
+        "0.3",
+        "-dj",
+        "0.5",
+        "-lr",
+        "6",
+        "-lw",
+        "0.005",
+        "-av",
+        "0.01",
+        "0.01",
+        "0.01",
+        "-ps",
+        "1",
+        "--seed",
+        "3",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(&png).expect("valid PNG").to_rgb8();
+    assert_eq!(img.dimensions(), (48, 48));
+    // Red wall on the left, blue on the right.
+    let (l, r) = (img.get_pixel(2, 24), img.get_pixel(45, 24));
+    assert!(l[0] > l[2] && r[2] > r[0], "{l:?} {r:?}");
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(stats["rays"]["primary"], 48 * 48);
+    assert_eq!(stats["options"]["ds"], 0.3);
+    assert!(stats["effects"]["refraction"]["enabled"].as_bool().unwrap());
+    assert!(stats["octree"]["leaf_nodes"].as_u64().unwrap() > 0);
+
+    let o = run(&[
+        "render",
+        &rad,
+        "-vf",
+        &vf,
+        "--width",
+        "32",
+        "--height",
+        "16",
+        "-o",
+        hdr.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(&hdr).unwrap();
+    assert!(bytes.starts_with(b"#?RADIANCE\n"));
+    let pic = hybrid_rt::image::hdr::read_hdr(&mut &bytes[..]).expect("valid HDR");
+    // The view is square: the resolution shrinks to 16x16.
+    assert_eq!((pic.film.width(), pic.film.height()), (16, 16));
+    assert!(
+        pic.header
+            .iter()
+            .any(|l| l.starts_with("VIEW= -vtv -vp 0.49 0 0")),
+        "{:?}",
+        pic.header
+    );
+    assert!(pic.header.iter().any(|l| l.starts_with("EXPOSURE=")));
+    // Linear radiance: the light (radiance 100) appears at the top centre.
+    assert!(pic.film.get(8, 0).x > 90.0, "{}", pic.film.get(8, 0));
+}
+
+#[test]
+fn radiance_view_options_on_the_command_line() {
+    let d = tmpdir("vopts");
+    let (rad, _) = cornell_files(&d);
+    let png = d.join("v.png");
+    let o = run(&[
+        "render",
+        &rad,
+        "-vtv",
+        "-vp",
+        "0.49",
+        "0",
+        "0",
+        "-vd",
+        "-1",
+        "0",
+        "0",
+        "-vu",
+        "0",
+        "0",
+        "1",
+        "-vh",
+        "60",
+        "-vv",
+        "60",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Each bad input: (args after "render", expected exit code, text the
+/// message must contain).
+#[test]
+fn bad_inputs_exit_with_code_and_location() {
+    let d = tmpdir("bad");
+    let (rad, vf) = cornell_files(&d);
+    let bad_scene = write(&d, "bad.rad", "void plastic p\n0\n0\n5 1 1 oops 0 0\n");
+    let bad_view = write(&d, "bad.vf", "rview -vtv\n-vp 0 0 zero\n");
+    let out = d.join("o.png").to_string_lossy().into_owned();
+    let bs = bad_scene.to_string_lossy().into_owned();
+    let bv = bad_view.to_string_lossy().into_owned();
+    let missing = d.join("missing.rad").to_string_lossy().into_owned();
+    let cases: Vec<(Vec<&str>, i32, String)> = vec![
+        (
+            vec![&missing, "--view-file", &vf, "-o", &out],
+            1,
+            "missing.rad".into(),
+        ),
+        (
+            vec![&bs, "--view-file", &vf, "-o", &out],
+            1,
+            format!("{bs}:4"),
+        ),
+        (
+            vec![&rad, "--view-file", &bv, "-o", &out],
+            1,
+            format!("{bv}:2"),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "-dj", "2"],
+            2,
+            "-dj".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "-ds", "NaN"],
+            2,
+            "-ds".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "-ab", "1"],
+            2,
+            "not yet supported".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "-ps", "4"],
+            2,
+            "not yet supported".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "--width", "0"],
+            2,
+            "resolution".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "--exposure", "0"],
+            2,
+            "exposure".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", "x.jpg"],
+            2,
+            "x.jpg".into(),
+        ),
+        (vec![&rad, "-o", &out], 2, "no view".into()),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "--width", "many"],
+            2,
+            "many".into(),
+        ),
+        (
+            vec![&rad, "--view", "-vtv -vh 400", "-o", &out],
+            1,
+            "-vh".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "-av", "1", "1"],
+            2,
+            "".into(),
+        ),
+    ];
+    for (args, code, text) in cases {
+        let mut full = vec!["render"];
+        full.extend(args.iter().copied());
+        let o = run(&full);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(code), "{full:?}: {err}");
+        assert!(
+            err.contains(&text),
+            "{full:?}: message {err:?} lacks {text:?}"
+        );
+        assert!(!err.contains("panicked"), "{full:?}: {err}");
+        if code == 1 {
+            assert!(err.starts_with("error: "), "{full:?}: {err}");
+        }
+    }
+    assert!(!Path::new(&out).exists(), "no output after errors");
+}
+
+#[test]
+fn help_and_unknown_command() {
+    let o = run(&["--help"]);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("render"));
+    let o = run(&["paint"]);
+    assert_eq!(o.status.code(), Some(2));
+}

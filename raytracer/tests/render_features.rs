@@ -1,0 +1,219 @@
+//! Effects the scene calls for, adaptive shadow testing, determinism.
+
+mod common;
+
+use common::*;
+use hybrid_rt::image::Film;
+use hybrid_rt::render::{Region, RenderOptions, Renderer, TraceState};
+
+const DIFFUSE: &str = "void light lamp 0 0 3 10 10 10\n\
+    void plastic w 0 0 5 .6 .6 .6 0 .05\n\
+    lamp polygon light 0 0 12 -0.2 -0.2 1.9  -0.2 0.2 1.9  0.2 0.2 1.9  0.2 -0.2 1.9\n\
+    w polygon floor 0 0 12 -2 -2 0  2 -2 0  2 2 0  -2 2 0\n\
+    w sphere ball 0 0 4 0.3 0 0.4 0.4\n";
+
+#[test]
+fn diffuse_scene_spawns_no_reflection_or_refraction() {
+    let s = scene(DIFFUSE);
+    let v = view("-vtv -vp 0 -3 1.5 -vd 0 1 -0.5 -vu 0 0 1 -vh 60 -vv 60");
+    let (_, stats) = render(&s, &v, 32, 32, RenderOptions::default());
+    assert_eq!(stats.rays.reflection, 0);
+    assert_eq!(stats.rays.refraction, 0);
+    assert!(!stats.effects.reflection.enabled);
+    assert!(
+        stats.effects.reflection.reason.contains("no mirror"),
+        "{}",
+        stats.effects.reflection.reason
+    );
+    assert!(!stats.effects.refraction.enabled);
+    assert!(stats.effects.refraction.reason.contains("no glass"));
+    assert!(stats.effects.area_shadows.enabled);
+    assert!(stats.rays.shadow.bundles > 0);
+    // The JSON names both.
+    let json = serde_json::to_value(&stats).unwrap();
+    assert_eq!(json["effects"]["reflection"]["enabled"], false);
+}
+
+#[test]
+fn scene_without_lights_builds_no_shadow_bundles() {
+    let s = scene("void plastic w 0 0 5 .6 .6 .6 0 0\nw sphere b 0 0 4 0 0 0 1\n");
+    let v = view("-vtv -vp 0 -3 0 -vd 0 1 0 -vu 0 0 1");
+    let opts = RenderOptions {
+        av: hybrid_rt::scene::Color::splat(0.1),
+        ..Default::default()
+    };
+    let (film, stats) = render(&s, &v, 16, 16, opts);
+    assert_eq!(stats.rays.shadow.bundles, 0);
+    assert!(!stats.effects.area_shadows.enabled);
+    assert!(stats.effects.area_shadows.reason.contains("no area light"));
+    assert!(stats.effects.ambient.enabled);
+    assert!(film.mean_brightness() > 0.0);
+}
+
+#[test]
+fn mirror_scene_reflects() {
+    let s = scene(&format!("{DIFFUSE}void mirror m 0 0 3 .9 .9 .9\nm polygon mir 0 0 12 -2 2 0  2 2 0  2 2 2  -2 2 2\n"));
+    let v = view("-vtv -vp 0 -3 1.5 -vd 0 1 -0.2 -vu 0 0 1 -vh 60 -vv 60");
+    let (_, stats) = render(&s, &v, 16, 16, RenderOptions::default());
+    assert!(stats.effects.reflection.enabled);
+    assert!(stats.rays.reflection > 0);
+    assert_eq!(stats.rays.refraction, 0);
+    let (_, stats0) = render(
+        &s,
+        &v,
+        16,
+        16,
+        RenderOptions {
+            lr: 0,
+            ..Default::default()
+        },
+    );
+    assert_eq!(stats0.rays.reflection, 0);
+    assert!(stats0.effects.reflection.reason.contains("-lr 0"));
+}
+
+/// Several sources of very different power and an occluder: adaptive
+/// testing traces fewer shadow rays and stays close to testing all.
+#[test]
+fn adaptive_shadow_testing_saves_rays_within_tolerance() {
+    let mut t = String::from(
+        "void light bright 0 0 3 50 50 50\n\
+         void light dim 0 0 3 0.5 0.5 0.5\n\
+         void plastic w 0 0 5 .6 .6 .6 0 0\n\
+         bright polygon l0 0 0 12 -0.3 -0.3 3  -0.3 0.3 3  0.3 0.3 3  0.3 -0.3 3\n\
+         w polygon floor 0 0 12 -4 -4 0  4 -4 0  4 4 0  -4 4 0\n\
+         w polygon blocker 0 0 12 -0.5 -0.5 1  0.5 -0.5 1  0.5 0.5 1  -0.5 0.5 1\n",
+    );
+    for (i, (x, y)) in [
+        (-2.0, -2.0),
+        (2.0, -2.0),
+        (-2.0, 2.0),
+        (2.0, 2.0),
+        (0.0, 2.5),
+        (2.5, 0.0),
+    ]
+    .iter()
+    .enumerate()
+    {
+        t += &format!(
+            "dim polygon d{i} 0 0 12 {a} {b} 2  {a} {d} 2  {c} {d} 2  {c} {b} 2\n",
+            a = x - 0.3,
+            b = y - 0.3,
+            c = x + 0.3,
+            d = y + 0.3
+        );
+    }
+    let s = scene(&t);
+    let v = view("-vtv -vp 0 -5 4 -vd 0 1 -0.8 -vu 0 0 1 -vh 60 -vv 60");
+    let all = RenderOptions {
+        dt: 0.0,
+        dj: 0.5,
+        ..Default::default()
+    };
+    let (f0, s0) = render(&s, &v, 48, 48, all.clone());
+    assert_eq!(s0.rays.shadow.estimated, 0, "-dt 0 traces every patch");
+    assert_eq!(s0.rays.shadow.tested, s0.rays.shadow.patches);
+    let mut prev = s0.rays.shadow.tested;
+    for dt in [0.05, 0.2] {
+        let (f, st) = render(&s, &v, 48, 48, RenderOptions { dt, ..all.clone() });
+        assert!(
+            st.rays.shadow.tested < prev,
+            "-dt {dt}: {} rays, not fewer than {prev}",
+            st.rays.shadow.tested
+        );
+        assert!(st.rays.shadow.estimated > 0);
+        assert_eq!(
+            st.rays.shadow.tested + st.rays.shadow.estimated,
+            st.rays.shadow.patches
+        );
+        prev = st.rays.shadow.tested;
+        let d = mean_rel_diff(&f0, &f);
+        assert!(d < 0.05, "-dt {dt}: image differs by {d:.4} on average");
+    }
+}
+
+fn cornell() -> (hybrid_rt::scene::Scene, hybrid_rt::scene::View) {
+    (scene(RADIANCE_CORNELL), view(RADIANCE_CORNELL_VIEW))
+}
+
+/// Rendering the image by rows, by shuffled tiles or all at once gives
+/// bit-identical pixels (jittered sources and pixels included).
+#[test]
+fn tile_order_does_not_change_pixels() {
+    let (s, v) = cornell();
+    let opts = RenderOptions {
+        dj: 0.7,
+        pj: 0.5,
+        seed: 42,
+        ..Default::default()
+    };
+    let r = Renderer::new(&s, opts).unwrap();
+    let (w, h) = (40, 30);
+    let (whole, stats) = r.render(&v, w, h).unwrap();
+    // Bottom-up rows.
+    let mut rows = Film::new(w, h);
+    let mut st = TraceState::default();
+    for y in (0..h).rev() {
+        r.render_region(
+            &v,
+            w,
+            h,
+            &Region {
+                x: 0..w,
+                y: y..y + 1,
+            },
+            &mut rows,
+            &mut st,
+        );
+    }
+    assert_eq!(whole, rows);
+    assert_eq!(st.counts, stats.rays, "ray counts do not depend on order");
+    // 7x4 tiles in a scrambled order, each with its own state.
+    let mut tiles = Vec::new();
+    for ty in (0..h).step_by(4) {
+        for tx in (0..w).step_by(7) {
+            tiles.push(Region {
+                x: tx..(tx + 7).min(w),
+                y: ty..(ty + 4).min(h),
+            });
+        }
+    }
+    let n = tiles.len();
+    let mut tiled = Film::new(w, h);
+    for k in 0..n {
+        let t = &tiles[(k * 17 + 5) % n];
+        r.render_region(&v, w, h, t, &mut tiled, &mut TraceState::default());
+    }
+    assert_eq!(whole, tiled);
+    // A different seed changes the jittered image.
+    let r2 = Renderer::new(
+        &s,
+        RenderOptions {
+            seed: 43,
+            ..r.options().clone()
+        },
+    )
+    .unwrap();
+    assert_ne!(whole, r2.render(&v, w, h).unwrap().0);
+}
+
+/// The Radiance Cornell box looks like itself: red wall left, blue right,
+/// lit floor, the light at the top, a sphere near the floor.
+#[test]
+fn radiance_cornell_box_layout() {
+    let (s, v) = cornell();
+    let (film, stats) = render(&s, &v, 64, 64, RenderOptions::default());
+    let px = |x: usize, y: usize| film.get(x, y);
+    let left = px(3, 32);
+    let right = px(60, 32);
+    assert!(left.x > 2.0 * left.z, "left wall is red: {left}");
+    assert!(right.z > 2.0 * right.x, "right wall is blue: {right}");
+    // The light source, seen directly at the top centre, is the brightest.
+    let top = px(32, 1);
+    assert!(top.x >= 99.0, "light at the top centre: {top}");
+    assert!(
+        stats.rays.refraction > 0 && stats.rays.reflection > 0,
+        "dielectric sphere"
+    );
+    assert!(film.pixels().iter().all(|c| c.is_finite()));
+}
