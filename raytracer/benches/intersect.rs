@@ -117,6 +117,18 @@ fn octree(c: &mut Criterion) {
             n
         })
     });
+    g.bench_function("traversal_only", |bch| {
+        bch.iter(|| {
+            let mut n = 0u32;
+            for r in &rays {
+                tree.for_each_leaf_along_ray(black_box(r), 0.0, f64::INFINITY, |_, _, _| {
+                    n += 1;
+                    false
+                });
+            }
+            n
+        })
+    });
     g.bench_function("occlusion", |bch| {
         bch.iter(|| {
             let mut n = 0u32;

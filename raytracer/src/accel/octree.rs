@@ -129,6 +129,35 @@ impl Cell {
     }
 }
 
+/// Remembers the last few objects tested along one ray, so an object listed
+/// in several leaves is tested once (skipping a re-test never changes the
+/// result: the bound only shrinks).
+struct Mailbox {
+    ids: [ObjectId; 8],
+    next: usize,
+}
+
+impl Mailbox {
+    #[inline]
+    fn new() -> Self {
+        Self {
+            ids: [ObjectId::MAX; 8],
+            next: 0,
+        }
+    }
+
+    /// True if `id` was tested already; records it otherwise.
+    #[inline]
+    fn seen(&mut self, id: ObjectId) -> bool {
+        if self.ids.contains(&id) {
+            return true;
+        }
+        self.ids[self.next & 7] = id;
+        self.next = self.next.wrapping_add(1);
+        false
+    }
+}
+
 /// The octree. `Default` is the empty tree (no nodes; every query misses).
 #[derive(Debug, Clone, Default)]
 pub struct Octree {
@@ -523,8 +552,12 @@ impl Octree {
     pub fn intersect(&self, objects: &[Object], ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         let pre = PreparedRay::new(ray);
         let mut best: Option<(f64, ObjectId, crate::geometry::ShapeHit)> = None;
+        let mut mailbox = Mailbox::new();
         let mut visit = |leaf: NodeId, _t0: f64, t1: f64, cut: &mut f64| {
             for &id in self.leaf_objects(leaf) {
+                if mailbox.seen(id) {
+                    continue;
+                }
                 let bound = if best.is_some() { next_up(*cut) } else { *cut };
                 if let Some(h) = objects[id as usize]
                     .shape
@@ -559,9 +592,11 @@ impl Octree {
     ) -> bool {
         let pre = PreparedRay::new(ray);
         let mut found = false;
+        let mut mailbox = Mailbox::new();
         let mut visit = |leaf: NodeId, _t0: f64, _t1: f64, _cut: &mut f64| {
             for &id in self.leaf_objects(leaf) {
                 if Some(id) != ignore
+                    && !mailbox.seen(id)
                     && objects[id as usize]
                         .shape
                         .occludes_prepared(&pre, tmin, tmax)

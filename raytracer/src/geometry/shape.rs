@@ -51,6 +51,9 @@ pub struct Polygon {
     pub normal: Vec3,
     /// Triangulation as indices into `vertices`, each triangle wound like the polygon.
     pub triangles: Vec<[u32; 3]>,
+    /// The triangles' vertices, flattened (what intersection reads: one
+    /// contiguous array, no index indirection).
+    pub tri_verts: Vec<[Vec3; 3]>,
     /// Total area (sum of the triangles' areas).
     pub area: f64,
     /// Cumulative triangle areas divided by `area` (last entry 1): picks a

@@ -111,10 +111,15 @@ impl Shape {
         if let Some(last) = cdf.last_mut() {
             *last = 1.0;
         }
+        let tri_verts = triangles
+            .iter()
+            .map(|t| [vs[t[0] as usize], vs[t[1] as usize], vs[t[2] as usize]])
+            .collect();
         Ok(Shape::Polygon(Polygon {
             vertices: vs,
             normal,
             triangles,
+            tri_verts,
             area,
             cdf,
         }))
@@ -614,7 +619,9 @@ pub fn intersect_triangle(
     tmax: f64,
 ) -> Option<f64> {
     let o = pre.ray.origin;
-    let (a, b, c) = (a - o, b - o, c - o);
+    // Arrays: indexing by the runtime axis permutation without glam's
+    // per-index match.
+    let (a, b, c) = ((a - o).to_array(), (b - o).to_array(), (c - o).to_array());
     let (kx, ky, kz) = (pre.kx, pre.ky, pre.kz);
     let ax = a[kx] - pre.sx * a[kz];
     let ay = a[ky] - pre.sy * a[kz];
@@ -651,17 +658,9 @@ pub fn intersect_triangle(
 /// Nearest hit of a polygon's triangles.
 #[inline]
 pub fn intersect_polygon(pre: &PreparedRay, p: &Polygon, tmin: f64, mut tmax: f64) -> Option<f64> {
-    let v = &p.vertices;
     let mut best = None;
-    for tri in &p.triangles {
-        if let Some(t) = intersect_triangle(
-            pre,
-            v[tri[0] as usize],
-            v[tri[1] as usize],
-            v[tri[2] as usize],
-            tmin,
-            tmax,
-        ) {
+    for [a, b, c] in &p.tri_verts {
+        if let Some(t) = intersect_triangle(pre, *a, *b, *c, tmin, tmax) {
             tmax = t;
             best = Some(t);
         }
