@@ -95,6 +95,34 @@ fn lambertian_under_square_light_matches_form_factor() {
     }
 }
 
+/// The same square as two triangular sources (patches clipped to each
+/// triangle): the irradiances add up to the square's.
+#[test]
+fn triangular_sources_add_up_to_the_square() {
+    let (a, h) = (0.5, 1.0);
+    let m = -a;
+    let light = format!(
+        "glow_mat polygon t1 0 0 9 {m} {m} {h}  {m} {a} {h}  {a} {a} {h}\n\
+         glow_mat polygon t2 0 0 9 {m} {m} {h}  {a} {a} {h}  {a} {m} {h}"
+    );
+    let (s, v) = scene_with_light(&light, h);
+    assert_eq!(s.lights.len(), 2);
+    let expected = RHO / std::f64::consts::PI * square_irradiance(a, h);
+    for dj in [0.0, 1.0] {
+        let got = axis_radiance(
+            &s,
+            &v,
+            RenderOptions {
+                dt: 0.0,
+                dj,
+                ..Default::default()
+            },
+        );
+        let err = (got - expected).abs() / expected;
+        assert!(err < 0.01, "dj {dj}: {got} vs {expected} (err {err:.4})");
+    }
+}
+
 #[test]
 fn lambertian_under_disk_light_matches_form_factor() {
     // (radius, height, tolerance of centre-aimed patches). A disk six times

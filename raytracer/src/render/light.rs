@@ -45,6 +45,9 @@ enum Geometry {
         rect: [f64; 4],
         tris: Vec<[DVec2; 3]>,
         area: f64,
+        /// The polygon fills its bounding rectangle (the common luminaire):
+        /// patches need no clipping.
+        rectangular: bool,
     },
     /// Sphere, seen as the disk facing the point (Radiance's sphere sources).
     Sphere { center: Vec3, radius: f64 },
@@ -217,7 +220,9 @@ fn polygon_geometry(vertices: &[Vec3], triangles: &[[u32; 3]], normal: Vec3) -> 
             ]
         })
         .collect();
-    let area = tris.iter().map(|t| tri_area(t[0], t[1], t[2])).sum();
+    let area: f64 = tris.iter().map(|t| tri_area(t[0], t[1], t[2])).sum();
+    let rect_area = (rect[1] - rect[0]) * (rect[3] - rect[2]);
+    let rectangular = (area - rect_area).abs() <= 1e-9 * rect_area;
     Geometry::Polygon {
         origin,
         u,
@@ -226,6 +231,7 @@ fn polygon_geometry(vertices: &[Vec3], triangles: &[[u32; 3]], normal: Vec3) -> 
         rect,
         tris,
         area,
+        rectangular,
     }
 }
 
@@ -319,6 +325,18 @@ impl PreparedLight {
     /// True for distant sources.
     pub fn is_distant(&self) -> bool {
         matches!(self.geometry, Geometry::Distant { .. })
+    }
+
+    /// False if no part of the source can send light to `p` (the point is
+    /// behind a one-sided flat source, or inside a spherical one): a cheap
+    /// test that saves running an empty shadow bundle.
+    pub fn may_reach(&self, p: Vec3) -> bool {
+        match &self.geometry {
+            Geometry::Polygon { origin, normal, .. } => (p - *origin).dot(*normal) > 0.0,
+            Geometry::Ring { center, normal, .. } => (p - *center).dot(*normal) > 0.0,
+            Geometry::Sphere { center, radius } => (p - *center).length_squared() > radius * radius,
+            Geometry::Distant { .. } | Geometry::Param { .. } => true,
+        }
     }
 
     /// Emitted radiance from a sample towards the shaded point, after the
@@ -457,6 +475,7 @@ impl PreparedLight {
                 normal,
                 rect,
                 tris,
+                rectangular,
                 ..
             } => {
                 // Sources are one-sided: nothing reaches points behind them.
@@ -466,6 +485,21 @@ impl PreparedLight {
                 let frame = (origin, u, v);
                 let to3 = |q: DVec2| *frame.0 + *frame.1 * q.x + *frame.2 * q.y;
                 let mut leaf = |r: [f64; 4], rng: &mut Rng| {
+                    if *rectangular {
+                        let area = (r[1] - r[0]) * (r[3] - r[2]);
+                        let (cu, cv) = (0.5 * (r[0] + r[1]), 0.5 * (r[2] + r[3]));
+                        let q = if dj > 0.0 {
+                            let uu = r[0] + rng.next_f64() * (r[1] - r[0]);
+                            let vv = r[2] + rng.next_f64() * (r[3] - r[2]);
+                            DVec2::new(jitter(cu, uu, dj), jitter(cv, vv, dj))
+                        } else {
+                            DVec2::new(cu, cv)
+                        };
+                        if let Some(s) = flat_sample(p, to3(q), *normal, area) {
+                            f(s);
+                        }
+                        return;
+                    }
                     let mut area = 0.0;
                     let mut cen = DVec2::ZERO;
                     for t in tris {

@@ -348,8 +348,12 @@ impl Emitter<'_, '_> {
         };
         let total: f64 = ctx.lights.iter().map(potential).sum();
         for (i, l) in ctx.lights.iter().enumerate() {
+            if !l.may_reach(point) {
+                continue;
+            }
             let others = (total - potential(l)).max(0.0);
-            let seed = self.next_seed();
+            // Seeded by the light's index, not the request's position.
+            let seed = child_seed(self.task.seed, 0x1_0000 + i as u32);
             self.out.push(Request::Shadow(ShadowBundle {
                 light: i as u32,
                 point,
