@@ -255,6 +255,31 @@ fn bad_inputs_exit_with_code_and_location() {
 }
 
 #[test]
+fn view_option_value_starting_with_a_dash() {
+    let d = tmpdir("vdash");
+    let (rad, _) = cornell_files(&d);
+    let png = d.join("d.png");
+    let o = run(&[
+        "render",
+        &rad,
+        "--view",
+        "-vtv",
+        "--view",
+        "-vp 0.49 0 0 -vd -1 0 0",
+        "--width",
+        "4",
+        "--height",
+        "4",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&["bench", "--scene", d.join("none.rad").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("none.rad"));
+}
+
+#[test]
 fn help_and_unknown_command() {
     let o = run(&["--help"]);
     assert_eq!(o.status.code(), Some(0));

@@ -111,9 +111,9 @@ pub struct RenderArgs {
     /// Radiance view file (also -vf).
     #[arg(long = "view-file", value_name = "FILE")]
     pub view_file: Option<PathBuf>,
-    /// Radiance view options, e.g. "-vtv -vp 0 0 1 -vd 0 1 0 -vh 60 -vv 45" (applied after --view-file).
+    /// Radiance view options, e.g. "-vtv -vp 0 0 1 -vd 0 1 0 -vh 60 -vv 45" (applied after --view-file; may repeat).
     #[arg(long = "view", value_name = "OPTIONS", allow_hyphen_values = true)]
-    pub view: Option<String>,
+    pub view: Vec<String>,
     /// View options given Radiance's way on the command line (collected by the translator).
     #[arg(long = "view-words", hide = true, allow_hyphen_values = true)]
     pub view_words: Vec<String>,
@@ -161,6 +161,21 @@ pub struct BenchArgs {
     pub radiance: RadianceArgs,
 }
 
+/// Our options that take one value.
+const VALUE_FLAGS: &[&str] = &[
+    "--view",
+    "--view-file",
+    "-o",
+    "--output",
+    "--stats",
+    "--exposure",
+    "--gamma",
+    "--seed",
+    "--width",
+    "--height",
+    "--scene",
+];
+
 /// Number of values each Radiance view option takes.
 fn view_arity(word: &str) -> Option<usize> {
     match word {
@@ -187,6 +202,15 @@ pub fn translate(args: Vec<String>) -> Vec<String> {
             out.push(a);
             out.extend(it);
             break;
+        }
+        if VALUE_FLAGS.contains(&a.as_str()) {
+            // The next word is this option's value, whatever it looks like
+            // (`--view "-vtv ..."`, `-o -out.png`).
+            out.push(a);
+            if let Some(v) = it.next() {
+                out.push(v);
+            }
+            continue;
         }
         let name = a.strip_prefix('-').filter(|n| !n.starts_with('-'));
         if let Some(opt) = name.and_then(|n| RADIANCE_OPTIONS.iter().find(|o| o.name == n)) {
@@ -270,6 +294,29 @@ mod tests {
                 "-3"
             ])
         );
+        let t2 = translate(s(&[
+            "hybrid-rt",
+            "render",
+            "a.rad",
+            "--view",
+            "-vtv -vp 0 0 1",
+            "-o",
+            "-x.png",
+        ]));
+        assert_eq!(
+            t2,
+            s(&[
+                "hybrid-rt",
+                "render",
+                "a.rad",
+                "--view",
+                "-vtv -vp 0 0 1",
+                "-o",
+                "-x.png"
+            ])
+        );
+        let t3 = translate(s(&["hybrid-rt", "render", "a.rad", "--view", "-vtv"]));
+        assert_eq!(t3[3..], s(&["--view", "-vtv"])[..]);
         let cli = Cli::try_parse_from(t).unwrap();
         let Command::Render(r) = cli.command else {
             panic!()

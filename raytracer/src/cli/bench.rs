@@ -48,8 +48,14 @@ fn resolve_scene(a: &BenchArgs) -> Result<(PathBuf, View)> {
             let vf = p.with_extension("vf");
             (p, vf)
         };
+    if !scene_path.is_file() {
+        return Err(Error::io(
+            &scene_path,
+            std::io::Error::from(std::io::ErrorKind::NotFound),
+        ));
+    }
     let vf = a.view_file.clone().unwrap_or(default_vf);
-    let view = build_view(Some(&vf), None, &[])?;
+    let view = build_view(Some(&vf), &[], &[])?;
     Ok((scene_path, view))
 }
 

@@ -15,7 +15,7 @@ use crate::{Error, Result, SourceLoc};
 /// The view from `--view-file`, then `--view`, then Radiance-style words.
 pub(super) fn build_view(
     file: Option<&Path>,
-    options: Option<&str>,
+    options: &[String],
     words: &[String],
 ) -> Result<View> {
     let mut view = match file {
@@ -28,7 +28,7 @@ pub(super) fn build_view(
         view.apply_options(text, &loc)?;
         view.validate().map_err(|r| Error::parse(loc, r))
     };
-    if let Some(o) = options {
+    for o in options {
         apply(o, "<--view>")?;
         given = true;
     }
@@ -76,7 +76,7 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
         }
     }
     check_resolution(a.width as usize, a.height as usize)?;
-    let view = build_view(a.view_file.as_deref(), a.view.as_deref(), &a.view_words)?;
+    let view = build_view(a.view_file.as_deref(), &a.view, &a.view_words)?;
     let (view, width, height) = view.fit_aspect(a.width, a.height);
     let (width, height) = (width as usize, height as usize);
     check_resolution(width, height)?;
