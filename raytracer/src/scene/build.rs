@@ -713,9 +713,6 @@ impl Builder {
                 ),
             ));
         };
-        let xf = parse_instance_xf(&p.strs[1..], &p.loc)
-            .map_err(|e| retag(e, &format!("{t} '{}': ", p.id)))?
-            .then(&p.post.unwrap_or_default());
         let named = p.base_dir().join(file);
         let (source, want) = if t == "instance" {
             (named.with_extension("rad"), "rad")
@@ -746,6 +743,9 @@ impl Builder {
                 ),
             ));
         }
+        let xf = parse_instance_xf(&p.strs[1..], &p.loc)
+            .map_err(|e| retag(e, &format!("{t} '{}': ", p.id)))?
+            .then(&p.post.unwrap_or_default());
         let key = std::fs::canonicalize(&source).unwrap_or_else(|_| source.clone());
         let cache_key = (key.clone(), if t == "mesh" { Some(material) } else { None });
         let geometry = match self.inst_cache.get(&cache_key) {

@@ -64,6 +64,8 @@ pub(crate) struct Lexer<'a> {
     src: &'a str,
     pos: usize,
     line: usize,
+    /// Line of the last word read (where an unexpected end of file is reported).
+    last: usize,
 }
 
 impl<'a> Lexer<'a> {
@@ -72,11 +74,13 @@ impl<'a> Lexer<'a> {
             src,
             pos: 0,
             line: 1,
+            last: 1,
         }
     }
 
-    pub fn line(&self) -> usize {
-        self.line
+    /// The line of the last word read.
+    pub fn last_line(&self) -> usize {
+        self.last
     }
 
     fn skip_space(&mut self) {
@@ -115,6 +119,7 @@ impl<'a> Lexer<'a> {
             .find(|c: char| c.is_ascii_whitespace())
             .unwrap_or(rest.len());
         self.pos += len;
+        self.last = self.line;
         Some(Token {
             text: rest[..len].to_string(),
             line: self.line,
@@ -234,7 +239,7 @@ impl Expander {
             let loc = loc_at(m.line);
             let truncated = |what: &str, lx: &Lexer| {
                 Error::parse(
-                    loc_at(lx.line()),
+                    loc_at(lx.last_line()),
                     format!("unexpected end of file: expected {what} of the primitive starting at line {}", m.line),
                 )
             };
@@ -382,7 +387,7 @@ impl Expander {
 fn read_group(lx: &mut Lexer, file: &Path, what: &str, prim: &RawPrim) -> Result<Vec<Token>> {
     let Some(count) = lx.next_token() else {
         return Err(Error::parse(
-            SourceLoc::new(file, lx.line()),
+            SourceLoc::new(file, lx.last_line()),
             format!(
                 "unexpected end of file: {} '{}' (line {}) is missing its {what} argument count",
                 prim.ptype, prim.id, prim.loc.line
@@ -402,7 +407,7 @@ fn read_group(lx: &mut Lexer, file: &Path, what: &str, prim: &RawPrim) -> Result
     for i in 0..n {
         let Some(t) = lx.next_token() else {
             return Err(Error::parse(
-                SourceLoc::new(file, lx.line()),
+                SourceLoc::new(file, lx.last_line()),
                 format!(
                     "unexpected end of file: {} '{}' (line {}) declares {n} {what} arguments but only {i} follow",
                     prim.ptype, prim.id, prim.loc.line
