@@ -859,6 +859,74 @@ mod fuzz {
         prop::collection::vec(prop::sample::select(WORDS), 0..60).prop_map(|w| w.join(" "))
     }
 
+    /// Well-formed records with random types, modifiers and argument counts,
+    /// so that fuzzing reaches the builder and the geometry constructors.
+    fn records() -> impl Strategy<Value = String> {
+        const TYPES: &[&str] = &[
+            "plastic",
+            "metal",
+            "glass",
+            "dielectric",
+            "light",
+            "glow",
+            "illum",
+            "mirror",
+            "trans",
+            "spotlight",
+            "polygon",
+            "sphere",
+            "bubble",
+            "cone",
+            "cup",
+            "cylinder",
+            "tube",
+            "ring",
+            "source",
+            "instance",
+            "mesh",
+            "brightfunc",
+            "plastic2",
+            "BSDF",
+            "antimatter",
+            "interface",
+        ];
+        const NAMES: &[&str] = &["void", "a", "b", "c", "inherit"];
+        const STRS: &[&str] = &[
+            "a", "b", "x.oct", "y.rtm", "-t", "-rz", "1", "-s", "-1", "-i", "2",
+        ];
+        const NUMS: &[&str] = &[
+            "0", "1", "-1", ".5", "2", "1e-300", "1e300", "180", "360", "0.0001",
+        ];
+        let record = (
+            prop::sample::select(NAMES),
+            prop::sample::select(TYPES),
+            prop::sample::select(NAMES),
+            prop::collection::vec(prop::sample::select(STRS), 0..4).prop_map(|v| {
+                if v.len() == 3 {
+                    Vec::new()
+                } else {
+                    v
+                }
+            }),
+            prop::collection::vec(prop::sample::select(NUMS), 0..13),
+            0u8..8,
+        )
+            .prop_map(|(m, t, id, strs, reals, alias)| {
+                if alias == 0 {
+                    format!("{m} alias {id} {}\n", strs.first().copied().unwrap_or("a"))
+                } else {
+                    format!(
+                        "{m} {t} {id}\n{} {}\n0\n{} {}\n",
+                        strs.len(),
+                        strs.join(" "),
+                        reals.len(),
+                        reals.join(" ")
+                    )
+                }
+            });
+        prop::collection::vec(record, 0..12).prop_map(|r| r.concat())
+    }
+
     fn mutated_cornell() -> impl Strategy<Value = String> {
         let base = std::fs::read_to_string(super::radiance_cornell()).unwrap_or_default();
         let n = base.len().max(1);
@@ -881,6 +949,11 @@ mod fuzz {
 
         #[test]
         fn random_token_soup_never_panics(text in any_text()) {
+            let _ = super::load_rad_str(&text, "/nonexistent-fuzz-dir/fuzz.rad");
+        }
+
+        #[test]
+        fn random_records_never_panic(text in records()) {
             let _ = super::load_rad_str(&text, "/nonexistent-fuzz-dir/fuzz.rad");
         }
 
