@@ -44,6 +44,7 @@ pub use master::Master;
 pub use message::{Addr, Class, Msg, Packet};
 pub use policy::Policy;
 pub use processor::{Processor, Step};
+pub use runtime::lockstep::{run_lockstep, Lockstep};
 pub use runtime::sequential::{run_sequential, Sequential};
 pub use runtime::threads::{run_threads, Threads};
 pub use runtime::{Node, RunReport, Runtime};

@@ -248,6 +248,11 @@ impl<W: Workload> fmt::Debug for Packet<W> {
 }
 
 impl<W: Workload> Packet<W> {
+    /// Whether any item is a basic message (see [`Msg::is_basic`]).
+    pub fn has_basic(&self) -> bool {
+        self.items.iter().any(Msg::is_basic)
+    }
+
     /// A packet holding a single message.
     pub fn single(from: Addr, to: Addr, msg: Msg<W>) -> Self {
         let bytes = HEADER_BYTES + msg.byte_size();

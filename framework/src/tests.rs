@@ -4,7 +4,7 @@
 //! thread pool rarely produces. This is also a small proof that the processor
 //! logic is runtime independent.
 
-use std::collections::{BTreeMap, HashSet, VecDeque};
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use proptest::prelude::*;
@@ -12,8 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::bundle::Outbox;
 use crate::message::{Addr, Class, DdEnvelope, Msg, Packet};
-use crate::processor::Step;
-use crate::runtime::{assemble, Node, RunReport};
+use crate::runtime::RunReport;
 use crate::{
     run_sequential, run_threads, BundleConfig, ByteSize, Config, Ctx, DataView, DpOutcome,
     Placement, Policy, RunError, Workload,
@@ -250,79 +249,8 @@ impl Workload for Mini {
     }
 }
 
-/// Tiny deterministic PRNG for the scheduler.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = mix(self.0);
-        self.0
-    }
-    fn chance(&mut self, one_in: u64) -> bool {
-        self.next() % one_in == 0
-    }
-}
-
-/// Runs the actors in lockstep rounds. Each round every in-flight packet is
-/// delivered with probability 1/2 (holding back everything behind it on the
-/// same link), and every actor steps up to a random number of times.
-pub(crate) fn run_lockstep<W: Workload>(
-    w: Arc<W>,
-    cfg: &Config,
-    seed: u64,
-) -> Result<RunReport<W>, RunError> {
-    let mut nodes = Node::build_all(&w, cfg)?;
-    let procs = cfg.procs;
-    let mut rng = Rng(seed);
-    let mut net: VecDeque<Packet<W>> = VecDeque::new();
-    let mut done = vec![false; nodes.len()];
-    let mut now = 0u64;
-    for _round in 0..200_000 {
-        now += 1 + rng.next() % 500_000;
-        let mut held: HashSet<(Addr, Addr)> = HashSet::new();
-        let mut keep = VecDeque::new();
-        while let Some(p) = net.pop_front() {
-            let link = (p.from, p.to);
-            if held.contains(&link) || rng.chance(2) {
-                held.insert(link);
-                keep.push_back(p);
-                continue;
-            }
-            let slot = p.to.slot(procs);
-            assert!(!done[slot], "packet {p:?} sent to finished {}", p.to);
-            nodes[slot].deliver(p, now);
-        }
-        net = keep;
-        for (slot, node) in nodes.iter_mut().enumerate() {
-            if done[slot] {
-                continue;
-            }
-            for _ in 0..=rng.next() % 3 {
-                let step = node.step(now)?;
-                net.extend(node.take_packets(now));
-                match step {
-                    Step::Finished => {
-                        done[slot] = true;
-                        break;
-                    }
-                    Step::Idle => break,
-                    Step::Worked(_) => {}
-                }
-            }
-        }
-        if done.iter().all(|&d| d) {
-            assert!(net.is_empty(), "packets left after termination: {net:?}");
-            let finished = nodes
-                .into_iter()
-                .map(|n| {
-                    let addr = n.addr();
-                    let (acc, stats) = n.finish();
-                    (addr, acc, stats)
-                })
-                .collect();
-            return Ok(assemble("lockstep", procs, finished, now));
-        }
-    }
-    Err(RunError::Runtime("lockstep run did not terminate".into()))
+fn run_lockstep<W: Workload>(w: Arc<W>, cfg: &Config, seed: u64) -> Result<RunReport<W>, RunError> {
+    crate::runtime::lockstep::run_lockstep(w, cfg, seed, 200_000)
 }
 
 fn all_keys(r: &RunReport<Mini>) -> BTreeMap<u64, (u32, u64)> {

@@ -3,6 +3,8 @@
 //! * [`threads`]: one tokio task per actor on a multi-thread runtime.
 //! * [`sequential`]: the reference: every task on one processor, all data
 //!   local, no messages.
+//! * [`lockstep`]: deterministic, single-threaded, seeded interleavings of
+//!   all actors (for tests and debugging).
 //!
 //! A runtime needs only the [`Node`] interface: `deliver`, `step`,
 //! `take_packets`, `account`, `blocked_state`. A discrete-event simulator
@@ -10,6 +12,7 @@
 //! by [`Node::last_charges`] through a cost model), and an MPI runtime with
 //! one node per rank.
 
+pub mod lockstep;
 pub mod sequential;
 pub mod threads;
 
