@@ -35,6 +35,9 @@ struct Args {
     /// Data placement: round-robin, ranges or hotspot.
     #[arg(long, default_value = "round-robin")]
     distribution: String,
+    /// Computation per block read (folds of the block).
+    #[arg(long, default_value_t = 16)]
+    rounds: u32,
     /// Send every message on its own.
     #[arg(long)]
     no_bundling: bool,
@@ -64,6 +67,7 @@ fn main() -> ExitCode {
         blocks: args.blocks,
         roots: args.roots,
         distribution,
+        rounds: args.rounds,
         ..BlocksParams::default()
     });
     let mut config = Config::new(args.procs)

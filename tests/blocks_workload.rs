@@ -109,6 +109,12 @@ fn hot_spot_input_buffers_stay_bounded_and_nothing_is_dropped() {
                 p.addr,
                 p.memory.input_buffer_items
             );
+            assert!(
+                p.memory.waiting_tasks <= Config::new(8).max_waiting_tasks,
+                "{policy}: {} had {} tasks waiting for data",
+                p.addr,
+                p.memory.waiting_tasks
+            );
         }
         let hot = &r.stats.procs[0];
         assert!(

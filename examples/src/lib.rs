@@ -60,6 +60,9 @@ pub struct BlocksParams {
     pub walk_len: usize,
     /// Data placement.
     pub distribution: Distribution,
+    /// Times each block is folded when it is read: scales computation
+    /// relative to communication.
+    pub rounds: u32,
 }
 
 impl Default for BlocksParams {
@@ -76,6 +79,7 @@ impl Default for BlocksParams {
             max_walks: 2,
             walk_len: 5,
             distribution: Distribution::RoundRobin,
+            rounds: 1,
         }
     }
 }
@@ -255,9 +259,16 @@ impl Blocks {
         ids
     }
 
-    fn fold(acc: u64, id: u32, block: &Block) -> u64 {
-        let s = block.0.iter().fold(0u64, |a, &w| a.rotate_left(7) ^ w);
+    fn fold(&self, acc: u64, id: u32, block: &Block) -> u64 {
+        let mut s = 0u64;
+        for _ in 0..self.params.rounds.max(1) {
+            s = block.0.iter().fold(s, |a, &w| mix(a.rotate_left(7) ^ w));
+        }
         acc.rotate_left(9) ^ mix(s ^ u64::from(id))
+    }
+
+    fn units(&self, block: &Block) -> u64 {
+        block.0.len() as u64 * u64::from(self.params.rounds.max(1))
     }
 
     fn dest(&self, key: u64, procs: usize) -> Addr {
@@ -351,8 +362,8 @@ impl Workload for Blocks {
             let block = data
                 .get(&id)
                 .expect("the framework provides all selected data");
-            ctx.charge("checksum", block.0.len() as u64);
-            acc = Self::fold(acc, id, block);
+            ctx.charge("checksum", self.units(block));
+            acc = self.fold(acc, id, block);
         }
         self.finish_dd(&task, acc, ctx);
     }
@@ -390,8 +401,8 @@ impl Workload for Blocks {
             let Some(block) = data.get(&id) else {
                 return DpOutcome::Migrate(task);
             };
-            ctx.charge("hop", block.0.len() as u64);
-            *acc = Self::fold(*acc, id, block);
+            ctx.charge("hop", self.units(block));
+            *acc = self.fold(*acc, id, block);
             *pos += 1;
         }
         match task {
