@@ -35,6 +35,11 @@ pub mod workload;
 #[cfg(test)]
 mod tests;
 
+/// Re-exported so that workloads can derive the serde traits without their
+/// own dependency: `#[derive(Serialize, Deserialize)]` with
+/// `#[serde(crate = "hybrid_sched::serde")]`.
+pub use serde;
+
 pub use cache::ByteLru;
 pub use clock::{Clock, Time, WallClock};
 pub use config::{BundleConfig, Config};
