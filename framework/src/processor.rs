@@ -155,8 +155,8 @@ impl<W: Workload> Processor<W> {
         }
     }
 
-    /// Whether [`Processor::step`] would only return [`Step::Idle`] (runtimes
-    /// may block for a packet right away).
+    /// Whether the master's termination message has arrived (the next
+    /// [`Processor::step`] returns [`Step::Finished`]).
     pub fn is_finished(&self) -> bool {
         self.terminated
     }
