@@ -13,7 +13,10 @@ pub struct SourceLoc {
 
 impl SourceLoc {
     pub fn new(file: impl Into<PathBuf>, line: usize) -> Self {
-        Self { file: file.into(), line }
+        Self {
+            file: file.into(),
+            line,
+        }
     }
 }
 
@@ -53,10 +56,16 @@ pub enum Error {
 
 impl Error {
     pub fn parse(loc: SourceLoc, reason: impl Into<String>) -> Self {
-        Error::Parse { loc, reason: reason.into() }
+        Error::Parse {
+            loc,
+            reason: reason.into(),
+        }
     }
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+        Error::Io {
+            path: path.into(),
+            source,
+        }
     }
     /// The process exit code this error maps to: 2 for usage errors, 1 otherwise.
     pub fn exit_code(&self) -> i32 {
