@@ -54,66 +54,7 @@ pub fn conference(seed: u64) -> String {
     r.blank();
 
     // Shell.
-    r.polygon(
-        "carpet",
-        "floor",
-        &[
-            p(0.0, 0.0, 0.0),
-            p(LEN, 0.0, 0.0),
-            p(LEN, DEP, 0.0),
-            p(0.0, DEP, 0.0),
-        ],
-    );
-    r.polygon(
-        "ceiling_tile",
-        "ceiling",
-        &[
-            p(0.0, 0.0, HGT),
-            p(0.0, DEP, HGT),
-            p(LEN, DEP, HGT),
-            p(LEN, 0.0, HGT),
-        ],
-    );
-    r.polygon(
-        "plaster",
-        "wall_south",
-        &[
-            p(0.0, 0.0, 0.0),
-            p(0.0, 0.0, HGT),
-            p(LEN, 0.0, HGT),
-            p(LEN, 0.0, 0.0),
-        ],
-    );
-    r.polygon(
-        "plaster",
-        "wall_north",
-        &[
-            p(0.0, DEP, 0.0),
-            p(LEN, DEP, 0.0),
-            p(LEN, DEP, HGT),
-            p(0.0, DEP, HGT),
-        ],
-    );
-    r.polygon(
-        "plaster",
-        "wall_west",
-        &[
-            p(0.0, 0.0, 0.0),
-            p(0.0, DEP, 0.0),
-            p(0.0, DEP, HGT),
-            p(0.0, 0.0, HGT),
-        ],
-    );
-    r.polygon(
-        "plaster",
-        "wall_east",
-        &[
-            p(LEN, 0.0, 0.0),
-            p(LEN, 0.0, HGT),
-            p(LEN, DEP, HGT),
-            p(LEN, DEP, 0.0),
-        ],
-    );
+    r.room_shell("carpet", "ceiling_tile", "plaster", LEN, DEP, HGT);
     // Windows in the east wall, doors in the west wall.
     for k in 0..16 {
         let (y0, x) = (1.0 + k as f64 * 2.2, LEN - 0.01);

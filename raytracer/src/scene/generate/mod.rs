@@ -177,6 +177,33 @@ impl Rad {
         self.record("void", "instance", id, &strs, &[]);
     }
 
+    /// The inside of a closed room `[0,len] x [0,dep] x [0,hgt]`: floor, ceiling
+    /// and four walls, each facing into the room, named `floor`, `ceiling`,
+    /// `wall_south`, `wall_north`, `wall_west`, `wall_east`.
+    pub fn room_shell(
+        &mut self,
+        floor: &str,
+        ceiling: &str,
+        wall: &str,
+        len: f64,
+        dep: f64,
+        hgt: f64,
+    ) {
+        let p = DVec3::new;
+        #[rustfmt::skip]
+        let faces: [(&str, &str, [DVec3; 4]); 6] = [
+            (floor, "floor", [p(0.0, 0.0, 0.0), p(len, 0.0, 0.0), p(len, dep, 0.0), p(0.0, dep, 0.0)]),
+            (ceiling, "ceiling", [p(0.0, 0.0, hgt), p(0.0, dep, hgt), p(len, dep, hgt), p(len, 0.0, hgt)]),
+            (wall, "wall_south", [p(0.0, 0.0, 0.0), p(0.0, 0.0, hgt), p(len, 0.0, hgt), p(len, 0.0, 0.0)]),
+            (wall, "wall_north", [p(0.0, dep, 0.0), p(len, dep, 0.0), p(len, dep, hgt), p(0.0, dep, hgt)]),
+            (wall, "wall_west", [p(0.0, 0.0, 0.0), p(0.0, dep, 0.0), p(0.0, dep, hgt), p(0.0, 0.0, hgt)]),
+            (wall, "wall_east", [p(len, 0.0, 0.0), p(len, 0.0, hgt), p(len, dep, hgt), p(len, dep, 0.0)]),
+        ];
+        for (m, id, pts) in faces {
+            self.polygon(m, id, &pts);
+        }
+    }
+
     /// An axis-aligned box from `lo` to `hi` as six outward polygons named
     /// like genbox's (`id.1540` ...), optionally leaving out faces (a bit
     /// per face in genbox order: -y, -x, -z, +y, +x, +z).

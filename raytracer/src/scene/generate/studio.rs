@@ -68,66 +68,7 @@ fn room(r: &mut Rad) {
     r.material("glass", "window_glass", &[0.85, 0.85, 0.85]);
     r.material("metal", "steel", &[0.6, 0.6, 0.62, 0.9, 0.05]);
     r.material("light", "panel_light", &[60.0, 58.0, 52.0]);
-    r.polygon(
-        "floor_mat",
-        "floor",
-        &[
-            p(0.0, 0.0, 0.0),
-            p(LEN, 0.0, 0.0),
-            p(LEN, DEP, 0.0),
-            p(0.0, DEP, 0.0),
-        ],
-    );
-    r.polygon(
-        "ceiling_mat",
-        "ceiling",
-        &[
-            p(0.0, 0.0, HGT),
-            p(0.0, DEP, HGT),
-            p(LEN, DEP, HGT),
-            p(LEN, 0.0, HGT),
-        ],
-    );
-    r.polygon(
-        "wall_mat",
-        "wall_south",
-        &[
-            p(0.0, 0.0, 0.0),
-            p(0.0, 0.0, HGT),
-            p(LEN, 0.0, HGT),
-            p(LEN, 0.0, 0.0),
-        ],
-    );
-    r.polygon(
-        "wall_mat",
-        "wall_north",
-        &[
-            p(0.0, DEP, 0.0),
-            p(LEN, DEP, 0.0),
-            p(LEN, DEP, HGT),
-            p(0.0, DEP, HGT),
-        ],
-    );
-    r.polygon(
-        "wall_mat",
-        "wall_west",
-        &[
-            p(0.0, 0.0, 0.0),
-            p(0.0, DEP, 0.0),
-            p(0.0, DEP, HGT),
-            p(0.0, 0.0, HGT),
-        ],
-    );
-    r.polygon(
-        "wall_mat",
-        "wall_east",
-        &[
-            p(LEN, 0.0, 0.0),
-            p(LEN, 0.0, HGT),
-            p(LEN, DEP, HGT),
-            p(LEN, DEP, 0.0),
-        ],
-    );
+    r.room_shell("floor_mat", "ceiling_mat", "wall_mat", LEN, DEP, HGT);
     // Windows: glass panes just inside the east wall.
     for k in 0..8 {
         let y0 = 0.8 + k as f64 * 1.9;
