@@ -272,6 +272,11 @@ impl Builder {
                 ),
             ));
         }
+        Self::no_ints(p)
+    }
+
+    /// No Radiance primitive or material we read takes integer arguments.
+    fn no_ints(p: &RawPrim) -> Result<()> {
         if !p.ints.is_empty() {
             return Err(Error::parse(
                 p.loc.clone(),
@@ -538,17 +543,7 @@ impl Builder {
     }
 
     fn add_surface(&mut self, p: &RawPrim, objects: &mut Vec<Object>, top: bool) -> Result<()> {
-        if !p.ints.is_empty() {
-            return Err(Error::parse(
-                p.loc.clone(),
-                format!(
-                    "{} '{}': expected 0 integer arguments, got {}",
-                    p.ptype,
-                    p.id,
-                    p.ints.len()
-                ),
-            ));
-        }
+        Self::no_ints(p)?;
         let material = self.surface_material(p)?;
         let t = p.ptype.as_str();
         if t == "source" {
