@@ -51,6 +51,29 @@ fn scene_without_lights_builds_no_shadow_bundles() {
 }
 
 #[test]
+fn empty_scene_is_an_error_and_unlit_scene_warns() {
+    let empty = scene("# nothing here\n");
+    let Err(err) = Renderer::new(&empty, RenderOptions::default()) else {
+        panic!("an empty scene must not render a black image silently");
+    };
+    assert!(err.to_string().contains("scene is empty"), "{err}");
+
+    let unlit = scene("void plastic w 0 0 5 .6 .6 .6 0 0\nw sphere b 0 0 4 0 0 0 1\n");
+    let r = Renderer::new(&unlit, RenderOptions::default()).unwrap();
+    assert!(
+        r.warnings().iter().any(|w| w.contains("no light sources")),
+        "{:?}",
+        r.warnings()
+    );
+    let diffuse = scene(DIFFUSE);
+    let lit = Renderer::new(&diffuse, RenderOptions::default()).unwrap();
+    assert!(!lit
+        .warnings()
+        .iter()
+        .any(|w| w.contains("no light sources")));
+}
+
+#[test]
 fn mirror_scene_reflects() {
     let s = scene(&format!("{DIFFUSE}void mirror m 0 0 3 .9 .9 .9\nm polygon mir 0 0 12 -2 2 0  2 2 0  2 2 2  -2 2 2\n"));
     let v = view("-vtv -vp 0 -3 1.5 -vd 0 1 -0.2 -vu 0 0 1 -vh 60 -vv 60");

@@ -106,10 +106,22 @@ impl<'s> Renderer<'s> {
         params: &OctreeParams,
     ) -> Result<Self> {
         options.validate()?;
+        // An empty scene would render a silently black image.
+        if scene.objects.is_empty() && scene.lights.is_empty() {
+            return Err(Error::Other(
+                "the scene is empty: no surfaces and no light sources".into(),
+            ));
+        }
         let t0 = Instant::now();
         let octree = Octree::build(&scene.objects, params);
         let build_s = t0.elapsed().as_secs_f64();
-        let (lights, warnings) = prepare_lights(scene);
+        let (lights, mut warnings) = prepare_lights(scene);
+        if scene.lights.is_empty() && options.av == Color::ZERO {
+            warnings.push(
+                "no light sources and no ambient value (-av): only emitting surfaces will be visible"
+                    .into(),
+            );
+        }
         let effects = EffectsReport::analyse(scene, &options, &lights);
         let sky = scene
             .lights
