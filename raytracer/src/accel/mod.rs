@@ -1,11 +1,17 @@
 //! Acceleration: the octree, partitioning and pyramid clipping.
 
+pub mod clip;
 mod octree;
+pub mod partition;
 
+pub use clip::{ClipResult, Plane, Pyramid};
 pub use octree::{
     intersect_brute_force, occluded_brute_force, Hit, LeafSpan, NodeId, NodeView, Octree,
     OctreeParams, OctreeStats, MAX_DEPTH,
 };
+pub use partition::Partition;
 
+#[cfg(test)]
+mod clip_partition_tests;
 #[cfg(test)]
 mod tests;

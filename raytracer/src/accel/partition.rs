@@ -1,0 +1,231 @@
+//! Data distribution: splitting the octree over processors (the paper's
+//! data-parallel part).
+//!
+//! Cost of a leaf = the number of objects listed in it; cost of an internal
+//! node = the sum over its children ([`Octree::subtree_refs`]). The tree is
+//! cut as near the root as possible into subtrees ("pieces"): starting from
+//! the root, the most expensive splittable piece is repeatedly replaced by
+//! its eight children until there are at least `procs` pieces and none costs
+//! more than `total / procs` (or no piece that could still help can be
+//! split). The pieces are then taken in depth-first (spatially coherent)
+//! order and handed out as contiguous runs, each piece going to the
+//! processor whose share of the prefix sum contains the piece's midpoint, so
+//! each processor gets about `total / procs`.
+//!
+//! Residency: objects are stored per cell, as in the paper, so an object is
+//! resident on every processor owning a leaf that lists it (objects spanning
+//! cells owned by several processors are replicated).
+
+use std::collections::BTreeSet;
+
+use crate::geometry::Shape;
+use crate::scene::{Object, ObjectId};
+
+use super::{NodeId, Octree};
+
+/// An assignment of the octree's leaves to processors.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Partition {
+    procs: u32,
+    /// Owner per node id (leaves and internal nodes alike; an internal node
+    /// inside one piece has that piece's owner, one above the cut has the
+    /// owner of its first leaf in depth-first order).
+    owner_of_node: Vec<u32>,
+    /// The subtree roots the tree was cut into, depth first, with their owner.
+    pieces: Vec<(NodeId, u32)>,
+    /// Object references per processor (sum of its leaves' object counts).
+    cost: Vec<u64>,
+    /// Objects resident per processor, ascending.
+    resident: Vec<Vec<ObjectId>>,
+    /// Estimated bytes per processor: its resident objects plus its leaves'
+    /// object lists.
+    resident_bytes: Vec<usize>,
+}
+
+/// Rough memory footprint of one object (its struct plus heap data).
+pub fn object_bytes(o: &Object) -> usize {
+    let heap = match &o.shape {
+        Shape::Polygon(p) => {
+            p.vertices.len() * std::mem::size_of::<crate::geometry::Vec3>()
+                + p.triangles.len() * 12
+                + p.tri_verts.len() * 72
+                + p.cdf.len() * 8
+        }
+        _ => 0,
+    };
+    std::mem::size_of::<Object>() + o.name.len() + heap
+}
+
+impl Partition {
+    /// The balanced partition of `octree` (built over `objects`) over
+    /// `procs` processors (`procs == 0` is treated as 1).
+    pub fn new(octree: &Octree, objects: &[Object], procs: u32) -> Partition {
+        let procs = procs.max(1);
+        let Some(root) = octree.root() else {
+            return Self::assemble(octree, objects, procs, Vec::new());
+        };
+        let total = octree.subtree_refs(root);
+        let target = total as f64 / procs as f64;
+        let mut pieces = vec![root];
+        loop {
+            let cost = |id: NodeId| octree.subtree_refs(id);
+            let max_cost = pieces.iter().map(|&p| cost(p)).max().unwrap_or(0);
+            if pieces.len() >= procs as usize && max_cost as f64 <= target {
+                break;
+            }
+            // The most expensive piece that can be split (ties: lowest id).
+            let pick = pieces
+                .iter()
+                .enumerate()
+                .filter(|(_, &p)| !octree.is_leaf(p))
+                .max_by(|(_, &a), (_, &b)| cost(a).cmp(&cost(b)).then(b.cmp(&a)));
+            let Some((i, &p)) = pick else { break };
+            // Enough pieces already and the worst one is an unsplittable leaf:
+            // splitting others cannot lower the maximum.
+            if pieces.len() >= procs as usize && cost(p) < max_cost {
+                break;
+            }
+            pieces.swap_remove(i);
+            pieces.extend(octree.children(p).expect("internal node"));
+        }
+        // Depth-first order of the pieces.
+        let set: BTreeSet<NodeId> = pieces.iter().copied().collect();
+        let mut ordered = Vec::with_capacity(pieces.len());
+        let mut stack = vec![root];
+        while let Some(id) = stack.pop() {
+            if set.contains(&id) {
+                ordered.push(id);
+            } else if let Some(ch) = octree.children(id) {
+                stack.extend(ch.iter().rev());
+            }
+        }
+        let n = ordered.len() as u64;
+        let mut before = 0u64;
+        let assigned = ordered
+            .iter()
+            .enumerate()
+            .map(|(k, &id)| {
+                let c = octree.subtree_refs(id);
+                let owner = if total == 0 {
+                    (k as u64 * procs as u64 / n.max(1)) as u32
+                } else {
+                    // Midpoint of the piece in the prefix sum, in units of total/procs.
+                    let mid = (2 * before + c) as f64 / 2.0;
+                    ((mid * procs as f64 / total as f64) as u32).min(procs - 1)
+                };
+                before += c;
+                (id, owner)
+            })
+            .collect();
+        Self::assemble(octree, objects, procs, assigned)
+    }
+
+    /// The worst case: processor 0 owns everything (the others nothing).
+    pub fn worst_case(octree: &Octree, objects: &[Object], procs: u32) -> Partition {
+        let procs = procs.max(1);
+        let pieces = octree.root().map(|r| vec![(r, 0)]).unwrap_or_default();
+        Self::assemble(octree, objects, procs, pieces)
+    }
+
+    fn assemble(
+        octree: &Octree,
+        objects: &[Object],
+        procs: u32,
+        pieces: Vec<(NodeId, u32)>,
+    ) -> Partition {
+        let nodes = octree.node_count();
+        let mut owner_of_node = vec![u32::MAX; nodes];
+        for &(p, owner) in &pieces {
+            let mut stack = vec![p];
+            while let Some(id) = stack.pop() {
+                owner_of_node[id as usize] = owner;
+                if let Some(ch) = octree.children(id) {
+                    stack.extend(ch);
+                }
+            }
+        }
+        // Nodes above the cut: the owner of their first child (children have
+        // larger ids than their parent, so go from the back).
+        for id in (0..nodes).rev() {
+            if owner_of_node[id] == u32::MAX {
+                let ch = octree.children(id as NodeId).expect("above the cut");
+                owner_of_node[id] = owner_of_node[ch[0] as usize];
+            }
+        }
+        let mut cost = vec![0u64; procs as usize];
+        let mut sets = vec![BTreeSet::new(); procs as usize];
+        let mut list_bytes = vec![0usize; procs as usize];
+        for leaf in octree.leaves() {
+            let o = owner_of_node[leaf as usize] as usize;
+            let objs = octree.leaf_objects(leaf);
+            cost[o] += objs.len() as u64;
+            list_bytes[o] += std::mem::size_of_val(objs);
+            sets[o].extend(objs.iter().copied());
+        }
+        let resident: Vec<Vec<ObjectId>> =
+            sets.into_iter().map(|s| s.into_iter().collect()).collect();
+        let resident_bytes = resident
+            .iter()
+            .zip(&list_bytes)
+            .map(|(r, &lb)| {
+                lb + r
+                    .iter()
+                    .map(|&i| objects.get(i as usize).map_or(0, object_bytes))
+                    .sum::<usize>()
+            })
+            .collect();
+        Partition {
+            procs,
+            owner_of_node,
+            pieces,
+            cost,
+            resident,
+            resident_bytes,
+        }
+    }
+
+    /// Number of processors.
+    pub fn procs(&self) -> u32 {
+        self.procs
+    }
+
+    /// The processor owning `node` (for a leaf: the one storing its objects).
+    pub fn owner(&self, node: NodeId) -> u32 {
+        self.owner_of_node[node as usize]
+    }
+
+    /// Owner per node id (index with a leaf id).
+    pub fn owners(&self) -> &[u32] {
+        &self.owner_of_node
+    }
+
+    /// The subtree roots the tree was cut into, depth first, with their owners.
+    pub fn pieces(&self) -> &[(NodeId, u32)] {
+        &self.pieces
+    }
+
+    /// Object references per processor.
+    pub fn cost(&self) -> &[u64] {
+        &self.cost
+    }
+
+    /// Objects resident on processor `p`, ascending.
+    pub fn resident(&self, p: u32) -> &[ObjectId] {
+        &self.resident[p as usize]
+    }
+
+    /// Estimated bytes stored per processor.
+    pub fn resident_bytes(&self) -> &[usize] {
+        &self.resident_bytes
+    }
+
+    /// Largest processor cost over the mean (1 = perfect; `procs` = all on one).
+    pub fn imbalance(&self) -> f64 {
+        let total: u64 = self.cost.iter().sum();
+        if total == 0 {
+            return 1.0;
+        }
+        let max = *self.cost.iter().max().unwrap_or(&0) as f64;
+        max / (total as f64 / self.procs as f64)
+    }
+}
