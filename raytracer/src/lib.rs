@@ -10,6 +10,7 @@ pub mod cli;
 pub mod error;
 pub mod geometry;
 pub mod image;
+pub mod parallel;
 pub mod render;
 pub mod scene;
 

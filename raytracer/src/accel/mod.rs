@@ -7,7 +7,7 @@ pub mod partition;
 pub use clip::{ClipResult, Plane, Pyramid};
 pub use octree::{
     intersect_brute_force, occluded_brute_force, Hit, LeafSpan, NodeId, NodeView, Octree,
-    OctreeParams, OctreeStats, MAX_DEPTH,
+    OctreeParams, OctreeStats, Partial, TraceCursor, MAX_DEPTH,
 };
 pub use partition::Partition;
 

@@ -69,7 +69,7 @@ pub struct OctreeStats {
 }
 
 /// Nearest intersection found by the octree.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Hit {
     /// Distance along the ray.
     pub t: f64,
@@ -82,6 +82,26 @@ pub struct Hit {
     /// For instances: index of the hit object in the instance's geometry (its
     /// material is the one that shades the hit).
     pub inner: Option<u32>,
+}
+
+/// Progress of a resumable traversal ([`Octree::intersect_partial`],
+/// [`Octree::occluded_partial`]): it travels with a migrating ray.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct TraceCursor {
+    /// Leaves (in traversal order, empty ones included) already handled.
+    pub leaves_done: u32,
+    /// The nearest hit found so far (nearest-hit traversals only).
+    pub best: Option<Hit>,
+}
+
+/// The outcome of a resumable traversal step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Partial<T> {
+    /// The query is answered.
+    Done(T),
+    /// The traversal needs this leaf's objects, which are not local; the
+    /// cursor says where to resume.
+    Blocked(NodeId),
 }
 
 /// One leaf a ray passes through, with the ray's entry and exit distances.
@@ -451,10 +471,20 @@ impl Octree {
     where
         F: FnMut(NodeId, f64, f64, &mut f64) -> bool,
     {
+        self.traverse_from(ray, inv, tmin, tmax, tmax, visit);
+    }
+
+    /// [`Octree::traverse`] with the cut-off distance starting at `cut`
+    /// (a resumed traversal starts it at the best hit found so far).
+    #[inline]
+    fn traverse_from<F>(&self, ray: &Ray, inv: Vec3, tmin: f64, tmax: f64, cut: f64, visit: &mut F)
+    where
+        F: FnMut(NodeId, f64, f64, &mut f64) -> bool,
+    {
         let Some((t0, t1)) = self.root_interval(ray, inv, tmin, tmax) else {
             return;
         };
-        let mut cut = tmax;
+        let mut cut = cut;
         self.visit_node(0, self.cells[0], t0, t1, ray, inv, &mut cut, visit);
     }
 
@@ -609,6 +639,146 @@ impl Octree {
         };
         self.traverse(ray, pre.inv_dir, tmin, tmax, &mut visit);
         found
+    }
+
+    /// [`Octree::intersect`] over the leaves for which `local` is true, as a
+    /// traversal that can stop and resume elsewhere (a migrating ray).
+    ///
+    /// Visits the same leaves in the same order as [`Octree::intersect`],
+    /// skipping the `cursor.leaves_done` leaves already handled; at the first
+    /// non-empty leaf that is not local it records its progress in `cursor`
+    /// and returns [`Partial::Blocked`]. Resumed (on any processor, any
+    /// number of times) until [`Partial::Done`], it returns exactly what
+    /// [`Octree::intersect`] returns: same leaves, same tests, same bounds,
+    /// same tie rule.
+    pub fn intersect_partial<F>(
+        &self,
+        objects: &[Object],
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+        cursor: &mut TraceCursor,
+        mut local: F,
+    ) -> Partial<Option<Hit>>
+    where
+        F: FnMut(NodeId) -> bool,
+    {
+        let pre = PreparedRay::new(ray);
+        let mut best: Option<(f64, ObjectId, Vec3, Option<u32>)> =
+            cursor.best.map(|h| (h.t, h.object, h.normal, h.inner));
+        let skip = cursor.leaves_done;
+        let mut pos = 0u32;
+        let mut blocked = None;
+        let mut mailbox = Mailbox::new();
+        let cut = best.map_or(tmax, |(t, _, _, _)| t);
+        let mut visit = |leaf: NodeId, _t0: f64, t1: f64, cut: &mut f64| {
+            let k = pos;
+            pos += 1;
+            if k < skip {
+                return false;
+            }
+            let ids = self.leaf_objects(leaf);
+            if !ids.is_empty() && !local(leaf) {
+                blocked = Some((leaf, k));
+                return true;
+            }
+            for &id in ids {
+                if mailbox.seen(id) {
+                    continue;
+                }
+                let bound = if best.is_some() { next_up(*cut) } else { *cut };
+                if let Some(h) = objects[id as usize]
+                    .shape
+                    .intersect_prepared(&pre, tmin, bound)
+                {
+                    if best.is_none_or(|(bt, bid, _, _)| h.t < bt || (h.t == bt && id < bid)) {
+                        best = Some((h.t, id, h.normal, h.inner));
+                        *cut = h.t;
+                    }
+                }
+            }
+            best.is_some_and(|(bt, _, _, _)| bt <= t1)
+        };
+        self.traverse_from(ray, pre.inv_dir, tmin, tmax, cut, &mut visit);
+        let best = best.map(|(t, object, normal, inner)| Hit {
+            t,
+            point: ray.at(t),
+            normal,
+            object,
+            inner,
+        });
+        match blocked {
+            Some((leaf, k)) => {
+                cursor.leaves_done = k;
+                cursor.best = best;
+                Partial::Blocked(leaf)
+            }
+            None => {
+                cursor.leaves_done = pos;
+                cursor.best = best;
+                Partial::Done(best)
+            }
+        }
+    }
+
+    /// [`Octree::occluded`] over the leaves for which `local` is true,
+    /// resumable like [`Octree::intersect_partial`] (only
+    /// `cursor.leaves_done` is used).
+    #[allow(clippy::too_many_arguments)]
+    pub fn occluded_partial<F>(
+        &self,
+        objects: &[Object],
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+        ignore: Option<ObjectId>,
+        cursor: &mut TraceCursor,
+        mut local: F,
+    ) -> Partial<bool>
+    where
+        F: FnMut(NodeId) -> bool,
+    {
+        let pre = PreparedRay::new(ray);
+        let skip = cursor.leaves_done;
+        let mut pos = 0u32;
+        let mut blocked = None;
+        let mut found = false;
+        let mut mailbox = Mailbox::new();
+        let mut visit = |leaf: NodeId, _t0: f64, _t1: f64, _cut: &mut f64| {
+            let k = pos;
+            pos += 1;
+            if k < skip {
+                return false;
+            }
+            let ids = self.leaf_objects(leaf);
+            if !ids.is_empty() && !local(leaf) {
+                blocked = Some((leaf, k));
+                return true;
+            }
+            for &id in ids {
+                if Some(id) != ignore
+                    && !mailbox.seen(id)
+                    && objects[id as usize]
+                        .shape
+                        .occludes_prepared(&pre, tmin, tmax)
+                {
+                    found = true;
+                    return true;
+                }
+            }
+            false
+        };
+        self.traverse(ray, pre.inv_dir, tmin, tmax, &mut visit);
+        match blocked {
+            Some((leaf, k)) => {
+                cursor.leaves_done = k;
+                Partial::Blocked(leaf)
+            }
+            None => {
+                cursor.leaves_done = pos;
+                Partial::Done(found)
+            }
+        }
     }
 
     /// Calls `f(leaf, t_enter, t_exit)` for every leaf (empty ones included)

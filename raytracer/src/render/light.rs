@@ -321,7 +321,52 @@ fn jitter(center: f64, random: f64, dj: f64) -> f64 {
     center + dj * (random - center)
 }
 
+/// The region a source's shadow rays can end in, for bounding a shadow
+/// bundle with a pyramid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LightExtent {
+    /// Every sample lies in this box (the emitting object's bounds).
+    Finite(crate::geometry::Aabb),
+    /// Every sample direction lies in this cone (`cos_half` of its half angle).
+    Distant { dir: Vec3, cos_half: f64 },
+}
+
 impl PreparedLight {
+    /// Where this source's samples can lie (see [`LightExtent`]); `None` if
+    /// the emitting object is missing from `scene`.
+    pub fn extent(&self, scene: &Scene) -> Option<LightExtent> {
+        match &self.geometry {
+            Geometry::Distant { dir, cos_half, .. } => Some(LightExtent::Distant {
+                dir: *dir,
+                cos_half: *cos_half,
+            }),
+            _ => {
+                let o = scene.objects.get(self.object? as usize)?;
+                Some(LightExtent::Finite(o.shape.bounds()))
+            }
+        }
+    }
+
+    /// A cheap estimate of the number of shadow rays a bundle from `p` to
+    /// this source traces at source subdivision `ds`: 1 for distant sources
+    /// or `ds == 0`, otherwise (size / (ds x distance))^2 clamped to
+    /// `1..=MAX_PATCHES`, the subdivision rule of [`Self::for_each_patch`].
+    pub fn patch_estimate(&self, scene: &Scene, p: Vec3, ds: f64) -> usize {
+        let Some(LightExtent::Finite(b)) = self.extent(scene) else {
+            return 1;
+        };
+        if ds <= 0.0 {
+            return 1;
+        }
+        let size = b.extent().max_element();
+        let dist = (b.center() - p).length();
+        if !(size.is_finite() && dist.is_finite()) || dist <= 0.0 {
+            return MAX_PATCHES;
+        }
+        let per_side = (size / (ds * dist)).ceil().max(1.0);
+        (per_side * per_side).min(MAX_PATCHES as f64) as usize
+    }
+
     /// True for distant sources.
     pub fn is_distant(&self) -> bool {
         matches!(self.geometry, Geometry::Distant { .. })

@@ -66,7 +66,7 @@ pub enum RayKind {
 }
 
 /// A ray to trace and shade.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RayTask {
     pub ray: Ray,
     pub tmin: f64,
@@ -114,7 +114,7 @@ pub mod spec {
 
 /// The data `normal.c`'s `dirnorm()` needs to weigh light from a direction
 /// (Radiance's `NORMDAT`): everything a shadow bundle must carry.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct NormalBsdf {
     pub mcolor: Color,
     pub scolor: Color,
@@ -200,7 +200,7 @@ impl NormalBsdf {
 /// Direct light from one source to one surface point: a shadow bundle.
 /// Everything needed to run it is in here (no references), so it can be
 /// shipped to another processor.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ShadowBundle {
     /// Index into the prepared lights.
     pub light: u32,

@@ -2,7 +2,8 @@
 //! shaded by [`shade`], the requested secondary work evaluated depth first
 //! in request order. It is the oracle the parallel renderer must match.
 
-use std::ops::Range;
+use std::ops::{Deref, Range};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::caster::{OctreeCaster, RayCaster};
@@ -80,10 +81,28 @@ struct SkySource {
     sampled: bool,
 }
 
+/// A scene a renderer reads: borrowed, or shared (for renderers that must
+/// be `'static`, such as the parallel workload).
+#[derive(Debug, Clone)]
+pub enum SceneRef<'s> {
+    Borrowed(&'s Scene),
+    Shared(Arc<Scene>),
+}
+
+impl Deref for SceneRef<'_> {
+    type Target = Scene;
+    fn deref(&self) -> &Scene {
+        match self {
+            SceneRef::Borrowed(s) => s,
+            SceneRef::Shared(s) => s,
+        }
+    }
+}
+
 /// The sequential renderer for one scene and option set.
 #[derive(Debug)]
 pub struct Renderer<'s> {
-    scene: &'s Scene,
+    scene: SceneRef<'s>,
     options: RenderOptions,
     octree: Octree,
     lights: Vec<PreparedLight>,
@@ -105,6 +124,19 @@ impl<'s> Renderer<'s> {
         options: RenderOptions,
         params: &OctreeParams,
     ) -> Result<Self> {
+        Self::build(SceneRef::Borrowed(scene), options, params)
+    }
+
+    /// A renderer that shares ownership of its scene.
+    pub fn shared(
+        scene: Arc<Scene>,
+        options: RenderOptions,
+        params: &OctreeParams,
+    ) -> Result<Renderer<'static>> {
+        Renderer::build(SceneRef::Shared(scene), options, params)
+    }
+
+    fn build(scene: SceneRef<'s>, options: RenderOptions, params: &OctreeParams) -> Result<Self> {
         options.validate()?;
         // An empty scene would render a silently black image.
         if scene.objects.is_empty() && scene.lights.is_empty() {
@@ -115,14 +147,14 @@ impl<'s> Renderer<'s> {
         let t0 = Instant::now();
         let octree = Octree::build(&scene.objects, params);
         let build_s = t0.elapsed().as_secs_f64();
-        let (lights, mut warnings) = prepare_lights(scene);
+        let (lights, mut warnings) = prepare_lights(&scene);
         if scene.lights.is_empty() && options.av == Color::ZERO {
             warnings.push(
                 "no light sources and no ambient value (-av): only emitting surfaces will be visible"
                     .into(),
             );
         }
-        let effects = EffectsReport::analyse(scene, &options, &lights);
+        let effects = EffectsReport::analyse(&scene, &options, &lights);
         let sky = scene
             .lights
             .iter()
@@ -164,7 +196,7 @@ impl<'s> Renderer<'s> {
     }
 
     pub fn scene(&self) -> &Scene {
-        self.scene
+        &self.scene
     }
     pub fn options(&self) -> &RenderOptions {
         &self.options
@@ -186,7 +218,7 @@ impl<'s> Renderer<'s> {
     /// The shading context (what [`shade`] reads).
     pub fn context(&self) -> ShadeContext<'_> {
         ShadeContext {
-            scene: self.scene,
+            scene: &self.scene,
             options: &self.options,
             lights: &self.lights,
             effects: &self.effects,
@@ -274,7 +306,7 @@ impl<'s> Renderer<'s> {
 
     /// What a ray that leaves the scene sees: the smallest distant source
     /// containing its direction, else black.
-    fn sky(&self, task: &RayTask) -> Color {
+    pub fn sky(&self, task: &RayTask) -> Color {
         let mut best: Option<&SkySource> = None;
         for s in &self.sky {
             if (task.sampled && s.sampled) || task.ray.dir.dot(s.dir) < s.cos_half {
@@ -298,6 +330,23 @@ impl<'s> Renderer<'s> {
         y: usize,
         st: &mut TraceState,
     ) -> Color {
+        match self.primary_task(camera, width, height, x, y) {
+            Some(task) => self.radiance(&task, st),
+            None => Color::ZERO,
+        }
+    }
+
+    /// The primary ray of pixel (`x`, `y`) (jittered by `-pj` from the
+    /// pixel's own random stream), or `None` where the view has no ray: the
+    /// pixel is black.
+    pub fn primary_task<C: Camera + ?Sized>(
+        &self,
+        camera: &C,
+        width: usize,
+        height: usize,
+        x: usize,
+        y: usize,
+    ) -> Option<RayTask> {
         let seed = pixel_seed(self.options.seed, x as u32, y as u32);
         let (mut jx, mut jy) = (0.5, 0.5);
         if self.options.pj > 0.0 {
@@ -307,13 +356,11 @@ impl<'s> Renderer<'s> {
         }
         let fx = (x as f64 + jx) / width as f64;
         let fy = 1.0 - (y as f64 + jy) / height as f64;
-        let Some((ray, tmin, tmax)) = camera.ray(fx, fy) else {
-            return Color::ZERO;
-        };
+        let (ray, tmin, tmax) = camera.ray(fx, fy)?;
         if !(ray.origin.is_finite() && ray.dir.is_finite()) {
-            return Color::ZERO;
+            return None;
         }
-        self.radiance(&RayTask::primary(ray, tmin, tmax, seed), st)
+        Some(RayTask::primary(ray, tmin, tmax, seed))
     }
 
     /// Renders `region` of a `width` x `height` image into `film`.

@@ -1,0 +1,165 @@
+//! A ray caster over the cells one processor holds, for running shadow
+//! bundles (and their transparent-shadow segments) where data may be
+//! missing.
+//!
+//! A shadow bundle's algorithm (adaptive shadow testing) decides which
+//! shadow ray to trace next from the answers to the previous ones, so it
+//! cannot be split into independent rays. Instead it is made restartable:
+//! every answered query is recorded, and when a query needs a cell that is
+//! not local the caster records where its traversal stopped and makes every
+//! further query return a dummy answer; the bundle's result is then thrown
+//! away and the bundle migrates towards the missing cell. On the next
+//! processor the bundle is run again from the start with the recorded
+//! answers replayed, the interrupted traversal resumed, and so on until it
+//! completes. The bundle is deterministic given its answers, so the final
+//! run is exactly the sequential one.
+
+use std::cell::{Cell, RefCell};
+
+use hybrid_sched::serde::{Deserialize, Serialize};
+
+use crate::accel::{Hit, NodeId, Octree, Partial, TraceCursor};
+use crate::geometry::Ray;
+use crate::render::RayCaster;
+use crate::scene::{Object, ObjectId};
+
+/// One recorded query answer.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub enum Answer {
+    Occluded(bool),
+    Nearest(Option<Hit>),
+}
+
+/// Answers recorded so far and the state of the interrupted query.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct Replay {
+    pub answers: Vec<Answer>,
+    /// Progress of the first unanswered query (if it was interrupted).
+    pub cursor: TraceCursor,
+}
+
+/// See the module documentation. `local(leaf)` says whether a non-empty
+/// leaf's objects are available here.
+pub struct PartialCaster<'a, F: Fn(NodeId) -> bool> {
+    octree: &'a Octree,
+    objects: &'a [Object],
+    local: F,
+    replay: RefCell<Replay>,
+    next: Cell<usize>,
+    blocked: Cell<Option<NodeId>>,
+    /// Octree leaves visited by new (not replayed) queries.
+    pub queries: Cell<u64>,
+}
+
+impl<'a, F: Fn(NodeId) -> bool> PartialCaster<'a, F> {
+    pub fn new(octree: &'a Octree, objects: &'a [Object], local: F, replay: Replay) -> Self {
+        PartialCaster {
+            octree,
+            objects,
+            local,
+            replay: RefCell::new(replay),
+            next: Cell::new(0),
+            blocked: Cell::new(None),
+            queries: Cell::new(0),
+        }
+    }
+
+    /// The leaf a query was blocked on, if any.
+    pub fn blocked(&self) -> Option<NodeId> {
+        self.blocked.get()
+    }
+
+    /// The recorded state, to travel with the migrating bundle.
+    pub fn into_replay(self) -> Replay {
+        self.replay.into_inner()
+    }
+
+    /// The next query's recorded answer, or `None` if it must be computed
+    /// (with the cursor to resume from).
+    fn recorded(&self) -> Result<Answer, TraceCursor> {
+        let i = self.next.get();
+        self.next.set(i + 1);
+        let r = self.replay.borrow();
+        match r.answers.get(i) {
+            Some(a) => Ok(*a),
+            None if i == r.answers.len() => Err(r.cursor),
+            None => Err(TraceCursor::default()),
+        }
+    }
+
+    fn record(&self, a: Answer) {
+        let mut r = self.replay.borrow_mut();
+        r.answers.push(a);
+        r.cursor = TraceCursor::default();
+    }
+
+    fn block(&self, leaf: NodeId, cursor: TraceCursor) {
+        self.blocked.set(Some(leaf));
+        self.replay.borrow_mut().cursor = cursor;
+    }
+}
+
+impl<F: Fn(NodeId) -> bool> RayCaster for PartialCaster<'_, F> {
+    fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        if self.blocked.get().is_some() {
+            return None;
+        }
+        let mut cursor = match self.recorded() {
+            Ok(Answer::Nearest(h)) => return h,
+            Ok(Answer::Occluded(_)) => {
+                debug_assert!(false, "replayed answer of the wrong kind");
+                TraceCursor::default()
+            }
+            Err(c) => c,
+        };
+        self.queries.set(self.queries.get() + 1);
+        match self
+            .octree
+            .intersect_partial(self.objects, ray, tmin, tmax, &mut cursor, &self.local)
+        {
+            Partial::Done(h) => {
+                self.record(Answer::Nearest(h));
+                h
+            }
+            Partial::Blocked(leaf) => {
+                self.block(leaf, cursor);
+                None
+            }
+        }
+    }
+
+    fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> bool {
+        if self.blocked.get().is_some() {
+            return true;
+        }
+        let mut cursor = match self.recorded() {
+            Ok(Answer::Occluded(b)) => return b,
+            Ok(Answer::Nearest(_)) => {
+                debug_assert!(false, "replayed answer of the wrong kind");
+                TraceCursor::default()
+            }
+            Err(c) => c,
+        };
+        self.queries.set(self.queries.get() + 1);
+        match self.octree.occluded_partial(
+            self.objects,
+            ray,
+            tmin,
+            tmax,
+            ignore,
+            &mut cursor,
+            &self.local,
+        ) {
+            Partial::Done(b) => {
+                self.record(Answer::Occluded(b));
+                b
+            }
+            Partial::Blocked(leaf) => {
+                self.block(leaf, cursor);
+                true
+            }
+        }
+    }
+}

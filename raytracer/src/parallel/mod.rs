@@ -1,0 +1,266 @@
+//! The hybrid-scheduled parallel renderer: the paper's system as a
+//! [`hybrid_sched::Workload`] (see [`workload`] for the mapping of tiles,
+//! shadow bundles, migrating rays and cells onto the framework, [`tree`] for
+//! how pixels are assembled exactly, [`caster`] for restartable shadow
+//! bundles).
+//!
+//! [`render_parallel`] runs it on a chosen runtime and returns the image
+//! with the framework's statistics; the image equals the sequential
+//! renderer's bit for bit for any number of processors, policy, cache size
+//! and distribution.
+
+pub mod caster;
+pub mod tree;
+pub mod workload;
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use hybrid_sched::{Config, Policy, RunStats, Runtime, Sequential, Threads};
+use serde::Serialize;
+
+pub use workload::{CellData, DdTask, Distribution, DpTask, RtWorkload, WorkloadOptions};
+
+use crate::accel::OctreeParams;
+use crate::image::Film;
+use crate::render::{check_resolution, RenderOptions, Renderer};
+use crate::scene::{Scene, View};
+use crate::{Error, Result};
+
+/// Which runtime drives the processors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum RuntimeKind {
+    /// One tokio task per processor on a thread pool (the default).
+    Threads,
+    /// The framework's reference: every task on one processor, all data
+    /// local, no messages.
+    Sequential,
+}
+
+impl std::str::FromStr for RuntimeKind {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "threads" => Ok(RuntimeKind::Threads),
+            "sequential" => Ok(RuntimeKind::Sequential),
+            "sim" | "mpi" => Err(format!("runtime {s:?} is not available in this build")),
+            _ => Err(format!(
+                "unknown runtime {s:?}: expected threads or sequential"
+            )),
+        }
+    }
+}
+
+/// A per-processor cache budget.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub enum CacheSize {
+    Unlimited,
+    Bytes(u64),
+    /// Percent of the scene's total cell data.
+    Percent(f64),
+}
+
+impl std::str::FromStr for CacheSize {
+    type Err = String;
+    /// `unlimited`, a byte count with an optional `K`/`M`/`G` suffix
+    /// (powers of 1024), or a percentage like `10%`.
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let t = s.trim();
+        let bad = || {
+            format!("cache size {s:?}: expected unlimited, a byte count like 64M, or a percentage like 10%")
+        };
+        if t.eq_ignore_ascii_case("unlimited") || t.eq_ignore_ascii_case("none") {
+            return Ok(CacheSize::Unlimited);
+        }
+        if let Some(p) = t.strip_suffix('%') {
+            let v: f64 = p.trim().parse().map_err(|_| bad())?;
+            return if v.is_finite() && v >= 0.0 {
+                Ok(CacheSize::Percent(v))
+            } else {
+                Err(bad())
+            };
+        }
+        let (num, mult) = match t.chars().last().map(|c| c.to_ascii_uppercase()) {
+            Some('K') => (&t[..t.len() - 1], 1u64 << 10),
+            Some('M') => (&t[..t.len() - 1], 1 << 20),
+            Some('G') => (&t[..t.len() - 1], 1 << 30),
+            _ => (t, 1),
+        };
+        let v: u64 = num.trim().parse().map_err(|_| bad())?;
+        v.checked_mul(mult).map(CacheSize::Bytes).ok_or_else(bad)
+    }
+}
+
+impl CacheSize {
+    /// The budget in bytes for a scene with `data_bytes` of cell data.
+    pub fn resolve(self, data_bytes: u64) -> Option<u64> {
+        match self {
+            CacheSize::Unlimited => None,
+            CacheSize::Bytes(b) => Some(b),
+            CacheSize::Percent(p) => Some((data_bytes as f64 * p / 100.0).round() as u64),
+        }
+    }
+}
+
+/// Everything a parallel render needs besides scene, options and view.
+#[derive(Clone, Debug, Serialize)]
+pub struct ParallelOptions {
+    pub procs: usize,
+    pub runtime: RuntimeKind,
+    pub policy: Policy,
+    pub cache: CacheSize,
+    pub workload: WorkloadOptions,
+    /// Worker threads for the threads runtime (`None`: one per core).
+    pub threads: Option<usize>,
+    /// Give up (with an error) after this long.
+    pub time_limit: Option<Duration>,
+}
+
+impl ParallelOptions {
+    pub fn new(procs: usize) -> Self {
+        ParallelOptions {
+            procs,
+            runtime: RuntimeKind::Threads,
+            policy: Policy::Local,
+            cache: CacheSize::Unlimited,
+            workload: WorkloadOptions::default(),
+            threads: None,
+            time_limit: None,
+        }
+    }
+}
+
+/// Per-processor figures of a parallel render.
+#[derive(Clone, Debug, Serialize)]
+pub struct ProcSummary {
+    /// Bytes of objects resident (owned) on this processor.
+    pub resident_bytes: u64,
+    /// Objects resident.
+    pub resident_objects: usize,
+    /// Share of the octree's object references assigned here.
+    pub cost: u64,
+    /// Pixels assembled here.
+    pub pixels: usize,
+    /// Most ray-tree nodes held at once while assembling pixels.
+    pub peak_tree_nodes: usize,
+}
+
+/// The outcome of [`render_parallel`].
+#[derive(Debug, Serialize)]
+pub struct ParallelRender {
+    #[serde(skip)]
+    pub film: Film,
+    pub options: ParallelOptions,
+    /// Cache budget in bytes per processor (`None`: unlimited).
+    pub cache_bytes: Option<u64>,
+    /// Total cell data of the scene.
+    pub data_bytes: u64,
+    pub procs: Vec<ProcSummary>,
+    /// The framework's statistics (times per state, traffic, tasks, cache,
+    /// memory high-water marks, counted work).
+    pub stats: RunStats,
+    /// Wall-clock seconds of the run (after set-up).
+    pub render_s: f64,
+    /// Seconds to build the octree and the partition.
+    pub setup_s: f64,
+}
+
+impl ParallelRender {
+    /// A counted work total over all processors (see [`workload::work`]).
+    pub fn work(&self, kind: &str) -> u64 {
+        self.stats
+            .procs
+            .iter()
+            .map(|p| p.work.get(kind).copied().unwrap_or(0))
+            .sum()
+    }
+}
+
+/// Renders `view` at `width` x `height` with the hybrid scheduler.
+pub fn render_parallel(
+    scene: Arc<Scene>,
+    options: RenderOptions,
+    view: &View,
+    width: usize,
+    height: usize,
+    popts: &ParallelOptions,
+) -> Result<ParallelRender> {
+    check_resolution(width, height)?;
+    if popts.procs == 0 {
+        return Err(Error::Usage("--procs must be at least 1".into()));
+    }
+    let t0 = Instant::now();
+    let renderer = Renderer::shared(scene, options, &OctreeParams::default())?;
+    let wl = RtWorkload::new(
+        renderer,
+        view.clone(),
+        width,
+        height,
+        popts.procs,
+        popts.workload,
+    );
+    let data_bytes = wl.data_bytes();
+    let cache_bytes = popts.cache.resolve(data_bytes);
+    let mut config = Config::new(popts.procs)
+        .with_policy(popts.policy)
+        .with_cache_bytes(cache_bytes);
+    config.threads = popts.threads;
+    config.time_limit = popts.time_limit;
+    config
+        .validate()
+        .map_err(|e| Error::Usage(format!("parallel configuration: {e}")))?;
+    let part = wl.partition().clone();
+    let wl = Arc::new(wl);
+    let setup_s = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let report = match popts.runtime {
+        RuntimeKind::Threads => Threads.run(wl.clone(), &config),
+        RuntimeKind::Sequential => Sequential.run(wl.clone(), &config),
+    }
+    .map_err(|e| Error::Other(format!("parallel render failed: {e}")))?;
+    let render_s = t1.elapsed().as_secs_f64();
+
+    let mut film = Film::new(width, height);
+    let mut seen = vec![false; width * height];
+    let mut procs = Vec::with_capacity(popts.procs);
+    for (p, acc) in report.procs.iter().enumerate() {
+        if acc.pending() != 0 {
+            return Err(Error::Other(format!(
+                "parallel render lost results: processor {p} still waits for {} ray-tree nodes",
+                acc.pending()
+            )));
+        }
+        for &(pixel, c) in &acc.pixels {
+            let i = pixel as usize;
+            if i >= seen.len() || std::mem::replace(&mut seen[i], true) {
+                return Err(Error::Other(format!(
+                    "parallel render produced pixel {i} twice or out of range"
+                )));
+            }
+            film.set(i % width, i / width, c);
+        }
+        let resident = part.resident(p as u32);
+        procs.push(ProcSummary {
+            resident_bytes: part.resident_bytes().get(p).copied().unwrap_or(0) as u64,
+            resident_objects: resident.len(),
+            cost: part.cost().get(p).copied().unwrap_or(0),
+            pixels: acc.pixels.len(),
+            peak_tree_nodes: acc.peak_pending,
+        });
+    }
+    if report.master.pending() != 0 || !report.master.pixels.is_empty() {
+        return Err(Error::Other(
+            "parallel render sent pixel results to the master".into(),
+        ));
+    }
+    Ok(ParallelRender {
+        film,
+        options: popts.clone(),
+        cache_bytes,
+        data_bytes,
+        procs,
+        stats: report.stats,
+        render_s,
+        setup_s,
+    })
+}

@@ -1,0 +1,311 @@
+//! Results of the parallel renderer and their assembly into pixels.
+//!
+//! A pixel's value is a tree: its primary ray's hit has a locally computed
+//! part (emission, ambient) plus, in request order, each secondary ray's
+//! value times its coefficient and each shadow bundle's result, all
+//! attenuated by the medium the ray crossed (see `render::material`). In
+//! the parallel renderer the nodes of that tree are computed on different
+//! processors in any order, and floating-point addition is not associative,
+//! so results are not summed as they arrive. Each node's record travels to
+//! the processor that owns the pixel, keyed by its path in the tree; a node
+//! is evaluated, with exactly the sequential renderer's operations in
+//! exactly its order, as soon as its record and all its children's values
+//! are present, and the value moves up to its parent. The pixel is final
+//! when its root is. Only the trees of pixels still in flight are held, so
+//! memory does not grow with the image beyond the finished pixel values.
+
+use std::collections::HashMap;
+
+use hybrid_sched::serde::{Deserialize, Serialize};
+use hybrid_sched::ByteSize;
+
+use crate::scene::Color;
+
+/// Names one node of a pixel's ray tree: the pixel (row-major index) and
+/// the request indices leading to it from the primary ray.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct NodeKey {
+    pub pixel: u32,
+    pub path: Vec<u16>,
+}
+
+impl NodeKey {
+    /// The primary ray of `pixel`.
+    pub fn root(pixel: u32) -> Self {
+        NodeKey {
+            pixel,
+            path: Vec::new(),
+        }
+    }
+
+    /// The node of request `i` of this node.
+    pub fn child(&self, i: usize) -> Self {
+        let mut path = Vec::with_capacity(self.path.len() + 1);
+        path.extend_from_slice(&self.path);
+        path.push(u16::try_from(i).unwrap_or(u16::MAX));
+        NodeKey {
+            pixel: self.pixel,
+            path,
+        }
+    }
+
+    fn bytes(&self) -> usize {
+        std::mem::size_of::<Self>() + 2 * self.path.len()
+    }
+}
+
+/// How a request's value enters its parent.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub enum Child {
+    /// A traced ray: `coef` times its radiance.
+    Trace(Color),
+    /// A shadow bundle: its (already weighted) result.
+    Shadow,
+}
+
+/// What one node contributes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub enum Record {
+    /// A ray that hit a surface: the local part, the requests in order, and
+    /// the medium's attenuation over the ray's length (if any).
+    Shaded {
+        base: Color,
+        children: Vec<Child>,
+        attenuation: Option<Color>,
+    },
+    /// A final value: a ray that left the scene, or a shadow bundle's result.
+    Value(Color),
+}
+
+/// A result message: one node's record, sent to the pixel's owner.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct RtResult {
+    pub key: NodeKey,
+    pub record: Record,
+}
+
+impl ByteSize for RtResult {
+    fn byte_size(&self) -> usize {
+        let extra = match &self.record {
+            Record::Shaded { children, .. } => children.len() * std::mem::size_of::<Child>(),
+            Record::Value(_) => 0,
+        };
+        self.key.bytes() + std::mem::size_of::<Record>() + extra
+    }
+}
+
+/// A node waiting for its record or for some of its children.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+struct Pending {
+    record: Option<(Color, Vec<Child>, Option<Color>)>,
+    /// Child values by request index (may arrive before the record).
+    values: Vec<(u16, Color)>,
+}
+
+/// The per-processor accumulator: finished pixels and the trees in flight.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct PixelTrees {
+    /// Finished pixels: (row-major index, radiance).
+    pub pixels: Vec<(u32, Color)>,
+    pending: HashMap<NodeKey, Pending>,
+    /// Most nodes held at once (memory high-water of the assembly).
+    pub peak_pending: usize,
+    /// Records merged.
+    pub records: u64,
+}
+
+impl PixelTrees {
+    /// Nodes still waiting: zero after a complete run (anything else means a
+    /// result was lost).
+    pub fn pending(&self) -> usize {
+        self.pending.len()
+    }
+
+    /// Adds one result.
+    pub fn merge(&mut self, r: RtResult) {
+        self.records += 1;
+        match r.record {
+            Record::Value(c) => self.deliver(r.key, c),
+            Record::Shaded {
+                base,
+                children,
+                attenuation,
+            } => {
+                if children.is_empty() {
+                    let v = evaluate(base, &children, &[], attenuation);
+                    self.deliver(r.key, v);
+                    return;
+                }
+                let entry = self.pending.entry(r.key.clone()).or_default();
+                debug_assert!(entry.record.is_none(), "node {:?} shaded twice", r.key);
+                entry.record = Some((base, children, attenuation));
+                self.peak_pending = self.peak_pending.max(self.pending.len());
+                self.try_finish(r.key);
+            }
+        }
+    }
+
+    /// Hands the value of node `key` to its parent (or finishes the pixel).
+    fn deliver(&mut self, key: NodeKey, value: Color) {
+        let mut key = key;
+        let mut value = value;
+        loop {
+            let Some((&last, parent_path)) = key.path.split_last() else {
+                self.pixels.push((key.pixel, value));
+                return;
+            };
+            let parent = NodeKey {
+                pixel: key.pixel,
+                path: parent_path.to_vec(),
+            };
+            let entry = self.pending.entry(parent.clone()).or_default();
+            entry.values.push((last, value));
+            self.peak_pending = self.peak_pending.max(self.pending.len());
+            match self.complete(&parent) {
+                Some(v) => {
+                    key = parent;
+                    value = v;
+                }
+                None => return,
+            }
+        }
+    }
+
+    fn try_finish(&mut self, key: NodeKey) {
+        if let Some(v) = self.complete(&key) {
+            self.deliver(key, v);
+        }
+    }
+
+    /// If node `key` has its record and every child value, removes it and
+    /// returns its value.
+    fn complete(&mut self, key: &NodeKey) -> Option<Color> {
+        let entry = self.pending.get(key)?;
+        let (_, children, _) = entry.record.as_ref()?;
+        if entry.values.len() < children.len() {
+            return None;
+        }
+        let mut entry = self.pending.remove(key)?;
+        let (base, children, attenuation) = entry.record.take()?;
+        entry.values.sort_by_key(|&(i, _)| i);
+        let values: Vec<Color> = entry.values.iter().map(|&(_, c)| c).collect();
+        Some(evaluate(base, &children, &values, attenuation))
+    }
+}
+
+/// A node's value from its parts, with the sequential renderer's operations
+/// in its order (`Renderer::radiance`).
+fn evaluate(
+    base: Color,
+    children: &[Child],
+    values: &[Color],
+    attenuation: Option<Color>,
+) -> Color {
+    let mut sum = base;
+    for (child, &v) in children.iter().zip(values) {
+        match child {
+            Child::Trace(coef) => sum += *coef * v,
+            Child::Shadow => sum += v,
+        }
+    }
+    if let Some(a) = attenuation {
+        sum *= a;
+    }
+    sum
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn c(v: f64) -> Color {
+        Color::splat(v)
+    }
+
+    #[test]
+    fn out_of_order_results_give_the_in_order_value() {
+        // root: base 0.1, children [Trace(0.5), Shadow]; child 0: base 0.2,
+        // children [Shadow]; attenuation at the root.
+        let root = RtResult {
+            key: NodeKey::root(7),
+            record: Record::Shaded {
+                base: c(0.1),
+                children: vec![Child::Trace(c(0.5)), Child::Shadow],
+                attenuation: Some(c(0.9)),
+            },
+        };
+        let k0 = NodeKey::root(7).child(0);
+        let child = RtResult {
+            key: k0.clone(),
+            record: Record::Shaded {
+                base: c(0.2),
+                children: vec![Child::Shadow],
+                attenuation: None,
+            },
+        };
+        let grandchild = RtResult {
+            key: k0.child(0),
+            record: Record::Value(c(0.3)),
+        };
+        let shadow = RtResult {
+            key: NodeKey::root(7).child(1),
+            record: Record::Value(c(0.4)),
+        };
+        let expected = (c(0.1) + c(0.5) * (c(0.2) + c(0.3)) + c(0.4)) * c(0.9);
+        let all = [root, child, grandchild, shadow];
+        // Every arrival order.
+        let mut orders = vec![vec![0, 1, 2, 3]];
+        for _ in 0..23 {
+            let mut next = orders.last().unwrap().clone();
+            // next permutation
+            let mut i = 3;
+            while i > 0 && next[i - 1] >= next[i] {
+                i -= 1;
+            }
+            if i == 0 {
+                break;
+            }
+            let mut j = 3;
+            while next[j] <= next[i - 1] {
+                j -= 1;
+            }
+            next.swap(i - 1, j);
+            next[i..].reverse();
+            orders.push(next);
+        }
+        assert_eq!(orders.len(), 24);
+        for order in orders {
+            let mut t = PixelTrees::default();
+            for &i in &order {
+                t.merge(all[i].clone());
+            }
+            assert_eq!(t.pixels, vec![(7, expected)], "order {order:?}");
+            assert_eq!(t.pending(), 0);
+        }
+    }
+
+    #[test]
+    fn a_missing_child_leaves_the_pixel_pending() {
+        let mut t = PixelTrees::default();
+        t.merge(RtResult {
+            key: NodeKey::root(1),
+            record: Record::Shaded {
+                base: c(0.1),
+                children: vec![Child::Shadow, Child::Shadow],
+                attenuation: None,
+            },
+        });
+        t.merge(RtResult {
+            key: NodeKey::root(1).child(1),
+            record: Record::Value(c(0.2)),
+        });
+        assert!(t.pixels.is_empty());
+        assert_eq!(t.pending(), 1);
+    }
+}

@@ -1,0 +1,770 @@
+//! The ray tracer as a [`Workload`] of the hybrid scheduling framework.
+//!
+//! * **Data**: one item per non-empty octree leaf (its objects). Every
+//!   processor holds the whole octree skeleton (cells and object lists);
+//!   the objects of a leaf may be read only where the leaf is resident or
+//!   cached. The [`Partition`] says who owns which leaf.
+//! * **Demand-driven tasks**: screen tiles (root tasks, handed out by the
+//!   master) and shadow bundles (one shaded point and one light source).
+//!   Data selection clips a pyramid around the bundle against the octree;
+//!   the leaves it selects are fetched (one request per owner) into the
+//!   cache, and the task runs where it was scheduled.
+//! * **Data-parallel tasks**: reflected, refracted and passed-through rays,
+//!   and shadow bundles too small to be worth clipping. They run as far as
+//!   the local cells allow, then migrate to the owner of the next cell the
+//!   ray needs, carrying their traversal state; shading happens where the
+//!   intersection is found.
+//! * **Results**: each node of a pixel's ray tree is sent to the processor
+//!   that rendered the pixel's tile, which assembles the pixel exactly as
+//!   the sequential renderer computes it (see [`super::tree`]).
+//!
+//! A task whose data selection turns out to have missed a cell (it cannot
+//! happen if clipping is conservative, which is tested, but floating point
+//! is floating point) does not fail or read what it must not: the ray or
+//! bundle continues data-parallel from where it stopped, and the event is
+//! counted as `clip.misses`.
+
+use std::collections::HashSet;
+use std::sync::Arc;
+
+use hybrid_sched::serde::{Deserialize, Serialize};
+use hybrid_sched::{Addr, ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};
+
+use super::caster::{PartialCaster, Replay};
+use super::tree::{Child, NodeKey, PixelTrees, Record, RtResult};
+use crate::accel::partition::object_bytes;
+use crate::accel::{Hit, NodeId, Partial, Partition, Pyramid, TraceCursor};
+use crate::geometry::robust::orthonormal_basis;
+use crate::geometry::Vec3;
+use crate::render::direct::{run_shadow_bundle, ShadowCounts};
+use crate::render::light::LightExtent;
+use crate::render::material::shade;
+use crate::render::{RayKind, RayTask, Renderer, Request, ShadowBundle};
+use crate::scene::{Color, View, ViewType};
+
+/// How the octree's objects are spread over the processors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub enum Distribution {
+    /// The paper's: the octree cut near the root into pieces of equal cost.
+    Octree,
+    /// The worst case: processor 0 holds everything.
+    Worst,
+}
+
+impl std::str::FromStr for Distribution {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "octree" | "balanced" => Ok(Distribution::Octree),
+            "worst" | "worst-case" | "one" => Ok(Distribution::Worst),
+            _ => Err(format!(
+                "unknown distribution {s:?}: expected octree or worst"
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for Distribution {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Distribution::Octree => "octree",
+            Distribution::Worst => "worst",
+        })
+    }
+}
+
+/// One octree leaf's objects as a data item. In-process runtimes share the
+/// parsed scene, so the item grants access to the leaf's objects and
+/// carries their size: caches, requests and replies are accounted in the
+/// bytes the objects occupy.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct CellData {
+    pub leaf: NodeId,
+    pub objects: u32,
+    pub bytes: u64,
+}
+
+impl ByteSize for CellData {
+    fn byte_size(&self) -> usize {
+        self.bytes as usize
+    }
+}
+
+/// A rectangle of pixels `[x0, x1) x [y0, y1)` (row 0 at the top).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct Tile {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+/// A shadow bundle scheduled demand-driven.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct ShadowJob {
+    pub key: NodeKey,
+    /// The processor assembling the pixel.
+    pub origin: u32,
+    pub bundle: ShadowBundle,
+}
+
+/// Demand-driven tasks. (Tiles are much smaller than shadow bundles, but
+/// there are few of them: boxing the bundle would cost an allocation per
+/// bundle for nothing.)
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub enum DdTask {
+    Tile(Tile),
+    Shadow(ShadowJob),
+}
+
+impl ByteSize for DdTask {
+    fn byte_size(&self) -> usize {
+        std::mem::size_of::<Self>()
+            + match self {
+                DdTask::Tile(_) => 0,
+                DdTask::Shadow(j) => 2 * j.key.path.len(),
+            }
+    }
+}
+
+/// A ray migrating cell by cell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct RayJob {
+    pub key: NodeKey,
+    pub origin: u32,
+    pub task: RayTask,
+    pub cursor: TraceCursor,
+    /// The leaf it needs next (`None`: start wherever it is).
+    pub next: Option<NodeId>,
+}
+
+/// A shadow bundle migrating with its recorded answers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct ShadowDp {
+    pub key: NodeKey,
+    pub origin: u32,
+    pub bundle: ShadowBundle,
+    pub replay: Replay,
+    pub next: Option<NodeId>,
+}
+
+/// Data-parallel tasks.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub enum DpTask {
+    Ray(RayJob),
+    Shadow(ShadowDp),
+}
+
+impl ByteSize for DpTask {
+    fn byte_size(&self) -> usize {
+        std::mem::size_of::<Self>()
+            + match self {
+                DpTask::Ray(j) => 2 * j.key.path.len(),
+                DpTask::Shadow(s) => {
+                    2 * s.key.path.len()
+                        + s.replay.answers.len() * std::mem::size_of::<super::caster::Answer>()
+                }
+            }
+    }
+}
+
+/// Work-unit names charged to the framework's statistics.
+pub mod work {
+    pub const CLIP_NODES: &str = "clip.nodes";
+    pub const CLIP_MISSES: &str = "clip.misses";
+    pub const RAYS_PRIMARY: &str = "rays.primary";
+    pub const RAYS_REFLECTION: &str = "rays.reflection";
+    pub const RAYS_REFRACTION: &str = "rays.refraction";
+    pub const RAYS_PASS_THROUGH: &str = "rays.pass_through";
+    pub const RAYS_SPAWNED: &str = "rays.spawned";
+    pub const RAYS_RETIRED: &str = "rays.retired";
+    pub const SHADOW_BUNDLES: &str = "shadow.bundles";
+    pub const SHADOW_BUNDLES_DP: &str = "shadow.bundles_dp";
+    pub const SHADOW_SPAWNED: &str = "shadow.spawned";
+    pub const SHADOW_RETIRED: &str = "shadow.retired";
+    pub const SHADOW_PATCHES: &str = "shadow.patches";
+    pub const SHADOW_TESTED: &str = "shadow.tested";
+    pub const SHADOW_ESTIMATED: &str = "shadow.estimated";
+    pub const SHADOW_UNOCCLUDED: &str = "shadow.unoccluded";
+    pub const SHADOW_SEGMENTS: &str = "shadow.transparent_segments";
+    pub const SHADOW_RESTARTS: &str = "shadow.restarts";
+    pub const SHADE: &str = "shade";
+}
+
+/// Knobs of the parallel renderer that are not the framework's.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct WorkloadOptions {
+    /// Side of the square screen tiles (primary bundles), in pixels.
+    pub tile: usize,
+    /// Shadow bundles with fewer (estimated) rays than this go data-parallel.
+    pub shadow_dp_below: usize,
+    pub distribution: Distribution,
+}
+
+impl Default for WorkloadOptions {
+    fn default() -> Self {
+        WorkloadOptions {
+            tile: 16,
+            shadow_dp_below: 2,
+            distribution: Distribution::Octree,
+        }
+    }
+}
+
+/// The parallel ray tracer (see the module documentation).
+#[derive(Debug)]
+pub struct RtWorkload {
+    renderer: Renderer<'static>,
+    view: View,
+    width: usize,
+    height: usize,
+    opts: WorkloadOptions,
+    /// Non-empty leaves with their data size.
+    cells: Vec<(NodeId, u32, u64)>,
+    partition: Partition,
+}
+
+impl RtWorkload {
+    /// A workload rendering `view` at `width` x `height` on `procs`
+    /// processors.
+    pub fn new(
+        renderer: Renderer<'static>,
+        view: View,
+        width: usize,
+        height: usize,
+        procs: usize,
+        opts: WorkloadOptions,
+    ) -> Self {
+        let octree = renderer.octree();
+        let objects = &renderer.scene().objects;
+        let cells = octree
+            .leaves()
+            .filter_map(|leaf| {
+                let ids = octree.leaf_objects(leaf);
+                (!ids.is_empty()).then(|| {
+                    let bytes: usize = ids
+                        .iter()
+                        .map(|&o| object_bytes(&objects[o as usize]) + 4)
+                        .sum();
+                    (leaf, ids.len() as u32, bytes as u64)
+                })
+            })
+            .collect();
+        let partition = Self::partition_for(&renderer, opts.distribution, procs);
+        RtWorkload {
+            renderer,
+            view,
+            width,
+            height,
+            opts: WorkloadOptions {
+                tile: opts.tile.max(1),
+                ..opts
+            },
+            cells,
+            partition,
+        }
+    }
+
+    fn partition_for(renderer: &Renderer<'static>, d: Distribution, procs: usize) -> Partition {
+        let (octree, objects) = (renderer.octree(), &renderer.scene().objects);
+        let procs = u32::try_from(procs.max(1)).unwrap_or(u32::MAX);
+        match d {
+            Distribution::Octree => Partition::new(octree, objects, procs),
+            Distribution::Worst => Partition::worst_case(octree, objects, procs),
+        }
+    }
+
+    pub fn renderer(&self) -> &Renderer<'static> {
+        &self.renderer
+    }
+
+    /// The data distribution for the configured processor count.
+    pub fn partition(&self) -> &Partition {
+        &self.partition
+    }
+
+    /// Total bytes of all cell data (objects listed in several leaves count
+    /// once per leaf, as they are stored).
+    pub fn data_bytes(&self) -> u64 {
+        self.cells.iter().map(|c| c.2).sum()
+    }
+
+    /// The largest data set one task can need: every cell (used to size a
+    /// cache that is "smaller than one task's data").
+    pub fn largest_cell_bytes(&self) -> u64 {
+        self.cells.iter().map(|c| c.2).max().unwrap_or(0)
+    }
+
+    fn owner_table(&self, procs: usize) -> Vec<(NodeId, usize, u64)> {
+        let fresh;
+        let part = if self.partition.procs() as usize == procs.max(1) {
+            &self.partition
+        } else {
+            fresh = Self::partition_for(&self.renderer, self.opts.distribution, procs);
+            &fresh
+        };
+        self.cells
+            .iter()
+            .map(|&(leaf, _, bytes)| (leaf, part.owner(leaf) as usize, bytes))
+            .collect()
+    }
+
+    fn is_local(view: &DataView<'_, Self>, leaf: NodeId) -> bool {
+        view.get(&leaf).is_some()
+    }
+
+    /// The non-empty leaves among `leaves`, each once, in order.
+    fn nonempty(&self, leaves: impl IntoIterator<Item = NodeId>) -> Vec<NodeId> {
+        let octree = self.renderer.octree();
+        let mut seen = HashSet::new();
+        leaves
+            .into_iter()
+            .filter(|&l| !octree.leaf_objects(l).is_empty() && seen.insert(l))
+            .collect()
+    }
+
+    /// Data selection for a tile: the pyramid from the eye through the
+    /// tile's corners (perspective views), else the leaves along every
+    /// primary ray.
+    fn select_tile(&self, t: &Tile, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
+        let octree = self.renderer.octree();
+        let (w, h) = (self.width as f64, self.height as f64);
+        if self.view.vtype == ViewType::Perspective {
+            // Pixel edges widened by the largest jitter offset, so every
+            // jittered ray of the tile is inside.
+            let m = (self.renderer.options().pj * 0.5).max(0.5);
+            let xs = [(t.x0 as f64 - m) / w, (t.x1 as f64 + m) / w];
+            let ys = [1.0 - (t.y0 as f64 - m) / h, 1.0 - (t.y1 as f64 + m) / h];
+            let dirs: Vec<Vec3> = xs
+                .iter()
+                .flat_map(|&x| ys.iter().map(move |&y| (x, y)))
+                .filter_map(|(x, y)| self.view.ray(x, y).map(|(r, _, _)| r.dir))
+                .collect();
+            if dirs.len() == 4 {
+                let clip = octree.clip(&Pyramid::from_rays(self.view.vp, &dirs));
+                ctx.charge(work::CLIP_NODES, clip.node_visits);
+                return self.nonempty(clip.leaves);
+            }
+        }
+        let mut leaves = Vec::new();
+        let mut visits = 0u64;
+        for y in t.y0..t.y1 {
+            for x in t.x0..t.x1 {
+                let Some(task) = self.primary(x, y) else {
+                    continue;
+                };
+                octree.for_each_leaf_along_ray(&task.ray, task.tmin, task.tmax, |leaf, _, _| {
+                    visits += 1;
+                    leaves.push(leaf);
+                    false
+                });
+            }
+        }
+        ctx.charge(work::CLIP_NODES, visits);
+        self.nonempty(leaves)
+    }
+
+    /// Data selection for a shadow bundle: the pyramid from the shaded
+    /// point around the whole source.
+    fn select_shadow(&self, b: &ShadowBundle, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
+        let octree = self.renderer.octree();
+        let Some(pyramid) = self.shadow_pyramid(b) else {
+            return Vec::new();
+        };
+        let clip = octree.clip(&pyramid);
+        ctx.charge(work::CLIP_NODES, clip.node_visits);
+        self.nonempty(clip.leaves)
+    }
+
+    fn shadow_pyramid(&self, b: &ShadowBundle) -> Option<Pyramid> {
+        let light = self.renderer.lights().get(b.light as usize)?;
+        match light.extent(self.renderer.scene())? {
+            LightExtent::Finite(bb) => {
+                let corners: Vec<Vec3> = (0..8)
+                    .map(|i| {
+                        Vec3::new(
+                            if i & 1 == 0 { bb.min.x } else { bb.max.x },
+                            if i & 2 == 0 { bb.min.y } else { bb.max.y },
+                            if i & 4 == 0 { bb.min.z } else { bb.max.z },
+                        )
+                    })
+                    .collect();
+                Some(Pyramid::to_targets(b.point, &corners))
+            }
+            LightExtent::Distant { dir, cos_half } => {
+                let sin = (1.0 - cos_half * cos_half).max(0.0).sqrt();
+                let tan = sin / cos_half.max(1e-12);
+                let (u, v) = orthonormal_basis(dir);
+                let dirs: Vec<Vec3> = [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)]
+                    .iter()
+                    .map(|&(a, c)| dir + (u * a + v * c) * (tan * 1.000001))
+                    .collect();
+                Some(Pyramid::from_rays(b.point, &dirs))
+            }
+        }
+    }
+
+    /// Whether a new shadow bundle should run data-parallel: too few rays to
+    /// be worth clipping, or a pyramid that would not bound it (the point
+    /// inside the source's box, a very wide distant source).
+    fn shadow_goes_dp(&self, b: &ShadowBundle) -> bool {
+        let scene = self.renderer.scene();
+        let Some(light) = self.renderer.lights().get(b.light as usize) else {
+            return true;
+        };
+        match light.extent(scene) {
+            None => true,
+            Some(LightExtent::Distant { cos_half, .. }) => {
+                cos_half < 0.5 || self.opts.shadow_dp_below > 1
+            }
+            Some(LightExtent::Finite(bb)) => {
+                let pad = 1e-6 * (bb.extent().max_element() + b.point.abs().max_element());
+                let inside = (b.point.cmpge(bb.min - pad) & b.point.cmple(bb.max + pad)).all();
+                inside
+                    || light.patch_estimate(scene, b.point, self.renderer.options().ds)
+                        < self.opts.shadow_dp_below
+            }
+        }
+    }
+
+    fn primary(&self, x: u32, y: u32) -> Option<RayTask> {
+        self.renderer
+            .primary_task(&self.view, self.width, self.height, x as usize, y as usize)
+    }
+
+    /// A traced ray is complete: shade its hit here (or take the sky), send
+    /// the node's record to the pixel's owner, spawn its requests.
+    fn finish_ray(
+        &self,
+        key: NodeKey,
+        origin: u32,
+        task: &RayTask,
+        hit: Option<Hit>,
+        ctx: &mut Ctx<Self>,
+    ) {
+        ctx.charge(
+            match task.kind {
+                RayKind::Primary => work::RAYS_PRIMARY,
+                RayKind::Reflection => work::RAYS_REFLECTION,
+                RayKind::Refraction => work::RAYS_REFRACTION,
+                RayKind::PassThrough => work::RAYS_PASS_THROUGH,
+            },
+            1,
+        );
+        ctx.charge(work::RAYS_RETIRED, 1);
+        let dest = Addr::Proc(origin as usize);
+        let Some(hit) = hit else {
+            let sky = self.renderer.sky(task);
+            ctx.emit_result(
+                dest,
+                RtResult {
+                    key,
+                    record: Record::Value(sky),
+                },
+            );
+            return;
+        };
+        ctx.charge(work::SHADE, 1);
+        let sctx = self.renderer.context();
+        let mut requests = Vec::new();
+        let shaded = shade(&sctx, task, &hit, &mut requests);
+        let mut children = Vec::with_capacity(requests.len());
+        for (i, r) in requests.into_iter().enumerate() {
+            match r {
+                Request::Trace { task: child, coef } => {
+                    children.push(Child::Trace(coef));
+                    ctx.charge(work::RAYS_SPAWNED, 1);
+                    ctx.spawn_dp(DpTask::Ray(RayJob {
+                        key: key.child(i),
+                        origin,
+                        task: child,
+                        cursor: TraceCursor::default(),
+                        next: None,
+                    }));
+                }
+                Request::Shadow(bundle) => {
+                    children.push(Child::Shadow);
+                    ctx.charge(work::SHADOW_SPAWNED, 1);
+                    let key = key.child(i);
+                    if self.shadow_goes_dp(&bundle) {
+                        ctx.charge(work::SHADOW_BUNDLES_DP, 1);
+                        ctx.spawn_dp(DpTask::Shadow(ShadowDp {
+                            key,
+                            origin,
+                            bundle,
+                            replay: Replay::default(),
+                            next: None,
+                        }));
+                    } else {
+                        ctx.spawn_dd(DdTask::Shadow(ShadowJob {
+                            key,
+                            origin,
+                            bundle,
+                        }));
+                    }
+                }
+            }
+        }
+        let attenuation = (shaded.extinction != Color::ZERO).then(|| {
+            let e = shaded.extinction * hit.t;
+            Color::new((-e.x).exp(), (-e.y).exp(), (-e.z).exp())
+        });
+        ctx.emit_result(
+            dest,
+            RtResult {
+                key,
+                record: Record::Shaded {
+                    base: shaded.base,
+                    children,
+                    attenuation,
+                },
+            },
+        );
+    }
+
+    /// Traces a ray as far as the local cells allow: finished, or the job
+    /// to migrate.
+    fn advance_ray(
+        &self,
+        mut job: RayJob,
+        data: &DataView<'_, Self>,
+        ctx: &mut Ctx<Self>,
+    ) -> Option<RayJob> {
+        let octree = self.renderer.octree();
+        let objects = &self.renderer.scene().objects;
+        let t = &job.task;
+        match octree.intersect_partial(objects, &t.ray, t.tmin, t.tmax, &mut job.cursor, |l| {
+            Self::is_local(data, l)
+        }) {
+            Partial::Blocked(leaf) => {
+                job.next = Some(leaf);
+                Some(job)
+            }
+            Partial::Done(hit) => {
+                let task = job.task;
+                self.finish_ray(job.key, job.origin, &task, hit, ctx);
+                None
+            }
+        }
+    }
+
+    /// Runs a shadow bundle as far as the local cells allow: finished, or
+    /// the bundle to migrate with its recorded answers.
+    fn advance_shadow(
+        &self,
+        mut job: ShadowDp,
+        data: &DataView<'_, Self>,
+        ctx: &mut Ctx<Self>,
+    ) -> Option<ShadowDp> {
+        let octree = self.renderer.octree();
+        let objects = &self.renderer.scene().objects;
+        if !job.replay.answers.is_empty() || job.replay.cursor != TraceCursor::default() {
+            ctx.charge(work::SHADOW_RESTARTS, 1);
+        }
+        let replay = std::mem::take(&mut job.replay);
+        let caster = PartialCaster::new(octree, objects, |l| Self::is_local(data, l), replay);
+        let mut counts = ShadowCounts::default();
+        let mut scratch = Vec::new();
+        let value = run_shadow_bundle(
+            &self.renderer.context(),
+            &caster,
+            &job.bundle,
+            &mut scratch,
+            &mut counts,
+        );
+        if let Some(leaf) = caster.blocked() {
+            job.replay = caster.into_replay();
+            job.next = Some(leaf);
+            return Some(job);
+        }
+        charge_shadow(ctx, &counts);
+        ctx.emit_result(
+            Addr::Proc(job.origin as usize),
+            RtResult {
+                key: job.key,
+                record: Record::Value(value),
+            },
+        );
+        None
+    }
+}
+
+fn charge_shadow(ctx: &mut Ctx<RtWorkload>, c: &ShadowCounts) {
+    ctx.charge(work::SHADOW_RETIRED, 1);
+    ctx.charge(work::SHADOW_BUNDLES, c.bundles);
+    ctx.charge(work::SHADOW_PATCHES, c.patches);
+    ctx.charge(work::SHADOW_TESTED, c.tested);
+    ctx.charge(work::SHADOW_ESTIMATED, c.estimated);
+    ctx.charge(work::SHADOW_UNOCCLUDED, c.unoccluded);
+    ctx.charge(work::SHADOW_SEGMENTS, c.transparent_segments);
+}
+
+impl Workload for RtWorkload {
+    type DataId = NodeId;
+    type DataItem = CellData;
+    type DdTask = DdTask;
+    type DpTask = DpTask;
+    type Result = RtResult;
+    type Accumulator = PixelTrees;
+
+    fn placement(&self, procs: usize) -> Vec<Placement<NodeId>> {
+        self.owner_table(procs)
+            .into_iter()
+            .map(|(id, owner, bytes)| Placement { id, owner, bytes })
+            .collect()
+    }
+
+    fn load_partition(&self, proc: usize, procs: usize) -> Vec<(NodeId, CellData)> {
+        let objects: std::collections::HashMap<NodeId, u32> =
+            self.cells.iter().map(|&(l, n, _)| (l, n)).collect();
+        self.owner_table(procs)
+            .into_iter()
+            .filter(|&(_, owner, _)| owner == proc)
+            .map(|(leaf, _, bytes)| {
+                (
+                    leaf,
+                    CellData {
+                        leaf,
+                        objects: objects[&leaf],
+                        bytes,
+                    },
+                )
+            })
+            .collect()
+    }
+
+    fn root_tasks(&self, _procs: usize) -> Vec<DdTask> {
+        let t = self.opts.tile;
+        let mut out = Vec::new();
+        for y0 in (0..self.height).step_by(t) {
+            for x0 in (0..self.width).step_by(t) {
+                out.push(DdTask::Tile(Tile {
+                    x0: x0 as u32,
+                    y0: y0 as u32,
+                    x1: (x0 + t).min(self.width) as u32,
+                    y1: (y0 + t).min(self.height) as u32,
+                }));
+            }
+        }
+        out
+    }
+
+    fn select_data(&self, task: &DdTask, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
+        match task {
+            DdTask::Tile(t) => self.select_tile(t, ctx),
+            DdTask::Shadow(j) => self.select_shadow(&j.bundle, ctx),
+        }
+    }
+
+    fn execute_dd(&self, task: DdTask, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
+        match task {
+            DdTask::Tile(t) => {
+                let origin = ctx.proc_id() as u32;
+                for y in t.y0..t.y1 {
+                    for x in t.x0..t.x1 {
+                        let Some(task) = self.primary(x, y) else {
+                            continue;
+                        };
+                        ctx.charge(work::RAYS_SPAWNED, 1);
+                        let job = RayJob {
+                            key: NodeKey::root(y * self.width as u32 + x),
+                            origin,
+                            task,
+                            cursor: TraceCursor::default(),
+                            next: None,
+                        };
+                        if let Some(job) = self.advance_ray(job, data, ctx) {
+                            ctx.charge(work::CLIP_MISSES, 1);
+                            ctx.spawn_dp(DpTask::Ray(job));
+                        }
+                    }
+                }
+            }
+            DdTask::Shadow(j) => {
+                let job = ShadowDp {
+                    key: j.key,
+                    origin: j.origin,
+                    bundle: j.bundle,
+                    replay: Replay::default(),
+                    next: None,
+                };
+                if let Some(job) = self.advance_shadow(job, data, ctx) {
+                    ctx.charge(work::CLIP_MISSES, 1);
+                    ctx.spawn_dp(DpTask::Shadow(job));
+                }
+            }
+        }
+    }
+
+    fn to_data_parallel(&self, task: DdTask, ctx: &mut Ctx<Self>) {
+        match task {
+            DdTask::Tile(t) => {
+                let origin = ctx.proc_id() as u32;
+                for y in t.y0..t.y1 {
+                    for x in t.x0..t.x1 {
+                        if let Some(task) = self.primary(x, y) {
+                            ctx.charge(work::RAYS_SPAWNED, 1);
+                            ctx.spawn_dp(DpTask::Ray(RayJob {
+                                key: NodeKey::root(y * self.width as u32 + x),
+                                origin,
+                                task,
+                                cursor: TraceCursor::default(),
+                                next: None,
+                            }));
+                        }
+                    }
+                }
+            }
+            DdTask::Shadow(j) => {
+                ctx.charge(work::SHADOW_BUNDLES_DP, 1);
+                ctx.spawn_dp(DpTask::Shadow(ShadowDp {
+                    key: j.key,
+                    origin: j.origin,
+                    bundle: j.bundle,
+                    replay: Replay::default(),
+                    next: None,
+                }));
+            }
+        }
+    }
+
+    fn route_dp(&self, task: &DpTask) -> Option<NodeId> {
+        match task {
+            DpTask::Ray(j) => j.next,
+            DpTask::Shadow(s) => s.next,
+        }
+    }
+
+    fn execute_dp(
+        &self,
+        task: DpTask,
+        data: &DataView<'_, Self>,
+        ctx: &mut Ctx<Self>,
+    ) -> DpOutcome<DpTask> {
+        let next = match task {
+            DpTask::Ray(j) => self.advance_ray(j, data, ctx).map(DpTask::Ray),
+            DpTask::Shadow(s) => self.advance_shadow(s, data, ctx).map(DpTask::Shadow),
+        };
+        match next {
+            Some(t) => DpOutcome::Migrate(t),
+            None => DpOutcome::Finished,
+        }
+    }
+
+    fn merge(&self, acc: &mut PixelTrees, result: RtResult) {
+        acc.merge(result);
+    }
+}
+
+/// Shared handle type used by the runtimes.
+pub type SharedWorkload = Arc<RtWorkload>;
