@@ -38,7 +38,7 @@ fn bits(film: &hybrid_rt::image::Film) -> Vec<[u64; 3]> {
 fn case(name: &str, width: usize, height: usize, options: RenderOptions) -> Case {
     let dir = scenes_dir();
     let scene = Arc::new(scene::load(&[dir.join(format!("{name}.rad"))]).expect("scene loads"));
-    let view = View::from_file(&dir.join(format!("{name}.vf"))).expect("view loads");
+    let view = View::from_file(dir.join(format!("{name}.vf"))).expect("view loads");
     let (view, w, h) = view.fit_aspect(width as u32, height as u32);
     let (width, height) = (w as usize, h as usize);
     let r = Renderer::new(&scene, options.clone()).expect("renderer");
@@ -119,25 +119,174 @@ fn check(c: &Case, popts: &ParallelOptions) -> ParallelRender {
     out
 }
 
-#[test]
-fn cornell_smoke() {
-    let c = case("cornell", 32, 32, RenderOptions::default());
-    for procs in [1, 2, 3] {
-        for policy in Policy::ALL {
-            let mut p = ParallelOptions::new(procs);
-            p.policy = policy;
-            p.workload.tile = 8;
-            let out = check(&c, &p);
-            eprintln!(
-                "{procs} {policy}: {} s, clip misses {}",
-                out.render_s,
-                out.work(work::CLIP_MISSES)
+/// Checks the framework's bounds at the end of a run: input buffers within
+/// the credit bound, cached bytes within the budget.
+fn check_bounds(out: &ParallelRender, what: &str) {
+    let bound = hybrid_sched::Config::new(out.options.procs).input_buffer_bound();
+    for (i, p) in out.stats.procs.iter().enumerate() {
+        assert!(
+            p.memory.input_buffer_items <= bound,
+            "{what}: processor {i} input buffer {} > {bound}",
+            p.memory.input_buffer_items
+        );
+        if let Some(budget) = out.cache_bytes {
+            assert!(
+                p.memory.cached_bytes <= budget,
+                "{what}: processor {i} cached {} bytes > budget {budget}",
+                p.memory.cached_bytes
             );
         }
     }
-    let _ = (
+}
+
+/// The four cache sizes of the issue: unlimited, 50 %, 10 %, and smaller
+/// than one task's data (the largest single cell: every task needing two
+/// cells or more must fall back to data-parallel execution).
+fn caches(c: &Case) -> Vec<CacheSize> {
+    vec![
         CacheSize::Unlimited,
-        Distribution::Worst,
-        RuntimeKind::Threads,
+        CacheSize::Percent(50.0),
+        CacheSize::Percent(10.0),
+        CacheSize::Bytes(largest_cell(c)),
+    ]
+}
+
+fn largest_cell(c: &Case) -> u64 {
+    use hybrid_rt::parallel::RtWorkload;
+    use hybrid_sched::Workload;
+    let r = Renderer::shared(c.scene.clone(), c.options.clone(), &Default::default()).unwrap();
+    let wl = RtWorkload::new(r, c.view.clone(), c.width, c.height, 1, Default::default());
+    wl.placement(1).iter().map(|p| p.bytes).max().unwrap_or(1)
+}
+
+#[test]
+fn cornell_equals_sequential_for_every_procs_policy_cache_distribution() {
+    let c = case("cornell", 24, 24, RenderOptions::default());
+    let mut fallbacks = 0;
+    let mut migrations = 0;
+    for procs in [1, 2, 3, 4, 8, 16] {
+        for distribution in [Distribution::Octree, Distribution::Worst] {
+            for cache in caches(&c) {
+                for policy in Policy::ALL {
+                    let mut p = ParallelOptions::new(procs);
+                    p.policy = policy;
+                    p.cache = cache;
+                    p.workload.tile = 4;
+                    p.workload.distribution = distribution;
+                    let out = check(&c, &p);
+                    check_bounds(&out, &format!("{p:?}"));
+                    fallbacks += out.stats.sum(|s| s.tasks.fallbacks);
+                    migrations += out.stats.sum(|s| s.tasks.migrations);
+                }
+            }
+        }
+    }
+    // The matrix exercised both escape routes of the hybrid scheduler.
+    assert!(fallbacks > 0, "no task ever fell back to data-parallel");
+    assert!(migrations > 0, "no ray ever migrated");
+}
+
+#[test]
+fn studio_with_glass_and_metal_equals_sequential() {
+    let c = case("studio", 40, 30, RenderOptions::default());
+    assert!(
+        c.counts.reflection + c.counts.refraction > 0,
+        "the view must see specular surfaces"
     );
+    for procs in [2, 3, 8] {
+        for cache in caches(&c) {
+            for policy in Policy::ALL {
+                let mut p = ParallelOptions::new(procs);
+                p.policy = policy;
+                p.cache = cache;
+                p.workload.tile = 8;
+                let out = check(&c, &p);
+                check_bounds(&out, &format!("{p:?}"));
+            }
+        }
+    }
+}
+
+#[test]
+fn every_shadow_bundle_data_parallel_and_the_worst_distribution() {
+    // All bundles migrate with their recorded answers; a tiny cache forces
+    // tiles to fall back too: the whole render runs data-parallel.
+    let c = case("studio", 32, 24, RenderOptions::default());
+    for distribution in [Distribution::Octree, Distribution::Worst] {
+        let mut p = ParallelOptions::new(4);
+        p.policy = Policy::RoundRobin;
+        p.cache = CacheSize::Bytes(1);
+        p.workload.tile = 8;
+        p.workload.shadow_dp_below = usize::MAX;
+        p.workload.distribution = distribution;
+        let out = check(&c, &p);
+        assert_eq!(
+            out.work(work::SHADOW_BUNDLES_DP),
+            out.work(work::SHADOW_SPAWNED),
+            "every bundle should have run data-parallel"
+        );
+        assert!(out.stats.sum(|s| s.tasks.fallbacks) > 0);
+        if distribution == Distribution::Octree {
+            assert!(
+                out.work(work::SHADOW_RESTARTS) > 0,
+                "bundles should have migrated mid-way"
+            );
+        }
+    }
+}
+
+#[test]
+fn jittered_pixels_and_sources_and_the_framework_sequential_runtime() {
+    let options = RenderOptions {
+        pj: 0.9,
+        dj: 0.7,
+        seed: 11,
+        ..RenderOptions::default()
+    };
+    let c = case("cornell", 20, 20, options);
+    let mut p = ParallelOptions::new(3);
+    p.policy = Policy::ToOrigin;
+    p.cache = CacheSize::Percent(10.0);
+    p.workload.tile = 5;
+    check(&c, &p);
+    p.runtime = RuntimeKind::Sequential;
+    check(&c, &p);
+}
+
+#[test]
+fn resident_bytes_are_reported_and_the_worst_case_puts_everything_on_one() {
+    let c = case("cornell", 8, 8, RenderOptions::default());
+    let mut p = ParallelOptions::new(4);
+    let balanced = run(&c, &p);
+    assert_eq!(balanced.procs.len(), 4);
+    assert!(balanced.procs.iter().all(|s| s.resident_bytes > 0));
+    p.workload.distribution = Distribution::Worst;
+    let worst = run(&c, &p);
+    assert!(worst.procs[0].resident_bytes > 0);
+    assert!(worst.procs[1..].iter().all(|s| s.resident_bytes == 0));
+    assert!(
+        worst.procs[0].resident_bytes
+            >= balanced
+                .procs
+                .iter()
+                .map(|s| s.resident_bytes)
+                .max()
+                .unwrap()
+    );
+}
+
+#[test]
+fn cache_size_parses_bytes_suffixes_and_percentages() {
+    assert_eq!("unlimited".parse::<CacheSize>(), Ok(CacheSize::Unlimited));
+    assert_eq!("64M".parse::<CacheSize>(), Ok(CacheSize::Bytes(64 << 20)));
+    assert_eq!("512k".parse::<CacheSize>(), Ok(CacheSize::Bytes(512 << 10)));
+    assert_eq!("1000".parse::<CacheSize>(), Ok(CacheSize::Bytes(1000)));
+    assert_eq!("10%".parse::<CacheSize>(), Ok(CacheSize::Percent(10.0)));
+    for bad in ["", "ten", "-5%", "5X", "99999999999999999999G"] {
+        assert!(bad.parse::<CacheSize>().is_err(), "{bad:?}");
+    }
+    assert_eq!(CacheSize::Percent(10.0).resolve(1000), Some(100));
+    assert_eq!("worst".parse::<Distribution>(), Ok(Distribution::Worst));
+    assert!("diagonal".parse::<Distribution>().is_err());
+    assert!("mpi".parse::<RuntimeKind>().is_err());
 }

@@ -438,7 +438,11 @@ impl<W: Workload> Processor<W> {
     fn dispatch(&mut self, ctx: Ctx<W>, origin: Option<usize>, now: Time) -> Result<(), String> {
         self.stats.charge(&ctx.charges);
         for &(kind, units) in &ctx.charges {
-            match self.last_charges.iter_mut().find(|(k, _)| *k == kind) {
+            match self
+                .last_charges
+                .iter_mut()
+                .find(|(k, _)| crate::workload::same_kind(k, kind))
+            {
                 Some(e) => e.1 += units,
                 None => self.last_charges.push((kind, units)),
             }

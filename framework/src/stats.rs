@@ -276,9 +276,14 @@ impl ProcStats {
 
     /// Adds counted work.
     pub fn charge(&mut self, charges: &[(&'static str, u64)]) {
-        for (kind, units) in charges {
-            let e = self.work.entry((*kind).to_string()).or_default();
-            *e = e.saturating_add(*units);
+        for &(kind, units) in charges {
+            // Look up before inserting: no allocation on the hot path.
+            match self.work.get_mut(kind) {
+                Some(e) => *e = e.saturating_add(units),
+                None => {
+                    self.work.insert(kind.to_string(), units);
+                }
+            }
         }
     }
 

@@ -125,6 +125,13 @@ pub trait Workload: Send + Sync + Sized + 'static {
     fn merge(&self, acc: &mut Self::Accumulator, result: Self::Result);
 }
 
+/// Equal work kinds; kinds are usually the same static strings, so the
+/// addresses are compared first.
+#[inline]
+pub(crate) fn same_kind(a: &str, b: &str) -> bool {
+    (std::ptr::eq(a.as_ptr(), b.as_ptr()) && a.len() == b.len()) || a == b
+}
+
 /// The hook context: everything a hook may do besides reading data.
 ///
 /// Emitted work is collected here and scheduled by the framework after the
@@ -168,7 +175,8 @@ impl<W: Workload> Ctx<W> {
     /// "clip"). The simulator turns these into virtual time with a cost model;
     /// all runtimes report them in the statistics.
     pub fn charge(&mut self, kind: &'static str, units: u64) {
-        if let Some(entry) = self.charges.iter_mut().find(|(k, _)| *k == kind) {
+        // Kinds are usually the same static strings: compare addresses first.
+        if let Some(entry) = self.charges.iter_mut().find(|(k, _)| same_kind(k, kind)) {
             entry.1 = entry.1.saturating_add(units);
         } else {
             self.charges.push((kind, units));

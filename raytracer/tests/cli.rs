@@ -287,3 +287,87 @@ fn help_and_unknown_command() {
     let o = run(&["paint"]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+#[test]
+fn parallel_render_writes_the_sequential_picture_and_a_report() {
+    let d = tmpdir("parallel");
+    let (rad, vf) = cornell_files(&d);
+    let seq = d.join("seq.hdr");
+    let par = d.join("par.hdr");
+    let json = d.join("par.json");
+    let base = [
+        "render",
+        &rad,
+        "--view-file",
+        &vf,
+        "--width",
+        "40",
+        "--height",
+        "40",
+    ];
+    let o = run(&[&base[..], &["-o", seq.to_str().unwrap()]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&[
+        &base[..],
+        &[
+            "--procs",
+            "3",
+            "--policy",
+            "round-robin",
+            "--cache",
+            "10%",
+            "--distribution",
+            "octree",
+            "--tile",
+            "8",
+            "--parallel-stats",
+            json.to_str().unwrap(),
+            "-o",
+            par.to_str().unwrap(),
+        ],
+    ]
+    .concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&seq).unwrap(), std::fs::read(&par).unwrap());
+    let err = stderr(&o);
+    assert!(err.contains("parallel render: 3 processors"), "{err}");
+    assert!(err.contains("hit%"), "{err}");
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(stats["stats"]["procs"].as_array().unwrap().len(), 3);
+    assert_eq!(stats["procs"].as_array().unwrap().len(), 3);
+}
+
+#[test]
+fn bad_parallel_options_are_usage_errors() {
+    let d = tmpdir("parallel-bad");
+    let (rad, vf) = cornell_files(&d);
+    let out = d.join("x.png");
+    for (flag, value, says) in [
+        ("--procs", "0", "--procs 0"),
+        ("--policy", "fastest", "--policy"),
+        ("--cache", "lots", "--cache"),
+        ("--distribution", "diagonal", "--distribution"),
+        ("--runtime", "quantum", "--runtime"),
+        ("--tile", "0", "--tile 0"),
+    ] {
+        let mut args = vec![
+            "render",
+            &rad,
+            "--view-file",
+            &vf,
+            "--width",
+            "8",
+            "--height",
+            "8",
+        ];
+        if flag != "--procs" {
+            args.extend(["--procs", "2"]);
+        }
+        args.extend([flag, value, "-o", out.to_str().unwrap()]);
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(2), "{flag} {value}: {}", stderr(&o));
+        assert!(stderr(&o).contains(says), "{flag} {value}: {}", stderr(&o));
+        assert!(!out.exists());
+    }
+}

@@ -239,31 +239,45 @@ impl Octree {
     /// bundle ray passes through within the pyramid's limits is selected.
     pub fn clip(&self, pyramid: &Pyramid) -> ClipResult {
         let mut out = ClipResult::default();
+        let mut seen = std::collections::HashSet::new();
+        let mut leaves = Vec::new();
+        out.node_visits = self.clip_leaves(pyramid, |id| leaves.push(id));
+        for &id in &leaves {
+            if let NodeView::Leaf { objects } = self.node(id) {
+                for &o in objects {
+                    if seen.insert(o) {
+                        out.objects.push(o);
+                    }
+                }
+            }
+        }
+        out.leaves = leaves;
+        out
+    }
+
+    /// The leaf-only form of [`Octree::clip`]: calls `leaf` for every leaf
+    /// meeting the pyramid, front to back, and returns the number of nodes
+    /// visited. Allocates nothing but the traversal stack.
+    pub fn clip_leaves<F: FnMut(NodeId)>(&self, pyramid: &Pyramid, mut leaf: F) -> u64 {
+        let mut visits = 0u64;
         let Some(root) = self.root() else {
-            return out;
+            return 0;
         };
         let rb = self.root_bounds();
         let scale = rb.extent().max_element() + pyramid.apex.abs().max_element();
         let tol = 1e-9 * scale;
         let margin = self.margin();
-        let mut seen = std::collections::HashSet::new();
-        let mut stack = vec![root];
+        let mut stack = Vec::with_capacity(64);
+        stack.push(root);
         while let Some(id) = stack.pop() {
-            out.node_visits += 1;
+            visits += 1;
             let b = self.node_bounds(id);
             let b = Aabb::new(b.min - margin, b.max + margin);
             if pyramid.planes.iter().any(|pl| pl.excludes(&b, tol)) {
                 continue;
             }
             match self.node(id) {
-                NodeView::Leaf { objects } => {
-                    out.leaves.push(id);
-                    for &o in objects {
-                        if seen.insert(o) {
-                            out.objects.push(o);
-                        }
-                    }
-                }
+                NodeView::Leaf { .. } => leaf(id),
                 NodeView::Internal { children } => {
                     let c = b.center();
                     let a = pyramid.apex;
@@ -277,7 +291,7 @@ impl Octree {
                 }
             }
         }
-        out
+        visits
     }
 }
 

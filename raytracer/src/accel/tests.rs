@@ -744,3 +744,80 @@ fn instances_in_the_octree() {
         .unwrap();
     assert!(hits.get() > 400, "{} hits", hits.get());
 }
+
+/// Runs a resumable query the way a migrating ray does: on "processor"
+/// `owner(leaf) = hash(leaf) % procs`, moving to the owner of each leaf it
+/// is blocked on, until it is answered. Returns the answer and the number
+/// of migrations.
+fn migrate<T>(
+    procs: u32,
+    salt: u32,
+    mut step: impl FnMut(&mut TraceCursor, &dyn Fn(NodeId) -> bool) -> Partial<T>,
+) -> (T, u32) {
+    let owner = move |leaf: NodeId| leaf.wrapping_mul(2654435761).wrapping_add(salt) % procs;
+    let mut here = 0u32;
+    let mut cursor = TraceCursor::default();
+    let mut hops = 0;
+    loop {
+        let local = move |leaf: NodeId| owner(leaf) == here;
+        match step(&mut cursor, &local) {
+            Partial::Done(t) => return (t, hops),
+            Partial::Blocked(leaf) => {
+                assert_ne!(owner(leaf), here, "blocked on a local leaf");
+                here = owner(leaf);
+                hops += 1;
+                assert!(hops < 100_000, "no progress");
+            }
+        }
+    }
+}
+
+#[test]
+fn resumable_traversal_equals_intersect_and_occluded_wherever_it_stops() {
+    let mut total_hops = 0;
+    for (seed, n, max_objects) in [(7u64, 400usize, 4usize), (8, 120, 1)] {
+        let objects = random_scene(seed, n, 10.0);
+        let params = OctreeParams {
+            max_objects,
+            ..OctreeParams::default()
+        };
+        let tree = Octree::build(&objects, &params);
+        let mut runner = TestRunner::new(Config {
+            cases: 300,
+            rng_seed: RngSeed::Fixed(seed),
+            ..Config::default()
+        });
+        let hops = std::cell::Cell::new(0u32);
+        runner
+            .run(
+                &(
+                    (-2.0f64..12.0, -2.0f64..12.0, -2.0f64..12.0),
+                    arb_dir(),
+                    0.0f64..1.0,
+                    1u32..6,
+                    any::<u32>(),
+                ),
+                |((x, y, z), d, tm, procs, salt)| {
+                    let ray = Ray::new(v(x, y, z), d);
+                    for tmax in [f64::INFINITY, tm * 8.0] {
+                        let want = tree.intersect(&objects, &ray, 0.0, tmax);
+                        let (got, h) = migrate(procs, salt, |c, local| {
+                            tree.intersect_partial(&objects, &ray, 0.0, tmax, c, local)
+                        });
+                        prop_assert_eq!(got, want);
+                        hops.set(hops.get() + h);
+                        let ignore = want.map(|h| h.object);
+                        let want = tree.occluded(&objects, &ray, 0.0, tmax, ignore);
+                        let (got, _) = migrate(procs, salt, |c, local| {
+                            tree.occluded_partial(&objects, &ray, 0.0, tmax, ignore, c, local)
+                        });
+                        prop_assert_eq!(got, want);
+                    }
+                    Ok(())
+                },
+            )
+            .unwrap();
+        total_hops += hops.get();
+    }
+    assert!(total_hops > 100, "rays should have migrated: {total_hops}");
+}

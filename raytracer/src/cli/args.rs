@@ -23,9 +23,9 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Render a scene to a PNG or Radiance HDR picture.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Measure primary and shadow ray throughput on a scene.
-    Bench(BenchArgs),
+    Bench(Box<BenchArgs>),
 }
 
 /// Radiance rendering options (long forms of `-ds`, `-dj`, ...).
@@ -140,6 +140,74 @@ pub struct RenderArgs {
     pub seed: u64,
     #[command(flatten)]
     pub radiance: RadianceArgs,
+    #[command(flatten)]
+    pub parallel: ParallelArgs,
+}
+
+/// The hybrid-scheduled parallel renderer (used when `--procs` is given).
+#[derive(Debug, Args, Default)]
+pub struct ParallelArgs {
+    /// Render in parallel on N processors (hybrid scheduling); without it, the sequential renderer runs.
+    #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
+    pub procs: Option<usize>,
+    /// Runtime driving the processors: threads or sequential (the framework's one-processor reference).
+    #[arg(
+        long,
+        default_value = "threads",
+        value_name = "RUNTIME",
+        help_heading = "Parallel rendering"
+    )]
+    pub runtime: String,
+    /// Placement of shadow tasks: local, via-master, to-origin or round-robin.
+    #[arg(
+        long,
+        default_value = "local",
+        value_name = "POLICY",
+        help_heading = "Parallel rendering"
+    )]
+    pub policy: String,
+    /// Object cache per processor: unlimited, bytes (64M, 512K) or a percentage of the scene data (10%).
+    #[arg(
+        long,
+        default_value = "unlimited",
+        value_name = "SIZE",
+        help_heading = "Parallel rendering"
+    )]
+    pub cache: String,
+    /// Data distribution: octree (balanced cut near the root) or worst (one processor holds everything).
+    #[arg(
+        long,
+        default_value = "octree",
+        value_name = "D",
+        help_heading = "Parallel rendering"
+    )]
+    pub distribution: String,
+    /// Side of the square screen tiles handed out as primary tasks, in pixels.
+    #[arg(
+        long,
+        default_value_t = 16,
+        value_name = "PIXELS",
+        help_heading = "Parallel rendering"
+    )]
+    pub tile: usize,
+    /// Shadow bundles with fewer (estimated) rays than this run data-parallel instead of being clipped.
+    #[arg(
+        long = "shadow-dp-below",
+        default_value_t = 2,
+        value_name = "RAYS",
+        help_heading = "Parallel rendering"
+    )]
+    pub shadow_dp_below: usize,
+    /// Worker threads for the threads runtime [default: one per core].
+    #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
+    pub threads: Option<usize>,
+    /// Write the parallel run's statistics (per processor: times, traffic, tasks, cache, memory, work) as JSON.
+    #[arg(
+        long = "parallel-stats",
+        value_name = "FILE",
+        help_heading = "Parallel rendering"
+    )]
+    pub parallel_stats: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -174,6 +242,15 @@ const VALUE_FLAGS: &[&str] = &[
     "--width",
     "--height",
     "--scene",
+    "--procs",
+    "--runtime",
+    "--policy",
+    "--cache",
+    "--distribution",
+    "--tile",
+    "--shadow-dp-below",
+    "--threads",
+    "--parallel-stats",
 ];
 
 /// Number of values each Radiance view option takes.

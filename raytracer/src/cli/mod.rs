@@ -6,9 +6,11 @@
 
 mod args;
 mod bench;
+mod parallel;
 mod render;
 
-pub use args::{translate, BenchArgs, Cli, Command, RenderArgs};
+pub use args::{translate, BenchArgs, Cli, Command, ParallelArgs, RenderArgs};
+pub use parallel::summary as parallel_summary;
 
 use clap::Parser;
 

@@ -2,13 +2,16 @@
 
 use std::io::IsTerminal;
 use std::path::Path;
+use std::sync::Arc;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::args::RenderArgs;
 use super::{options_from, print_scene_warnings, usage};
+use crate::image::Film;
 use crate::image::{write_image, Exposure, HdrInfo, ImageFormat, ToneMap, Transfer};
-use crate::render::{check_resolution, Renderer};
+use crate::parallel::{render_parallel, ParallelOptions};
+use crate::render::{check_resolution, RenderOptions, Renderer};
 use crate::scene::{self, View};
 use crate::{Error, Result, SourceLoc};
 
@@ -81,8 +84,12 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
     let (width, height) = (width as usize, height as usize);
     check_resolution(width, height)?;
 
+    let popts = match a.parallel.procs {
+        Some(n) => Some(super::parallel::options(&a.parallel, n)?),
+        None => None,
+    };
     let t0 = std::time::Instant::now();
-    let scene = scene::load(&a.scenes)?;
+    let scene = Arc::new(scene::load(&a.scenes)?);
     print_scene_warnings(&scene);
     tracing::info!(
         objects = scene.stats.objects,
@@ -90,6 +97,9 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
         seconds = t0.elapsed().as_secs_f64(),
         "scene loaded"
     );
+    if let Some(popts) = popts {
+        return run_parallel(a, scene, options, &view, width, height, &popts, exposure);
+    }
     let renderer = Renderer::new(&scene, options)?;
     for w in renderer.warnings() {
         eprintln!("warning: {w}");
@@ -112,19 +122,9 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
     })?;
     bar.finish_and_clear();
 
-    let tone = ToneMap {
-        exposure: exposure.map_or(Exposure::Auto, Exposure::Fixed),
-        transfer: a.gamma.map_or(Transfer::Srgb, Transfer::Gamma),
-    };
-    let info = HdrInfo {
-        view: Some(view.to_options()),
-        software: Some(format!("hybrid-rt {}", env!("CARGO_PKG_VERSION"))),
-    };
-    write_image(&film, &a.output, &tone, &info)?;
+    write_film(a, &film, &view, exposure)?;
     if let Some(path) = &a.stats {
-        let json = serde_json::to_string_pretty(&stats)
-            .map_err(|e| Error::Other(format!("statistics: {e}")))?;
-        std::fs::write(path, json + "\n").map_err(|e| Error::io(path, e))?;
+        write_json(path, &stats)?;
     }
     tracing::info!(
         width,
@@ -135,5 +135,49 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
         "rendered {}",
         a.output.display()
     );
+    Ok(())
+}
+
+fn write_film(a: &RenderArgs, film: &Film, view: &View, exposure: Option<f64>) -> Result<()> {
+    let tone = ToneMap {
+        exposure: exposure.map_or(Exposure::Auto, Exposure::Fixed),
+        transfer: a.gamma.map_or(Transfer::Srgb, Transfer::Gamma),
+    };
+    let info = HdrInfo {
+        view: Some(view.to_options()),
+        software: Some(format!("hybrid-rt {}", env!("CARGO_PKG_VERSION"))),
+    };
+    write_image(film, &a.output, &tone, &info)
+}
+
+fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
+    let json = serde_json::to_string_pretty(value)
+        .map_err(|e| Error::Other(format!("statistics: {e}")))?;
+    std::fs::write(path, json + "\n").map_err(|e| Error::io(path, e))
+}
+
+/// The `--procs` path: the hybrid-scheduled renderer.
+#[allow(clippy::too_many_arguments)]
+fn run_parallel(
+    a: &RenderArgs,
+    scene: Arc<scene::Scene>,
+    options: RenderOptions,
+    view: &View,
+    width: usize,
+    height: usize,
+    popts: &ParallelOptions,
+    exposure: Option<f64>,
+) -> Result<()> {
+    let out = render_parallel(scene, options, view, width, height, popts)?;
+    eprint!("{}", super::parallel::summary(&out));
+    write_film(a, &out.film, view, exposure)?;
+    if let Some(path) = &a.parallel.parallel_stats {
+        write_json(path, &out)?;
+    }
+    if a.stats.is_some() {
+        eprintln!(
+            "warning: --stats describes sequential renders; use --parallel-stats with --procs"
+        );
+    }
     Ok(())
 }

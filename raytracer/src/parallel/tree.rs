@@ -113,7 +113,10 @@ struct Pending {
 pub struct PixelTrees {
     /// Finished pixels: (row-major index, radiance).
     pub pixels: Vec<(u32, Color)>,
-    pending: HashMap<NodeKey, Pending>,
+    /// Nodes in flight, per pixel (a pixel's tree is small: linear search).
+    pending: HashMap<u32, Vec<(Vec<u16>, Pending)>>,
+    /// Number of nodes in `pending`.
+    nodes: usize,
     /// Most nodes held at once (memory high-water of the assembly).
     pub peak_pending: usize,
     /// Records merged.
@@ -124,7 +127,40 @@ impl PixelTrees {
     /// Nodes still waiting: zero after a complete run (anything else means a
     /// result was lost).
     pub fn pending(&self) -> usize {
-        self.pending.len()
+        self.nodes
+    }
+
+    /// The entry of node (`pixel`, `path`), created if absent.
+    fn entry(&mut self, pixel: u32, path: &[u16]) -> &mut Pending {
+        let list = self.pending.entry(pixel).or_default();
+        let i = match list.iter().position(|(p, _)| p.as_slice() == path) {
+            Some(i) => i,
+            None => {
+                list.push((path.to_vec(), Pending::default()));
+                self.nodes += 1;
+                self.peak_pending = self.peak_pending.max(self.nodes);
+                list.len() - 1
+            }
+        };
+        &mut list[i].1
+    }
+
+    fn get(&self, pixel: u32, path: &[u16]) -> Option<&Pending> {
+        let list = self.pending.get(&pixel)?;
+        list.iter()
+            .find(|(p, _)| p.as_slice() == path)
+            .map(|(_, e)| e)
+    }
+
+    fn remove(&mut self, pixel: u32, path: &[u16]) -> Option<Pending> {
+        let list = self.pending.get_mut(&pixel)?;
+        let i = list.iter().position(|(p, _)| p.as_slice() == path)?;
+        let (_, e) = list.swap_remove(i);
+        if list.is_empty() {
+            self.pending.remove(&pixel);
+        }
+        self.nodes -= 1;
+        Some(e)
     }
 
     /// Adds one result.
@@ -142,56 +178,40 @@ impl PixelTrees {
                     self.deliver(r.key, v);
                     return;
                 }
-                let entry = self.pending.entry(r.key.clone()).or_default();
+                let entry = self.entry(r.key.pixel, &r.key.path);
                 debug_assert!(entry.record.is_none(), "node {:?} shaded twice", r.key);
                 entry.record = Some((base, children, attenuation));
-                self.peak_pending = self.peak_pending.max(self.pending.len());
-                self.try_finish(r.key);
+                if let Some(v) = self.complete(r.key.pixel, &r.key.path) {
+                    self.deliver(r.key, v);
+                }
             }
         }
     }
 
     /// Hands the value of node `key` to its parent (or finishes the pixel).
     fn deliver(&mut self, key: NodeKey, value: Color) {
-        let mut key = key;
+        let pixel = key.pixel;
+        let mut path = key.path;
         let mut value = value;
-        loop {
-            let Some((&last, parent_path)) = key.path.split_last() else {
-                self.pixels.push((key.pixel, value));
-                return;
-            };
-            let parent = NodeKey {
-                pixel: key.pixel,
-                path: parent_path.to_vec(),
-            };
-            let entry = self.pending.entry(parent.clone()).or_default();
-            entry.values.push((last, value));
-            self.peak_pending = self.peak_pending.max(self.pending.len());
-            match self.complete(&parent) {
-                Some(v) => {
-                    key = parent;
-                    value = v;
-                }
+        while let Some(last) = path.pop() {
+            self.entry(pixel, &path).values.push((last, value));
+            match self.complete(pixel, &path) {
+                Some(v) => value = v,
                 None => return,
             }
         }
+        self.pixels.push((pixel, value));
     }
 
-    fn try_finish(&mut self, key: NodeKey) {
-        if let Some(v) = self.complete(&key) {
-            self.deliver(key, v);
-        }
-    }
-
-    /// If node `key` has its record and every child value, removes it and
-    /// returns its value.
-    fn complete(&mut self, key: &NodeKey) -> Option<Color> {
-        let entry = self.pending.get(key)?;
+    /// If node (`pixel`, `path`) has its record and every child value,
+    /// removes it and returns its value.
+    fn complete(&mut self, pixel: u32, path: &[u16]) -> Option<Color> {
+        let entry = self.get(pixel, path)?;
         let (_, children, _) = entry.record.as_ref()?;
         if entry.values.len() < children.len() {
             return None;
         }
-        let mut entry = self.pending.remove(key)?;
+        let mut entry = self.remove(pixel, path)?;
         let (base, children, attenuation) = entry.record.take()?;
         entry.values.sort_by_key(|&(i, _)| i);
         let values: Vec<Color> = entry.values.iter().map(|&(_, c)| c).collect();

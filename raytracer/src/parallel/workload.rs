@@ -35,7 +35,7 @@ use super::tree::{Child, NodeKey, PixelTrees, Record, RtResult};
 use crate::accel::partition::object_bytes;
 use crate::accel::{Hit, NodeId, Partial, Partition, Pyramid, TraceCursor};
 use crate::geometry::robust::orthonormal_basis;
-use crate::geometry::Vec3;
+use crate::geometry::{Aabb, Vec3};
 use crate::render::direct::{run_shadow_bundle, ShadowCounts};
 use crate::render::light::LightExtent;
 use crate::render::material::shade;
@@ -179,25 +179,25 @@ impl ByteSize for DpTask {
 
 /// Work-unit names charged to the framework's statistics.
 pub mod work {
-    pub const CLIP_NODES: &str = "clip.nodes";
-    pub const CLIP_MISSES: &str = "clip.misses";
-    pub const RAYS_PRIMARY: &str = "rays.primary";
-    pub const RAYS_REFLECTION: &str = "rays.reflection";
-    pub const RAYS_REFRACTION: &str = "rays.refraction";
-    pub const RAYS_PASS_THROUGH: &str = "rays.pass_through";
-    pub const RAYS_SPAWNED: &str = "rays.spawned";
-    pub const RAYS_RETIRED: &str = "rays.retired";
-    pub const SHADOW_BUNDLES: &str = "shadow.bundles";
-    pub const SHADOW_BUNDLES_DP: &str = "shadow.bundles_dp";
-    pub const SHADOW_SPAWNED: &str = "shadow.spawned";
-    pub const SHADOW_RETIRED: &str = "shadow.retired";
-    pub const SHADOW_PATCHES: &str = "shadow.patches";
-    pub const SHADOW_TESTED: &str = "shadow.tested";
-    pub const SHADOW_ESTIMATED: &str = "shadow.estimated";
-    pub const SHADOW_UNOCCLUDED: &str = "shadow.unoccluded";
-    pub const SHADOW_SEGMENTS: &str = "shadow.transparent_segments";
-    pub const SHADOW_RESTARTS: &str = "shadow.restarts";
-    pub const SHADE: &str = "shade";
+    pub static CLIP_NODES: &str = "clip.nodes";
+    pub static CLIP_MISSES: &str = "clip.misses";
+    pub static RAYS_PRIMARY: &str = "rays.primary";
+    pub static RAYS_REFLECTION: &str = "rays.reflection";
+    pub static RAYS_REFRACTION: &str = "rays.refraction";
+    pub static RAYS_PASS_THROUGH: &str = "rays.pass_through";
+    pub static RAYS_SPAWNED: &str = "rays.spawned";
+    pub static RAYS_RETIRED: &str = "rays.retired";
+    pub static SHADOW_BUNDLES: &str = "shadow.bundles";
+    pub static SHADOW_BUNDLES_DP: &str = "shadow.bundles_dp";
+    pub static SHADOW_SPAWNED: &str = "shadow.spawned";
+    pub static SHADOW_RETIRED: &str = "shadow.retired";
+    pub static SHADOW_PATCHES: &str = "shadow.patches";
+    pub static SHADOW_TESTED: &str = "shadow.tested";
+    pub static SHADOW_ESTIMATED: &str = "shadow.estimated";
+    pub static SHADOW_UNOCCLUDED: &str = "shadow.unoccluded";
+    pub static SHADOW_SEGMENTS: &str = "shadow.transparent_segments";
+    pub static SHADOW_RESTARTS: &str = "shadow.restarts";
+    pub static SHADE: &str = "shade";
 }
 
 /// Knobs of the parallel renderer that are not the framework's.
@@ -232,7 +232,13 @@ pub struct RtWorkload {
     /// Non-empty leaves with their data size.
     cells: Vec<(NodeId, u32, u64)>,
     partition: Partition,
+    /// Per node: the one processor owning every non-empty leaf below it,
+    /// [`EMPTY`] if there is none, [`MIXED`] if several own some.
+    subtree_owner: Vec<u32>,
 }
+
+const EMPTY: u32 = u32::MAX - 1;
+const MIXED: u32 = u32::MAX;
 
 impl RtWorkload {
     /// A workload rendering `view` at `width` x `height` on `procs`
@@ -261,7 +267,9 @@ impl RtWorkload {
             })
             .collect();
         let partition = Self::partition_for(&renderer, opts.distribution, procs);
+        let subtree_owner = Self::subtree_owners(&renderer, &partition);
         RtWorkload {
+            subtree_owner,
             renderer,
             view,
             width,
@@ -282,6 +290,53 @@ impl RtWorkload {
             Distribution::Octree => Partition::new(octree, objects, procs),
             Distribution::Worst => Partition::worst_case(octree, objects, procs),
         }
+    }
+
+    fn subtree_owners(renderer: &Renderer<'static>, part: &Partition) -> Vec<u32> {
+        let octree = renderer.octree();
+        let n = octree.node_count();
+        let mut out = vec![EMPTY; n];
+        // Children always have larger ids than their parent.
+        for id in (0..n as NodeId).rev() {
+            out[id as usize] = match octree.children(id) {
+                None if octree.leaf_objects(id).is_empty() => EMPTY,
+                None => part.owner(id),
+                Some(ch) => ch
+                    .iter()
+                    .fold(EMPTY, |acc, &c| match (acc, out[c as usize]) {
+                        (a, EMPTY) => a,
+                        (EMPTY, b) => b,
+                        (a, b) if a == b => a,
+                        _ => MIXED,
+                    }),
+            };
+        }
+        out
+    }
+
+    /// True if every leaf a bundle confined to `bounds` (`None`: anywhere)
+    /// can touch is resident on processor `proc`: its data selection would
+    /// fetch nothing, so clipping is skipped.
+    fn all_resident(&self, bounds: Option<Aabb>, proc: usize, procs: usize) -> bool {
+        if self.partition.procs() as usize != procs || self.subtree_owner.is_empty() {
+            return false;
+        }
+        let octree = self.renderer.octree();
+        let mut node: NodeId = 0;
+        if let Some(b) = bounds {
+            'descend: while let Some(children) = octree.children(node) {
+                for c in children {
+                    let cb = octree.node_bounds(c);
+                    if (cb.min.cmple(b.min) & cb.max.cmpge(b.max)).all() {
+                        node = c;
+                        continue 'descend;
+                    }
+                }
+                break;
+            }
+        }
+        let o = self.subtree_owner[node as usize];
+        o == EMPTY || o as usize == proc
     }
 
     pub fn renderer(&self) -> &Renderer<'static> {
@@ -319,8 +374,13 @@ impl RtWorkload {
             .collect()
     }
 
-    fn is_local(view: &DataView<'_, Self>, leaf: NodeId) -> bool {
-        view.get(&leaf).is_some()
+    /// Whether `leaf`'s objects are available on processor `proc` (of
+    /// `procs`): resident by the partition (an array lookup) or in the view
+    /// (cached, or resident under a runtime that holds everything locally).
+    #[inline]
+    fn is_local(&self, view: &DataView<'_, Self>, proc: usize, procs: usize, leaf: NodeId) -> bool {
+        (self.partition.procs() as usize == procs && self.partition.owner(leaf) as usize == proc)
+            || view.get(&leaf).is_some()
     }
 
     /// The non-empty leaves among `leaves`, each once, in order.
@@ -337,6 +397,9 @@ impl RtWorkload {
     /// tile's corners (perspective views), else the leaves along every
     /// primary ray.
     fn select_tile(&self, t: &Tile, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
+        if self.all_resident(None, ctx.proc_id(), ctx.procs()) {
+            return Vec::new();
+        }
         let octree = self.renderer.octree();
         let (w, h) = (self.width as f64, self.height as f64);
         if self.view.vtype == ViewType::Perspective {
@@ -351,9 +414,7 @@ impl RtWorkload {
                 .filter_map(|(x, y)| self.view.ray(x, y).map(|(r, _, _)| r.dir))
                 .collect();
             if dirs.len() == 4 {
-                let clip = octree.clip(&Pyramid::from_rays(self.view.vp, &dirs));
-                ctx.charge(work::CLIP_NODES, clip.node_visits);
-                return self.nonempty(clip.leaves);
+                return self.clip(&Pyramid::from_rays(self.view.vp, &dirs), ctx);
             }
         }
         let mut leaves = Vec::new();
@@ -377,13 +438,45 @@ impl RtWorkload {
     /// Data selection for a shadow bundle: the pyramid from the shaded
     /// point around the whole source.
     fn select_shadow(&self, b: &ShadowBundle, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
-        let octree = self.renderer.octree();
-        let Some(pyramid) = self.shadow_pyramid(b) else {
+        // The box holding every shadow ray of the bundle (padded for the
+        // origin offsets), if the source is finite.
+        let bounds = self
+            .renderer
+            .lights()
+            .get(b.light as usize)
+            .and_then(|l| l.extent(self.renderer.scene()))
+            .and_then(|e| match e {
+                LightExtent::Finite(bb) => {
+                    let lo = bb.min.min(b.point);
+                    let hi = bb.max.max(b.point);
+                    // Far more than the origin offset (a relative 1e-9 or so
+                    // of the coordinates and the offset scale).
+                    let mag = hi.abs().max(lo.abs()).max_element() + b.offset_scale.abs();
+                    let pad = 1e-6 * ((hi - lo).max_element() + mag);
+                    Some(Aabb::new(lo - pad, hi + pad))
+                }
+                LightExtent::Distant { .. } => None,
+            });
+        if self.all_resident(bounds, ctx.proc_id(), ctx.procs()) {
             return Vec::new();
-        };
-        let clip = octree.clip(&pyramid);
-        ctx.charge(work::CLIP_NODES, clip.node_visits);
-        self.nonempty(clip.leaves)
+        }
+        match self.shadow_pyramid(b) {
+            Some(pyramid) => self.clip(&pyramid, ctx),
+            None => Vec::new(),
+        }
+    }
+
+    /// The non-empty leaves meeting `pyramid`, front to back.
+    fn clip(&self, pyramid: &Pyramid, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
+        let octree = self.renderer.octree();
+        let mut leaves = Vec::new();
+        let visits = octree.clip_leaves(pyramid, |l| {
+            if !octree.leaf_objects(l).is_empty() {
+                leaves.push(l);
+            }
+        });
+        ctx.charge(work::CLIP_NODES, visits);
+        leaves
     }
 
     fn shadow_pyramid(&self, b: &ShadowBundle) -> Option<Pyramid> {
@@ -543,8 +636,9 @@ impl RtWorkload {
         let octree = self.renderer.octree();
         let objects = &self.renderer.scene().objects;
         let t = &job.task;
+        let (proc, procs) = (ctx.proc_id(), ctx.procs());
         match octree.intersect_partial(objects, &t.ray, t.tmin, t.tmax, &mut job.cursor, |l| {
-            Self::is_local(data, l)
+            self.is_local(data, proc, procs, l)
         }) {
             Partial::Blocked(leaf) => {
                 job.next = Some(leaf);
@@ -572,7 +666,13 @@ impl RtWorkload {
             ctx.charge(work::SHADOW_RESTARTS, 1);
         }
         let replay = std::mem::take(&mut job.replay);
-        let caster = PartialCaster::new(octree, objects, |l| Self::is_local(data, l), replay);
+        let (proc, procs) = (ctx.proc_id(), ctx.procs());
+        let caster = PartialCaster::new(
+            octree,
+            objects,
+            |l| self.is_local(data, proc, procs, l),
+            replay,
+        );
         let mut counts = ShadowCounts::default();
         let mut scratch = Vec::new();
         let value = run_shadow_bundle(

@@ -1,0 +1,152 @@
+//! `hybrid-rt render --procs N ...`: options and the per-processor report.
+
+use std::fmt::Write as _;
+use std::time::Duration;
+
+use hybrid_sched::{Class, Policy, State};
+
+use super::args::ParallelArgs;
+use super::usage;
+use crate::parallel::workload::work;
+use crate::parallel::{ParallelOptions, ParallelRender, WorkloadOptions};
+use crate::Result;
+
+/// Parses the parallel flags (`--procs` must be given).
+pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions> {
+    if procs == 0 {
+        return Err(usage("--procs 0: at least one processor is needed"));
+    }
+    if a.tile == 0 {
+        return Err(usage("--tile 0: tiles must be at least one pixel wide"));
+    }
+    if a.threads == Some(0) {
+        return Err(usage("--threads 0: at least one thread is needed"));
+    }
+    let policy: Policy = a
+        .policy
+        .parse()
+        .map_err(|e| usage(format!("--policy: {e}")))?;
+    Ok(ParallelOptions {
+        procs,
+        runtime: a
+            .runtime
+            .parse()
+            .map_err(|e| usage(format!("--runtime: {e}")))?,
+        policy,
+        cache: a
+            .cache
+            .parse()
+            .map_err(|e| usage(format!("--cache: {e}")))?,
+        workload: WorkloadOptions {
+            tile: a.tile,
+            shadow_dp_below: a.shadow_dp_below,
+            distribution: a
+                .distribution
+                .parse()
+                .map_err(|e| usage(format!("--distribution: {e}")))?,
+        },
+        threads: a.threads,
+        time_limit: None::<Duration>,
+    })
+}
+
+fn pct(part: u64, whole: u64) -> f64 {
+    if whole == 0 {
+        0.0
+    } else {
+        100.0 * part as f64 / whole as f64
+    }
+}
+
+/// A per-processor table of the run: where the time went, what ran where,
+/// the cache, the traffic.
+pub fn summary(r: &ParallelRender) -> String {
+    let mut s = String::new();
+    let cache = match r.cache_bytes {
+        Some(b) => format!(
+            "{:.1} KiB per processor ({:.1}% of {:.1} KiB of cell data)",
+            b as f64 / 1024.0,
+            pct(b, r.data_bytes),
+            r.data_bytes as f64 / 1024.0
+        ),
+        None => format!(
+            "unlimited ({:.1} KiB of cell data)",
+            r.data_bytes as f64 / 1024.0
+        ),
+    };
+    let _ = writeln!(
+        s,
+        "parallel render: {} processors, {} runtime, policy {}, distribution {}, tiles {}px, cache {}",
+        r.options.procs,
+        r.stats.runtime,
+        r.options.policy,
+        r.options.workload.distribution,
+        r.options.workload.tile,
+        cache
+    );
+    let _ = writeln!(
+        s,
+        "{:>4} {:>10} {:>6} {:>6} {:>6} {:>6} {:>6} {:>7} {:>8} {:>7} {:>9} {:>9} {:>6} {:>8} {:>9}",
+        "proc",
+        "resid KiB",
+        "exec%",
+        "clip%",
+        "wait%",
+        "idle%",
+        "comm%",
+        "tiles",
+        "dd tasks",
+        "dp migr",
+        "rays",
+        "shadow",
+        "hit%",
+        "msgs",
+        "KiB sent"
+    );
+    for (i, p) in r.stats.procs.iter().enumerate() {
+        let t = &p.time_ns;
+        let total = t.total();
+        let comm = t.get(State::Sending) + t.get(State::Receiving) + t.get(State::ServingData);
+        let w = |k: &str| p.work.get(k).copied().unwrap_or(0);
+        let rays = w(work::RAYS_PRIMARY)
+            + w(work::RAYS_REFLECTION)
+            + w(work::RAYS_REFRACTION)
+            + w(work::RAYS_PASS_THROUGH);
+        let sent = p.sent.total();
+        let _ = writeln!(
+            s,
+            "{:>4} {:>10.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>7} {:>8} {:>7} {:>9} {:>9} {:>6} {:>8} {:>9.1}",
+            i,
+            r.procs.get(i).map_or(0, |x| x.resident_bytes) as f64 / 1024.0,
+            pct(t.get(State::Executing), total),
+            pct(t.get(State::Selecting), total),
+            pct(t.get(State::WaitingData), total),
+            pct(t.get(State::Idle), total),
+            pct(comm, total),
+            p.tasks.roots,
+            p.tasks.demand_driven,
+            p.tasks.migrations,
+            rays,
+            w(work::SHADOW_TESTED),
+            p.cache_hit_rate()
+                .map_or("-".to_string(), |h| format!("{:.1}", 100.0 * h)),
+            sent.messages,
+            sent.bytes as f64 / 1024.0,
+        );
+    }
+    let st = &r.stats;
+    let data_msgs = st.sum(|p| p.sent.get(Class::Data).messages);
+    let _ = writeln!(
+        s,
+        "total: {:.3} s; {} packets ({} messages, {} data messages); {} data items fetched; {} migrations; {} shadow bundles data-parallel; {} clip misses",
+        r.render_s,
+        st.packets_sent(),
+        st.sum(|p| p.sent.total().messages) + st.master.sent.total().messages,
+        data_msgs,
+        st.sum(|p| p.data_items_requested),
+        st.sum(|p| p.tasks.migrations),
+        r.work(work::SHADOW_BUNDLES_DP),
+        r.work(work::CLIP_MISSES),
+    );
+    s
+}
