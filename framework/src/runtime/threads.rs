@@ -122,6 +122,9 @@ async fn run_actors<W: Workload>(
     Ok(assemble("threads", procs, finished, clock.now()))
 }
 
+/// Longest stretch of work an actor does before yielding its thread.
+const YIELD_EVERY_NS: u64 = 200_000;
+
 async fn actor<W: Workload>(
     mut node: Node<W>,
     mut rx: UnboundedReceiver<Packet<W>>,
@@ -130,6 +133,7 @@ async fn actor<W: Workload>(
     procs: usize,
 ) -> Result<Finished<W>, RunError> {
     let addr = node.addr();
+    let mut last_yield = clock.now();
     loop {
         let t0 = clock.now();
         let mut received = false;
@@ -161,7 +165,16 @@ async fn actor<W: Workload>(
         }
         match step {
             Step::Finished => break,
-            Step::Worked(_) => tokio::task::yield_now().await,
+            // Share the thread with other actors, but not after every
+            // step: a yield costs a trip through the scheduler (and often a
+            // futex wake-up), more than a small task's work.
+            Step::Worked(_) => {
+                let now = clock.now();
+                if now.saturating_sub(last_yield) >= YIELD_EVERY_NS {
+                    tokio::task::yield_now().await;
+                    last_yield = clock.now();
+                }
+            }
             Step::Idle => {
                 let blocked = node.blocked_state();
                 let t = clock.now();

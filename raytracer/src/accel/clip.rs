@@ -258,7 +258,18 @@ impl Octree {
     /// The leaf-only form of [`Octree::clip`]: calls `leaf` for every leaf
     /// meeting the pyramid, front to back, and returns the number of nodes
     /// visited. Allocates nothing but the traversal stack.
-    pub fn clip_leaves<F: FnMut(NodeId)>(&self, pyramid: &Pyramid, mut leaf: F) -> u64 {
+    pub fn clip_leaves<F: FnMut(NodeId)>(&self, pyramid: &Pyramid, leaf: F) -> u64 {
+        self.clip_leaves_where(pyramid, |_| true, leaf)
+    }
+
+    /// [`Octree::clip_leaves`] restricted to the subtrees for which `wanted`
+    /// is true (checked before a node is tested against the pyramid): a
+    /// processor selecting what it must fetch skips what it holds.
+    pub fn clip_leaves_where<W, F>(&self, pyramid: &Pyramid, mut wanted: W, mut leaf: F) -> u64
+    where
+        W: FnMut(NodeId) -> bool,
+        F: FnMut(NodeId),
+    {
         let mut visits = 0u64;
         let Some(root) = self.root() else {
             return 0;
@@ -270,6 +281,9 @@ impl Octree {
         let mut stack = Vec::with_capacity(64);
         stack.push(root);
         while let Some(id) = stack.pop() {
+            if !wanted(id) {
+                continue;
+            }
             visits += 1;
             let b = self.node_bounds(id);
             let b = Aabb::new(b.min - margin, b.max + margin);

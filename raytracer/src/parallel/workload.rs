@@ -466,11 +466,18 @@ impl RtWorkload {
         }
     }
 
-    /// The non-empty leaves meeting `pyramid`, front to back.
+    /// The non-empty leaves meeting `pyramid` that this processor does not
+    /// hold, front to back (subtrees it holds entirely are not visited).
     fn clip(&self, pyramid: &Pyramid, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
         let octree = self.renderer.octree();
         let mut leaves = Vec::new();
-        let visits = octree.clip_leaves(pyramid, |l| {
+        let me = ctx.proc_id() as u32;
+        let known = self.partition.procs() as usize == ctx.procs();
+        let wanted = |id: NodeId| {
+            let o = self.subtree_owner[id as usize];
+            !(known && (o == me || o == EMPTY))
+        };
+        let visits = octree.clip_leaves_where(pyramid, wanted, |l| {
             if !octree.leaf_objects(l).is_empty() {
                 leaves.push(l);
             }
