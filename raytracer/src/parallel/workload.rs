@@ -77,7 +77,8 @@ impl std::fmt::Display for Distribution {
 /// One octree leaf's objects as a data item. In-process runtimes share the
 /// parsed scene, so the item grants access to the leaf's objects and
 /// carries their size: caches, requests and replies are accounted in the
-/// bytes the objects occupy.
+/// bytes the objects occupy (an object listed in n leaves counts 1/n in
+/// each).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(crate = "hybrid_sched::serde")]
 pub struct CellData {
@@ -253,6 +254,15 @@ impl RtWorkload {
     ) -> Self {
         let octree = renderer.octree();
         let objects = &renderer.scene().objects;
+        // An object listed in n leaves is stored once where they are held
+        // together: each of its leaves accounts for 1/n of its bytes, so the
+        // cells sum to the scene's size and cache budgets mean what they say.
+        let mut listed = vec![0u32; objects.len()];
+        for leaf in octree.leaves() {
+            for &o in octree.leaf_objects(leaf) {
+                listed[o as usize] += 1;
+            }
+        }
         let cells = octree
             .leaves()
             .filter_map(|leaf| {
@@ -260,7 +270,10 @@ impl RtWorkload {
                 (!ids.is_empty()).then(|| {
                     let bytes: usize = ids
                         .iter()
-                        .map(|&o| object_bytes(&objects[o as usize]) + 4)
+                        .map(|&o| {
+                            let n = listed[o as usize].max(1) as usize;
+                            object_bytes(&objects[o as usize]).div_ceil(n) + 4
+                        })
                         .sum();
                     (leaf, ids.len() as u32, bytes as u64)
                 })
@@ -348,8 +361,8 @@ impl RtWorkload {
         &self.partition
     }
 
-    /// Total bytes of all cell data (objects listed in several leaves count
-    /// once per leaf, as they are stored).
+    /// Total bytes of all cell data (about the scene's object bytes plus
+    /// the leaves' object lists).
     pub fn data_bytes(&self) -> u64 {
         self.cells.iter().map(|c| c.2).sum()
     }
