@@ -15,5 +15,9 @@ pub struct Framework;
 pub struct Rendering;
 
 #[cfg(doctest)]
+#[doc = include_str!("src/parallel.md")]
+pub struct Parallel;
+
+#[cfg(doctest)]
 #[doc = include_str!("src/scenes.md")]
 pub struct Scenes;
