@@ -6,17 +6,19 @@
 //! trace with `-dt 0`). Only the queries are timed; generating the rays is
 //! not. Optionally a full render for its rate of primary plus shadow rays.
 
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::args::BenchArgs;
 use super::options_from;
 use super::render::build_view;
-use crate::geometry::{offset_origin_scaled, Ray};
+use crate::geometry::{offset_origin_scaled, InstanceGeometry, Ray, Shape};
 use crate::render::material::hit_object;
 use crate::render::rng::Rng;
 use crate::render::{check_resolution, RayCaster, Renderer};
-use crate::scene::{self, ObjectId, View};
+use crate::scene::{self, Object, ObjectId, View};
 use crate::{Error, Result};
 
 /// Where the built-in scenes live: `examples/scenes` under the current
@@ -59,6 +61,66 @@ fn resolve_scene(a: &BenchArgs) -> Result<(PathBuf, View)> {
     Ok((scene_path, view))
 }
 
+/// FNV-1a over 64-bit words: a fingerprint of the query results, so a
+/// faster build can be checked to answer every query exactly as before.
+struct Fingerprint(u64);
+
+impl Fingerprint {
+    fn new() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+
+    fn word(&mut self, w: u64) {
+        for b in w.to_le_bytes() {
+            self.0 = (self.0 ^ b as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+
+    fn hit(&mut self, h: &Option<crate::accel::Hit>) {
+        match h {
+            None => self.word(u64::MAX),
+            Some(h) => {
+                self.word(h.t.to_bits());
+                self.word(h.object as u64);
+                self.word(h.inner.map_or(u64::MAX, u64::from));
+                for a in 0..3 {
+                    self.word(h.normal[a].to_bits());
+                }
+            }
+        }
+    }
+}
+
+/// Bytes of the scene's objects (inline and heap), each instanced geometry
+/// (its objects and octree) counted once.
+fn object_bytes(objects: &[Object]) -> usize {
+    fn walk(objects: &[Object], seen: &mut HashSet<*const InstanceGeometry>) -> usize {
+        let mut n = 0;
+        for o in objects {
+            n += std::mem::size_of::<Object>() + o.name.capacity() + o.shape.heap_bytes();
+            if let Shape::Instance(i) = &o.shape {
+                if seen.insert(Arc::as_ptr(&i.geometry)) {
+                    n += i.geometry.accel.memory_bytes() + walk(&i.geometry.objects, seen);
+                }
+            }
+        }
+        n
+    }
+    walk(objects, &mut HashSet::new())
+}
+
+/// The process's peak resident set (`VmHWM` in `/proc/self/status`), in bytes.
+fn peak_rss() -> Option<usize> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: usize = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+fn mib(b: usize) -> f64 {
+    b as f64 / (1024.0 * 1024.0)
+}
+
 fn rate(n: u64, d: Duration) -> f64 {
     n as f64 / d.as_secs_f64().max(1e-12) / 1e6
 }
@@ -85,76 +147,114 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         renderer.stats(w, h, &Default::default(), 1.0).time.octree_build_s
     );
 
-    // Primary rays.
-    let mut rays: Vec<(Ray, f64, f64)> = Vec::with_capacity(w * h);
-    for y in 0..h {
-        for x in 0..w {
+    let rss_scene = peak_rss();
+
+    // Primary rays, a chunk of pixels at a time, then the shadow rays from
+    // their hits, a chunk at a time: the benchmark's own buffers do not grow
+    // with the image.
+    const CHUNK: usize = 4096;
+    let pixels = w * h;
+    let mut rays: Vec<(Ray, f64, f64)> = Vec::with_capacity(CHUNK);
+    let mut hits: Vec<Option<crate::accel::Hit>> = Vec::with_capacity(CHUNK);
+    let mut shadow: Vec<(Ray, f64, Option<ObjectId>)> = Vec::new();
+    let mut blocked: Vec<bool> = Vec::new();
+    let (mut primary_time, mut shadow_time) = (Duration::ZERO, Duration::ZERO);
+    let (mut n_primary, mut n_hits, mut n_shadow, mut n_blocked) = (0u64, 0u64, 0u64, 0u64);
+    let (mut fp_primary, mut fp_shadow) = (Fingerprint::new(), Fingerprint::new());
+    let mut rng = Rng::new(1);
+    let mut pixel = 0;
+    while pixel < pixels {
+        let end = (pixel + CHUNK).min(pixels);
+        rays.clear();
+        for p in pixel..end {
+            let (x, y) = (p % w, p / w);
             let fx = (x as f64 + 0.5) / w as f64;
             let fy = 1.0 - (y as f64 + 0.5) / h as f64;
             if let Some(r) = crate::render::Camera::ray(&view, fx, fy) {
                 rays.push(r);
             }
         }
-    }
-    let t0 = Instant::now();
-    let hits: Vec<_> = rays
-        .iter()
-        .map(|(r, t0, t1)| caster.intersect(r, *t0, *t1))
-        .collect();
-    let primary_time = t0.elapsed();
-    println!(
-        "primary rays: {} in {:.3} s = {:.2} Mrays/s ({} hits)",
-        rays.len(),
-        primary_time.as_secs_f64(),
-        rate(rays.len() as u64, primary_time),
-        hits.iter().flatten().count()
-    );
-
-    // Shadow rays, one chunk at a time so memory stays small.
-    let mut shadow: Vec<(Ray, f64, Option<ObjectId>)> = Vec::new();
-    let mut shadow_time = Duration::ZERO;
-    let mut n_shadow = 0u64;
-    let mut n_blocked = 0u64;
-    let mut rng = Rng::new(1);
-    for (i, hit) in hits.iter().enumerate() {
-        let Some(hit) = hit else { continue };
-        if scene
-            .material(hit_object(&scene, hit).material)
-            .is_emitter()
-        {
-            continue;
+        pixel = end;
+        let t0 = Instant::now();
+        hits.clear();
+        hits.extend(rays.iter().map(|(r, t0, t1)| caster.intersect(r, *t0, *t1)));
+        primary_time += t0.elapsed();
+        n_primary += rays.len() as u64;
+        for h in &hits {
+            fp_primary.hit(h);
         }
-        let ray = &rays[i].0;
-        let n = if hit.normal.dot(ray.dir) > 0.0 {
-            -hit.normal
-        } else {
-            hit.normal
-        };
-        for l in renderer.lights() {
-            l.for_each_patch(&scene, hit.point, options.ds, options.dj, &mut rng, |s| {
-                if s.dir.dot(n) > 0.0 {
-                    let origin = offset_origin_scaled(hit.point, hit.normal, s.dir, hit.t);
-                    let tmax = if s.dist.is_finite() {
-                        s.dist * (1.0 - 1e-9)
-                    } else {
-                        f64::INFINITY
-                    };
-                    shadow.push((Ray { origin, dir: s.dir }, tmax, l.object));
+        for (i, hit) in hits.iter().enumerate() {
+            let Some(hit) = hit else { continue };
+            n_hits += 1;
+            if scene
+                .material(hit_object(&scene, hit).material)
+                .is_emitter()
+            {
+                continue;
+            }
+            let ray = &rays[i].0;
+            let n = if hit.normal.dot(ray.dir) > 0.0 {
+                -hit.normal
+            } else {
+                hit.normal
+            };
+            for l in renderer.lights() {
+                l.for_each_patch(&scene, hit.point, options.ds, options.dj, &mut rng, |s| {
+                    if s.dir.dot(n) > 0.0 {
+                        let origin = offset_origin_scaled(hit.point, hit.normal, s.dir, hit.t);
+                        let tmax = if s.dist.is_finite() {
+                            s.dist * (1.0 - 1e-9)
+                        } else {
+                            f64::INFINITY
+                        };
+                        shadow.push((Ray { origin, dir: s.dir }, tmax, l.object));
+                    }
+                });
+            }
+            let last = pixel == pixels && i + 1 == hits.len();
+            if shadow.len() >= 1 << 16 || last {
+                let t0 = Instant::now();
+                blocked.clear();
+                blocked.extend(
+                    shadow
+                        .iter()
+                        .map(|(r, tmax, ign)| caster.occluded(r, 0.0, *tmax, *ign)),
+                );
+                shadow_time += t0.elapsed();
+                n_blocked += blocked.iter().filter(|&&b| b).count() as u64;
+                for &b in &blocked {
+                    fp_shadow.word(b as u64);
                 }
-            });
+                n_shadow += shadow.len() as u64;
+                shadow.clear();
+            }
         }
-        if shadow.len() >= 1 << 16 || i + 1 == hits.len() {
-            let t0 = Instant::now();
-            n_blocked += shadow
+    }
+    if !shadow.is_empty() {
+        // The last chunk ended without a hit on a lit surface.
+        let t0 = Instant::now();
+        blocked.clear();
+        blocked.extend(
+            shadow
                 .iter()
-                .filter(|(r, tmax, ign)| caster.occluded(r, 0.0, *tmax, *ign))
-                .count() as u64;
-            shadow_time += t0.elapsed();
-            n_shadow += shadow.len() as u64;
-            shadow.clear();
+                .map(|(r, tmax, ign)| caster.occluded(r, 0.0, *tmax, *ign)),
+        );
+        shadow_time += t0.elapsed();
+        n_blocked += blocked.iter().filter(|&&b| b).count() as u64;
+        for &b in &blocked {
+            fp_shadow.word(b as u64);
         }
+        n_shadow += shadow.len() as u64;
+        shadow.clear();
     }
     let _ = ctx;
+    println!(
+        "primary rays: {} in {:.3} s = {:.2} Mrays/s ({} hits)",
+        n_primary,
+        primary_time.as_secs_f64(),
+        rate(n_primary, primary_time),
+        n_hits
+    );
     println!(
         "shadow rays: {} in {:.3} s = {:.2} Mrays/s ({} blocked)",
         n_shadow,
@@ -162,20 +262,35 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         rate(n_shadow, shadow_time),
         n_blocked
     );
-    let both = rays.len() as u64 + n_shadow;
     println!(
         "primary + shadow: {:.2} Mrays/s",
-        rate(both, primary_time + shadow_time)
+        rate(n_primary + n_shadow, primary_time + shadow_time)
     );
+    println!(
+        "fingerprint: primary {:016x}, shadow {:016x}",
+        fp_primary.0, fp_shadow.0
+    );
+    let rss_bench = peak_rss();
 
+    let mut rss_render = None;
     if a.render {
-        let (_, st) = renderer.render(&view, w, h)?;
-        let traced = st.rays.primary + st.rays.shadow.tested;
+        let (film, st) = renderer.render(&view, w, h)?;
+        rss_render = peak_rss();
+        drop(film);
         println!(
             "full render {}x{}: {:.3} s, {} primary + {} shadow rays traced ({} estimated) = {:.2} Mrays/s",
             w, h, st.time.render_s, st.rays.primary, st.rays.shadow.tested, st.rays.shadow.estimated, st.mrays_per_s
         );
-        let _ = traced;
     }
+    let show = |b: Option<usize>| b.map_or("n/a".to_string(), |b| format!("{:.1} MiB", mib(b)));
+    println!(
+        "memory: octree {:.2} MiB, objects {:.2} MiB, film {:.2} MiB; peak RSS {} after loading, {} after the ray benchmark, {} after the render",
+        mib(renderer.octree().memory_bytes()),
+        mib(object_bytes(&scene.objects)),
+        mib(w * h * std::mem::size_of::<crate::scene::Color>()),
+        show(rss_scene),
+        show(rss_bench),
+        if a.render { show(rss_render) } else { "-".to_string() }
+    );
     Ok(())
 }

@@ -353,6 +353,20 @@ impl Shape {
         }
     }
 
+    /// Heap bytes owned by the shape itself (a polygon's vertex, triangle
+    /// and sampling arrays). Instanced geometry is shared and not counted.
+    pub fn heap_bytes(&self) -> usize {
+        match self {
+            Shape::Polygon(p) => {
+                p.vertices.capacity() * std::mem::size_of::<Vec3>()
+                    + p.triangles.capacity() * std::mem::size_of::<[u32; 3]>()
+                    + p.tri_verts.capacity() * std::mem::size_of::<[Vec3; 3]>()
+                    + p.cdf.capacity() * std::mem::size_of::<f64>()
+            }
+            _ => 0,
+        }
+    }
+
     /// Surface area (instances: the area of the transformed geometry).
     pub fn area(&self) -> f64 {
         match self {
