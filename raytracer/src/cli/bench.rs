@@ -121,6 +121,32 @@ fn mib(b: usize) -> f64 {
     b as f64 / (1024.0 * 1024.0)
 }
 
+/// The timed nearest-hit queries (not inlined, so a profiler can attribute
+/// them: `valgrind --tool=callgrind --toggle-collect='*trace_primary*'`).
+#[inline(never)]
+fn trace_primary<C: RayCaster>(
+    caster: &C,
+    rays: &[(Ray, f64, f64)],
+    hits: &mut Vec<Option<crate::accel::Hit>>,
+) {
+    hits.clear();
+    hits.extend(rays.iter().map(|(r, t0, t1)| caster.intersect(r, *t0, *t1)));
+}
+
+/// The timed any-hit queries (see [`trace_primary`]).
+#[inline(never)]
+fn trace_shadow<C: RayCaster>(
+    caster: &C,
+    rays: &[(Ray, f64, Option<ObjectId>)],
+    blocked: &mut Vec<bool>,
+) {
+    blocked.clear();
+    blocked.extend(
+        rays.iter()
+            .map(|(r, tmax, ign)| caster.occluded(r, 0.0, *tmax, *ign)),
+    );
+}
+
 fn rate(n: u64, d: Duration) -> f64 {
     n as f64 / d.as_secs_f64().max(1e-12) / 1e6
 }
@@ -176,8 +202,7 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         }
         pixel = end;
         let t0 = Instant::now();
-        hits.clear();
-        hits.extend(rays.iter().map(|(r, t0, t1)| caster.intersect(r, *t0, *t1)));
+        trace_primary(&caster, &rays, &mut hits);
         primary_time += t0.elapsed();
         n_primary += rays.len() as u64;
         for h in &hits {
@@ -214,12 +239,7 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
             let last = pixel == pixels && i + 1 == hits.len();
             if shadow.len() >= 1 << 16 || last {
                 let t0 = Instant::now();
-                blocked.clear();
-                blocked.extend(
-                    shadow
-                        .iter()
-                        .map(|(r, tmax, ign)| caster.occluded(r, 0.0, *tmax, *ign)),
-                );
+                trace_shadow(&caster, &shadow, &mut blocked);
                 shadow_time += t0.elapsed();
                 n_blocked += blocked.iter().filter(|&&b| b).count() as u64;
                 for &b in &blocked {
@@ -233,12 +253,7 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
     if !shadow.is_empty() {
         // The last chunk ended without a hit on a lit surface.
         let t0 = Instant::now();
-        blocked.clear();
-        blocked.extend(
-            shadow
-                .iter()
-                .map(|(r, tmax, ign)| caster.occluded(r, 0.0, *tmax, *ign)),
-        );
+        trace_shadow(&caster, &shadow, &mut blocked);
         shadow_time += t0.elapsed();
         n_blocked += blocked.iter().filter(|&&b| b).count() as u64;
         for &b in &blocked {
