@@ -3,6 +3,7 @@
 pub mod clip;
 mod octree;
 pub mod partition;
+mod prims;
 
 pub use clip::{ClipResult, Plane, Pyramid};
 pub use octree::{

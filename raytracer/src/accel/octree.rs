@@ -13,8 +13,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::prims::{Prims, TriRay};
 use crate::geometry::robust::next_up;
-use crate::geometry::{Aabb, PreparedRay, Ray, Vec3};
+use crate::geometry::{Aabb, PreparedRay, Ray, ShapeHit, Vec3};
 use crate::scene::{Object, ObjectId};
 
 /// Index of an octree node (internal or leaf).
@@ -127,7 +128,69 @@ enum Node {
     Leaf { start: u32, len: u32 },
 }
 
+/// Marks a leaf in [`TravNode::len`].
+const LEAF: u32 = 1 << 31;
+
+/// Per-ray constants of the traversal: origin, inverse direction, the axes
+/// the ray does not move along, and the sign of each direction component.
+struct RayTrav {
+    o: [f64; 3],
+    inv: [f64; 3],
+    flat: [bool; 3],
+    pos: [bool; 3],
+}
+
+/// Object ids a leaf keeps in its node (where an internal node keeps its
+/// cell centre): the octree's build limit, so nearly every leaf has them.
+const INLINE: usize = 6;
+
+/// A node as the traversal reads it, in 32 bytes (half a cache line).
+///
+/// Internal node: `w` holds the bits of the cell centre, `first` is the
+/// first child, `meta` has bit `i` set if child `i`'s subtree lists any
+/// object. Leaf: `meta` is `LEAF | len`, `first` the start of its objects in
+/// `leaf_objects`; a leaf with at most [`INLINE`] objects also has their ids
+/// in `w` (two per word), so visiting it reads no other memory.
 #[derive(Debug, Clone, Copy)]
+struct TravNode {
+    w: [u64; 3],
+    first: u32,
+    meta: u32,
+}
+
+impl TravNode {
+    const EMPTY_LEAF: TravNode = TravNode {
+        w: [0; 3],
+        first: 0,
+        meta: LEAF,
+    };
+
+    #[inline]
+    fn is_leaf(&self) -> bool {
+        self.meta & LEAF != 0
+    }
+
+    #[inline]
+    fn center(&self) -> [f64; 3] {
+        self.w.map(f64::from_bits)
+    }
+
+    #[inline]
+    fn kind(&self) -> Node {
+        if self.is_leaf() {
+            Node::Leaf {
+                start: self.first,
+                len: self.meta & !LEAF,
+            }
+        } else {
+            Node::Internal {
+                first_child: self.first,
+            }
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, Default)]
 struct Cell {
     center: Vec3,
     half: f64,
@@ -178,15 +241,52 @@ impl Mailbox {
     }
 }
 
+/// Object tests for one ray.
+struct Tester<'a> {
+    prims: Option<&'a Prims>,
+    objects: &'a [Object],
+    pre: &'a PreparedRay,
+    tr: TriRay,
+}
+
+impl Tester<'_> {
+    #[inline]
+    fn intersect(&self, id: ObjectId, tmin: f64, tmax: f64) -> Option<ShapeHit> {
+        match self.prims {
+            Some(p) => p.intersect(self.objects, id, self.pre, &self.tr, tmin, tmax),
+            None => self.objects[id as usize]
+                .shape
+                .intersect_prepared(self.pre, tmin, tmax),
+        }
+    }
+
+    #[inline]
+    fn occludes(&self, id: ObjectId, tmin: f64, tmax: f64) -> bool {
+        match self.prims {
+            Some(p) => p.occludes(self.objects, id, self.pre, &self.tr, tmin, tmax),
+            None => self.objects[id as usize]
+                .shape
+                .occludes_prepared(self.pre, tmin, tmax),
+        }
+    }
+}
+
 /// The octree. `Default` is the empty tree (no nodes; every query misses).
 #[derive(Debug, Clone, Default)]
 pub struct Octree {
-    nodes: Vec<Node>,
-    cells: Vec<Cell>,
+    /// Kind, contents and cell centre of every node.
+    nodes: Vec<TravNode>,
+    /// Half the side of every node's cell.
+    halves: Vec<f64>,
+    /// The root's cell (leaves keep no centre; theirs is derived from the
+    /// parent's exactly as the build derived it).
+    root_cell: Cell,
     parents: Vec<NodeId>,
     depths: Vec<u8>,
     subtree_refs: Vec<u64>,
     leaf_objects: Vec<ObjectId>,
+    /// The objects' intersection data in a compact layout.
+    prims: Prims,
     stats: OctreeStats,
     /// Absolute margin by which cells are enlarged for the overlap tests.
     margin: f64,
@@ -209,7 +309,7 @@ impl Builder<'_> {
 
     fn node(&mut self, id: NodeId, cell: Cell, cands: Vec<ObjectId>, depth: u32, stall: u32) {
         let t = &mut self.tree;
-        t.cells[id as usize] = cell;
+        t.halves[id as usize] = cell.half;
         t.depths[id as usize] = depth as u8;
         if cands.len() <= self.params.max_objects
             || depth >= self.params.max_depth
@@ -217,17 +317,28 @@ impl Builder<'_> {
         {
             let start = t.leaf_objects.len() as u32;
             t.leaf_objects.extend_from_slice(&cands);
-            t.nodes[id as usize] = Node::Leaf {
-                start,
-                len: cands.len() as u32,
+            let mut w = [0u64; 3];
+            if cands.len() <= INLINE {
+                for (k, &o) in cands.iter().enumerate() {
+                    w[k / 2] |= (o as u64) << (32 * (k % 2));
+                }
+            }
+            t.nodes[id as usize] = TravNode {
+                w,
+                first: start,
+                meta: LEAF | cands.len() as u32,
             };
             return;
         }
         let first = t.nodes.len() as u32;
-        t.nodes[id as usize] = Node::Internal { first_child: first };
+        t.nodes[id as usize] = TravNode {
+            w: cell.center.to_array().map(f64::to_bits),
+            first,
+            meta: 0,
+        };
         for _ in 0..8 {
-            t.nodes.push(Node::Leaf { start: 0, len: 0 });
-            t.cells.push(cell);
+            t.nodes.push(TravNode::EMPTY_LEAF);
+            t.halves.push(0.0);
             t.parents.push(id);
             t.depths.push(0);
         }
@@ -276,8 +387,9 @@ impl Octree {
             .filter(|&i| !bounds[i as usize].is_empty())
             .collect();
         let tree = Octree {
-            nodes: vec![Node::Leaf { start: 0, len: 0 }],
-            cells: vec![root],
+            root_cell: root,
+            nodes: vec![TravNode::EMPTY_LEAF],
+            halves: vec![0.0],
             parents: vec![NodeId::MAX],
             depths: vec![0],
             margin,
@@ -293,6 +405,7 @@ impl Octree {
         b.node(0, root, cands, 0, 0);
         let mut t = b.tree;
         t.finish(objects.len());
+        t.prims = Prims::build(objects);
         t
     }
 
@@ -304,7 +417,7 @@ impl Octree {
             ..Default::default()
         };
         for id in (0..n).rev() {
-            match self.nodes[id] {
+            match self.nodes[id].kind() {
                 Node::Leaf { len, .. } => {
                     s.leaf_nodes += 1;
                     s.object_refs += len as usize;
@@ -323,6 +436,34 @@ impl Octree {
             }
         }
         self.stats = s;
+        for id in 0..n {
+            if let Node::Internal { first_child } = self.nodes[id].kind() {
+                let mut mask = 0;
+                for i in 0..8 {
+                    if self.subtree_refs[first_child as usize + i] > 0 {
+                        mask |= 1 << i;
+                    }
+                }
+                self.nodes[id].meta = mask;
+            }
+        }
+    }
+
+    /// A node's cell, exactly as the build computed it.
+    fn cell(&self, id: NodeId) -> Cell {
+        if id == 0 {
+            return self.root_cell;
+        }
+        let n = &self.nodes[id as usize];
+        if !n.is_leaf() {
+            return Cell {
+                center: Vec3::from_array(n.center()),
+                half: self.halves[id as usize],
+            };
+        }
+        let p = self.parents[id as usize];
+        let first = self.nodes[p as usize].first;
+        self.cell(p).child((id - first) as usize)
     }
 
     /// Table 1 statistics.
@@ -341,7 +482,11 @@ impl Octree {
 
     /// The root cube (empty box for the empty tree).
     pub fn root_bounds(&self) -> Aabb {
-        self.cells.first().map_or(Aabb::EMPTY, Cell::bounds)
+        if self.nodes.is_empty() {
+            Aabb::EMPTY
+        } else {
+            self.root_cell.bounds()
+        }
     }
 
     /// Number of nodes; node ids are `0..node_count()`.
@@ -351,7 +496,7 @@ impl Octree {
 
     /// Kind and contents of a node.
     pub fn node(&self, id: NodeId) -> NodeView<'_> {
-        match self.nodes[id as usize] {
+        match self.nodes[id as usize].kind() {
             Node::Internal { first_child } => NodeView::Internal {
                 children: std::array::from_fn(|i| first_child + i as u32),
             },
@@ -362,7 +507,7 @@ impl Octree {
     }
 
     pub fn is_leaf(&self, id: NodeId) -> bool {
-        matches!(self.nodes[id as usize], Node::Leaf { .. })
+        self.nodes[id as usize].is_leaf()
     }
 
     /// Children of an internal node (`None` for a leaf).
@@ -376,7 +521,7 @@ impl Octree {
     /// Objects of a leaf, ascending (empty for internal nodes).
     #[inline]
     pub fn leaf_objects(&self, id: NodeId) -> &[ObjectId] {
-        match self.nodes[id as usize] {
+        match self.nodes[id as usize].kind() {
             Node::Leaf { start, len } => &self.leaf_objects[start as usize..(start + len) as usize],
             Node::Internal { .. } => &[],
         }
@@ -384,7 +529,7 @@ impl Octree {
 
     /// The node's cell (a cube).
     pub fn node_bounds(&self, id: NodeId) -> Aabb {
-        self.cells[id as usize].bounds()
+        self.cell(id).bounds()
     }
 
     /// Depth of a node (root = 0).
@@ -416,8 +561,8 @@ impl Octree {
             return None;
         }
         let mut id = 0u32;
-        while let Node::Internal { first_child } = self.nodes[id as usize] {
-            let c = self.cells[id as usize].center;
+        while let Node::Internal { first_child } = self.nodes[id as usize].kind() {
+            let c = Vec3::from_array(self.nodes[id as usize].center());
             let i = (p.x >= c.x) as u32 | ((p.y >= c.y) as u32) << 1 | ((p.z >= c.z) as u32) << 2;
             id = first_child + i;
         }
@@ -433,18 +578,34 @@ impl Octree {
 
     /// Approximate heap memory of the structure in bytes.
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<Node>()
-            + self.cells.len() * std::mem::size_of::<Cell>()
+        self.nodes.len() * std::mem::size_of::<TravNode>()
+            + self.halves.len() * 8
             + self.parents.len() * 4
             + self.depths.len()
             + self.subtree_refs.len() * 8
             + self.leaf_objects.len() * 4
+            + self.prims.memory_bytes()
+    }
+
+    /// How rays test objects: through the compact data where it was built
+    /// for `objects`, else through the shapes.
+    #[inline]
+    fn tester<'a>(&'a self, objects: &'a [Object], pre: &'a PreparedRay) -> Tester<'a> {
+        Tester {
+            prims: self.prims.matches(objects).then_some(&self.prims),
+            objects,
+            pre,
+            tr: TriRay::new(pre),
+        }
     }
 
     /// Parametric interval of the ray inside the root cube, clipped to `[tmin, tmax]`.
     #[inline]
     fn root_interval(&self, ray: &Ray, inv: Vec3, tmin: f64, tmax: f64) -> Option<(f64, f64)> {
-        let cell = self.cells.first()?;
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let cell = self.root_cell;
         let (lo, hi) = (cell.center - cell.half, cell.center + cell.half);
         let (mut t0, mut t1) = (tmin, tmax);
         for a in 0..3 {
@@ -464,76 +625,101 @@ impl Octree {
     }
 
     /// Visits the leaves the ray passes through in front-to-back order with
-    /// their `[t_enter, t_exit]`. `visit` gets a mutable cut-off distance:
-    /// leaves entered beyond it are not visited. `visit` returns true to stop.
+    /// their objects and `[t_enter, t_exit]`. `visit` gets a mutable cut-off
+    /// distance: leaves entered beyond it are not visited. `visit` returns
+    /// true to stop. With `SKIP_EMPTY`, leaves (and subtrees) without objects
+    /// are passed over: for queries whose answer does not depend on them.
     #[inline]
-    fn traverse<F>(&self, ray: &Ray, inv: Vec3, tmin: f64, tmax: f64, visit: &mut F)
-    where
-        F: FnMut(NodeId, f64, f64, &mut f64) -> bool,
+    fn traverse<const SKIP_EMPTY: bool, F>(
+        &self,
+        ray: &Ray,
+        inv: Vec3,
+        tmin: f64,
+        tmax: f64,
+        visit: &mut F,
+    ) where
+        F: FnMut(NodeId, &[ObjectId], f64, f64, &mut f64) -> bool,
     {
-        self.traverse_from(ray, inv, tmin, tmax, tmax, visit);
+        self.traverse_from::<SKIP_EMPTY, F>(ray, inv, tmin, tmax, tmax, visit);
     }
 
     /// [`Octree::traverse`] with the cut-off distance starting at `cut`
     /// (a resumed traversal starts it at the best hit found so far).
     #[inline]
-    fn traverse_from<F>(&self, ray: &Ray, inv: Vec3, tmin: f64, tmax: f64, cut: f64, visit: &mut F)
-    where
-        F: FnMut(NodeId, f64, f64, &mut f64) -> bool,
+    fn traverse_from<const SKIP_EMPTY: bool, F>(
+        &self,
+        ray: &Ray,
+        inv: Vec3,
+        tmin: f64,
+        tmax: f64,
+        cut: f64,
+        visit: &mut F,
+    ) where
+        F: FnMut(NodeId, &[ObjectId], f64, f64, &mut f64) -> bool,
     {
         let Some((t0, t1)) = self.root_interval(ray, inv, tmin, tmax) else {
             return;
         };
+        let d = ray.dir.to_array();
+        let r = RayTrav {
+            o: ray.origin.to_array(),
+            inv: inv.to_array(),
+            flat: [d[0] == 0.0, d[1] == 0.0, d[2] == 0.0],
+            pos: [d[0] > 0.0, d[1] > 0.0, d[2] > 0.0],
+        };
         let mut cut = cut;
-        self.visit_node(0, self.cells[0], t0, t1, ray, inv, &mut cut, visit);
+        self.visit_node::<SKIP_EMPTY, F>(&r, 0, t0, t1, &mut cut, visit);
     }
 
+    /// Visits node `id`, which the ray passes through over `[t0, t1]`:
+    /// a leaf is handed to `visit`; an internal node's children are visited
+    /// in the order the ray enters them (the order of its crossings of the
+    /// node's three mid-planes). Returns true to stop the traversal.
+    /// (Recursion measured faster than an explicit stack here.)
     #[allow(clippy::too_many_arguments)]
-    fn visit_node<F>(
+    fn visit_node<const SKIP_EMPTY: bool, F>(
         &self,
+        r: &RayTrav,
         id: NodeId,
-        cell: Cell,
         t0: f64,
         t1: f64,
-        ray: &Ray,
-        inv: Vec3,
         cut: &mut f64,
         visit: &mut F,
     ) -> bool
     where
-        F: FnMut(NodeId, f64, f64, &mut f64) -> bool,
+        F: FnMut(NodeId, &[ObjectId], f64, f64, &mut f64) -> bool,
     {
         if t0 > *cut {
             return true;
         }
-        let first = match self.nodes[id as usize] {
-            Node::Leaf { .. } => return visit(id, t0, t1, cut),
-            Node::Internal { first_child } => first_child,
-        };
-        let (o, d, c) = (ray.origin, ray.dir, cell.center);
+        let node = &self.nodes[id as usize];
+        if node.is_leaf() {
+            let len = (node.meta & !LEAF) as usize;
+            return if len <= INLINE {
+                let mut ids = [0; INLINE];
+                for (k, x) in ids.iter_mut().enumerate() {
+                    *x = (node.w[k / 2] >> (32 * (k % 2))) as ObjectId;
+                }
+                visit(id, &ids[..len], t0, t1, cut)
+            } else {
+                let start = node.first as usize;
+                visit(id, &self.leaf_objects[start..start + len], t0, t1, cut)
+            };
+        }
+        let (first, c) = (node.first, node.center());
+        let (o, inv) = (r.o, r.inv);
         let mut tm = [f64::INFINITY; 3];
-        let mut child = 0usize;
+        let mut child = 0u32;
         for a in 0..3 {
-            let bit = if d[a] == 0.0 {
+            let t = (c[a] - o[a]) * inv[a];
+            let bit = if r.flat[a] || t.is_nan() {
                 o[a] >= c[a]
             } else {
-                let t = (c[a] - o[a]) * inv[a];
-                if t.is_nan() {
-                    o[a] >= c[a]
-                } else {
-                    tm[a] = t;
-                    if t <= t0 {
-                        d[a] > 0.0
-                    } else {
-                        d[a] < 0.0
-                    }
-                }
+                tm[a] = t;
+                (t <= t0) == r.pos[a]
             };
-            if bit {
-                child |= 1 << a;
-            }
+            child |= (bit as u32) << a;
         }
-        // Axes in order of their plane crossings.
         let mut order = [0usize, 1, 2];
         if tm[order[0]] > tm[order[1]] {
             order.swap(0, 1);
@@ -544,36 +730,22 @@ impl Octree {
         if tm[order[0]] > tm[order[1]] {
             order.swap(0, 1);
         }
+        let mask = if SKIP_EMPTY { node.meta } else { 0xff };
         let mut t = t0;
         for a in order {
             let ta = tm[a];
             if ta > t0 && ta < t1 {
-                if self.visit_node(
-                    first + child as u32,
-                    cell.child(child),
-                    t,
-                    ta,
-                    ray,
-                    inv,
-                    cut,
-                    visit,
-                ) {
+                if mask & (1 << child) != 0
+                    && self.visit_node::<SKIP_EMPTY, F>(r, first + child, t, ta, cut, visit)
+                {
                     return true;
                 }
                 child ^= 1 << a;
                 t = ta;
             }
         }
-        self.visit_node(
-            first + child as u32,
-            cell.child(child),
-            t,
-            t1,
-            ray,
-            inv,
-            cut,
-            visit,
-        )
+        mask & (1 << child) != 0
+            && self.visit_node::<SKIP_EMPTY, F>(r, first + child, t, t1, cut, visit)
     }
 
     /// Nearest hit with `tmin < t < tmax` among `objects` (the slice the tree
@@ -581,18 +753,16 @@ impl Octree {
     /// [`intersect_brute_force`].
     pub fn intersect(&self, objects: &[Object], ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         let pre = PreparedRay::new(ray);
-        let mut best: Option<(f64, ObjectId, crate::geometry::ShapeHit)> = None;
+        let test = self.tester(objects, &pre);
+        let mut best: Option<(f64, ObjectId, ShapeHit)> = None;
         let mut mailbox = Mailbox::new();
-        let mut visit = |leaf: NodeId, _t0: f64, t1: f64, cut: &mut f64| {
-            for &id in self.leaf_objects(leaf) {
+        let mut visit = |_leaf: NodeId, ids: &[ObjectId], _t0: f64, t1: f64, cut: &mut f64| {
+            for &id in ids {
                 if mailbox.seen(id) {
                     continue;
                 }
                 let bound = if best.is_some() { next_up(*cut) } else { *cut };
-                if let Some(h) = objects[id as usize]
-                    .shape
-                    .intersect_prepared(&pre, tmin, bound)
-                {
+                if let Some(h) = test.intersect(id, tmin, bound) {
                     if best.is_none_or(|(bt, bid, _)| h.t < bt || (h.t == bt && id < bid)) {
                         best = Some((h.t, id, h));
                         *cut = h.t;
@@ -601,7 +771,7 @@ impl Octree {
             }
             best.is_some_and(|(bt, _, _)| bt <= t1)
         };
-        self.traverse(ray, pre.inv_dir, tmin, tmax, &mut visit);
+        self.traverse::<false, _>(ray, pre.inv_dir, tmin, tmax, &mut visit);
         best.map(|(t, id, h)| Hit {
             t,
             point: ray.at(t),
@@ -621,23 +791,19 @@ impl Octree {
         ignore: Option<ObjectId>,
     ) -> bool {
         let pre = PreparedRay::new(ray);
+        let test = self.tester(objects, &pre);
         let mut found = false;
         let mut mailbox = Mailbox::new();
-        let mut visit = |leaf: NodeId, _t0: f64, _t1: f64, _cut: &mut f64| {
-            for &id in self.leaf_objects(leaf) {
-                if Some(id) != ignore
-                    && !mailbox.seen(id)
-                    && objects[id as usize]
-                        .shape
-                        .occludes_prepared(&pre, tmin, tmax)
-                {
+        let mut visit = |_leaf: NodeId, ids: &[ObjectId], _t0: f64, _t1: f64, _cut: &mut f64| {
+            for &id in ids {
+                if Some(id) != ignore && !mailbox.seen(id) && test.occludes(id, tmin, tmax) {
                     found = true;
                     return true;
                 }
             }
             false
         };
-        self.traverse(ray, pre.inv_dir, tmin, tmax, &mut visit);
+        self.traverse::<true, _>(ray, pre.inv_dir, tmin, tmax, &mut visit);
         found
     }
 
@@ -664,6 +830,7 @@ impl Octree {
         F: FnMut(NodeId) -> bool,
     {
         let pre = PreparedRay::new(ray);
+        let test = self.tester(objects, &pre);
         let mut best: Option<(f64, ObjectId, Vec3, Option<u32>)> =
             cursor.best.map(|h| (h.t, h.object, h.normal, h.inner));
         let skip = cursor.leaves_done;
@@ -671,13 +838,12 @@ impl Octree {
         let mut blocked = None;
         let mut mailbox = Mailbox::new();
         let cut = best.map_or(tmax, |(t, _, _, _)| t);
-        let mut visit = |leaf: NodeId, _t0: f64, t1: f64, cut: &mut f64| {
+        let mut visit = |leaf: NodeId, ids: &[ObjectId], _t0: f64, t1: f64, cut: &mut f64| {
             let k = pos;
             pos += 1;
             if k < skip {
                 return false;
             }
-            let ids = self.leaf_objects(leaf);
             if !ids.is_empty() && !local(leaf) {
                 blocked = Some((leaf, k));
                 return true;
@@ -687,10 +853,7 @@ impl Octree {
                     continue;
                 }
                 let bound = if best.is_some() { next_up(*cut) } else { *cut };
-                if let Some(h) = objects[id as usize]
-                    .shape
-                    .intersect_prepared(&pre, tmin, bound)
-                {
+                if let Some(h) = test.intersect(id, tmin, bound) {
                     if best.is_none_or(|(bt, bid, _, _)| h.t < bt || (h.t == bt && id < bid)) {
                         best = Some((h.t, id, h.normal, h.inner));
                         *cut = h.t;
@@ -699,7 +862,7 @@ impl Octree {
             }
             best.is_some_and(|(bt, _, _, _)| bt <= t1)
         };
-        self.traverse_from(ray, pre.inv_dir, tmin, tmax, cut, &mut visit);
+        self.traverse_from::<false, _>(ray, pre.inv_dir, tmin, tmax, cut, &mut visit);
         let best = best.map(|(t, object, normal, inner)| Hit {
             t,
             point: ray.at(t),
@@ -739,36 +902,31 @@ impl Octree {
         F: FnMut(NodeId) -> bool,
     {
         let pre = PreparedRay::new(ray);
+        let test = self.tester(objects, &pre);
         let skip = cursor.leaves_done;
         let mut pos = 0u32;
         let mut blocked = None;
         let mut found = false;
         let mut mailbox = Mailbox::new();
-        let mut visit = |leaf: NodeId, _t0: f64, _t1: f64, _cut: &mut f64| {
+        let mut visit = |leaf: NodeId, ids: &[ObjectId], _t0: f64, _t1: f64, _cut: &mut f64| {
             let k = pos;
             pos += 1;
             if k < skip {
                 return false;
             }
-            let ids = self.leaf_objects(leaf);
             if !ids.is_empty() && !local(leaf) {
                 blocked = Some((leaf, k));
                 return true;
             }
             for &id in ids {
-                if Some(id) != ignore
-                    && !mailbox.seen(id)
-                    && objects[id as usize]
-                        .shape
-                        .occludes_prepared(&pre, tmin, tmax)
-                {
+                if Some(id) != ignore && !mailbox.seen(id) && test.occludes(id, tmin, tmax) {
                     found = true;
                     return true;
                 }
             }
             false
         };
-        self.traverse(ray, pre.inv_dir, tmin, tmax, &mut visit);
+        self.traverse::<false, _>(ray, pre.inv_dir, tmin, tmax, &mut visit);
         match blocked {
             Some((leaf, k)) => {
                 cursor.leaves_done = k;
@@ -789,8 +947,9 @@ impl Octree {
         F: FnMut(NodeId, f64, f64) -> bool,
     {
         let inv = Vec3::ONE / ray.dir;
-        let mut visit = |leaf: NodeId, t0: f64, t1: f64, _cut: &mut f64| f(leaf, t0, t1);
-        self.traverse(ray, inv, tmin, tmax, &mut visit);
+        let mut visit =
+            |leaf: NodeId, _ids: &[ObjectId], t0: f64, t1: f64, _cut: &mut f64| f(leaf, t0, t1);
+        self.traverse::<false, _>(ray, inv, tmin, tmax, &mut visit);
     }
 
     /// The leaves a ray passes through, in order along the ray (the cells a

@@ -18,9 +18,10 @@ pub use aabb::Aabb;
 pub use ray::{PreparedRay, Ray};
 pub use robust::{offset_origin, offset_origin_scaled};
 pub use shape::{Instance, InstanceGeometry, Polygon, Shape, ShapeHit, Transform};
+pub(crate) use shape_impl::sphere_normal;
 pub use shape_impl::{
-    intersect_cone, intersect_polygon, intersect_ring, intersect_sphere, intersect_triangle,
-    PLANARITY_TOLERANCE,
+    intersect_cone, intersect_cone_consts, intersect_polygon, intersect_ring, intersect_sphere,
+    intersect_triangle, ConeConsts, PLANARITY_TOLERANCE,
 };
 
 /// Double-precision vector used for all geometry.

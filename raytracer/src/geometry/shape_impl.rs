@@ -609,7 +609,7 @@ pub(crate) fn transform_bounds(t: &Transform, b: &Aabb) -> Aabb {
 }
 
 #[inline]
-fn sphere_normal(p: Vec3, center: Vec3, inward: bool) -> Vec3 {
+pub(crate) fn sphere_normal(p: Vec3, center: Vec3, inward: bool) -> Vec3 {
     let n = (p - center).normalize();
     if inward {
         -n
@@ -714,6 +714,39 @@ pub fn intersect_sphere(ray: &Ray, center: Vec3, radius: f64, tmin: f64, tmax: f
     }
 }
 
+/// The per-cone constants of [`intersect_cone`] (axis length and unit
+/// direction, centre, slope). Computing them once per cone and passing them
+/// to [`intersect_cone_consts`] gives exactly the hits of [`intersect_cone`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConeConsts {
+    pub p0: Vec3,
+    /// Unit axis direction.
+    pub a: Vec3,
+    /// Midpoint of the axis.
+    pub mid: Vec3,
+    /// Axis length.
+    pub h: f64,
+    /// Radius change per unit length along the axis.
+    pub k: f64,
+    pub r0: f64,
+}
+
+impl ConeConsts {
+    #[inline]
+    pub fn new(p0: Vec3, p1: Vec3, r0: f64, r1: f64) -> Self {
+        let axis = p1 - p0;
+        let h = axis.length();
+        Self {
+            p0,
+            a: axis / h,
+            mid: (p0 + p1) * 0.5,
+            h,
+            k: (r1 - r0) / h,
+            r0,
+        }
+    }
+}
+
 /// Nearest ray/cone hit in `(tmin, tmax)` and the outward unit normal there
 /// (outward: away from the axis). The quadratic is set up with the ray origin
 /// moved to the point of the ray nearest the cone's centre.
@@ -727,15 +760,29 @@ pub fn intersect_cone(
     tmin: f64,
     tmax: f64,
 ) -> Option<(f64, Vec3)> {
-    let axis = p1 - p0;
-    let h = axis.length();
-    let a = axis / h;
+    intersect_cone_consts(ray, &ConeConsts::new(p0, p1, r0, r1), tmin, tmax)
+}
+
+/// [`intersect_cone`] with the cone's constants computed beforehand.
+#[inline]
+pub fn intersect_cone_consts(
+    ray: &Ray,
+    c: &ConeConsts,
+    tmin: f64,
+    tmax: f64,
+) -> Option<(f64, Vec3)> {
+    let ConeConsts {
+        p0,
+        a,
+        mid,
+        h,
+        k,
+        r0,
+    } = *c;
     let d = ray.dir;
-    let mid = (p0 + p1) * 0.5;
     let tc = (mid - ray.origin).dot(d);
     let o = ray.origin + d * tc;
     let w = o - p0;
-    let k = (r1 - r0) / h;
     let ws = w.dot(a);
     let ds = d.dot(a);
     let wp = w - a * ws;

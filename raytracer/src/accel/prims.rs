@@ -1,0 +1,368 @@
+//! The octree's compact copy of the scene's polygons, laid out for the
+//! intersection loop.
+//!
+//! A polygon's triangles are stored in pairs, structure of arrays
+//! (`v[vertex][axis][lane]`), so the watertight test runs on two triangles at
+//! once with packed double-precision arithmetic, and the ray's axis
+//! permutation is an address offset rather than a shuffle. A polygon with an
+//! odd number of triangles repeats its last triangle in the unused lane
+//! (testing a triangle twice changes neither the nearest distance nor the
+//! any-hit answer). Every operation of the scalar test
+//! ([`crate::geometry::intersect_triangle`]) is done in the same order on the
+//! same values, so each lane's result is bit for bit the scalar result.
+//! Spheres and cones keep their constants next to each other (a cone's axis
+//! length, direction and slope computed once, with the expressions the
+//! test would use); other shapes are tested through [`Shape`] as before.
+
+use crate::geometry::robust::diff_of_products;
+use crate::geometry::{
+    intersect_cone_consts, intersect_sphere, sphere_normal, ConeConsts, PreparedRay, Shape,
+    ShapeHit, Vec3,
+};
+use crate::scene::{Object, ObjectId};
+
+/// Two triangles: `v[vertex][axis][lane]`.
+#[derive(Debug, Clone, Copy)]
+struct TriPair {
+    v: [[[f64; 2]; 3]; 3],
+}
+
+/// Where an object's data lives: `pairs` pairs from `start` (a polygon),
+/// quadric number `start` (`pairs == 0`), or nowhere (`start == NONE`:
+/// test the [`Shape`]).
+#[derive(Debug, Clone, Copy)]
+struct PrimRef {
+    start: u32,
+    pairs: u32,
+}
+
+const NONE: u32 = u32::MAX;
+
+impl Default for PrimRef {
+    fn default() -> Self {
+        Self {
+            start: NONE,
+            pairs: 0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Quadric {
+    Sphere {
+        center: Vec3,
+        radius: f64,
+        inward: bool,
+    },
+    Cone {
+        c: ConeConsts,
+        inward: bool,
+    },
+}
+
+/// Per-object intersection data, indexed by object id.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Prims {
+    refs: Vec<PrimRef>,
+    pairs: Vec<TriPair>,
+    quadrics: Vec<Quadric>,
+    /// Polygon normals (what a hit reports), zero for other shapes.
+    normals: Vec<Vec3>,
+}
+
+/// The per-ray constants of the watertight test, with the origin permuted
+/// like the axes (`o[0]` is the origin's `kx` coordinate, and so on).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct TriRay {
+    k: [usize; 3],
+    o: [f64; 3],
+    sx: f64,
+    sy: f64,
+    sz: f64,
+}
+
+impl TriRay {
+    #[inline]
+    pub(crate) fn new(pre: &PreparedRay) -> Self {
+        let o = pre.ray.origin.to_array();
+        Self {
+            k: [pre.kx, pre.ky, pre.kz],
+            o: [o[pre.kx], o[pre.ky], o[pre.kz]],
+            sx: pre.sx,
+            sy: pre.sy,
+            sz: pre.sz,
+        }
+    }
+}
+
+impl Prims {
+    /// The data for `objects` (in id order).
+    pub(crate) fn build(objects: &[Object]) -> Prims {
+        let mut p = Prims {
+            refs: Vec::with_capacity(objects.len()),
+            pairs: Vec::new(),
+            quadrics: Vec::new(),
+            normals: Vec::with_capacity(objects.len()),
+        };
+        for o in objects {
+            match &o.shape {
+                Shape::Polygon(poly) if !poly.tri_verts.is_empty() => {
+                    let start = p.pairs.len() as u32;
+                    for two in poly.tri_verts.chunks(2) {
+                        let (t0, t1) = (two[0], *two.last().unwrap_or(&two[0]));
+                        let mut v = [[[0.0; 2]; 3]; 3];
+                        for (vert, out) in v.iter_mut().enumerate() {
+                            let (a, b) = (t0[vert].to_array(), t1[vert].to_array());
+                            for axis in 0..3 {
+                                out[axis] = [a[axis], b[axis]];
+                            }
+                        }
+                        p.pairs.push(TriPair { v });
+                    }
+                    p.refs.push(PrimRef {
+                        start,
+                        pairs: p.pairs.len() as u32 - start,
+                    });
+                    p.normals.push(poly.normal);
+                }
+                &Shape::Sphere {
+                    center,
+                    radius,
+                    inward,
+                } => {
+                    p.refs.push(PrimRef {
+                        start: p.quadrics.len() as u32,
+                        pairs: 0,
+                    });
+                    p.quadrics.push(Quadric::Sphere {
+                        center,
+                        radius,
+                        inward,
+                    });
+                    p.normals.push(Vec3::ZERO);
+                }
+                &Shape::Cone {
+                    p0,
+                    p1,
+                    r0,
+                    r1,
+                    inward,
+                } => {
+                    p.refs.push(PrimRef {
+                        start: p.quadrics.len() as u32,
+                        pairs: 0,
+                    });
+                    p.quadrics.push(Quadric::Cone {
+                        c: ConeConsts::new(p0, p1, r0, r1),
+                        inward,
+                    });
+                    p.normals.push(Vec3::ZERO);
+                }
+                _ => {
+                    p.refs.push(PrimRef::default());
+                    p.normals.push(Vec3::ZERO);
+                }
+            }
+        }
+        p
+    }
+
+    /// True if this data was built for `objects` (callers fall back to the
+    /// shapes otherwise).
+    #[inline]
+    pub(crate) fn matches(&self, objects: &[Object]) -> bool {
+        self.refs.len() == objects.len()
+    }
+
+    /// Heap bytes.
+    pub(crate) fn memory_bytes(&self) -> usize {
+        self.refs.capacity() * std::mem::size_of::<PrimRef>()
+            + self.pairs.capacity() * std::mem::size_of::<TriPair>()
+            + self.quadrics.capacity() * std::mem::size_of::<Quadric>()
+            + self.normals.capacity() * std::mem::size_of::<Vec3>()
+    }
+
+    /// Nearest hit of object `id` with `tmin < t < tmax`: exactly
+    /// `objects[id].shape.intersect_prepared(pre, tmin, tmax)`.
+    #[inline]
+    pub(crate) fn intersect(
+        &self,
+        objects: &[Object],
+        id: ObjectId,
+        pre: &PreparedRay,
+        tr: &TriRay,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<ShapeHit> {
+        let r = self.refs[id as usize];
+        if r.pairs == 0 {
+            return match self.quadrics.get(r.start as usize) {
+                Some(&Quadric::Sphere {
+                    center,
+                    radius,
+                    inward,
+                }) => {
+                    let t = intersect_sphere(&pre.ray, center, radius, tmin, tmax)?;
+                    Some(ShapeHit {
+                        t,
+                        normal: sphere_normal(pre.ray.at(t), center, inward),
+                        inner: None,
+                    })
+                }
+                Some(Quadric::Cone { c, inward }) => {
+                    let (t, n) = intersect_cone_consts(&pre.ray, c, tmin, tmax)?;
+                    Some(ShapeHit {
+                        t,
+                        normal: if *inward { -n } else { n },
+                        inner: None,
+                    })
+                }
+                None => objects[id as usize]
+                    .shape
+                    .intersect_prepared(pre, tmin, tmax),
+            };
+        }
+        // The scalar loop keeps the nearest hit, the first of equal ones:
+        // the smallest `t` in range.
+        let mut best = tmax;
+        let mut hit = false;
+        for p in &self.pairs[r.start as usize..(r.start + r.pairs) as usize] {
+            for t in pair_hits(tr, p) {
+                if t > tmin && t < best {
+                    best = t;
+                    hit = true;
+                }
+            }
+        }
+        hit.then(|| ShapeHit {
+            t: best,
+            normal: self.normals[id as usize],
+            inner: None,
+        })
+    }
+
+    /// True if object `id` has a hit with `tmin < t < tmax`: exactly
+    /// `objects[id].shape.occludes_prepared(pre, tmin, tmax)`.
+    #[inline]
+    pub(crate) fn occludes(
+        &self,
+        objects: &[Object],
+        id: ObjectId,
+        pre: &PreparedRay,
+        tr: &TriRay,
+        tmin: f64,
+        tmax: f64,
+    ) -> bool {
+        let r = self.refs[id as usize];
+        if r.pairs == 0 {
+            return match self.quadrics.get(r.start as usize) {
+                Some(&Quadric::Sphere { center, radius, .. }) => {
+                    intersect_sphere(&pre.ray, center, radius, tmin, tmax).is_some()
+                }
+                Some(Quadric::Cone { c, .. }) => {
+                    intersect_cone_consts(&pre.ray, c, tmin, tmax).is_some()
+                }
+                None => objects[id as usize]
+                    .shape
+                    .occludes_prepared(pre, tmin, tmax),
+            };
+        }
+        self.pairs[r.start as usize..(r.start + r.pairs) as usize]
+            .iter()
+            .any(|p| {
+                let [t0, t1] = pair_hits(tr, p);
+                (t0 > tmin && t0 < tmax) || (t1 > tmin && t1 < tmax)
+            })
+    }
+}
+
+/// Two lanes of doubles; the operators work lane by lane (compiled to
+/// packed SSE2 arithmetic, each lane rounded exactly like the scalar code).
+#[derive(Debug, Clone, Copy)]
+struct F2([f64; 2]);
+
+impl F2 {
+    #[inline(always)]
+    fn splat(x: f64) -> F2 {
+        F2([x, x])
+    }
+}
+
+impl std::ops::Sub for F2 {
+    type Output = F2;
+    #[inline(always)]
+    fn sub(self, o: F2) -> F2 {
+        F2([self.0[0] - o.0[0], self.0[1] - o.0[1]])
+    }
+}
+
+impl std::ops::Add for F2 {
+    type Output = F2;
+    #[inline(always)]
+    fn add(self, o: F2) -> F2 {
+        F2([self.0[0] + o.0[0], self.0[1] + o.0[1]])
+    }
+}
+
+impl std::ops::Mul for F2 {
+    type Output = F2;
+    #[inline(always)]
+    fn mul(self, o: F2) -> F2 {
+        F2([self.0[0] * o.0[0], self.0[1] * o.0[1]])
+    }
+}
+
+impl std::ops::Div for F2 {
+    type Output = F2;
+    #[inline(always)]
+    fn div(self, o: F2) -> F2 {
+        F2([self.0[0] / o.0[0], self.0[1] / o.0[1]])
+    }
+}
+
+/// The watertight test ([`crate::geometry::intersect_triangle`]) on both
+/// triangles of a pair without the range test: each lane's `t`, or NaN where
+/// the ray misses the triangle.
+#[inline(always)]
+fn pair_hits(tr: &TriRay, p: &TriPair) -> [f64; 2] {
+    let [kx, ky, kz] = tr.k;
+    let [a, b, c] = &p.v;
+    let (ox, oy, oz) = (F2::splat(tr.o[0]), F2::splat(tr.o[1]), F2::splat(tr.o[2]));
+    let (sx, sy) = (F2::splat(tr.sx), F2::splat(tr.sy));
+    let (a_x, a_y, a_z) = (F2(a[kx]) - ox, F2(a[ky]) - oy, F2(a[kz]) - oz);
+    let (b_x, b_y, b_z) = (F2(b[kx]) - ox, F2(b[ky]) - oy, F2(b[kz]) - oz);
+    let (c_x, c_y, c_z) = (F2(c[kx]) - ox, F2(c[ky]) - oy, F2(c[kz]) - oz);
+    let ax = a_x - sx * a_z;
+    let ay = a_y - sy * a_z;
+    let bx = b_x - sx * b_z;
+    let by = b_y - sy * b_z;
+    let cx = c_x - sx * c_z;
+    let cy = c_y - sy * c_z;
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    let mut out = [f64::NAN; 2];
+    for l in 0..2 {
+        let (mut u, mut v, mut w) = (u.0[l], v.0[l], w.0[l]);
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            // Recompute the lane's edge functions with exact signs, as the
+            // scalar test does.
+            let (ax, ay, bx, by, cx, cy) = (ax.0[l], ay.0[l], bx.0[l], by.0[l], cx.0[l], cy.0[l]);
+            u = diff_of_products(cx, by, cy, bx);
+            v = diff_of_products(ax, cy, ay, cx);
+            w = diff_of_products(bx, ay, by, ax);
+        }
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            continue;
+        }
+        let det = u + v + w;
+        if det == 0.0 {
+            continue;
+        }
+        let az = tr.sz * a_z.0[l];
+        let bz = tr.sz * b_z.0[l];
+        let cz = tr.sz * c_z.0[l];
+        out[l] = (u * az + v * bz + w * cz) / det;
+    }
+    out
+}
