@@ -352,7 +352,7 @@ fn pair_hits_lanes(tr: &TriRay, p: &TriPair) -> [f64; 2] {
     let v = ax * cy - ay * cx;
     let w = bx * ay - by * ax;
     let mut out = [f64::NAN; 2];
-    for l in 0..2 {
+    for (l, out) in out.iter_mut().enumerate() {
         let (mut u, mut v, mut w) = (u.0[l], v.0[l], w.0[l]);
         if u == 0.0 || v == 0.0 || w == 0.0 {
             // Recompute the lane's edge functions with exact signs, as the
@@ -372,7 +372,7 @@ fn pair_hits_lanes(tr: &TriRay, p: &TriPair) -> [f64; 2] {
         let az = tr.sz * a_z.0[l];
         let bz = tr.sz * b_z.0[l];
         let cz = tr.sz * c_z.0[l];
-        out[l] = (u * az + v * bz + w * cz) / det;
+        *out = (u * az + v * bz + w * cz) / det;
     }
     out
 }
