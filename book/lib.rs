@@ -19,5 +19,9 @@ pub struct Rendering;
 pub struct Parallel;
 
 #[cfg(doctest)]
+#[doc = include_str!("src/benchmarks.md")]
+pub struct Benchmarks;
+
+#[cfg(doctest)]
 #[doc = include_str!("src/scenes.md")]
 pub struct Scenes;
