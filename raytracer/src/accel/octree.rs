@@ -140,6 +140,14 @@ struct RayTrav {
     pos: [bool; 3],
 }
 
+/// How a traversal treats subtrees without objects: visit every leaf
+/// (traversals that count leaves), skip them (any-hit: the answer does not
+/// depend on them), or hand each to `visit` once as an empty leaf spanning
+/// the subtree (nearest hit: the stop test at an empty leaf can decide a tie).
+const ALL: u8 = 0;
+const SKIP: u8 = 1;
+const ONCE: u8 = 2;
+
 /// Object ids a leaf keeps in its node (where an internal node keeps its
 /// cell centre): the octree's build limit, so nearly every leaf has them.
 const INLINE: usize = 6;
@@ -627,10 +635,10 @@ impl Octree {
     /// Visits the leaves the ray passes through in front-to-back order with
     /// their objects and `[t_enter, t_exit]`. `visit` gets a mutable cut-off
     /// distance: leaves entered beyond it are not visited. `visit` returns
-    /// true to stop. With `SKIP_EMPTY`, leaves (and subtrees) without objects
-    /// are passed over: for queries whose answer does not depend on them.
+    /// true to stop. `EMPTY` says how subtrees without objects are treated
+    /// ([`ALL`], [`SKIP`], [`ONCE`]).
     #[inline]
-    fn traverse<const SKIP_EMPTY: bool, F>(
+    fn traverse<const EMPTY: u8, F>(
         &self,
         ray: &Ray,
         inv: Vec3,
@@ -640,13 +648,13 @@ impl Octree {
     ) where
         F: FnMut(NodeId, &[ObjectId], f64, f64, &mut f64) -> bool,
     {
-        self.traverse_from::<SKIP_EMPTY, F>(ray, inv, tmin, tmax, tmax, visit);
+        self.traverse_from::<EMPTY, F>(ray, inv, tmin, tmax, tmax, visit);
     }
 
     /// [`Octree::traverse`] with the cut-off distance starting at `cut`
     /// (a resumed traversal starts it at the best hit found so far).
     #[inline]
-    fn traverse_from<const SKIP_EMPTY: bool, F>(
+    fn traverse_from<const EMPTY: u8, F>(
         &self,
         ray: &Ray,
         inv: Vec3,
@@ -668,7 +676,7 @@ impl Octree {
             pos: [d[0] > 0.0, d[1] > 0.0, d[2] > 0.0],
         };
         let mut cut = cut;
-        self.visit_node::<SKIP_EMPTY, F>(&r, 0, t0, t1, &mut cut, visit);
+        self.visit_node::<EMPTY, F>(&r, 0, t0, t1, &mut cut, visit);
     }
 
     /// Visits node `id`, which the ray passes through over `[t0, t1]`:
@@ -677,7 +685,7 @@ impl Octree {
     /// node's three mid-planes). Returns true to stop the traversal.
     /// (Recursion measured faster than an explicit stack here.)
     #[allow(clippy::too_many_arguments)]
-    fn visit_node<const SKIP_EMPTY: bool, F>(
+    fn visit_node<const EMPTY: u8, F>(
         &self,
         r: &RayTrav,
         id: NodeId,
@@ -730,22 +738,63 @@ impl Octree {
         if tm[order[0]] > tm[order[1]] {
             order.swap(0, 1);
         }
-        let mask = if SKIP_EMPTY { node.meta } else { 0xff };
+        let mask = if EMPTY == ALL { 0xff } else { node.meta };
         let mut t = t0;
         for a in order {
             let ta = tm[a];
             if ta > t0 && ta < t1 {
-                if mask & (1 << child) != 0
-                    && self.visit_node::<SKIP_EMPTY, F>(r, first + child, t, ta, cut, visit)
-                {
+                if self.enter::<EMPTY, F>(
+                    r,
+                    first + child,
+                    mask & (1 << child) == 0,
+                    t,
+                    ta,
+                    cut,
+                    visit,
+                ) {
                     return true;
                 }
                 child ^= 1 << a;
                 t = ta;
             }
         }
-        mask & (1 << child) != 0
-            && self.visit_node::<SKIP_EMPTY, F>(r, first + child, t, t1, cut, visit)
+        self.enter::<EMPTY, F>(
+            r,
+            first + child,
+            mask & (1 << child) == 0,
+            t,
+            t1,
+            cut,
+            visit,
+        )
+    }
+
+    /// Visits child `id` over `[t0, t1]`; `empty`: no objects below it.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn enter<const EMPTY: u8, F>(
+        &self,
+        r: &RayTrav,
+        id: NodeId,
+        empty: bool,
+        t0: f64,
+        t1: f64,
+        cut: &mut f64,
+        visit: &mut F,
+    ) -> bool
+    where
+        F: FnMut(NodeId, &[ObjectId], f64, f64, &mut f64) -> bool,
+    {
+        if empty && EMPTY == SKIP {
+            return false;
+        }
+        if empty && EMPTY == ONCE {
+            // What visiting its leaves one by one would decide: the cut-off
+            // does not change in them, the stop test is monotonic in t_exit,
+            // and the last leaf's t_exit is the subtree's.
+            return t0 > *cut || visit(id, &[], t0, t1, cut);
+        }
+        self.visit_node::<EMPTY, F>(r, id, t0, t1, cut, visit)
     }
 
     /// Nearest hit with `tmin < t < tmax` among `objects` (the slice the tree
@@ -771,7 +820,7 @@ impl Octree {
             }
             best.is_some_and(|(bt, _, _)| bt <= t1)
         };
-        self.traverse::<false, _>(ray, pre.inv_dir, tmin, tmax, &mut visit);
+        self.traverse::<ONCE, _>(ray, pre.inv_dir, tmin, tmax, &mut visit);
         best.map(|(t, id, h)| Hit {
             t,
             point: ray.at(t),
@@ -803,7 +852,7 @@ impl Octree {
             }
             false
         };
-        self.traverse::<true, _>(ray, pre.inv_dir, tmin, tmax, &mut visit);
+        self.traverse::<SKIP, _>(ray, pre.inv_dir, tmin, tmax, &mut visit);
         found
     }
 
@@ -862,7 +911,7 @@ impl Octree {
             }
             best.is_some_and(|(bt, _, _, _)| bt <= t1)
         };
-        self.traverse_from::<false, _>(ray, pre.inv_dir, tmin, tmax, cut, &mut visit);
+        self.traverse_from::<ALL, _>(ray, pre.inv_dir, tmin, tmax, cut, &mut visit);
         let best = best.map(|(t, object, normal, inner)| Hit {
             t,
             point: ray.at(t),
@@ -926,7 +975,7 @@ impl Octree {
             }
             false
         };
-        self.traverse::<false, _>(ray, pre.inv_dir, tmin, tmax, &mut visit);
+        self.traverse::<ALL, _>(ray, pre.inv_dir, tmin, tmax, &mut visit);
         match blocked {
             Some((leaf, k)) => {
                 cursor.leaves_done = k;
@@ -949,7 +998,7 @@ impl Octree {
         let inv = Vec3::ONE / ray.dir;
         let mut visit =
             |leaf: NodeId, _ids: &[ObjectId], t0: f64, t1: f64, _cut: &mut f64| f(leaf, t0, t1);
-        self.traverse::<false, _>(ray, inv, tmin, tmax, &mut visit);
+        self.traverse::<ALL, _>(ray, inv, tmin, tmax, &mut visit);
     }
 
     /// The leaves a ray passes through, in order along the ray (the cells a
