@@ -12,6 +12,7 @@ pub mod geometry;
 pub mod image;
 pub mod parallel;
 pub mod render;
+pub mod report;
 pub mod scene;
 
 pub use error::{Error, Result, SourceLoc};
