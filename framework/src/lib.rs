@@ -51,6 +51,7 @@ pub use policy::Policy;
 pub use processor::{Processor, Step};
 pub use runtime::lockstep::{run_lockstep, Lockstep};
 pub use runtime::sequential::{run_sequential, Sequential};
+pub use runtime::sim::{run_sim, CostModel, Network, Sim, Timeline};
 pub use runtime::threads::{run_threads, Threads};
 pub use runtime::{Node, RunReport, Runtime};
 pub use stats::{ProcStats, RunStats, State};

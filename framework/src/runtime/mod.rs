@@ -14,6 +14,7 @@
 
 pub mod lockstep;
 pub mod sequential;
+pub mod sim;
 pub mod threads;
 
 use std::sync::Arc;
