@@ -50,7 +50,7 @@ pub use message::{Addr, Class, Msg, Packet};
 pub use policy::Policy;
 pub use processor::{Processor, Step};
 pub use runtime::lockstep::{run_lockstep, Lockstep};
-pub use runtime::sequential::{run_sequential, Sequential};
+pub use runtime::sequential::{run_sequential, run_sequential_observed, Sequential};
 pub use runtime::sim::{run_sim, CostModel, Network, Sim, Timeline};
 pub use runtime::threads::{run_threads, Threads};
 pub use runtime::{Node, RunReport, Runtime};

@@ -508,6 +508,7 @@ fn packets_round_trip_through_serde() {
             },
         ],
         bytes: 100,
+        load: 0,
     };
     let json = serde_json::to_string(&packet).expect("serialise");
     let back: Packet<Mini> = serde_json::from_str(&json).expect("deserialise");

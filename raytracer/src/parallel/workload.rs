@@ -198,6 +198,11 @@ pub mod work {
     pub static SHADOW_UNOCCLUDED: &str = "shadow.unoccluded";
     pub static SHADOW_SEGMENTS: &str = "shadow.transparent_segments";
     pub static SHADOW_RESTARTS: &str = "shadow.restarts";
+    /// Non-empty octree leaves entered by traversals (octree steps).
+    pub static TRACE_LEAVES: &str = "trace.leaves";
+    /// Objects listed in those leaves (intersection tests, counting an
+    /// object once per leaf; an any-hit query may stop earlier).
+    pub static TRACE_OBJECTS: &str = "trace.objects";
     pub static SHADE: &str = "shade";
 }
 
@@ -657,9 +662,16 @@ impl RtWorkload {
         let objects = &self.renderer.scene().objects;
         let t = &job.task;
         let (proc, procs) = (ctx.proc_id(), ctx.procs());
-        match octree.intersect_partial(objects, &t.ray, t.tmin, t.tmax, &mut job.cursor, |l| {
-            self.is_local(data, proc, procs, l)
-        }) {
+        let (mut leaves, mut tests) = (0u64, 0u64);
+        let partial =
+            octree.intersect_partial(objects, &t.ray, t.tmin, t.tmax, &mut job.cursor, |l| {
+                leaves += 1;
+                tests += octree.leaf_objects(l).len() as u64;
+                self.is_local(data, proc, procs, l)
+            });
+        ctx.charge(work::TRACE_LEAVES, leaves);
+        ctx.charge(work::TRACE_OBJECTS, tests);
+        match partial {
             Partial::Blocked(leaf) => {
                 job.next = Some(leaf);
                 Some(job)
@@ -687,10 +699,15 @@ impl RtWorkload {
         }
         let replay = std::mem::take(&mut job.replay);
         let (proc, procs) = (ctx.proc_id(), ctx.procs());
+        let visits = std::cell::Cell::new((0u64, 0u64));
         let caster = PartialCaster::new(
             octree,
             objects,
-            |l| self.is_local(data, proc, procs, l),
+            |l| {
+                let (a, b) = visits.get();
+                visits.set((a + 1, b + octree.leaf_objects(l).len() as u64));
+                self.is_local(data, proc, procs, l)
+            },
             replay,
         );
         let mut counts = ShadowCounts::default();
@@ -702,6 +719,9 @@ impl RtWorkload {
             &mut scratch,
             &mut counts,
         );
+        let (leaves, tests) = visits.get();
+        ctx.charge(work::TRACE_LEAVES, leaves);
+        ctx.charge(work::TRACE_OBJECTS, tests);
         if let Some(leaf) = caster.blocked() {
             job.replay = caster.into_replay();
             job.next = Some(leaf);
