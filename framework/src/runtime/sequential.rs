@@ -42,13 +42,16 @@ pub fn run_sequential<W: Workload>(workload: &W, procs: usize) -> Result<RunRepo
     run_sequential_observed(workload, procs, &mut |_, _| {})
 }
 
+/// Called with each step's charged work and its wall-clock nanoseconds.
+pub type StepObserver<'a> = dyn FnMut(&[(&'static str, u64)], u64) + 'a;
+
 /// [`run_sequential`], calling `observe(charges, ns)` after every task step
 /// with the work it charged and the wall-clock nanoseconds it took: the
 /// samples from which a simulator's cost model is fitted.
 pub fn run_sequential_observed<W: Workload>(
     workload: &W,
     procs: usize,
-    observe: &mut dyn FnMut(&[(&'static str, u64)], u64),
+    observe: &mut StepObserver<'_>,
 ) -> Result<RunReport<W>, RunError> {
     if procs == 0 {
         return Err(ConfigError::NoProcessors.into());
