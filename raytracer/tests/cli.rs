@@ -195,9 +195,29 @@ fn bad_inputs_exit_with_code_and_location() {
             "-ds".into(),
         ),
         (
-            vec![&rad, "--view-file", &vf, "-o", &out, "-ab", "1"],
+            vec![&rad, "--view-file", &vf, "-o", &out, "-ab", "99"],
             2,
-            "not yet supported".into(),
+            "-ab 99".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "-aa", "2"],
+            2,
+            "-aa".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "-ad", "0", "-ab", "1"],
+            2,
+            "-ad 0".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "-as", "x"],
+            2,
+            "-as".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "-pn", "0"],
+            2,
+            "-pn".into(),
         ),
         (
             vec![&rad, "--view-file", &vf, "-o", &out, "-ps", "4"],

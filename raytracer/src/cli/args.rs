@@ -13,7 +13,7 @@ use crate::render::RADIANCE_OPTIONS;
     name = "hybrid-rt",
     version,
     about = "A Radiance-style ray tracer, sequential reference of a hybrid-scheduled parallel renderer",
-    after_help = "Radiance options may be written Radiance's way: -ds 0.2 -dj 0.5 -dt 0.05 -dc 0.5 -lr 8 -lw 0.002 -av 0.1 0.1 0.1 -ps 1, and view options -vf FILE -vtv -vp X Y Z -vd X Y Z -vu X Y Z -vh A -vv A.\nLogging: set RUST_LOG (e.g. RUST_LOG=info)."
+    after_help = "Radiance options may be written Radiance's way: -ds 0.2 -dj 0.5 -dt 0.05 -dc 0.5 -lr 8 -lw 0.002 -av 0.1 0.1 0.1 -ab 1 -aa 0.1 -ar 256 -ad 512 -as 128 -ps 1, and view options -vf FILE -vtv -vp X Y Z -vd X Y Z -vu X Y Z -vh A -vv A.\nLogging: set RUST_LOG (e.g. RUST_LOG=info)."
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -52,9 +52,21 @@ pub struct RadianceArgs {
     /// -av: constant ambient radiance [default: 0 0 0]
     #[arg(long = "av", num_args = 3, value_names = ["R", "G", "B"], allow_hyphen_values = true)]
     pub av: Option<Vec<String>>,
-    /// -ab: ambient bounces (only 0 is supported yet)
+    /// -ab: ambient bounces (diffuse inter-reflection) [default: 0]
     #[arg(long = "ab", value_name = "N", allow_hyphen_values = true)]
     pub ab: Option<String>,
+    /// -aa: ambient accuracy, 0 = no irradiance cache [default: 0.1]
+    #[arg(long = "aa", value_name = "FRAC", allow_hyphen_values = true)]
+    pub aa: Option<String>,
+    /// -ar: ambient resolution [default: 256]
+    #[arg(long = "ar", value_name = "N", allow_hyphen_values = true)]
+    pub ar: Option<String>,
+    /// -ad: ambient divisions (hemisphere rays) [default: 512]
+    #[arg(long = "ad", value_name = "N", allow_hyphen_values = true)]
+    pub ad: Option<String>,
+    /// -as: ambient super-samples [default: 128]
+    #[arg(long = "as", value_name = "N", allow_hyphen_values = true)]
+    pub as_: Option<String>,
     /// -st: specular sampling threshold [default: 0.15]
     #[arg(long = "st", value_name = "FRAC", allow_hyphen_values = true)]
     pub st: Option<String>,
@@ -67,6 +79,9 @@ pub struct RadianceArgs {
     /// -pj: pixel jitter 0..1 [default: 0]
     #[arg(long = "pj", value_name = "FRAC", allow_hyphen_values = true)]
     pub pj: Option<String>,
+    /// -pn: primary rays per pixel, averaged (not an rpict option) [default: 1]
+    #[arg(long = "pn", value_name = "N", allow_hyphen_values = true)]
+    pub pn: Option<String>,
 }
 
 impl RadianceArgs {
@@ -90,10 +105,15 @@ impl RadianceArgs {
                     .map(|a| a.iter().map(String::as_str).collect()),
             ),
             ("ab", one(&self.ab)),
+            ("aa", one(&self.aa)),
+            ("ar", one(&self.ar)),
+            ("ad", one(&self.ad)),
+            ("as", one(&self.as_)),
             ("st", one(&self.st)),
             ("ss", one(&self.ss)),
             ("ps", one(&self.ps)),
             ("pj", one(&self.pj)),
+            ("pn", one(&self.pn)),
         ] {
             if let Some(vals) = vals {
                 v.push((name, vals));

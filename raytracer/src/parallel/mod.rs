@@ -9,6 +9,7 @@
 //! renderer's bit for bit for any number of processors, policy, cache size
 //! and distribution.
 
+pub mod ambient;
 pub mod caster;
 pub mod tree;
 pub mod workload;
@@ -191,6 +192,7 @@ pub fn render_parallel(
     }
     let t0 = Instant::now();
     let renderer = Renderer::shared(scene, options, &OctreeParams::default())?;
+    ambient::check_hybrid(&renderer)?;
     let wl = RtWorkload::new(
         renderer,
         view.clone(),

@@ -186,6 +186,7 @@ pub mod work {
     pub static RAYS_REFLECTION: &str = "rays.reflection";
     pub static RAYS_REFRACTION: &str = "rays.refraction";
     pub static RAYS_PASS_THROUGH: &str = "rays.pass_through";
+    pub static RAYS_AMBIENT: &str = "rays.ambient";
     pub static RAYS_SPAWNED: &str = "rays.spawned";
     pub static RAYS_RETIRED: &str = "rays.retired";
     pub static SHADOW_BUNDLES: &str = "shadow.bundles";
@@ -576,6 +577,7 @@ impl RtWorkload {
                 RayKind::Reflection => work::RAYS_REFLECTION,
                 RayKind::Refraction => work::RAYS_REFRACTION,
                 RayKind::PassThrough => work::RAYS_PASS_THROUGH,
+                RayKind::Ambient => work::RAYS_AMBIENT,
             },
             1,
         );

@@ -1,16 +1,19 @@
 //! The sequential reference renderer and the shading model, after
-//! Radiance's `rpict` without diffuse inter-reflection (as in the paper).
+//! Radiance's `rpict` (diffuse inter-reflection, which the paper deferred,
+//! only when `-ab` > 0).
 //!
 //! - [`options`]: [`RenderOptions`] under Radiance's names (`-ds`, `-dt`, ...);
 //! - [`material`]: shading one hit point into local light plus *requests*
 //!   (shadow bundles, reflected and refracted rays), the unit of work the
 //!   parallel renderer schedules;
+//! - [`ambient`]: diffuse inter-reflection with an irradiance cache (`-ab`);
 //! - [`light`] and [`direct`]: source subdivision and adaptive shadow testing;
 //! - [`effects`]: which effects a scene calls for, and why;
 //! - [`sequential`]: the [`Renderer`] that evaluates it all in process;
 //! - [`stats`]: rays by kind, time per effect, `--stats` JSON;
 //! - [`rng`]: per-pixel random streams (tile order never changes a pixel).
 
+pub mod ambient;
 pub mod caster;
 pub mod direct;
 pub mod effects;
