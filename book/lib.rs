@@ -19,5 +19,13 @@ pub struct Rendering;
 pub struct Parallel;
 
 #[cfg(doctest)]
+#[doc = include_str!("src/accuracy.md")]
+pub struct Accuracy;
+
+#[cfg(doctest)]
+#[doc = include_str!("src/hard-cases.md")]
+pub struct HardCases;
+
+#[cfg(doctest)]
 #[doc = include_str!("src/scenes.md")]
 pub struct Scenes;

@@ -26,11 +26,16 @@ pub enum Command {
     Render(Box<RenderArgs>),
     /// Measure primary and shadow ray throughput on a scene.
     Bench(Box<BenchArgs>),
+    /// What accuracy costs: render a converged reference, sweep the quality knobs, report error against time (CSV, markdown, SVG with the Pareto front).
+    Sweep(Box<SweepArgs>),
 }
 
 /// Radiance rendering options (long forms of `-ds`, `-dj`, ...).
 #[derive(Debug, Args, Default)]
 pub struct RadianceArgs {
+    /// Quality preset chosen from the sweep's Pareto front: draft, normal or high (Radiance options given as well override it).
+    #[arg(long, value_name = "PRESET")]
+    pub quality: Option<String>,
     /// -ds: source subdivision ratio [default: 0.2]
     #[arg(long = "ds", value_name = "RATIO", allow_hyphen_values = true)]
     pub ds: Option<String>,
@@ -221,6 +226,14 @@ pub struct ParallelArgs {
     /// Worker threads for the threads runtime [default: one per core].
     #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
     pub threads: Option<usize>,
+    /// With -ab: how processors treat the irradiance cache's data dependency: one-at-a-time (wait for the hemisphere in flight) or extra (start hemispheres freely, count the redundant ones).
+    #[arg(
+        long,
+        default_value = "one-at-a-time",
+        value_name = "MODE",
+        help_heading = "Parallel rendering"
+    )]
+    pub hemispheres: String,
     /// Write the parallel run's statistics (per processor: times, traffic, tasks, cache, memory, work) as JSON.
     #[arg(
         long = "parallel-stats",
@@ -249,8 +262,35 @@ pub struct BenchArgs {
     pub radiance: RadianceArgs,
 }
 
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    /// Built-in scene (cornell, studio, conference) or a scene file (its view: the .vf next to it or --view-file).
+    #[arg(value_name = "SCENE")]
+    pub scene: String,
+    /// Directory for sweep.csv, sweep.md, sweep.svg and reference.hdr (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// View file for a scene file.
+    #[arg(long = "view-file", value_name = "FILE")]
+    pub view_file: Option<PathBuf>,
+    /// Maximum image width (reduced to keep pixels square).
+    #[arg(long, default_value_t = 64, value_name = "W")]
+    pub width: u32,
+    /// Maximum image height.
+    #[arg(long, default_value_t = 64, value_name = "H")]
+    pub height: u32,
+    /// Seed of the random streams (the reference uses its own).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// A cheaper reference (-pn 4 -ab 2 -aa 0.1 -ad 256 -as 64), for quick looks and tests.
+    #[arg(long)]
+    pub quick_reference: bool,
+}
+
 /// Our options that take one value.
 const VALUE_FLAGS: &[&str] = &[
+    "--out",
+    "--quality",
     "--view",
     "--view-file",
     "-o",
@@ -271,6 +311,7 @@ const VALUE_FLAGS: &[&str] = &[
     "--shadow-dp-below",
     "--threads",
     "--parallel-stats",
+    "--hemispheres",
 ];
 
 /// Number of values each Radiance view option takes.

@@ -98,6 +98,11 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
         "scene loaded"
     );
     if let Some(popts) = popts {
+        if options.ab > 0 {
+            return run_ambient_parallel(
+                a, &scene, options, &view, width, height, &popts, exposure,
+            );
+        }
         return run_parallel(a, scene, options, &view, width, height, &popts, exposure);
     }
     let renderer = Renderer::new(&scene, options)?;
@@ -178,6 +183,46 @@ fn run_parallel(
         eprintln!(
             "warning: --stats describes sequential renders; use --parallel-stats with --procs"
         );
+    }
+    Ok(())
+}
+
+/// `--procs` with `-ab`: the threaded irradiance-cache renderer.
+#[allow(clippy::too_many_arguments)]
+fn run_ambient_parallel(
+    a: &RenderArgs,
+    scene: &scene::Scene,
+    options: RenderOptions,
+    view: &View,
+    width: usize,
+    height: usize,
+    popts: &ParallelOptions,
+    exposure: Option<f64>,
+) -> Result<()> {
+    use crate::parallel::ambient::{render_ambient_parallel, AmbientParallelOptions};
+    let mode = a.parallel.hemispheres.parse().map_err(usage)?;
+    let opts = AmbientParallelOptions {
+        procs: popts.procs,
+        mode,
+        tile: a.parallel.tile,
+    };
+    let out = render_ambient_parallel(scene, options, view, width, height, &opts)?;
+    eprintln!(
+        "parallel inter-reflection: {} processors, hemispheres {}: {:.3} s; {} hemispheres ({} redundant), {} hemisphere rays, {} pixels retraced, {} waits, {:.3} s idle, {} records",
+        opts.procs,
+        opts.mode,
+        out.render_s,
+        out.hemispheres,
+        out.redundant,
+        out.hemisphere_tasks,
+        out.retraced_pixels,
+        out.waits,
+        out.idle_s,
+        out.records
+    );
+    write_film(a, &out.film, view, exposure)?;
+    if let Some(path) = a.parallel.parallel_stats.as_ref().or(a.stats.as_ref()) {
+        write_json(path, &out)?;
     }
     Ok(())
 }

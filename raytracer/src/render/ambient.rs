@@ -17,7 +17,9 @@
 //! the strata whose neighbours differ most. The mean sample radiance is the
 //! record's value (an ambient *radiance*, multiplied by the diffuse
 //! reflectance as `-av` is), and the harmonic mean distance of the sample
-//! hits is its radius `R_i`, clamped to `[size / ar, 64 size / ar]`.
+//! hits is its radius `R_i`, clamped to `[size / ar, 64 size / ar]`. As
+//! in Radiance's `doambient`, lighter sample rays get fewer divisions
+//! (`-ad` and `-as` times the weight the sample rays carry, at least 6).
 //! Sample rays see sources that direct lighting samples as black (no
 //! double counting) and, after `-ab` bounces, surfaces use `-av`.
 //!
@@ -113,9 +115,21 @@ impl AmbientSettings {
         }
     }
 
-    /// Hemisphere rays of the first pass.
+    /// Hemisphere rays of the first pass at full weight.
     pub fn divisions(&self) -> usize {
         (self.nt * self.np) as usize
+    }
+
+    /// Strata for sample rays of weight `w` (at most 1): `-ad w` divisions,
+    /// at least 6 (Radiance's minimum with a cache).
+    pub fn strata(&self, w: f64) -> (u32, u32) {
+        if w >= 1.0 {
+            return (self.nt, self.np);
+        }
+        let ad = (self.nt * self.np) as f64 * w.max(0.0);
+        let nt = ((ad / PI).sqrt().round() as u32).clamp(1, self.nt);
+        let np = ((PI * nt as f64).round() as u32).clamp(2, self.np.max(2));
+        (nt, np)
     }
 }
 
@@ -386,7 +400,10 @@ impl Hemisphere {
         if !(len > 0.0 && len.is_finite() && req.point.is_finite()) {
             return None;
         }
-        let n = (s.nt * s.np) as usize;
+        // Fewer divisions for lighter rays (Radiance's doambient): a
+        // hemisphere deep in the tree matters less.
+        let (nt, np) = s.strata(weight);
+        let n = (nt * np) as usize;
         Some(Self {
             point: req.point,
             normal: req.normal / len,
@@ -396,8 +413,8 @@ impl Hemisphere {
             seed: child_seed(task.seed, 0x616d_0000 + req.side),
             extinction: task.extinction,
             offset_scale: req.offset_scale,
-            nt: s.nt,
-            np: s.np,
+            nt,
+            np,
             sums: vec![Color::ZERO; n],
             counts: vec![0; n],
             inv_dist: 0.0,
@@ -443,6 +460,7 @@ impl Hemisphere {
     /// first pass's results are in).
     pub fn second_pass(&self, super_samples: u32) -> Vec<(usize, RayTask)> {
         let n = self.sums.len();
+        let super_samples = (super_samples as f64 * self.weight.min(1.0)).round() as u32;
         if super_samples == 0 || n < 2 {
             return Vec::new();
         }

@@ -27,6 +27,6 @@ pub mod stats;
 pub use caster::{BruteForceCaster, OctreeCaster, RayCaster};
 pub use effects::{Effect, EffectsReport};
 pub use material::{RayKind, RayTask, Request, ShadowBundle};
-pub use options::{RenderOptions, RADIANCE_OPTIONS};
+pub use options::{RenderOptions, QUALITY_PRESETS, RADIANCE_OPTIONS};
 pub use sequential::{check_resolution, Camera, Region, Renderer, TraceState};
 pub use stats::{RayCounts, RenderStats, Timings};

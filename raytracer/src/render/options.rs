@@ -93,6 +93,59 @@ impl Default for RenderOptions {
     }
 }
 
+/// Names of the quality presets ([`RenderOptions::preset`]).
+pub const QUALITY_PRESETS: &[&str] = &["draft", "normal", "high"];
+
+impl RenderOptions {
+    /// A quality preset, chosen from the Pareto front of `hybrid-rt sweep`
+    /// on the built-in scenes (book chapter "What accuracy costs"):
+    /// - `draft`: coarse sources, lenient adaptive shadow testing and one
+    ///   cheap ambient bounce;
+    /// - `normal`: rpict's direct-light settings, two ambient bounces with
+    ///   a coarse cache;
+    /// - `high`: fine jittered sources, near-exhaustive shadow testing, two
+    ///   ambient bounces, 4 jittered pixel samples.
+    pub fn preset(name: &str) -> Result<Self> {
+        let d = Self::default();
+        Ok(match name.trim().to_ascii_lowercase().as_str() {
+            "draft" => Self {
+                ds: 0.5,
+                dt: 0.3,
+                ab: 1,
+                aa: 0.3,
+                ad: 64,
+                as_: 16,
+                ..d
+            },
+            "normal" => Self {
+                ab: 2,
+                aa: 0.2,
+                ad: 128,
+                as_: 32,
+                ..d
+            },
+            "high" => Self {
+                ds: 0.1,
+                dt: 0.02,
+                dj: 0.7,
+                ab: 2,
+                aa: 0.15,
+                ad: 128,
+                as_: 32,
+                pn: 4,
+                pj: 1.0,
+                ..d
+            },
+            _ => {
+                return Err(Error::Usage(format!(
+                    "--quality {name:?}: expected one of {}",
+                    QUALITY_PRESETS.join(", ")
+                )))
+            }
+        })
+    }
+}
+
 /// One Radiance option this renderer understands.
 #[derive(Debug, Clone, Copy)]
 pub struct RadianceOption {
@@ -374,5 +427,19 @@ mod tests {
         o.set("as", &["7"]).unwrap();
         assert_eq!(o.as_, 7);
         assert!(o.set("av", &["1"]).is_err());
+    }
+
+    #[test]
+    fn presets_are_valid_and_ordered() {
+        let q: Vec<RenderOptions> = QUALITY_PRESETS
+            .iter()
+            .map(|n| RenderOptions::preset(n).unwrap())
+            .collect();
+        for o in &q {
+            o.validate().unwrap();
+        }
+        assert!(q[0].ds >= q[1].ds && q[1].ds >= q[2].ds);
+        assert!(q[0].pn <= q[1].pn && q[1].pn <= q[2].pn);
+        assert_eq!(RenderOptions::preset("fast").unwrap_err().exit_code(), 2);
     }
 }
