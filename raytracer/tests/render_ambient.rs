@@ -224,3 +224,33 @@ fn pixel_samples_average_independent_streams() {
     assert_ne!(one.pixels(), jittered.pixels());
     assert!(jittered.pixels().iter().all(|c| c.is_finite()));
 }
+
+#[test]
+fn a_tiny_sweep_finds_a_front() {
+    use hybrid_rt::report::sweep::{configurations, run};
+    let s = scene(RADIANCE_CORNELL);
+    let v = view(RADIANCE_CORNELL_VIEW);
+    let reference = RenderOptions {
+        ab: 1,
+        ad: 16,
+        as_: 4,
+        pn: 2,
+        pj: 1.0,
+        ..Default::default()
+    };
+    let configs: Vec<_> = configurations(0)
+        .into_iter()
+        .filter(|c| ["defaults", "dt 0", "ab 1 aa .3 ad 64"].contains(&c.name.as_str()))
+        .collect();
+    assert_eq!(configs.len(), 3);
+    let (report, film) = run("cornell", &s, &v, 6, 6, reference, &configs, &mut |_| {}).unwrap();
+    assert_eq!(film.pixels().len(), 36);
+    assert_eq!(report.points.len(), 3);
+    assert!(report.points.iter().any(|p| p.pareto));
+    // Inter-reflection brings the error down against a reference that has it.
+    let err = |n: &str| report.points.iter().find(|p| p.name == n).unwrap().rel_rmse;
+    assert!(err("ab 1 aa .3 ad 64") < err("defaults"));
+    assert!(report.to_csv().lines().count() == 4);
+    assert!(report.to_markdown().contains("**yes**"));
+    assert!(report.chart().to_svg().unwrap().starts_with("<svg"));
+}

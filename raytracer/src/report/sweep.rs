@@ -221,6 +221,7 @@ pub fn mark_pareto(points: &mut [SweepPoint]) {
 
 /// Renders the reference and every configuration of `configs`, calling
 /// `progress` with a line per render.
+#[allow(clippy::too_many_arguments)]
 pub fn run(
     name: &str,
     scene: &Scene,
