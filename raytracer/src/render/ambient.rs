@@ -666,7 +666,7 @@ mod tests {
         let req = AmbientRequest {
             point: Vec3::ZERO,
             normal: Vec3::Z,
-            coef: Color::splat(0.5),
+            coef: Color::ONE,
             offset_scale: 1.0,
             side: 0,
         };

@@ -448,10 +448,13 @@ mod tests {
         assert!((rel - (1.0f64 / 18.0).sqrt() / 0.5).abs() < 1e-9, "{rel}");
         assert!((mrle - 0.25).abs() < 1e-9, "{mrle}");
         // A source far brighter than the rest counts as white.
-        let mut c = b.clone();
-        c.set(1, 0, crate::scene::Color::splat(1e6));
-        let mut d = b.clone();
-        d.set(1, 0, crate::scene::Color::splat(2e6));
+        let mut c = Film::new(10, 1);
+        for x in 0..9 {
+            c.set(x, 0, crate::scene::Color::ONE);
+        }
+        let mut d = c.clone();
+        c.set(9, 0, crate::scene::Color::splat(1e6));
+        d.set(9, 0, crate::scene::Color::splat(2e6));
         assert!(image_error(&c, &d).0 < 1e-9);
         assert_eq!(image_error(&b, &b).0, 0.0);
     }
