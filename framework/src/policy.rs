@@ -39,9 +39,11 @@ pub enum Policy {
     LoadAware,
 }
 
-/// How many more queued tasks than the least-loaded processor a processor
-/// may hold before `LoadAware` sends children away.
-pub const LOAD_SLACK: u32 = 2;
+/// `LoadAware` sends children away only while it holds more than this many
+/// queued tasks itself ...
+pub const LOAD_SLACK: u32 = 32;
+/// ... and only to a processor last known to hold at most this many.
+pub const LOAD_IDLE: u32 = 1;
 
 impl Policy {
     /// Every policy, in documentation order.
@@ -188,7 +190,7 @@ impl Placer {
                     }
                 }
                 match best {
-                    Some((l, p)) if ctx.load > l.saturating_add(LOAD_SLACK) => {
+                    Some((l, p)) if l <= LOAD_IDLE && ctx.load > LOAD_SLACK => {
                         self.loads[p] = self.loads[p].saturating_add(1);
                         self.next = (p + 1) % self.procs;
                         Target::Proc(p)

@@ -26,6 +26,8 @@ pub enum Command {
     Render(Box<RenderArgs>),
     /// Measure primary and shadow ray throughput on a scene.
     Bench(Box<BenchArgs>),
+    /// Reproduce the paper's tables and figures on a simulated cluster (SVG, markdown, JSON).
+    Experiment(Box<ExperimentArgs>),
 }
 
 /// Radiance rendering options (long forms of `-ds`, `-dj`, ...).
@@ -150,7 +152,7 @@ pub struct ParallelArgs {
     /// Render in parallel on N processors (hybrid scheduling); without it, the sequential renderer runs.
     #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
     pub procs: Option<usize>,
-    /// Runtime driving the processors: threads or sequential (the framework's one-processor reference).
+    /// Runtime driving the processors: threads, sequential (the framework's one-processor reference) or sim (a simulated cluster, see --network).
     #[arg(
         long,
         default_value = "threads",
@@ -158,7 +160,7 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub runtime: String,
-    /// Placement of shadow tasks: local, via-master, to-origin or round-robin.
+    /// Placement of shadow tasks: local, via-master, to-origin, round-robin or load-aware.
     #[arg(
         long,
         default_value = "local",
@@ -174,7 +176,7 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub cache: String,
-    /// Data distribution: octree (balanced cut near the root) or worst (one processor holds everything).
+    /// Data distribution: octree (equal memory), predicted (equal predicted work) or worst (one processor holds everything).
     #[arg(
         long,
         default_value = "octree",
@@ -198,6 +200,22 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub shadow_dp_below: usize,
+    /// Simulated machine for --runtime sim: parsytec-cc (the paper's) or 10gbe.
+    #[arg(
+        long,
+        default_value = "10gbe",
+        value_name = "PRESET",
+        help_heading = "Parallel rendering"
+    )]
+    pub network: String,
+    /// Flow control: task and result messages one processor may have unconsumed at another.
+    #[arg(
+        long,
+        default_value_t = 64,
+        value_name = "N",
+        help_heading = "Parallel rendering"
+    )]
+    pub credits: usize,
     /// Worker threads for the threads runtime [default: one per core].
     #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
     pub threads: Option<usize>,
@@ -229,6 +247,47 @@ pub struct BenchArgs {
     pub radiance: RadianceArgs,
 }
 
+/// `hybrid-rt experiment NAME`: the paper's experiments on a simulated cluster.
+#[derive(Debug, Args)]
+pub struct ExperimentArgs {
+    /// table1, speedup, efficiency, clipping, idle, communication, data, cache, breakdown, memory, flow, all; or calibrate (fit the cost model on this machine).
+    pub name: String,
+    /// Built-in scene (cornell, studio, conference) or a scene file.
+    #[arg(long, default_value = "studio")]
+    pub scene: String,
+    /// View file for a scene file (default: the .vf next to it).
+    #[arg(long = "view-file", value_name = "FILE")]
+    pub view_file: Option<PathBuf>,
+    /// Output directory (created if missing).
+    #[arg(long, default_value = "experiments")]
+    pub out: PathBuf,
+    /// Simulated machine: parsytec-cc (the paper's) or 10gbe.
+    #[arg(long, default_value = "parsytec-cc")]
+    pub network: String,
+    /// Image width of the speed-up and per-processor experiments.
+    #[arg(long, default_value_t = 256)]
+    pub width: u32,
+    #[arg(long, default_value_t = 256)]
+    pub height: u32,
+    /// Largest processor count of the speed-up curve (a power of two).
+    #[arg(long = "max-procs", default_value_t = 64)]
+    pub max_procs: usize,
+    /// Processors of the per-processor figures (6 to 11, 13, Table 2).
+    #[arg(long = "detail-procs", default_value_t = 16)]
+    pub detail_procs: usize,
+    /// Processors of the cache-size experiment (Figure 12).
+    #[arg(long = "cache-procs", default_value_t = 8)]
+    pub cache_procs: usize,
+    /// Image side of the cache-size experiment (the paper's 128).
+    #[arg(long = "cache-size", default_value_t = 128)]
+    pub cache_size: u32,
+    /// Seed of the simulation (latency jitter).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    #[command(flatten)]
+    pub radiance: RadianceArgs,
+}
+
 /// Our options that take one value.
 const VALUE_FLAGS: &[&str] = &[
     "--view",
@@ -251,6 +310,10 @@ const VALUE_FLAGS: &[&str] = &[
     "--shadow-dp-below",
     "--threads",
     "--parallel-stats",
+    "--network",
+    "--credits",
+    "--out",
+    "--max-procs",
 ];
 
 /// Number of values each Radiance view option takes.

@@ -6,10 +6,11 @@
 
 mod args;
 mod bench;
+mod experiment;
 mod parallel;
 mod render;
 
-pub use args::{translate, BenchArgs, Cli, Command, ParallelArgs, RenderArgs};
+pub use args::{translate, BenchArgs, Cli, Command, ExperimentArgs, ParallelArgs, RenderArgs};
 pub use parallel::summary as parallel_summary;
 
 use clap::Parser;
@@ -33,6 +34,7 @@ pub fn main() -> i32 {
     let result = match cli.command {
         Command::Render(a) => render::run(&a),
         Command::Bench(a) => bench::run(&a),
+        Command::Experiment(a) => experiment::run(&a),
     };
     match result {
         Ok(()) => 0,

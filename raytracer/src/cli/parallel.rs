@@ -3,7 +3,7 @@
 use std::fmt::Write as _;
 use std::time::Duration;
 
-use hybrid_sched::{Class, Policy, State};
+use hybrid_sched::{Class, Network, Policy, State};
 
 use super::args::ParallelArgs;
 use super::usage;
@@ -26,6 +26,16 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
         .policy
         .parse()
         .map_err(|e| usage(format!("--policy: {e}")))?;
+    let network = Network::preset(&a.network).ok_or_else(|| {
+        usage(format!(
+            "--network {:?}: expected one of {}",
+            a.network,
+            Network::PRESETS.join(", ")
+        ))
+    })?;
+    if a.credits == 0 {
+        return Err(usage("--credits 0: at least one credit per link is needed"));
+    }
     Ok(ParallelOptions {
         procs,
         runtime: a
@@ -47,6 +57,9 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
         },
         threads: a.threads,
         time_limit: None::<Duration>,
+        network,
+        sim_seed: 0,
+        credits: a.credits,
     })
 }
 
@@ -148,5 +161,12 @@ pub fn summary(r: &ParallelRender) -> String {
         r.work(work::SHADOW_BUNDLES_DP),
         r.work(work::CLIP_MISSES),
     );
+    if let Some(v) = r.simulated_s {
+        let _ = writeln!(
+            s,
+            "simulated on {}: {:.4} s of virtual time (times above are virtual; the simulation took {:.3} s)",
+            r.options.network.name, v, r.render_s
+        );
+    }
     s
 }

@@ -10,13 +10,17 @@
 //! and distribution.
 
 pub mod caster;
+pub mod cost;
+pub mod predict;
 pub mod tree;
 pub mod workload;
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use hybrid_sched::{Config, Policy, RunStats, Runtime, Sequential, Threads};
+use hybrid_sched::{
+    run_sim, Config, Network, Policy, RunStats, Runtime, Sequential, Sim, Threads, Timeline,
+};
 use serde::Serialize;
 
 pub use workload::{CellData, DdTask, Distribution, DpTask, RtWorkload, WorkloadOptions};
@@ -35,6 +39,9 @@ pub enum RuntimeKind {
     /// The framework's reference: every task on one processor, all data
     /// local, no messages.
     Sequential,
+    /// The deterministic simulation of a cluster (virtual time; see
+    /// [`ParallelOptions::network`] and [`cost`]).
+    Sim,
 }
 
 impl std::str::FromStr for RuntimeKind {
@@ -43,9 +50,10 @@ impl std::str::FromStr for RuntimeKind {
         match s.trim().to_ascii_lowercase().as_str() {
             "threads" => Ok(RuntimeKind::Threads),
             "sequential" => Ok(RuntimeKind::Sequential),
-            "sim" | "mpi" => Err(format!("runtime {s:?} is not available in this build")),
+            "sim" | "simulated" => Ok(RuntimeKind::Sim),
+            "mpi" => Err(format!("runtime {s:?} is not available in this build")),
             _ => Err(format!(
-                "unknown runtime {s:?}: expected threads or sequential"
+                "unknown runtime {s:?}: expected threads, sequential or sim"
             )),
         }
     }
@@ -114,6 +122,12 @@ pub struct ParallelOptions {
     pub threads: Option<usize>,
     /// Give up (with an error) after this long.
     pub time_limit: Option<Duration>,
+    /// The simulated machine (runtime `sim` only).
+    pub network: Network,
+    /// Seed of the simulation's latency jitter.
+    pub sim_seed: u64,
+    /// Flow control: credits per link (see [`hybrid_sched::Config`]).
+    pub credits: usize,
 }
 
 impl ParallelOptions {
@@ -126,6 +140,9 @@ impl ParallelOptions {
             workload: WorkloadOptions::default(),
             threads: None,
             time_limit: None,
+            network: Network::ten_gbe(),
+            sim_seed: 0,
+            credits: Config::new(1).credits_per_link,
         }
     }
 }
@@ -163,6 +180,12 @@ pub struct ParallelRender {
     pub render_s: f64,
     /// Seconds to build the octree and the partition.
     pub setup_s: f64,
+    /// Simulated seconds (runtime `sim`; the statistics' times are virtual
+    /// too).
+    pub simulated_s: Option<f64>,
+    /// Per-state time line of every actor (runtime `sim`).
+    #[serde(skip)]
+    pub timeline: Option<Timeline>,
 }
 
 impl ParallelRender {
@@ -206,6 +229,7 @@ pub fn render_parallel(
         .with_cache_bytes(cache_bytes);
     config.threads = popts.threads;
     config.time_limit = popts.time_limit;
+    config.credits_per_link = popts.credits;
     config
         .validate()
         .map_err(|e| Error::Usage(format!("parallel configuration: {e}")))?;
@@ -213,11 +237,24 @@ pub fn render_parallel(
     let wl = Arc::new(wl);
     let setup_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
+    let mut timeline = None;
     let report = match popts.runtime {
         RuntimeKind::Threads => Threads.run(wl.clone(), &config),
         RuntimeKind::Sequential => Sequential.run(wl.clone(), &config),
+        RuntimeKind::Sim => {
+            let mut sim = Sim::new(cost::model(), popts.network.clone());
+            sim.seed = popts.sim_seed;
+            // Virtual time has no wall-clock limit.
+            config.time_limit = None;
+            run_sim(wl.clone(), &config, &sim).map(|(r, t)| {
+                timeline = Some(t);
+                r
+            })
+        }
     }
     .map_err(|e| Error::Other(format!("parallel render failed: {e}")))?;
+    let simulated_s =
+        (popts.runtime == RuntimeKind::Sim).then_some(report.stats.elapsed_ns as f64 * 1e-9);
     let render_s = t1.elapsed().as_secs_f64();
 
     let mut film = Film::new(width, height);
@@ -262,5 +299,7 @@ pub fn render_parallel(
         stats: report.stats,
         render_s,
         setup_s,
+        simulated_s,
+        timeline,
     })
 }

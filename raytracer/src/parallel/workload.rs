@@ -50,6 +50,10 @@ pub enum Distribution {
     Octree,
     /// The worst case: processor 0 holds everything.
     Worst,
+    /// Beyond the paper: the same cut, with each cell weighted by its
+    /// predicted work (see [`super::predict`]) instead of its objects, so
+    /// processors get equal work rather than equal memory.
+    Predicted,
 }
 
 impl std::str::FromStr for Distribution {
@@ -58,8 +62,9 @@ impl std::str::FromStr for Distribution {
         match s.trim().to_ascii_lowercase().as_str() {
             "octree" | "balanced" => Ok(Distribution::Octree),
             "worst" | "worst-case" | "one" => Ok(Distribution::Worst),
+            "predicted" | "cost-predicted" | "work" => Ok(Distribution::Predicted),
             _ => Err(format!(
-                "unknown distribution {s:?}: expected octree or worst"
+                "unknown distribution {s:?}: expected octree, predicted or worst"
             )),
         }
     }
@@ -70,6 +75,7 @@ impl std::fmt::Display for Distribution {
         f.write_str(match self {
             Distribution::Octree => "octree",
             Distribution::Worst => "worst",
+            Distribution::Predicted => "predicted",
         })
     }
 }
@@ -241,6 +247,8 @@ pub struct RtWorkload {
     /// Per node: the one processor owning every non-empty leaf below it,
     /// [`EMPTY`] if there is none, [`MIXED`] if several own some.
     subtree_owner: Vec<u32>,
+    /// Predicted subtree costs ([`Distribution::Predicted`] only).
+    predicted: Vec<u64>,
 }
 
 const EMPTY: u32 = u32::MAX - 1;
@@ -284,10 +292,16 @@ impl RtWorkload {
                 })
             })
             .collect();
-        let partition = Self::partition_for(&renderer, opts.distribution, procs);
+        let predicted = if opts.distribution == Distribution::Predicted {
+            super::predict::subtree_costs(&renderer, &view, width, height)
+        } else {
+            Vec::new()
+        };
+        let partition = Self::partition_for(&renderer, opts.distribution, procs, &predicted);
         let subtree_owner = Self::subtree_owners(&renderer, &partition);
         RtWorkload {
             subtree_owner,
+            predicted,
             renderer,
             view,
             width,
@@ -301,12 +315,18 @@ impl RtWorkload {
         }
     }
 
-    fn partition_for(renderer: &Renderer<'static>, d: Distribution, procs: usize) -> Partition {
+    fn partition_for(
+        renderer: &Renderer<'static>,
+        d: Distribution,
+        procs: usize,
+        predicted: &[u64],
+    ) -> Partition {
         let (octree, objects) = (renderer.octree(), &renderer.scene().objects);
         let procs = u32::try_from(procs.max(1)).unwrap_or(u32::MAX);
         match d {
             Distribution::Octree => Partition::new(octree, objects, procs),
             Distribution::Worst => Partition::worst_case(octree, objects, procs),
+            Distribution::Predicted => Partition::by_cost(octree, objects, procs, predicted),
         }
     }
 
@@ -383,7 +403,12 @@ impl RtWorkload {
         let part = if self.partition.procs() as usize == procs.max(1) {
             &self.partition
         } else {
-            fresh = Self::partition_for(&self.renderer, self.opts.distribution, procs);
+            fresh = Self::partition_for(
+                &self.renderer,
+                self.opts.distribution,
+                procs,
+                &self.predicted,
+            );
             &fresh
         };
         self.cells
