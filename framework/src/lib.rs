@@ -53,6 +53,6 @@ pub use runtime::lockstep::{run_lockstep, Lockstep};
 pub use runtime::sequential::{run_sequential, Sequential};
 pub use runtime::threads::{run_threads, Threads};
 pub use runtime::{Node, RunReport, Runtime};
-pub use stats::{ProcStats, RunStats, State};
+pub use stats::{ProcStats, RankTraffic, RunStats, State};
 pub use store::DataStore;
 pub use workload::{ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};

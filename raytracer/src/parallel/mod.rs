@@ -16,7 +16,9 @@ pub mod workload;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use hybrid_sched::{Config, Policy, RunStats, Runtime, Sequential, Threads};
+use hybrid_sched::{
+    Config, Policy, RankTraffic, RunReport, RunStats, Runtime, Sequential, Threads,
+};
 use serde::Serialize;
 
 pub use workload::{CellData, DdTask, Distribution, DpTask, RtWorkload, WorkloadOptions};
@@ -35,6 +37,8 @@ pub enum RuntimeKind {
     /// The framework's reference: every task on one processor, all data
     /// local, no messages.
     Sequential,
+    /// One processor per MPI rank (`mpirun -np N`; feature `mpi`).
+    Mpi,
 }
 
 impl std::str::FromStr for RuntimeKind {
@@ -43,7 +47,13 @@ impl std::str::FromStr for RuntimeKind {
         match s.trim().to_ascii_lowercase().as_str() {
             "threads" => Ok(RuntimeKind::Threads),
             "sequential" => Ok(RuntimeKind::Sequential),
-            "sim" | "mpi" => Err(format!("runtime {s:?} is not available in this build")),
+            #[cfg(feature = "mpi")]
+            "mpi" => Ok(RuntimeKind::Mpi),
+            #[cfg(not(feature = "mpi"))]
+            "mpi" => Err(format!(
+                "runtime {s:?} is not available in this build (build hybrid-rt with --features mpi)"
+            )),
+            "sim" => Err(format!("runtime {s:?} is not available in this build")),
             _ => Err(format!(
                 "unknown runtime {s:?}: expected threads or sequential"
             )),
@@ -163,6 +173,10 @@ pub struct ParallelRender {
     pub render_s: f64,
     /// Seconds to build the octree and the partition.
     pub setup_s: f64,
+    /// MPI runtime: what each rank put on and took off the wire (index =
+    /// rank); empty for the other runtimes.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub ranks: Vec<RankTraffic>,
 }
 
 impl ParallelRender {
@@ -177,6 +191,9 @@ impl ParallelRender {
 }
 
 /// Renders `view` at `width` x `height` with the hybrid scheduler.
+///
+/// Under [`RuntimeKind::Mpi`] only rank 0 has the picture: there, use
+/// [`render_parallel_ranked`].
 pub fn render_parallel(
     scene: Arc<Scene>,
     options: RenderOptions,
@@ -185,6 +202,22 @@ pub fn render_parallel(
     height: usize,
     popts: &ParallelOptions,
 ) -> Result<ParallelRender> {
+    render_parallel_ranked(scene, options, view, width, height, popts)?.ok_or_else(|| {
+        Error::Other("this MPI rank is not rank 0: only rank 0 has the picture".into())
+    })
+}
+
+/// [`render_parallel`] for any runtime: `None` on MPI ranks other than 0
+/// (each rank calls it with the same scene and options; rank 0 gets the
+/// whole picture and every processor's statistics).
+pub fn render_parallel_ranked(
+    scene: Arc<Scene>,
+    options: RenderOptions,
+    view: &View,
+    width: usize,
+    height: usize,
+    popts: &ParallelOptions,
+) -> Result<Option<ParallelRender>> {
     check_resolution(width, height)?;
     if popts.procs == 0 {
         return Err(Error::Usage("--procs must be at least 1".into()));
@@ -213,11 +246,15 @@ pub fn render_parallel(
     let wl = Arc::new(wl);
     let setup_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let report = match popts.runtime {
-        RuntimeKind::Threads => Threads.run(wl.clone(), &config),
-        RuntimeKind::Sequential => Sequential.run(wl.clone(), &config),
-    }
-    .map_err(|e| Error::Other(format!("parallel render failed: {e}")))?;
+    let failed = |e: hybrid_sched::RunError| Error::Other(format!("parallel render failed: {e}"));
+    let (report, ranks): (RunReport<RtWorkload>, Vec<RankTraffic>) = match popts.runtime {
+        RuntimeKind::Threads => (Threads.run(wl.clone(), &config).map_err(failed)?, vec![]),
+        RuntimeKind::Sequential => (Sequential.run(wl.clone(), &config).map_err(failed)?, vec![]),
+        RuntimeKind::Mpi => match run_mpi(wl.clone(), &config)? {
+            Some(r) => r,
+            None => return Ok(None),
+        },
+    };
     let render_s = t1.elapsed().as_secs_f64();
 
     let mut film = Film::new(width, height);
@@ -253,7 +290,7 @@ pub fn render_parallel(
             "parallel render sent pixel results to the master".into(),
         ));
     }
-    Ok(ParallelRender {
+    Ok(Some(ParallelRender {
         film,
         options: popts.clone(),
         cache_bytes,
@@ -262,5 +299,35 @@ pub fn render_parallel(
         stats: report.stats,
         render_s,
         setup_s,
-    })
+        ranks,
+    }))
+}
+
+/// Starts MPI (once per process) and returns `(rank, ranks)`.
+#[cfg(feature = "mpi")]
+pub fn mpi_world() -> Result<(usize, usize)> {
+    let w = hybrid_sched::runtime::mpi::init()
+        .map_err(|e| Error::Other(format!("cannot start MPI: {e}")))?;
+    Ok((w.rank, w.size))
+}
+
+#[cfg(feature = "mpi")]
+fn run_mpi(
+    wl: Arc<RtWorkload>,
+    config: &Config,
+) -> Result<Option<(RunReport<RtWorkload>, Vec<RankTraffic>)>> {
+    let out = hybrid_sched::runtime::mpi::run_mpi(wl, config)
+        .map_err(|e| Error::Other(format!("parallel render failed: {e}")))?;
+    Ok(out.map(|m| (m.report, m.ranks)))
+}
+
+#[cfg(not(feature = "mpi"))]
+fn run_mpi(
+    _wl: Arc<RtWorkload>,
+    _config: &Config,
+) -> Result<Option<(RunReport<RtWorkload>, Vec<RankTraffic>)>> {
+    Err(Error::Usage(
+        "runtime \"mpi\" is not available in this build (build hybrid-rt with --features mpi)"
+            .into(),
+    ))
 }
