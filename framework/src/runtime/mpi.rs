@@ -859,9 +859,8 @@ mod tests {
 
     #[test]
     fn garbage_is_a_clear_error_naming_both_ranks() {
-        let err = decode_packet::<Mini>(b"not a packet", 3, 2)
-            .err()
-            .expect("garbage must not decode");
+        let err =
+            decode_packet::<Mini>(b"not a packet", 3, 2).expect_err("garbage must not decode");
         let text = err.to_string();
         assert!(text.contains("rank 2"), "{text}");
         assert!(text.contains("from rank 3"), "{text}");
@@ -879,8 +878,7 @@ mod tests {
         let mut padded = bytes.clone();
         padded.push(0);
         let text = decode_packet::<Mini>(&padded, 1, 0)
-            .err()
-            .expect("trailing bytes must be rejected")
+            .expect_err("trailing bytes must be rejected")
             .to_string();
         assert!(text.contains("left over"), "{text}");
     }
