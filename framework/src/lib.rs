@@ -11,8 +11,9 @@
 //!   [`Mailbox`], a [`DataStore`] with a byte-budgeted LRU [`ByteLru`] cache);
 //!   the [`Master`] hands out root tasks and detects termination.
 //! * A runtime moves [`Packet`]s between them: [`run_threads`] (tokio) or
-//!   [`run_sequential`] (the reference); a simulator or MPI transport can drive
-//!   the same state machines through [`runtime::Node`].
+//!   [`run_sequential`] (the reference), or one processor per MPI rank
+//!   (`runtime::mpi`, feature `mpi`); a simulator can drive the same state
+//!   machines through [`runtime::Node`].
 //!
 //! See `SEMANTICS.md` for the guarantees and the book chapter for a tutorial.
 
