@@ -19,5 +19,9 @@ pub struct Rendering;
 pub struct Parallel;
 
 #[cfg(doctest)]
+#[doc = include_str!("src/mpi.md")]
+pub struct Mpi;
+
+#[cfg(doctest)]
 #[doc = include_str!("src/scenes.md")]
 pub struct Scenes;

@@ -350,6 +350,7 @@ fn bad_parallel_options_are_usage_errors() {
         ("--distribution", "diagonal", "--distribution"),
         ("--runtime", "quantum", "--runtime"),
         ("--tile", "0", "--tile 0"),
+        ("--time-limit", "0", "--time-limit 0"),
     ] {
         let mut args = vec![
             "render",
@@ -516,4 +517,35 @@ fn simulated_render_from_the_command_line() {
     .concat());
     assert_eq!(bad.status.code(), Some(2));
     assert!(stderr(&bad).contains("--network"));
+}
+
+#[cfg(not(feature = "mpi"))]
+#[test]
+fn mpi_runtime_needs_the_mpi_feature() {
+    let d = tmpdir("no-mpi");
+    let (rad, vf) = cornell_files(&d);
+    let out = d.join("x.png");
+    for procs in [None, Some("2")] {
+        let mut args = vec![
+            "render",
+            &rad,
+            "--view-file",
+            &vf,
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--runtime",
+            "mpi",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        if let Some(n) = procs {
+            args.extend(["--procs", n]);
+        }
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains("--features mpi"), "{}", stderr(&o));
+        assert!(!out.exists());
+    }
 }

@@ -152,7 +152,7 @@ pub struct ParallelArgs {
     /// Render in parallel on N processors (hybrid scheduling); without it, the sequential renderer runs.
     #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
     pub procs: Option<usize>,
-    /// Runtime driving the processors: threads, sequential (the framework's one-processor reference) or sim (a simulated cluster, see --network).
+    /// Runtime driving the processors: threads, sequential (the framework's one-processor reference), sim (a simulated cluster, see --network) or mpi (one processor per rank of `mpirun -np N`; needs a build with --features mpi).
     #[arg(
         long,
         default_value = "threads",
@@ -219,6 +219,13 @@ pub struct ParallelArgs {
     /// Worker threads for the threads runtime [default: one per core].
     #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
     pub threads: Option<usize>,
+    /// Give up with an error after this many seconds of parallel rendering (under MPI: and end every rank).
+    #[arg(
+        long = "time-limit",
+        value_name = "SECONDS",
+        help_heading = "Parallel rendering"
+    )]
+    pub time_limit: Option<f64>,
     /// Write the parallel run's statistics (per processor: times, traffic, tasks, cache, memory, work) as JSON.
     #[arg(
         long = "parallel-stats",
@@ -309,6 +316,7 @@ const VALUE_FLAGS: &[&str] = &[
     "--tile",
     "--shadow-dp-below",
     "--threads",
+    "--time-limit",
     "--parallel-stats",
     "--network",
     "--credits",

@@ -40,6 +40,11 @@ pub fn main() -> i32 {
         Ok(()) => 0,
         Err(e) => {
             eprintln!("error: {e}");
+            #[cfg(feature = "mpi")]
+            if hybrid_sched::runtime::mpi::world().is_some() {
+                // Other ranks may wait for this one: end the whole job.
+                hybrid_sched::runtime::mpi::abort(e.exit_code());
+            }
             e.exit_code()
         }
     }
