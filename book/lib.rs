@@ -19,6 +19,10 @@ pub struct Rendering;
 pub struct Parallel;
 
 #[cfg(doctest)]
+#[doc = include_str!("src/simulation.md")]
+pub struct Simulation;
+
+#[cfg(doctest)]
 #[doc = include_str!("src/mpi.md")]
 pub struct Mpi;
 
