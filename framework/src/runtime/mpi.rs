@@ -853,6 +853,7 @@ mod tests {
             class: Class::Control,
             items: vec![Msg::WorkRequest, Msg::Credit(3)],
             bytes: 48,
+            load: 7,
         }
     }
 
@@ -865,6 +866,7 @@ mod tests {
         assert_eq!(q.to, p.to);
         assert_eq!(q.class, p.class);
         assert_eq!(q.bytes, p.bytes);
+        assert_eq!(q.load, p.load);
         assert_eq!(format!("{:?}", q.items), format!("{:?}", p.items));
     }
 

@@ -200,6 +200,9 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub shadow_dp_below: usize,
+    /// Clip once per (cell, light) with the cell-to-light hull and reuse the selection for every shadow bundle from that cell (fewer clipping steps, slightly larger selections).
+    #[arg(long = "clip-cache", help_heading = "Parallel rendering")]
+    pub clip_cache: bool,
     /// Simulated machine for --runtime sim: parsytec-cc (the paper's) or 10gbe.
     #[arg(
         long,

@@ -98,6 +98,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
                 .distribution
                 .parse()
                 .map_err(|e| usage(format!("--distribution: {e}")))?,
+            clip_cache: a.clip_cache,
         },
         threads: a.threads,
         time_limit,

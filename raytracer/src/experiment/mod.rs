@@ -10,9 +10,10 @@
 //!
 //! "The paper's algorithm" is the system as published: the octree
 //! distribution with equal memory, shadow tasks kept where they are spawned
-//! (`local`). "Ours" adds the answers to the paper's open problems: the
-//! `load-aware` policy and the cost-predicted distribution (flow control is
-//! on in both; the `memory` experiment shows what it bounds).
+//! (`local`), every shadow bundle clipped. "Ours" adds, one step at a time:
+//! the clip cache (one clip per cell and light), the cost-predicted
+//! distribution and the `load-aware` policy. Flow control is on in both; the
+//! `flow` experiment shows what it bounds.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -96,6 +97,7 @@ struct RunSpec {
     distribution: Distribution,
     credits: usize,
     small: bool,
+    clip_cache: bool,
 }
 
 impl RunSpec {
@@ -107,14 +109,28 @@ impl RunSpec {
             distribution: Distribution::Octree,
             credits: 64,
             small: false,
+            clip_cache: false,
+        }
+    }
+
+    fn clip_cache(procs: usize) -> Self {
+        RunSpec {
+            clip_cache: true,
+            ..Self::paper(procs)
+        }
+    }
+
+    fn predicted(procs: usize) -> Self {
+        RunSpec {
+            distribution: Distribution::Predicted,
+            ..Self::clip_cache(procs)
         }
     }
 
     fn ours(procs: usize) -> Self {
         RunSpec {
             policy: Policy::LoadAware,
-            distribution: Distribution::Predicted,
-            ..Self::paper(procs)
+            ..Self::predicted(procs)
         }
     }
 
@@ -150,6 +166,7 @@ impl Ctx<'_> {
         p.cache = spec.cache;
         p.workload = WorkloadOptions {
             distribution: spec.distribution,
+            clip_cache: spec.clip_cache,
             ..WorkloadOptions::default()
         };
         p.network = s.network.clone();
@@ -424,14 +441,14 @@ fn table1(cx: &mut Ctx) -> Result<()> {
 /// The speed-up curve's variants: the paper's algorithm and ours.
 type Variant = (&'static str, fn(usize) -> RunSpec);
 
-fn variants() -> [Variant; 3] {
+/// The speed-up curve's variants: the paper's algorithm, then ours one
+/// step at a time.
+fn variants() -> [Variant; 4] {
     [
         ("paper", RunSpec::paper),
-        ("load-aware", |p| RunSpec {
-            policy: Policy::LoadAware,
-            ..RunSpec::paper(p)
-        }),
-        ("load-aware + predicted", RunSpec::ours),
+        ("+ clip cache", RunSpec::clip_cache),
+        ("+ predicted", RunSpec::predicted),
+        ("+ load-aware", RunSpec::ours),
     ]
 }
 
@@ -507,7 +524,8 @@ fn speedup(cx: &mut Ctx) -> Result<()> {
         "Figure 5: speed-up",
         &format!(
             "Relative: against the same algorithm on one processor. Fair: against the sequential renderer on one node ({seq:.3} s simulated). \
-             Paper: octree distribution (equal memory), shadow tasks local. Ours: load-aware placement, then also the cost-predicted distribution."
+             Paper: octree distribution (equal memory), shadow tasks local, every shadow bundle clipped. \
+             Ours, one step at a time: + clip cache (one clip per cell and light), + predicted (the octree cut by predicted work), + load-aware (busy processors shed shadow tasks to idle ones)."
         ),
         &[t],
         json!({"sequential_s": seq, "runs": rows}),
@@ -520,6 +538,12 @@ fn efficiency(cx: &mut Ctx) -> Result<()> {
     let curve = over_time(&r, &[State::Executing], 100);
     let procs = r.options.procs as f64;
     let eff: Vec<(f64, f64)> = curve.iter().map(|&(t, v)| (t, v / procs)).collect();
+    let ours = cx.run(RunSpec::ours(r.options.procs))?;
+    let eff_ours: Vec<(f64, f64)> = over_time(&ours, &[State::Executing], 100)
+        .iter()
+        .map(|&(t, v)| (t, v / procs))
+        .collect();
+    let fair_ours = seq / secs(ours.stats.elapsed_ns) / procs;
     cx.chart(
         "efficiency-time.svg",
         &Chart {
@@ -529,7 +553,10 @@ fn efficiency(cx: &mut Ctx) -> Result<()> {
             ),
             x_label: "time (s)".into(),
             y_label: "fraction of processors executing".into(),
-            series: vec![Series::new("efficiency", eff.clone(), Mark::Line)],
+            series: vec![
+                Series::new("paper", eff.clone(), Mark::Line),
+                Series::new("ours", eff_ours.clone(), Mark::Line),
+            ],
             y_range: Some((0.0, 1.05)),
             ..Chart::default()
         },
@@ -577,23 +604,32 @@ fn efficiency(cx: &mut Ctx) -> Result<()> {
             100.0 * fair
         ),
         &[t],
-        json!({"over_time": eff, "per_processor": per, "fair_efficiency": fair}),
+        json!({"over_time": eff, "per_processor": per, "fair_efficiency": fair,
+            "ours_over_time": eff_ours, "ours_fair_efficiency": fair_ours}),
     )
 }
 
 fn state_figure(cx: &mut Ctx, name: &str, title: &str, states: &[State], what: &str) -> Result<()> {
     let r = cx.detail()?;
     let curve = over_time(&r, states, 100);
+    let ours = cx.run(RunSpec::ours(r.options.procs))?;
+    let curve_ours = over_time(&ours, states, 100);
     cx.chart(
         &format!("{name}-time.svg"),
         &Chart {
             title: format!("{title} over time ({} processors)", r.options.procs),
             x_label: "time (s)".into(),
             y_label: what.into(),
-            series: vec![Series::new(what, curve.clone(), Mark::Line)],
+            series: vec![
+                Series::new(format!("{what} (paper)"), curve.clone(), Mark::Line),
+                Series::new(format!("{what} (ours)"), curve_ours.clone(), Mark::Line),
+            ],
             ..Chart::default()
         },
     )?;
+    let per_ours = per_proc(&ours, |p| {
+        states.iter().map(|&s| p.time_ns.get(s)).sum::<u64>() as f64 * 1e-9
+    });
     let per = per_proc(&r, |p| {
         states.iter().map(|&s| p.time_ns.get(s)).sum::<u64>() as f64 * 1e-9
     });
@@ -614,24 +650,35 @@ fn state_figure(cx: &mut Ctx, name: &str, title: &str, states: &[State], what: &
                 .collect(),
         },
     )?;
-    let mut t = Table::new(["processor", "seconds", "% of run"]);
+    let mut t = Table::new([
+        "processor",
+        "paper: seconds",
+        "paper: % of run",
+        "ours: seconds",
+        "ours: % of run",
+    ]);
     let el = secs(r.stats.elapsed_ns).max(1e-12);
+    let el_ours = secs(ours.stats.elapsed_ns).max(1e-12);
     for (p, v) in per.iter().enumerate() {
+        let o = per_ours.get(p).copied().unwrap_or(0.0);
         t.row([
             p.to_string(),
             format!("{v:.4}"),
             format!("{:.1}", 100.0 * v / el),
+            format!("{o:.4}"),
+            format!("{:.1}", 100.0 * o / el_ours),
         ]);
     }
     cx.finish(
         name,
         &format!("{title} over time and per processor"),
         &format!(
-            "States counted: {states:?}. Run time {el:.3} s on {} processors.",
+            "States counted: {states:?}. Run time {el:.3} s (paper) and {el_ours:.3} s (ours) on {} processors.",
             r.options.procs
         ),
         &[t],
-        json!({"over_time": curve, "per_processor_s": per}),
+        json!({"over_time": curve, "per_processor_s": per,
+            "ours_over_time": curve_ours, "ours_per_processor_s": per_ours}),
     )
 }
 
@@ -775,30 +822,47 @@ const CACHE_PERCENTS: [f64; 7] = [1.0, 2.5, 5.0, 10.0, 25.0, 50.0, 100.0];
 
 fn cache(cx: &mut Ctx) -> Result<()> {
     let procs = cx.s.cache_procs;
+    // The five policies with the paper's other choices, then ours whole.
+    let mut lines: Vec<(String, RunSpec)> = Policy::ALL
+        .iter()
+        .map(|&policy| {
+            (
+                policy.name().to_string(),
+                RunSpec {
+                    policy,
+                    small: true,
+                    ..RunSpec::paper(procs)
+                },
+            )
+        })
+        .collect();
+    lines.push((
+        "ours (load-aware, clip cache, predicted)".to_string(),
+        RunSpec {
+            small: true,
+            ..RunSpec::ours(procs)
+        },
+    ));
     let mut t = Table::new(
         std::iter::once("cache % of scene".to_string())
-            .chain(Policy::ALL.iter().map(|p| format!("{p} (s)"))),
+            .chain(lines.iter().map(|(name, _)| format!("{name} (s)"))),
     );
-    let mut series: Vec<Series> = Policy::ALL
+    let mut series: Vec<Series> = lines
         .iter()
-        .map(|p| Series::new(p.name(), Vec::new(), Mark::LinePoints))
+        .map(|(name, _)| Series::new(name.clone(), Vec::new(), Mark::LinePoints))
         .collect();
     let mut rows = Vec::new();
     for &pc in &CACHE_PERCENTS {
         let mut cells = vec![format!("{pc}")];
-        for (k, &policy) in Policy::ALL.iter().enumerate() {
+        for (k, (name, spec)) in lines.iter().enumerate() {
             let r = cx.run(RunSpec {
-                procs,
-                policy,
                 cache: CacheSize::Percent(pc),
-                distribution: Distribution::Octree,
-                credits: 64,
-                small: true,
+                ..*spec
             })?;
             let el = secs(r.stats.elapsed_ns);
             series[k].points.push((pc, el));
             cells.push(f3(el));
-            rows.push(json!({"cache_percent": pc, "policy": policy.name(), "seconds": el,
+            rows.push(json!({"cache_percent": pc, "variant": name, "seconds": el,
                 "bottleneck_input_buffer_bytes": r.stats.procs.iter().map(|p| p.memory.input_buffer_bytes).max()}));
         }
         t.row(cells);
@@ -821,7 +885,7 @@ fn cache(cx: &mut Ctx) -> Result<()> {
         "cache",
         "Figure 12: cache size against shadow-task policy",
         &format!(
-            "{procs} processors at {}x{}; the paper's four policies and load-aware (ours).",
+            "{procs} processors at {}x{}; the paper's four policies and load-aware with the paper's other choices, then ours whole (load-aware, clip cache, predicted distribution).",
             cx.s.small.0, cx.s.small.1
         ),
         &[t],

@@ -24,8 +24,8 @@
 //! bundle continues data-parallel from where it stopped, and the event is
 //! counted as `clip.misses`.
 
-use std::collections::HashSet;
-use std::sync::Arc;
+use std::collections::{HashMap, HashSet};
+use std::sync::{Arc, Mutex};
 
 use hybrid_sched::serde::{Deserialize, Serialize};
 use hybrid_sched::{Addr, ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};
@@ -188,6 +188,8 @@ impl ByteSize for DpTask {
 pub mod work {
     pub static CLIP_NODES: &str = "clip.nodes";
     pub static CLIP_MISSES: &str = "clip.misses";
+    /// Shadow bundles that reused a cell's selection (option `clip_cache`).
+    pub static CLIP_REUSED: &str = "clip.reused";
     pub static RAYS_PRIMARY: &str = "rays.primary";
     pub static RAYS_REFLECTION: &str = "rays.reflection";
     pub static RAYS_REFRACTION: &str = "rays.refraction";
@@ -221,6 +223,14 @@ pub struct WorkloadOptions {
     /// Shadow bundles with fewer (estimated) rays than this go data-parallel.
     pub shadow_dp_below: usize,
     pub distribution: Distribution,
+    /// Beyond the paper: clip once per (processor, cell, light) instead of
+    /// once per shadow bundle, with the convex hull of the cell and the
+    /// light (which holds every bundle shaded in the cell), and reuse the
+    /// selection for every later bundle from that cell to that light.
+    /// Selections are supersets of the per-bundle ones (a little more data
+    /// may be fetched); clipping work drops by the bundles per cell.
+    #[serde(default)]
+    pub clip_cache: bool,
 }
 
 impl Default for WorkloadOptions {
@@ -229,6 +239,7 @@ impl Default for WorkloadOptions {
             tile: 16,
             shadow_dp_below: 2,
             distribution: Distribution::Octree,
+            clip_cache: false,
         }
     }
 }
@@ -249,7 +260,12 @@ pub struct RtWorkload {
     subtree_owner: Vec<u32>,
     /// Predicted subtree costs ([`Distribution::Predicted`] only).
     predicted: Vec<u64>,
+    /// Shadow selections per (processor, cell, light) (option `clip_cache`).
+    clip_cache: Mutex<ClipCache>,
 }
+
+/// Shadow selections per (processor, cell, light).
+type ClipCache = HashMap<(u32, NodeId, u32), Arc<[NodeId]>>;
 
 const EMPTY: u32 = u32::MAX - 1;
 const MIXED: u32 = u32::MAX;
@@ -302,6 +318,7 @@ impl RtWorkload {
         RtWorkload {
             subtree_owner,
             predicted,
+            clip_cache: Mutex::new(HashMap::new()),
             renderer,
             view,
             width,
@@ -503,10 +520,65 @@ impl RtWorkload {
         if self.all_resident(bounds, ctx.proc_id(), ctx.procs()) {
             return Vec::new();
         }
+        if self.opts.clip_cache {
+            if let Some(sel) = self.select_shadow_cached(b, ctx) {
+                return sel;
+            }
+        }
         match self.shadow_pyramid(b) {
             Some(pyramid) => self.clip(&pyramid, ctx),
             None => Vec::new(),
         }
+    }
+
+    /// [`WorkloadOptions::clip_cache`]: the selection for every bundle from
+    /// the shaded point's cell to its (finite) light. `None` to clip the
+    /// bundle's own pyramid instead.
+    fn select_shadow_cached(&self, b: &ShadowBundle, ctx: &mut Ctx<Self>) -> Option<Vec<NodeId>> {
+        let octree = self.renderer.octree();
+        let light = self.renderer.lights().get(b.light as usize)?;
+        let LightExtent::Finite(lb) = light.extent(self.renderer.scene())? else {
+            return None;
+        };
+        let leaf = octree.find_leaf(b.point)?;
+        let key = (ctx.proc_id() as u32, leaf, b.light);
+        if let Some(sel) = self.clip_cache.lock().ok()?.get(&key) {
+            ctx.charge(work::CLIP_REUSED, 1);
+            return Some(sel.to_vec());
+        }
+        let cb = octree.node_bounds(leaf);
+        let lo = cb.min.min(lb.min).min(b.point);
+        let hi = cb.max.max(lb.max).max(b.point);
+        let mag = hi.abs().max(lo.abs()).max_element() + b.offset_scale.abs();
+        let pad = 1e-6 * ((hi - lo).max_element() + mag);
+        let corners = |bb: Aabb| {
+            (0..8).map(move |i| {
+                Vec3::new(
+                    if i & 1 == 0 {
+                        bb.min.x - pad
+                    } else {
+                        bb.max.x + pad
+                    },
+                    if i & 2 == 0 {
+                        bb.min.y - pad
+                    } else {
+                        bb.max.y + pad
+                    },
+                    if i & 4 == 0 {
+                        bb.min.z - pad
+                    } else {
+                        bb.max.z + pad
+                    },
+                )
+            })
+        };
+        let points: Vec<Vec3> = corners(cb).chain(corners(lb)).collect();
+        let hull = Pyramid::hull(&points, b.point)?;
+        let sel = self.clip(&hull, ctx);
+        if let Ok(mut cache) = self.clip_cache.lock() {
+            cache.insert(key, sel.clone().into());
+        }
+        Some(sel)
     }
 
     /// The non-empty leaves meeting `pyramid` that this processor does not
