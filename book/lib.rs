@@ -27,5 +27,13 @@ pub struct Accuracy;
 pub struct HardCases;
 
 #[cfg(doctest)]
+#[doc = include_str!("src/simulation.md")]
+pub struct Simulation;
+
+#[cfg(doctest)]
+#[doc = include_str!("src/mpi.md")]
+pub struct Mpi;
+
+#[cfg(doctest)]
 #[doc = include_str!("src/scenes.md")]
 pub struct Scenes;

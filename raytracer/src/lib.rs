@@ -8,6 +8,7 @@
 pub mod accel;
 pub mod cli;
 pub mod error;
+pub mod experiment;
 pub mod geometry;
 pub mod image;
 pub mod parallel;

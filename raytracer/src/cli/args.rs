@@ -28,6 +28,8 @@ pub enum Command {
     Bench(Box<BenchArgs>),
     /// What accuracy costs: render a converged reference, sweep the quality knobs, report error against time (CSV, markdown, SVG with the Pareto front).
     Sweep(Box<SweepArgs>),
+    /// Reproduce the paper's tables and figures on a simulated cluster (SVG, markdown, JSON).
+    Experiment(Box<ExperimentArgs>),
 }
 
 /// Radiance rendering options (long forms of `-ds`, `-dj`, ...).
@@ -175,7 +177,7 @@ pub struct ParallelArgs {
     /// Render in parallel on N processors (hybrid scheduling); without it, the sequential renderer runs.
     #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
     pub procs: Option<usize>,
-    /// Runtime driving the processors: threads or sequential (the framework's one-processor reference).
+    /// Runtime driving the processors: threads, sequential (the framework's one-processor reference), sim (a simulated cluster, see --network) or mpi (one processor per rank of `mpirun -np N`; needs a build with --features mpi).
     #[arg(
         long,
         default_value = "threads",
@@ -183,7 +185,7 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub runtime: String,
-    /// Placement of shadow tasks: local, via-master, to-origin or round-robin.
+    /// Placement of shadow tasks: local, via-master, to-origin, round-robin or load-aware.
     #[arg(
         long,
         default_value = "local",
@@ -199,7 +201,7 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub cache: String,
-    /// Data distribution: octree (balanced cut near the root) or worst (one processor holds everything).
+    /// Data distribution: octree (equal memory), predicted (equal predicted work) or worst (one processor holds everything).
     #[arg(
         long,
         default_value = "octree",
@@ -223,6 +225,25 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub shadow_dp_below: usize,
+    /// Clip once per (cell, light) with the cell-to-light hull and reuse the selection for every shadow bundle from that cell (fewer clipping steps, slightly larger selections).
+    #[arg(long = "clip-cache", help_heading = "Parallel rendering")]
+    pub clip_cache: bool,
+    /// Simulated machine for --runtime sim: parsytec-cc (the paper's) or 10gbe.
+    #[arg(
+        long,
+        default_value = "10gbe",
+        value_name = "PRESET",
+        help_heading = "Parallel rendering"
+    )]
+    pub network: String,
+    /// Flow control: task and result messages one processor may have unconsumed at another.
+    #[arg(
+        long,
+        default_value_t = 64,
+        value_name = "N",
+        help_heading = "Parallel rendering"
+    )]
+    pub credits: usize,
     /// Worker threads for the threads runtime [default: one per core].
     #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
     pub threads: Option<usize>,
@@ -234,6 +255,13 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub hemispheres: String,
+    /// Give up with an error after this many seconds of parallel rendering (under MPI: and end every rank).
+    #[arg(
+        long = "time-limit",
+        value_name = "SECONDS",
+        help_heading = "Parallel rendering"
+    )]
+    pub time_limit: Option<f64>,
     /// Write the parallel run's statistics (per processor: times, traffic, tasks, cache, memory, work) as JSON.
     #[arg(
         long = "parallel-stats",
@@ -287,6 +315,47 @@ pub struct SweepArgs {
     pub quick_reference: bool,
 }
 
+/// `hybrid-rt experiment NAME`: the paper's experiments on a simulated cluster.
+#[derive(Debug, Args)]
+pub struct ExperimentArgs {
+    /// table1, speedup, efficiency, clipping, idle, communication, data, cache, breakdown, memory, flow, all; or calibrate (fit the cost model on this machine).
+    pub name: String,
+    /// Built-in scene (cornell, studio, conference) or a scene file.
+    #[arg(long, default_value = "studio")]
+    pub scene: String,
+    /// View file for a scene file (default: the .vf next to it).
+    #[arg(long = "view-file", value_name = "FILE")]
+    pub view_file: Option<PathBuf>,
+    /// Output directory (created if missing).
+    #[arg(long, default_value = "experiments")]
+    pub out: PathBuf,
+    /// Simulated machine: parsytec-cc (the paper's) or 10gbe.
+    #[arg(long, default_value = "parsytec-cc")]
+    pub network: String,
+    /// Image width of the speed-up and per-processor experiments.
+    #[arg(long, default_value_t = 256)]
+    pub width: u32,
+    #[arg(long, default_value_t = 256)]
+    pub height: u32,
+    /// Largest processor count of the speed-up curve (a power of two).
+    #[arg(long = "max-procs", default_value_t = 64)]
+    pub max_procs: usize,
+    /// Processors of the per-processor figures (6 to 11, 13, Table 2).
+    #[arg(long = "detail-procs", default_value_t = 16)]
+    pub detail_procs: usize,
+    /// Processors of the cache-size experiment (Figure 12).
+    #[arg(long = "cache-procs", default_value_t = 8)]
+    pub cache_procs: usize,
+    /// Image side of the cache-size experiment (the paper's 128).
+    #[arg(long = "cache-size", default_value_t = 128)]
+    pub cache_size: u32,
+    /// Seed of the simulation (latency jitter).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    #[command(flatten)]
+    pub radiance: RadianceArgs,
+}
+
 /// Our options that take one value.
 const VALUE_FLAGS: &[&str] = &[
     "--out",
@@ -310,8 +379,15 @@ const VALUE_FLAGS: &[&str] = &[
     "--tile",
     "--shadow-dp-below",
     "--threads",
+    "--time-limit",
     "--parallel-stats",
     "--hemispheres",
+    "--network",
+    "--credits",
+    "--max-procs",
+    "--detail-procs",
+    "--cache-procs",
+    "--cache-size",
 ];
 
 /// Number of values each Radiance view option takes.

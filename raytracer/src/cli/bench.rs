@@ -28,16 +28,9 @@ fn builtin_dir() -> Vec<PathBuf> {
     ]
 }
 
-fn resolve_scene(a: &BenchArgs) -> Result<(PathBuf, View)> {
-    resolve_named_scene(&a.scene, a.view_file.as_deref())
-}
-
-/// A built-in scene name (cornell, studio, conference) or a scene file,
-/// with its view: `view_file`, else the `.vf` next to the scene.
-pub(super) fn resolve_named_scene(
-    scene: &str,
-    view_file: Option<&Path>,
-) -> Result<(PathBuf, View)> {
+/// A built-in scene name (cornell, studio, conference) or a scene file, with
+/// its view file (`view_file`, else the `.vf` next to the scene).
+pub(super) fn resolve_scene_view(scene: &str, view_file: Option<&Path>) -> Result<(PathBuf, View)> {
     let (scene_path, default_vf) = if matches!(scene, "cornell" | "studio" | "conference") {
         let found = builtin_dir()
             .into_iter()
@@ -64,6 +57,10 @@ pub(super) fn resolve_named_scene(
     let vf = view_file.map(Path::to_path_buf).unwrap_or(default_vf);
     let view = build_view(Some(&vf), &[], &[])?;
     Ok((scene_path, view))
+}
+
+fn resolve_scene(a: &BenchArgs) -> Result<(PathBuf, View)> {
+    resolve_scene_view(&a.scene, a.view_file.as_deref())
 }
 
 fn rate(n: u64, d: Duration) -> f64 {

@@ -6,11 +6,14 @@
 
 mod args;
 mod bench;
+mod experiment;
 mod parallel;
 mod render;
 mod sweep;
 
-pub use args::{translate, BenchArgs, Cli, Command, ParallelArgs, RenderArgs, SweepArgs};
+pub use args::{
+    translate, BenchArgs, Cli, Command, ExperimentArgs, ParallelArgs, RenderArgs, SweepArgs,
+};
 pub use parallel::summary as parallel_summary;
 
 use clap::Parser;
@@ -35,11 +38,17 @@ pub fn main() -> i32 {
         Command::Render(a) => render::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::Sweep(a) => sweep::run(&a),
+        Command::Experiment(a) => experiment::run(&a),
     };
     match result {
         Ok(()) => 0,
         Err(e) => {
             eprintln!("error: {e}");
+            #[cfg(feature = "mpi")]
+            if hybrid_sched::runtime::mpi::world().is_some() {
+                // Other ranks may wait for this one: end the whole job.
+                hybrid_sched::runtime::mpi::abort(e.exit_code());
+            }
             e.exit_code()
         }
     }

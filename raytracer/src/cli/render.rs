@@ -10,7 +10,7 @@ use super::args::RenderArgs;
 use super::{options_from, print_scene_warnings, usage};
 use crate::image::Film;
 use crate::image::{write_image, Exposure, HdrInfo, ImageFormat, ToneMap, Transfer};
-use crate::parallel::{render_parallel, ParallelOptions};
+use crate::parallel::{render_parallel_ranked, ParallelOptions};
 use crate::render::{check_resolution, RenderOptions, Renderer};
 use crate::scene::{self, View};
 use crate::{Error, Result, SourceLoc};
@@ -84,10 +84,7 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
     let (width, height) = (width as usize, height as usize);
     check_resolution(width, height)?;
 
-    let popts = match a.parallel.procs {
-        Some(n) => Some(super::parallel::options(&a.parallel, n)?),
-        None => None,
-    };
+    let popts = super::parallel::resolve(&a.parallel)?;
     let t0 = std::time::Instant::now();
     let scene = Arc::new(scene::load(&a.scenes)?);
     print_scene_warnings(&scene);
@@ -173,7 +170,10 @@ fn run_parallel(
     popts: &ParallelOptions,
     exposure: Option<f64>,
 ) -> Result<()> {
-    let out = render_parallel(scene, options, view, width, height, popts)?;
+    let Some(out) = render_parallel_ranked(scene, options, view, width, height, popts)? else {
+        // An MPI rank other than 0: rank 0 writes the picture and reports.
+        return Ok(());
+    };
     eprint!("{}", super::parallel::summary(&out));
     write_film(a, &out.film, view, exposure)?;
     if let Some(path) = &a.parallel.parallel_stats {

@@ -3,7 +3,7 @@
 use std::io::Write;
 
 use super::args::SweepArgs;
-use super::bench::resolve_named_scene;
+use super::bench::resolve_scene_view;
 use super::usage;
 use crate::image::{write_image, Exposure, HdrInfo, ToneMap, Transfer};
 use crate::render::check_resolution;
@@ -19,7 +19,7 @@ pub(super) fn run(a: &SweepArgs) -> Result<()> {
             a.out.display()
         )));
     }
-    let (path, view) = resolve_named_scene(&a.scene, a.view_file.as_deref())?;
+    let (path, view) = resolve_scene_view(&a.scene, a.view_file.as_deref())?;
     let (view, w, h) = view.fit_aspect(a.width, a.height);
     let scene = scene::load(&[&path])?;
     std::fs::create_dir_all(&a.out).map_err(|e| Error::io(&a.out, e))?;
