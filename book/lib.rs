@@ -19,6 +19,22 @@ pub struct Rendering;
 pub struct Parallel;
 
 #[cfg(doctest)]
+#[doc = include_str!("src/accuracy.md")]
+pub struct Accuracy;
+
+#[cfg(doctest)]
+#[doc = include_str!("src/hard-cases.md")]
+pub struct HardCases;
+
+#[cfg(doctest)]
+#[doc = include_str!("src/simulation.md")]
+pub struct Simulation;
+
+#[cfg(doctest)]
+#[doc = include_str!("src/mpi.md")]
+pub struct Mpi;
+
+#[cfg(doctest)]
 #[doc = include_str!("src/benchmarks.md")]
 pub struct Benchmarks;
 

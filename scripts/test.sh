@@ -1,6 +1,10 @@
 #!/usr/bin/env bash
 # The project's one test command (README "Run the tests"; .ci/run calls it).
-# Installs nothing system-wide: everything the default build needs comes from crates.io.
+# The default build needs nothing system-wide (everything comes from
+# crates.io). The MPI runtime (feature `mpi`) needs Open MPI and libclang:
+# installed here with apt-get when missing (as root; otherwise install
+# libopenmpi-dev openmpi-bin libclang-dev yourself, or set SKIP_MPI=1 to
+# leave the MPI checks out locally).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -11,3 +15,40 @@ echo "== clippy"
 cargo clippy --workspace --all-targets --locked -- -D warnings
 echo "== tests (workspace: unit, integration, doctests incl. the book)"
 cargo test --workspace --locked
+
+if [ "${SKIP_MPI:-0}" = 1 ]; then
+    echo "== MPI checks skipped (SKIP_MPI=1)"
+    exit 0
+fi
+
+MPI_PACKAGES=(libopenmpi-dev openmpi-bin libclang-dev)
+mpi_installed() {
+    command -v mpirun >/dev/null 2>&1 &&
+        dpkg-query -W -f='${Status}\n' "${MPI_PACKAGES[@]}" 2>/dev/null |
+        grep -c '^install ok installed$' | grep -qx "${#MPI_PACKAGES[@]}"
+}
+echo "== MPI: Open MPI and libclang"
+if mpi_installed; then
+    echo "already installed: ${MPI_PACKAGES[*]}"
+else
+    if [ "$(id -u)" != 0 ] || ! command -v apt-get >/dev/null 2>&1; then
+        echo "error: the MPI checks need ${MPI_PACKAGES[*]} (Debian packages);" \
+            "install them as root, or set SKIP_MPI=1 to skip these checks" >&2
+        exit 1
+    fi
+    export DEBIAN_FRONTEND=noninteractive
+    if ! { apt-get update -q && apt-get install -y -q --no-install-recommends "${MPI_PACKAGES[@]}"; }; then
+        echo "error: could not install ${MPI_PACKAGES[*]} with apt-get" >&2
+        exit 1
+    fi
+    mpi_installed || { echo "error: ${MPI_PACKAGES[*]} still missing after apt-get" >&2; exit 1; }
+fi
+mpirun --version | head -n 1
+
+echo "== clippy (feature mpi)"
+cargo clippy -p hybrid-sched -p hybrid-rt --features hybrid-sched/mpi,hybrid-rt/mpi \
+    --all-targets --locked -- -D warnings
+echo "== tests (feature mpi: wire format, mpirun -np 1/2/4 --oversubscribe)"
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+cargo test -p hybrid-sched --features mpi --locked --lib runtime::mpi
+cargo test -p hybrid-rt --features mpi --locked --test mpi

@@ -138,6 +138,7 @@ impl<W: Workload> Outbox<W> {
                 class,
                 items,
                 bytes,
+                load: 0,
             });
         }
     }

@@ -11,8 +11,9 @@
 //!   [`Mailbox`], a [`DataStore`] with a byte-budgeted LRU [`ByteLru`] cache);
 //!   the [`Master`] hands out root tasks and detects termination.
 //! * A runtime moves [`Packet`]s between them: [`run_threads`] (tokio) or
-//!   [`run_sequential`] (the reference); a simulator or MPI transport can drive
-//!   the same state machines through [`runtime::Node`].
+//!   [`run_sequential`] (the reference), or one processor per MPI rank
+//!   (`runtime::mpi`, feature `mpi`); a simulator can drive the same state
+//!   machines through [`runtime::Node`].
 //!
 //! See `SEMANTICS.md` for the guarantees and the book chapter for a tutorial.
 
@@ -50,9 +51,10 @@ pub use message::{Addr, Class, Msg, Packet};
 pub use policy::Policy;
 pub use processor::{Processor, Step};
 pub use runtime::lockstep::{run_lockstep, Lockstep};
-pub use runtime::sequential::{run_sequential, Sequential};
+pub use runtime::sequential::{run_sequential, run_sequential_observed, Sequential};
+pub use runtime::sim::{run_sim, CostModel, Network, Sim, Timeline};
 pub use runtime::threads::{run_threads, Threads};
 pub use runtime::{Node, RunReport, Runtime};
-pub use stats::{ProcStats, RunStats, State};
+pub use stats::{ProcStats, RankTraffic, RunStats, State};
 pub use store::DataStore;
 pub use workload::{ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};

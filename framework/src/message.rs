@@ -233,6 +233,11 @@ pub struct Packet<W: Workload> {
     pub items: Vec<Msg<W>>,
     /// Accounted size: header plus items.
     pub bytes: usize,
+    /// The sender's load when it sent the packet (queued tasks; 0 from the
+    /// master). Piggybacked for the `LoadAware` policy: load information
+    /// travels for free with the traffic that exists anyway.
+    #[serde(default)]
+    pub load: u32,
 }
 
 impl<W: Workload> fmt::Debug for Packet<W> {
@@ -243,6 +248,7 @@ impl<W: Workload> fmt::Debug for Packet<W> {
             .field("class", &self.class)
             .field("items", &self.items)
             .field("bytes", &self.bytes)
+            .field("load", &self.load)
             .finish()
     }
 }
@@ -262,6 +268,7 @@ impl<W: Workload> Packet<W> {
             class: msg.class(),
             items: vec![msg],
             bytes,
+            load: 0,
         }
     }
 }

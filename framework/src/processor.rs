@@ -177,6 +177,9 @@ impl<W: Workload> Processor<W> {
             .received
             .record(packet.class, packet.items.len(), packet.bytes);
         let from = packet.from;
+        if let Addr::Proc(q) = from {
+            self.placer.observe(q, packet.load);
+        }
         for msg in packet.items {
             if msg.is_basic() {
                 self.basic_received += 1;
@@ -457,7 +460,8 @@ impl<W: Workload> Processor<W> {
                 origin,
                 handout: false,
             };
-            match self.placer.place(PlaceCtx { origin }) {
+            let load = self.load();
+            match self.placer.place(PlaceCtx { origin, load }) {
                 Target::Local => self.push_local(Msg::Dd(env)),
                 Target::Master => self.send(Addr::Master, Msg::Dd(env), now),
                 Target::Proc(p) => self.send(Addr::Proc(p), Msg::Dd(env), now),
@@ -523,14 +527,25 @@ impl<W: Workload> Processor<W> {
     /// Packets to transmit now (bundles that became due by age included).
     pub fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
         self.outbox.pump(now, false);
-        let packets = self.outbox.take_ready();
-        for p in &packets {
+        let mut packets = self.outbox.take_ready();
+        let load = self.load();
+        for p in &mut packets {
+            p.load = load;
             self.stats.sent.record(p.class, p.items.len(), p.bytes);
             if p.items.len() > 1 {
                 self.stats.bundles_sent += 1;
             }
         }
         packets
+    }
+
+    /// Tasks queued here: the load piggybacked on every packet.
+    pub fn load(&self) -> u32 {
+        (self.mailbox.len_of(Class::DataParallel)
+            + self.mailbox.len_of(Class::DemandDriven)
+            + self.ready.len()
+            + self.deferred.len()
+            + self.store.waiting_len()) as u32
     }
 
     fn note_queues(&mut self) {

@@ -323,3 +323,30 @@ impl RunStats {
         self.sum(|p| p.sent.total().packets) + self.master.sent.total().packets
     }
 }
+
+/// What one rank of a distributed run (the MPI runtime) put on and took off
+/// the wire: encoded bytes as transmitted, unlike the accounted bytes of
+/// [`ProcStats::sent`] and [`ProcStats::received`], which model the
+/// workload's data sizes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RankTraffic {
+    /// The rank.
+    pub rank: usize,
+    /// Packets sent to other ranks.
+    pub messages_sent: u64,
+    /// Encoded bytes sent to other ranks.
+    pub bytes_sent: u64,
+    /// Packets received from other ranks.
+    pub messages_received: u64,
+    /// Encoded bytes received from other ranks.
+    pub bytes_received: u64,
+    /// Of the packets received: data requests and replies.
+    pub data_messages_received: u64,
+    /// Encoded bytes of those.
+    pub data_bytes_received: u64,
+    /// Packets between two actors on this rank (the master and processor 0
+    /// on rank 0), delivered without MPI.
+    pub local_packets: u64,
+    /// Packets that arrived for an actor that had already finished (dropped).
+    pub late_packets: u64,
+}

@@ -8,10 +8,12 @@
 pub mod accel;
 pub mod cli;
 pub mod error;
+pub mod experiment;
 pub mod geometry;
 pub mod image;
 pub mod parallel;
 pub mod render;
+pub mod report;
 pub mod scene;
 
 pub use error::{Error, Result, SourceLoc};

@@ -195,9 +195,29 @@ fn bad_inputs_exit_with_code_and_location() {
             "-ds".into(),
         ),
         (
-            vec![&rad, "--view-file", &vf, "-o", &out, "-ab", "1"],
+            vec![&rad, "--view-file", &vf, "-o", &out, "-ab", "99"],
             2,
-            "not yet supported".into(),
+            "-ab 99".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "-aa", "2"],
+            2,
+            "-aa".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "-ad", "0", "-ab", "1"],
+            2,
+            "-ad 0".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "-as", "x"],
+            2,
+            "-as".into(),
+        ),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "-pn", "0"],
+            2,
+            "-pn".into(),
         ),
         (
             vec![&rad, "--view-file", &vf, "-o", &out, "-ps", "4"],
@@ -350,6 +370,7 @@ fn bad_parallel_options_are_usage_errors() {
         ("--distribution", "diagonal", "--distribution"),
         ("--runtime", "quantum", "--runtime"),
         ("--tile", "0", "--tile 0"),
+        ("--time-limit", "0", "--time-limit 0"),
     ] {
         let mut args = vec![
             "render",
@@ -368,6 +389,183 @@ fn bad_parallel_options_are_usage_errors() {
         let o = run(&args);
         assert_eq!(o.status.code(), Some(2), "{flag} {value}: {}", stderr(&o));
         assert!(stderr(&o).contains(says), "{flag} {value}: {}", stderr(&o));
+        assert!(!out.exists());
+    }
+}
+
+#[test]
+fn experiments_run_on_a_small_scene_and_repeat_byte_for_byte() {
+    let dir = tmpdir("experiments");
+    let args = |out: &Path| -> Vec<String> {
+        [
+            "experiment",
+            "all",
+            "--scene",
+            "cornell",
+            "--width",
+            "24",
+            "--height",
+            "24",
+            "--max-procs",
+            "4",
+            "--detail-procs",
+            "3",
+            "--cache-procs",
+            "2",
+            "--cache-size",
+            "12",
+            "--out",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .chain([out.to_string_lossy().into_owned()])
+        .collect()
+    };
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    for out in [&a, &b] {
+        let argv = args(out);
+        let o = run(&argv.iter().map(String::as_str).collect::<Vec<_>>());
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    for name in [
+        "table1",
+        "speedup",
+        "efficiency",
+        "clipping",
+        "idle",
+        "communication",
+        "data",
+        "cache",
+        "breakdown",
+        "memory",
+        "flow",
+    ] {
+        for ext in ["md", "json"] {
+            let f = format!("{name}.{ext}");
+            let x = std::fs::read(a.join(&f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+            let y = std::fs::read(b.join(&f)).unwrap();
+            assert!(!x.is_empty(), "{f} is empty");
+            assert_eq!(x, y, "{f} differs between two identical runs");
+        }
+    }
+    for svg in [
+        "speedup.svg",
+        "efficiency-time.svg",
+        "cache.svg",
+        "breakdown.svg",
+    ] {
+        let x = std::fs::read_to_string(a.join(svg)).unwrap();
+        assert!(x.starts_with("<svg"), "{svg}");
+        assert_eq!(x, std::fs::read_to_string(b.join(svg)).unwrap());
+    }
+    let speedup = std::fs::read_to_string(a.join("speedup.md")).unwrap();
+    assert!(speedup.contains("| 4 |"), "{speedup}");
+    let cache = std::fs::read_to_string(a.join("cache.md")).unwrap();
+    assert!(cache.contains("load-aware"), "{cache}");
+
+    // Usage errors name the problem.
+    let bad = run(&[
+        "experiment",
+        "fig99",
+        "--scene",
+        "cornell",
+        "--out",
+        &dir.to_string_lossy(),
+    ]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(stderr(&bad).contains("fig99"));
+    let bad = run(&["experiment", "table1", "--network", "token-ring"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(stderr(&bad).contains("parsytec-cc"));
+}
+
+#[test]
+fn simulated_render_from_the_command_line() {
+    let dir = tmpdir("sim-render");
+    let (rad, vf) = cornell_files(&dir);
+    let seq = dir.join("seq.hdr");
+    let sim = dir.join("sim.hdr");
+    let common = [
+        "render",
+        &rad,
+        "--view-file",
+        &vf,
+        "--width",
+        "20",
+        "--height",
+        "20",
+    ];
+    let o = run(&[&common[..], &["-o", &seq.to_string_lossy()]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&[
+        &common[..],
+        &[
+            "-o",
+            &sim.to_string_lossy(),
+            "--procs",
+            "4",
+            "--runtime",
+            "sim",
+            "--network",
+            "parsytec-cc",
+            "--policy",
+            "load-aware",
+            "--distribution",
+            "predicted",
+        ],
+    ]
+    .concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("virtual time")
+            || String::from_utf8_lossy(&o.stdout).contains("virtual time")
+    );
+    assert_eq!(std::fs::read(&seq).unwrap(), std::fs::read(&sim).unwrap());
+    let bad = run(&[
+        &common[..],
+        &[
+            "-o",
+            "x.png",
+            "--procs",
+            "2",
+            "--runtime",
+            "sim",
+            "--network",
+            "ethernet",
+        ],
+    ]
+    .concat());
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(stderr(&bad).contains("--network"));
+}
+
+#[cfg(not(feature = "mpi"))]
+#[test]
+fn mpi_runtime_needs_the_mpi_feature() {
+    let d = tmpdir("no-mpi");
+    let (rad, vf) = cornell_files(&d);
+    let out = d.join("x.png");
+    for procs in [None, Some("2")] {
+        let mut args = vec![
+            "render",
+            &rad,
+            "--view-file",
+            &vf,
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--runtime",
+            "mpi",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        if let Some(n) = procs {
+            args.extend(["--procs", n]);
+        }
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains("--features mpi"), "{}", stderr(&o));
         assert!(!out.exists());
     }
 }

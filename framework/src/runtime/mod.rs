@@ -5,6 +5,8 @@
 //!   local, no messages.
 //! * [`lockstep`]: deterministic, single-threaded, seeded interleavings of
 //!   all actors (for tests and debugging).
+//! * [`mpi`] (feature `mpi`): one processor per MPI rank, the master on
+//!   rank 0.
 //!
 //! A runtime needs only the [`Node`] interface: `deliver`, `step`,
 //! `take_packets`, `account`, `blocked_state`. A discrete-event simulator
@@ -13,7 +15,10 @@
 //! one node per rank.
 
 pub mod lockstep;
+#[cfg(feature = "mpi")]
+pub mod mpi;
 pub mod sequential;
+pub mod sim;
 pub mod threads;
 
 use std::sync::Arc;

@@ -39,6 +39,20 @@ impl Runtime for Sequential {
 /// go to the accumulators of a `procs`-processor run. The statistics hold one
 /// processor (index 0) doing all the work.
 pub fn run_sequential<W: Workload>(workload: &W, procs: usize) -> Result<RunReport<W>, RunError> {
+    run_sequential_observed(workload, procs, &mut |_, _| {})
+}
+
+/// Called with each step's charged work and its wall-clock nanoseconds.
+pub type StepObserver<'a> = dyn FnMut(&[(&'static str, u64)], u64) + 'a;
+
+/// [`run_sequential`], calling `observe(charges, ns)` after every task step
+/// with the work it charged and the wall-clock nanoseconds it took: the
+/// samples from which a simulator's cost model is fitted.
+pub fn run_sequential_observed<W: Workload>(
+    workload: &W,
+    procs: usize,
+    observe: &mut StepObserver<'_>,
+) -> Result<RunReport<W>, RunError> {
     if procs == 0 {
         return Err(ConfigError::NoProcessors.into());
     }
@@ -92,6 +106,8 @@ pub fn run_sequential<W: Workload>(workload: &W, procs: usize) -> Result<RunRepo
         } else {
             break;
         };
+        let t1 = clock.now();
+        observe(ctx.charges(), t1 - t0);
         stats.charge(ctx.charges());
         stats.tasks.children_spawned += ctx.dd.len() as u64;
         dd.extend(ctx.dd);

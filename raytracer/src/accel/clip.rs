@@ -68,6 +68,83 @@ pub struct Pyramid {
 }
 
 impl Pyramid {
+    /// The convex hull of `points` as a clipping volume (its faces, pushed
+    /// outwards by a relative margin), with `apex` the point leaves are
+    /// ordered from. The hull of a cell's corners and a light's box corners
+    /// holds every shadow ray from any point of the cell to any point of the
+    /// light: one clip serves every bundle shaded in that cell. `None` when
+    /// the points do not span a volume.
+    pub fn hull(points: &[Vec3], apex: Vec3) -> Option<Pyramid> {
+        let pts: Vec<Vec3> = points.iter().copied().filter(|p| p.is_finite()).collect();
+        let scale = pts
+            .iter()
+            .fold(0.0f64, |m, p| m.max(p.abs().max_element()))
+            .max(1e-300);
+        let lo = pts
+            .iter()
+            .fold(Vec3::splat(f64::INFINITY), |m, &p| m.min(p));
+        let hi = pts
+            .iter()
+            .fold(Vec3::splat(f64::NEG_INFINITY), |m, &p| m.max(p));
+        let size = (hi - lo).max_element();
+        if size.is_nan() || size <= 0.0 {
+            return None;
+        }
+        let eps = 1e-9 * (size + scale);
+        let pad = REL_EPS * (size + scale);
+        let mut planes: Vec<Plane> = Vec::new();
+        let n = pts.len();
+        for i in 0..n {
+            for j in i + 1..n {
+                for k in j + 1..n {
+                    let nrm = (pts[j] - pts[i]).cross(pts[k] - pts[i]);
+                    let len = nrm.length();
+                    if len.is_nan() || len <= 1e-12 * size * size {
+                        continue;
+                    }
+                    let nrm = nrm / len;
+                    let d = nrm.dot(pts[i]);
+                    let (mut above, mut below) = (false, false);
+                    for p in &pts {
+                        let s = nrm.dot(*p) - d;
+                        above |= s > eps;
+                        below |= s < -eps;
+                    }
+                    let face = match (above, below) {
+                        (false, _) => Some(nrm),
+                        (true, false) => Some(-nrm),
+                        _ => None,
+                    };
+                    if let Some(f) = face {
+                        let off = f.dot(pts[i]) + pad;
+                        if !planes
+                            .iter()
+                            .any(|q| q.normal.dot(f) > 1.0 - 1e-12 && (q.offset - off).abs() <= pad)
+                        {
+                            planes.push(Plane {
+                                normal: f,
+                                offset: off,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        if planes.len() < 4 {
+            return None;
+        }
+        let centre = (lo + hi) * 0.5;
+        let axis = (centre - apex).try_normalize().unwrap_or(Vec3::Z);
+        Some(Pyramid {
+            apex,
+            axis,
+            dirs: Vec::new(),
+            planes,
+            near: 0.0,
+            far: f64::INFINITY,
+        })
+    }
+
     /// The pyramid around the rays from `apex` through each of `targets`
     /// (unbounded beyond the targets; see [`Pyramid::to_targets`] for
     /// segments ending at them). Targets equal to the apex are ignored.

@@ -462,3 +462,98 @@ fn objects_spanning_owners_are_replicated() {
     let replicated: usize = (0..4).map(|q| p.resident(q).len()).sum();
     assert!(replicated > objects.len());
 }
+
+proptest! {
+    #![proptest_config(Config { cases: 200, rng_seed: RngSeed::Fixed(0x4a11), ..Config::default() })]
+
+    /// The hull of two boxes holds every segment from a point of one to a
+    /// point of the other, at any scale and offset, and its clip selects
+    /// every leaf such a segment passes through.
+    #[test]
+    fn hull_of_two_boxes_holds_every_segment_between_them(
+        a in prop::array::uniform3(-1.0f64..1.0),
+        ea in prop::array::uniform3(1e-3f64..1.0),
+        b in prop::array::uniform3(-1.0f64..1.0),
+        eb in prop::array::uniform3(0.0f64..1.0),
+        scale_exp in -6i32..7,
+        seed in 0u64..1000,
+    ) {
+        let s = 10f64.powi(scale_exp);
+        let off = Vec3::splat(3.0 * s);
+        let ba = crate::geometry::Aabb::new(Vec3::from(a) * s + off, (Vec3::from(a) + Vec3::from(ea)) * s + off);
+        let bb = crate::geometry::Aabb::new(Vec3::from(b) * 2.0 * s + off, (Vec3::from(b) * 2.0 + Vec3::from(eb)) * s + off);
+        let corners = |x: crate::geometry::Aabb| (0..8).map(move |i| v(
+            if i & 1 == 0 { x.min.x } else { x.max.x },
+            if i & 2 == 0 { x.min.y } else { x.max.y },
+            if i & 4 == 0 { x.min.z } else { x.max.z },
+        ));
+        let pts: Vec<Vec3> = corners(ba).chain(corners(bb)).collect();
+        let hull = Pyramid::hull(&pts, ba.center()).expect("two boxes, one with volume, span a volume");
+        let mut rnd = lcg(seed);
+        let tol = 1e-9 * s;
+        for _ in 0..64 {
+            let p = ba.min + (ba.max - ba.min) * v(rnd(), rnd(), rnd());
+            let q = bb.min + (bb.max - bb.min) * v(rnd(), rnd(), rnd());
+            for k in 0..=8 {
+                let x = p + (q - p) * (k as f64 / 8.0);
+                prop_assert!(hull.contains(x, tol), "{x:?} on a segment lies outside the hull");
+            }
+        }
+    }
+}
+
+#[test]
+fn hull_clip_selects_every_leaf_a_cell_to_light_ray_crosses() {
+    let objects = random_scene(7, 300, 10.0);
+    let octree = Octree::build(&objects, &OctreeParams::default());
+    let light = crate::geometry::Aabb::new(v(4.0, 9.5, 4.0), v(6.0, 9.6, 6.0));
+    let mut rnd = lcg(99);
+    let leaves: Vec<NodeId> = octree
+        .leaves()
+        .filter(|&l| !octree.leaf_objects(l).is_empty())
+        .collect();
+    for &cell in leaves.iter().step_by(7) {
+        let cb = octree.node_bounds(cell);
+        let corners = |x: crate::geometry::Aabb| {
+            (0..8).map(move |i| {
+                v(
+                    if i & 1 == 0 { x.min.x } else { x.max.x },
+                    if i & 2 == 0 { x.min.y } else { x.max.y },
+                    if i & 4 == 0 { x.min.z } else { x.max.z },
+                )
+            })
+        };
+        let pts: Vec<Vec3> = corners(cb).chain(corners(light)).collect();
+        let hull = Pyramid::hull(&pts, cb.center()).unwrap();
+        let mut selected = std::collections::HashSet::new();
+        octree.clip_leaves(&hull, |l| {
+            selected.insert(l);
+        });
+        for _ in 0..16 {
+            let p = cb.min + (cb.max - cb.min) * v(rnd(), rnd(), rnd());
+            let q = light.min + (light.max - light.min) * v(rnd(), rnd(), rnd());
+            let ray = Ray {
+                origin: p,
+                dir: (q - p).normalize(),
+            };
+            octree.for_each_leaf_along_ray(&ray, 0.0, (q - p).length(), |l, _, _| {
+                assert!(
+                    selected.contains(&l),
+                    "leaf {l} on a cell-to-light ray was not selected"
+                );
+                false
+            });
+        }
+    }
+    // Flat input spans no volume.
+    assert!(Pyramid::hull(
+        &[
+            v(0.0, 0.0, 0.0),
+            v(1.0, 0.0, 0.0),
+            v(0.0, 1.0, 0.0),
+            v(1.0, 1.0, 0.0)
+        ],
+        Vec3::ZERO
+    )
+    .is_none());
+}

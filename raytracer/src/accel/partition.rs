@@ -60,15 +60,31 @@ impl Partition {
     /// The balanced partition of `octree` (built over `objects`) over
     /// `procs` processors (`procs == 0` is treated as 1).
     pub fn new(octree: &Octree, objects: &[Object], procs: u32) -> Partition {
+        let costs: Vec<u64> = (0..octree.node_count() as NodeId)
+            .map(|id| octree.subtree_refs(id))
+            .collect();
+        Self::by_cost(octree, objects, procs, &costs)
+    }
+
+    /// The same cut as [`Partition::new`] under another cost function:
+    /// `subtree_cost[node]` for every node id (a subtree's cost must be the
+    /// sum of its children's). Used with predicted work per cell to
+    /// equalise work instead of memory.
+    pub fn by_cost(
+        octree: &Octree,
+        objects: &[Object],
+        procs: u32,
+        subtree_cost: &[u64],
+    ) -> Partition {
         let procs = procs.max(1);
         let Some(root) = octree.root() else {
             return Self::assemble(octree, objects, procs, Vec::new());
         };
-        let total = octree.subtree_refs(root);
+        let cost = |id: NodeId| subtree_cost.get(id as usize).copied().unwrap_or(0);
+        let total = cost(root);
         let target = total as f64 / procs as f64;
         let mut pieces = vec![root];
         loop {
-            let cost = |id: NodeId| octree.subtree_refs(id);
             let max_cost = pieces.iter().map(|&p| cost(p)).max().unwrap_or(0);
             if pieces.len() >= procs as usize && max_cost as f64 <= target {
                 break;
@@ -105,7 +121,7 @@ impl Partition {
             .iter()
             .enumerate()
             .map(|(k, &id)| {
-                let c = octree.subtree_refs(id);
+                let c = cost(id);
                 let owner = if total == 0 {
                     (k as u64 * procs as u64 / n.max(1)) as u32
                 } else {

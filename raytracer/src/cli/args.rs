@@ -13,7 +13,7 @@ use crate::render::RADIANCE_OPTIONS;
     name = "hybrid-rt",
     version,
     about = "A Radiance-style ray tracer, sequential reference of a hybrid-scheduled parallel renderer",
-    after_help = "Radiance options may be written Radiance's way: -ds 0.2 -dj 0.5 -dt 0.05 -dc 0.5 -lr 8 -lw 0.002 -av 0.1 0.1 0.1 -ps 1, and view options -vf FILE -vtv -vp X Y Z -vd X Y Z -vu X Y Z -vh A -vv A.\nLogging: set RUST_LOG (e.g. RUST_LOG=info)."
+    after_help = "Radiance options may be written Radiance's way: -ds 0.2 -dj 0.5 -dt 0.05 -dc 0.5 -lr 8 -lw 0.002 -av 0.1 0.1 0.1 -ab 1 -aa 0.1 -ar 256 -ad 512 -as 128 -ps 1, and view options -vf FILE -vtv -vp X Y Z -vd X Y Z -vu X Y Z -vh A -vv A.\nLogging: set RUST_LOG (e.g. RUST_LOG=info)."
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -26,11 +26,18 @@ pub enum Command {
     Render(Box<RenderArgs>),
     /// Measure primary and shadow ray throughput on a scene.
     Bench(Box<BenchArgs>),
+    /// What accuracy costs: render a converged reference, sweep the quality knobs, report error against time (CSV, markdown, SVG with the Pareto front).
+    Sweep(Box<SweepArgs>),
+    /// Reproduce the paper's tables and figures on a simulated cluster (SVG, markdown, JSON).
+    Experiment(Box<ExperimentArgs>),
 }
 
 /// Radiance rendering options (long forms of `-ds`, `-dj`, ...).
 #[derive(Debug, Args, Default)]
 pub struct RadianceArgs {
+    /// Quality preset chosen from the sweep's Pareto front: draft, normal or high (Radiance options given as well override it).
+    #[arg(long, value_name = "PRESET")]
+    pub quality: Option<String>,
     /// -ds: source subdivision ratio [default: 0.2]
     #[arg(long = "ds", value_name = "RATIO", allow_hyphen_values = true)]
     pub ds: Option<String>,
@@ -52,9 +59,21 @@ pub struct RadianceArgs {
     /// -av: constant ambient radiance [default: 0 0 0]
     #[arg(long = "av", num_args = 3, value_names = ["R", "G", "B"], allow_hyphen_values = true)]
     pub av: Option<Vec<String>>,
-    /// -ab: ambient bounces (only 0 is supported yet)
+    /// -ab: ambient bounces (diffuse inter-reflection) [default: 0]
     #[arg(long = "ab", value_name = "N", allow_hyphen_values = true)]
     pub ab: Option<String>,
+    /// -aa: ambient accuracy, 0 = no irradiance cache [default: 0.1]
+    #[arg(long = "aa", value_name = "FRAC", allow_hyphen_values = true)]
+    pub aa: Option<String>,
+    /// -ar: ambient resolution [default: 256]
+    #[arg(long = "ar", value_name = "N", allow_hyphen_values = true)]
+    pub ar: Option<String>,
+    /// -ad: ambient divisions (hemisphere rays) [default: 512]
+    #[arg(long = "ad", value_name = "N", allow_hyphen_values = true)]
+    pub ad: Option<String>,
+    /// -as: ambient super-samples [default: 128]
+    #[arg(long = "as", value_name = "N", allow_hyphen_values = true)]
+    pub as_: Option<String>,
     /// -st: specular sampling threshold [default: 0.15]
     #[arg(long = "st", value_name = "FRAC", allow_hyphen_values = true)]
     pub st: Option<String>,
@@ -67,6 +86,9 @@ pub struct RadianceArgs {
     /// -pj: pixel jitter 0..1 [default: 0]
     #[arg(long = "pj", value_name = "FRAC", allow_hyphen_values = true)]
     pub pj: Option<String>,
+    /// -pn: primary rays per pixel, averaged (not an rpict option) [default: 1]
+    #[arg(long = "pn", value_name = "N", allow_hyphen_values = true)]
+    pub pn: Option<String>,
 }
 
 impl RadianceArgs {
@@ -90,10 +112,15 @@ impl RadianceArgs {
                     .map(|a| a.iter().map(String::as_str).collect()),
             ),
             ("ab", one(&self.ab)),
+            ("aa", one(&self.aa)),
+            ("ar", one(&self.ar)),
+            ("ad", one(&self.ad)),
+            ("as", one(&self.as_)),
             ("st", one(&self.st)),
             ("ss", one(&self.ss)),
             ("ps", one(&self.ps)),
             ("pj", one(&self.pj)),
+            ("pn", one(&self.pn)),
         ] {
             if let Some(vals) = vals {
                 v.push((name, vals));
@@ -150,7 +177,7 @@ pub struct ParallelArgs {
     /// Render in parallel on N processors (hybrid scheduling); without it, the sequential renderer runs.
     #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
     pub procs: Option<usize>,
-    /// Runtime driving the processors: threads or sequential (the framework's one-processor reference).
+    /// Runtime driving the processors: threads, sequential (the framework's one-processor reference), sim (a simulated cluster, see --network) or mpi (one processor per rank of `mpirun -np N`; needs a build with --features mpi).
     #[arg(
         long,
         default_value = "threads",
@@ -158,7 +185,7 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub runtime: String,
-    /// Placement of shadow tasks: local, via-master, to-origin or round-robin.
+    /// Placement of shadow tasks: local, via-master, to-origin, round-robin or load-aware.
     #[arg(
         long,
         default_value = "local",
@@ -174,7 +201,7 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub cache: String,
-    /// Data distribution: octree (balanced cut near the root) or worst (one processor holds everything).
+    /// Data distribution: octree (equal memory), predicted (equal predicted work) or worst (one processor holds everything).
     #[arg(
         long,
         default_value = "octree",
@@ -198,9 +225,43 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub shadow_dp_below: usize,
+    /// Clip once per (cell, light) with the cell-to-light hull and reuse the selection for every shadow bundle from that cell (fewer clipping steps, slightly larger selections).
+    #[arg(long = "clip-cache", help_heading = "Parallel rendering")]
+    pub clip_cache: bool,
+    /// Simulated machine for --runtime sim: parsytec-cc (the paper's) or 10gbe.
+    #[arg(
+        long,
+        default_value = "10gbe",
+        value_name = "PRESET",
+        help_heading = "Parallel rendering"
+    )]
+    pub network: String,
+    /// Flow control: task and result messages one processor may have unconsumed at another.
+    #[arg(
+        long,
+        default_value_t = 64,
+        value_name = "N",
+        help_heading = "Parallel rendering"
+    )]
+    pub credits: usize,
     /// Worker threads for the threads runtime [default: one per core].
     #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
     pub threads: Option<usize>,
+    /// With -ab: how processors treat the irradiance cache's data dependency: one-at-a-time (wait for the hemisphere in flight) or extra (start hemispheres freely, count the redundant ones).
+    #[arg(
+        long,
+        default_value = "one-at-a-time",
+        value_name = "MODE",
+        help_heading = "Parallel rendering"
+    )]
+    pub hemispheres: String,
+    /// Give up with an error after this many seconds of parallel rendering (under MPI: and end every rank).
+    #[arg(
+        long = "time-limit",
+        value_name = "SECONDS",
+        help_heading = "Parallel rendering"
+    )]
+    pub time_limit: Option<f64>,
     /// Write the parallel run's statistics (per processor: times, traffic, tasks, cache, memory, work) as JSON.
     #[arg(
         long = "parallel-stats",
@@ -229,8 +290,76 @@ pub struct BenchArgs {
     pub radiance: RadianceArgs,
 }
 
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    /// Built-in scene (cornell, studio, conference) or a scene file (its view: the .vf next to it or --view-file).
+    #[arg(value_name = "SCENE")]
+    pub scene: String,
+    /// Directory for sweep.csv, sweep.md, sweep.svg and reference.hdr (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// View file for a scene file.
+    #[arg(long = "view-file", value_name = "FILE")]
+    pub view_file: Option<PathBuf>,
+    /// Maximum image width (reduced to keep pixels square).
+    #[arg(long, default_value_t = 64, value_name = "W")]
+    pub width: u32,
+    /// Maximum image height.
+    #[arg(long, default_value_t = 64, value_name = "H")]
+    pub height: u32,
+    /// Seed of the random streams (the reference uses its own).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// A cheaper reference (-pn 4 -ab 2 -aa 0.1 -ad 256 -as 64), for quick looks and tests.
+    #[arg(long)]
+    pub quick_reference: bool,
+}
+
+/// `hybrid-rt experiment NAME`: the paper's experiments on a simulated cluster.
+#[derive(Debug, Args)]
+pub struct ExperimentArgs {
+    /// table1, speedup, efficiency, clipping, idle, communication, data, cache, breakdown, memory, flow, all; or calibrate (fit the cost model on this machine).
+    pub name: String,
+    /// Built-in scene (cornell, studio, conference) or a scene file.
+    #[arg(long, default_value = "studio")]
+    pub scene: String,
+    /// View file for a scene file (default: the .vf next to it).
+    #[arg(long = "view-file", value_name = "FILE")]
+    pub view_file: Option<PathBuf>,
+    /// Output directory (created if missing).
+    #[arg(long, default_value = "experiments")]
+    pub out: PathBuf,
+    /// Simulated machine: parsytec-cc (the paper's) or 10gbe.
+    #[arg(long, default_value = "parsytec-cc")]
+    pub network: String,
+    /// Image width of the speed-up and per-processor experiments.
+    #[arg(long, default_value_t = 256)]
+    pub width: u32,
+    #[arg(long, default_value_t = 256)]
+    pub height: u32,
+    /// Largest processor count of the speed-up curve (a power of two).
+    #[arg(long = "max-procs", default_value_t = 64)]
+    pub max_procs: usize,
+    /// Processors of the per-processor figures (6 to 11, 13, Table 2).
+    #[arg(long = "detail-procs", default_value_t = 16)]
+    pub detail_procs: usize,
+    /// Processors of the cache-size experiment (Figure 12).
+    #[arg(long = "cache-procs", default_value_t = 8)]
+    pub cache_procs: usize,
+    /// Image side of the cache-size experiment (the paper's 128).
+    #[arg(long = "cache-size", default_value_t = 128)]
+    pub cache_size: u32,
+    /// Seed of the simulation (latency jitter).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    #[command(flatten)]
+    pub radiance: RadianceArgs,
+}
+
 /// Our options that take one value.
 const VALUE_FLAGS: &[&str] = &[
+    "--out",
+    "--quality",
     "--view",
     "--view-file",
     "-o",
@@ -250,7 +379,15 @@ const VALUE_FLAGS: &[&str] = &[
     "--tile",
     "--shadow-dp-below",
     "--threads",
+    "--time-limit",
     "--parallel-stats",
+    "--hemispheres",
+    "--network",
+    "--credits",
+    "--max-procs",
+    "--detail-procs",
+    "--cache-procs",
+    "--cache-size",
 ];
 
 /// Number of values each Radiance view option takes.

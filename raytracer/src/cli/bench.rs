@@ -30,33 +30,33 @@ fn builtin_dir() -> Vec<PathBuf> {
     ]
 }
 
-fn resolve_scene(a: &BenchArgs) -> Result<(PathBuf, View)> {
-    let (scene_path, default_vf) =
-        if matches!(a.scene.as_str(), "cornell" | "studio" | "conference") {
-            let found = builtin_dir()
-                .into_iter()
-                .map(|d| d.join(format!("{}.rad", a.scene)))
-                .find(|p| p.is_file());
-            let Some(p) = found else {
-                return Err(Error::Other(format!(
-                    "built-in scene {:?} not found (looked for examples/scenes/{}.rad)",
-                    a.scene, a.scene
-                )));
-            };
-            let vf = p.with_extension("vf");
-            (p, vf)
-        } else {
-            let p = PathBuf::from(&a.scene);
-            let vf = p.with_extension("vf");
-            (p, vf)
+/// A built-in scene name (cornell, studio, conference) or a scene file, with
+/// its view file (`view_file`, else the `.vf` next to the scene).
+pub(super) fn resolve_scene_view(scene: &str, view_file: Option<&Path>) -> Result<(PathBuf, View)> {
+    let (scene_path, default_vf) = if matches!(scene, "cornell" | "studio" | "conference") {
+        let found = builtin_dir()
+            .into_iter()
+            .map(|d| d.join(format!("{scene}.rad")))
+            .find(|p| p.is_file());
+        let Some(p) = found else {
+            return Err(Error::Other(format!(
+                "built-in scene {scene:?} not found (looked for examples/scenes/{scene}.rad)"
+            )));
         };
+        let vf = p.with_extension("vf");
+        (p, vf)
+    } else {
+        let p = PathBuf::from(scene);
+        let vf = p.with_extension("vf");
+        (p, vf)
+    };
     if !scene_path.is_file() {
         return Err(Error::io(
             &scene_path,
             std::io::Error::from(std::io::ErrorKind::NotFound),
         ));
     }
-    let vf = a.view_file.clone().unwrap_or(default_vf);
+    let vf = view_file.map(Path::to_path_buf).unwrap_or(default_vf);
     let view = build_view(Some(&vf), &[], &[])?;
     Ok((scene_path, view))
 }
@@ -145,6 +145,10 @@ fn trace_shadow<C: RayCaster>(
         rays.iter()
             .map(|(r, tmax, ign)| caster.occluded(r, 0.0, *tmax, *ign)),
     );
+}
+
+fn resolve_scene(a: &BenchArgs) -> Result<(PathBuf, View)> {
+    resolve_scene_view(&a.scene, a.view_file.as_deref())
 }
 
 fn rate(n: u64, d: Duration) -> f64 {

@@ -1,4 +1,4 @@
-//! The `hybrid-rt` command-line program: `render` and `bench`.
+//! The `hybrid-rt` command-line program: `render`, `bench` and `sweep`.
 //!
 //! Errors print as `error: <file:line: reason>` on stderr; the exit code
 //! is 2 for usage errors and 1 for everything else. No input makes the
@@ -6,10 +6,14 @@
 
 mod args;
 mod bench;
+mod experiment;
 mod parallel;
 mod render;
+mod sweep;
 
-pub use args::{translate, BenchArgs, Cli, Command, ParallelArgs, RenderArgs};
+pub use args::{
+    translate, BenchArgs, Cli, Command, ExperimentArgs, ParallelArgs, RenderArgs, SweepArgs,
+};
 pub use parallel::summary as parallel_summary;
 
 use clap::Parser;
@@ -33,11 +37,18 @@ pub fn main() -> i32 {
     let result = match cli.command {
         Command::Render(a) => render::run(&a),
         Command::Bench(a) => bench::run(&a),
+        Command::Sweep(a) => sweep::run(&a),
+        Command::Experiment(a) => experiment::run(&a),
     };
     match result {
         Ok(()) => 0,
         Err(e) => {
             eprintln!("error: {e}");
+            #[cfg(feature = "mpi")]
+            if hybrid_sched::runtime::mpi::world().is_some() {
+                // Other ranks may wait for this one: end the whole job.
+                hybrid_sched::runtime::mpi::abort(e.exit_code());
+            }
             e.exit_code()
         }
     }
@@ -55,10 +66,11 @@ fn init_logging() {
 
 /// Render options from Radiance arguments and a seed.
 fn options_from(radiance: &args::RadianceArgs, seed: u64) -> Result<RenderOptions> {
-    let mut o = RenderOptions {
-        seed,
-        ..RenderOptions::default()
+    let mut o = match radiance.quality.as_deref() {
+        Some(q) => RenderOptions::preset(q)?,
+        None => RenderOptions::default(),
     };
+    o.seed = seed;
     for (name, values) in radiance.given() {
         o.set(name, &values)?;
     }

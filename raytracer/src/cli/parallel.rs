@@ -3,15 +3,50 @@
 use std::fmt::Write as _;
 use std::time::Duration;
 
-use hybrid_sched::{Class, Policy, State};
+use hybrid_sched::{Class, Network, Policy, State};
 
 use super::args::ParallelArgs;
 use super::usage;
 use crate::parallel::workload::work;
-use crate::parallel::{ParallelOptions, ParallelRender, WorkloadOptions};
+use crate::parallel::{ParallelOptions, ParallelRender, RuntimeKind, WorkloadOptions};
 use crate::Result;
 
-/// Parses the parallel flags (`--procs` must be given).
+/// The parallel options when the render is parallel: `--procs` is given,
+/// or `--runtime mpi` (then `--procs` defaults to the number of ranks and
+/// must equal it if given). Starts MPI for `--runtime mpi`.
+pub(super) fn resolve(a: &ParallelArgs) -> Result<Option<ParallelOptions>> {
+    let runtime: RuntimeKind = match (a.procs, a.runtime.parse::<RuntimeKind>()) {
+        (_, Ok(r)) => r,
+        (Some(_), Err(e)) => return Err(usage(format!("--runtime: {e}"))),
+        // Without --procs the render is sequential unless --runtime says mpi.
+        (None, Err(_)) if !a.runtime.trim().eq_ignore_ascii_case("mpi") => return Ok(None),
+        (None, Err(e)) => return Err(usage(format!("--runtime: {e}"))),
+    };
+    if runtime != RuntimeKind::Mpi {
+        return a.procs.map(|n| options(a, n)).transpose();
+    }
+    let (_, ranks) = mpi_world()?;
+    match a.procs {
+        Some(n) if n != ranks => Err(usage(format!(
+            "--procs {n} with --runtime mpi: there is one processor per MPI rank and this job has {ranks}; leave --procs out or run mpirun -np {n}"
+        ))),
+        _ => options(a, ranks).map(Some),
+    }
+}
+
+#[cfg(feature = "mpi")]
+fn mpi_world() -> Result<(usize, usize)> {
+    crate::parallel::mpi_world()
+}
+
+#[cfg(not(feature = "mpi"))]
+fn mpi_world() -> Result<(usize, usize)> {
+    Err(usage(
+        "--runtime mpi is not available in this build (build hybrid-rt with --features mpi)",
+    ))
+}
+
+/// Parses the parallel flags for `procs` processors.
 pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions> {
     if procs == 0 {
         return Err(usage("--procs 0: at least one processor is needed"));
@@ -22,10 +57,29 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
     if a.threads == Some(0) {
         return Err(usage("--threads 0: at least one thread is needed"));
     }
+    let time_limit = match a.time_limit {
+        None => None,
+        Some(s) if s.is_finite() && s > 0.0 && s < 1e9 => Some(Duration::from_secs_f64(s)),
+        Some(s) => {
+            return Err(usage(format!(
+                "--time-limit {s}: expected a positive number of seconds"
+            )))
+        }
+    };
     let policy: Policy = a
         .policy
         .parse()
         .map_err(|e| usage(format!("--policy: {e}")))?;
+    let network = Network::preset(&a.network).ok_or_else(|| {
+        usage(format!(
+            "--network {:?}: expected one of {}",
+            a.network,
+            Network::PRESETS.join(", ")
+        ))
+    })?;
+    if a.credits == 0 {
+        return Err(usage("--credits 0: at least one credit per link is needed"));
+    }
     Ok(ParallelOptions {
         procs,
         runtime: a
@@ -44,9 +98,13 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
                 .distribution
                 .parse()
                 .map_err(|e| usage(format!("--distribution: {e}")))?,
+            clip_cache: a.clip_cache,
         },
         threads: a.threads,
-        time_limit: None::<Duration>,
+        time_limit,
+        network,
+        sim_seed: 0,
+        credits: a.credits,
     })
 }
 
@@ -148,5 +206,49 @@ pub fn summary(r: &ParallelRender) -> String {
         r.work(work::SHADOW_BUNDLES_DP),
         r.work(work::CLIP_MISSES),
     );
+    if let Some(v) = r.simulated_s {
+        let _ = writeln!(
+            s,
+            "simulated on {}: {:.4} s of virtual time (times above are virtual; the simulation took {:.3} s)",
+            r.options.network.name, v, r.render_s
+        );
+    }
+    if !r.ranks.is_empty() {
+        let _ = writeln!(
+            s,
+            "MPI wire traffic (encoded bytes; the master runs on rank 0):\n{:>4} {:>9} {:>10} {:>9} {:>10} {:>9} {:>10} {:>13} {:>8}",
+            "rank",
+            "msgs sent",
+            "KiB sent",
+            "msgs recv",
+            "KiB recv",
+            "data recv",
+            "data KiB",
+            "data KiB acct",
+            "local"
+        );
+        for t in &r.ranks {
+            // What the processor on this rank accounted for the data it
+            // received (the cells' object bytes).
+            let accounted = r
+                .stats
+                .procs
+                .get(t.rank)
+                .map_or(0, |p| p.received.get(Class::Data).bytes);
+            let _ = writeln!(
+                s,
+                "{:>4} {:>9} {:>10.1} {:>9} {:>10.1} {:>9} {:>10.1} {:>13.1} {:>8}",
+                t.rank,
+                t.messages_sent,
+                t.bytes_sent as f64 / 1024.0,
+                t.messages_received,
+                t.bytes_received as f64 / 1024.0,
+                t.data_messages_received,
+                t.data_bytes_received as f64 / 1024.0,
+                accounted as f64 / 1024.0,
+                t.local_packets
+            );
+        }
+    }
     s
 }

@@ -10,7 +10,7 @@ use super::args::RenderArgs;
 use super::{options_from, print_scene_warnings, usage};
 use crate::image::Film;
 use crate::image::{write_image, Exposure, HdrInfo, ImageFormat, ToneMap, Transfer};
-use crate::parallel::{render_parallel, ParallelOptions};
+use crate::parallel::{render_parallel_ranked, ParallelOptions};
 use crate::render::{check_resolution, RenderOptions, Renderer};
 use crate::scene::{self, View};
 use crate::{Error, Result, SourceLoc};
@@ -84,10 +84,7 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
     let (width, height) = (width as usize, height as usize);
     check_resolution(width, height)?;
 
-    let popts = match a.parallel.procs {
-        Some(n) => Some(super::parallel::options(&a.parallel, n)?),
-        None => None,
-    };
+    let popts = super::parallel::resolve(&a.parallel)?;
     let t0 = std::time::Instant::now();
     let scene = Arc::new(scene::load(&a.scenes)?);
     print_scene_warnings(&scene);
@@ -98,6 +95,11 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
         "scene loaded"
     );
     if let Some(popts) = popts {
+        if options.ab > 0 {
+            return run_ambient_parallel(
+                a, &scene, options, &view, width, height, &popts, exposure,
+            );
+        }
         return run_parallel(a, scene, options, &view, width, height, &popts, exposure);
     }
     let renderer = Renderer::new(&scene, options)?;
@@ -168,7 +170,10 @@ fn run_parallel(
     popts: &ParallelOptions,
     exposure: Option<f64>,
 ) -> Result<()> {
-    let out = render_parallel(scene, options, view, width, height, popts)?;
+    let Some(out) = render_parallel_ranked(scene, options, view, width, height, popts)? else {
+        // An MPI rank other than 0: rank 0 writes the picture and reports.
+        return Ok(());
+    };
     eprint!("{}", super::parallel::summary(&out));
     write_film(a, &out.film, view, exposure)?;
     if let Some(path) = &a.parallel.parallel_stats {
@@ -178,6 +183,46 @@ fn run_parallel(
         eprintln!(
             "warning: --stats describes sequential renders; use --parallel-stats with --procs"
         );
+    }
+    Ok(())
+}
+
+/// `--procs` with `-ab`: the threaded irradiance-cache renderer.
+#[allow(clippy::too_many_arguments)]
+fn run_ambient_parallel(
+    a: &RenderArgs,
+    scene: &scene::Scene,
+    options: RenderOptions,
+    view: &View,
+    width: usize,
+    height: usize,
+    popts: &ParallelOptions,
+    exposure: Option<f64>,
+) -> Result<()> {
+    use crate::parallel::ambient::{render_ambient_parallel, AmbientParallelOptions};
+    let mode = a.parallel.hemispheres.parse().map_err(usage)?;
+    let opts = AmbientParallelOptions {
+        procs: popts.procs,
+        mode,
+        tile: a.parallel.tile,
+    };
+    let out = render_ambient_parallel(scene, options, view, width, height, &opts)?;
+    eprintln!(
+        "parallel inter-reflection: {} processors, hemispheres {}: {:.3} s; {} hemispheres ({} redundant), {} hemisphere rays, {} pixels retraced, {} waits, {:.3} s idle, {} records",
+        opts.procs,
+        opts.mode,
+        out.render_s,
+        out.hemispheres,
+        out.redundant,
+        out.hemisphere_tasks,
+        out.retraced_pixels,
+        out.waits,
+        out.idle_s,
+        out.records
+    );
+    write_film(a, &out.film, view, exposure)?;
+    if let Some(path) = a.parallel.parallel_stats.as_ref().or(a.stats.as_ref()) {
+        write_json(path, &out)?;
     }
     Ok(())
 }

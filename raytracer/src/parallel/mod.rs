@@ -9,14 +9,20 @@
 //! renderer's bit for bit for any number of processors, policy, cache size
 //! and distribution.
 
+pub mod ambient;
 pub mod caster;
+pub mod cost;
+pub mod predict;
 pub mod tree;
 pub mod workload;
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use hybrid_sched::{Config, Policy, RunStats, Runtime, Sequential, Threads};
+use hybrid_sched::{
+    run_sim, Config, Network, Policy, RankTraffic, RunReport, RunStats, Runtime, Sequential, Sim,
+    Threads, Timeline,
+};
 use serde::Serialize;
 
 pub use workload::{CellData, DdTask, Distribution, DpTask, RtWorkload, WorkloadOptions};
@@ -35,6 +41,11 @@ pub enum RuntimeKind {
     /// The framework's reference: every task on one processor, all data
     /// local, no messages.
     Sequential,
+    /// The deterministic simulation of a cluster (virtual time; see
+    /// [`ParallelOptions::network`] and [`cost`]).
+    Sim,
+    /// One processor per MPI rank (`mpirun -np N`; feature `mpi`).
+    Mpi,
 }
 
 impl std::str::FromStr for RuntimeKind {
@@ -43,9 +54,15 @@ impl std::str::FromStr for RuntimeKind {
         match s.trim().to_ascii_lowercase().as_str() {
             "threads" => Ok(RuntimeKind::Threads),
             "sequential" => Ok(RuntimeKind::Sequential),
-            "sim" | "mpi" => Err(format!("runtime {s:?} is not available in this build")),
+            "sim" | "simulated" => Ok(RuntimeKind::Sim),
+            #[cfg(feature = "mpi")]
+            "mpi" => Ok(RuntimeKind::Mpi),
+            #[cfg(not(feature = "mpi"))]
+            "mpi" => Err(format!(
+                "runtime {s:?} is not available in this build (build hybrid-rt with --features mpi)"
+            )),
             _ => Err(format!(
-                "unknown runtime {s:?}: expected threads or sequential"
+                "unknown runtime {s:?}: expected threads, sequential or sim"
             )),
         }
     }
@@ -114,6 +131,12 @@ pub struct ParallelOptions {
     pub threads: Option<usize>,
     /// Give up (with an error) after this long.
     pub time_limit: Option<Duration>,
+    /// The simulated machine (runtime `sim` only).
+    pub network: Network,
+    /// Seed of the simulation's latency jitter.
+    pub sim_seed: u64,
+    /// Flow control: credits per link (see [`hybrid_sched::Config`]).
+    pub credits: usize,
 }
 
 impl ParallelOptions {
@@ -126,6 +149,9 @@ impl ParallelOptions {
             workload: WorkloadOptions::default(),
             threads: None,
             time_limit: None,
+            network: Network::ten_gbe(),
+            sim_seed: 0,
+            credits: Config::new(1).credits_per_link,
         }
     }
 }
@@ -163,6 +189,16 @@ pub struct ParallelRender {
     pub render_s: f64,
     /// Seconds to build the octree and the partition.
     pub setup_s: f64,
+    /// Simulated seconds (runtime `sim`; the statistics' times are virtual
+    /// too).
+    pub simulated_s: Option<f64>,
+    /// Per-state time line of every actor (runtime `sim`).
+    #[serde(skip)]
+    pub timeline: Option<Timeline>,
+    /// MPI runtime: what each rank put on and took off the wire (index =
+    /// rank); empty for the other runtimes.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub ranks: Vec<RankTraffic>,
 }
 
 impl ParallelRender {
@@ -177,6 +213,9 @@ impl ParallelRender {
 }
 
 /// Renders `view` at `width` x `height` with the hybrid scheduler.
+///
+/// Under [`RuntimeKind::Mpi`] only rank 0 has the picture: there, use
+/// [`render_parallel_ranked`].
 pub fn render_parallel(
     scene: Arc<Scene>,
     options: RenderOptions,
@@ -185,12 +224,29 @@ pub fn render_parallel(
     height: usize,
     popts: &ParallelOptions,
 ) -> Result<ParallelRender> {
+    render_parallel_ranked(scene, options, view, width, height, popts)?.ok_or_else(|| {
+        Error::Other("this MPI rank is not rank 0: only rank 0 has the picture".into())
+    })
+}
+
+/// [`render_parallel`] for any runtime: `None` on MPI ranks other than 0
+/// (each rank calls it with the same scene and options; rank 0 gets the
+/// whole picture and every processor's statistics).
+pub fn render_parallel_ranked(
+    scene: Arc<Scene>,
+    options: RenderOptions,
+    view: &View,
+    width: usize,
+    height: usize,
+    popts: &ParallelOptions,
+) -> Result<Option<ParallelRender>> {
     check_resolution(width, height)?;
     if popts.procs == 0 {
         return Err(Error::Usage("--procs must be at least 1".into()));
     }
     let t0 = Instant::now();
     let renderer = Renderer::shared(scene, options, &OctreeParams::default())?;
+    ambient::check_hybrid(&renderer)?;
     let wl = RtWorkload::new(
         renderer,
         view.clone(),
@@ -206,6 +262,7 @@ pub fn render_parallel(
         .with_cache_bytes(cache_bytes);
     config.threads = popts.threads;
     config.time_limit = popts.time_limit;
+    config.credits_per_link = popts.credits;
     config
         .validate()
         .map_err(|e| Error::Usage(format!("parallel configuration: {e}")))?;
@@ -213,11 +270,27 @@ pub fn render_parallel(
     let wl = Arc::new(wl);
     let setup_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let report = match popts.runtime {
-        RuntimeKind::Threads => Threads.run(wl.clone(), &config),
-        RuntimeKind::Sequential => Sequential.run(wl.clone(), &config),
-    }
-    .map_err(|e| Error::Other(format!("parallel render failed: {e}")))?;
+    let failed = |e: hybrid_sched::RunError| Error::Other(format!("parallel render failed: {e}"));
+    let mut timeline = None;
+    let (report, ranks): (RunReport<RtWorkload>, Vec<RankTraffic>) = match popts.runtime {
+        RuntimeKind::Threads => (Threads.run(wl.clone(), &config).map_err(failed)?, vec![]),
+        RuntimeKind::Sequential => (Sequential.run(wl.clone(), &config).map_err(failed)?, vec![]),
+        RuntimeKind::Sim => {
+            let mut sim = Sim::new(cost::model(), popts.network.clone());
+            sim.seed = popts.sim_seed;
+            // Virtual time has no wall-clock limit.
+            config.time_limit = None;
+            let (r, t) = run_sim(wl.clone(), &config, &sim).map_err(failed)?;
+            timeline = Some(t);
+            (r, vec![])
+        }
+        RuntimeKind::Mpi => match run_mpi(wl.clone(), &config)? {
+            Some(r) => r,
+            None => return Ok(None),
+        },
+    };
+    let simulated_s =
+        (popts.runtime == RuntimeKind::Sim).then_some(report.stats.elapsed_ns as f64 * 1e-9);
     let render_s = t1.elapsed().as_secs_f64();
 
     let mut film = Film::new(width, height);
@@ -253,7 +326,7 @@ pub fn render_parallel(
             "parallel render sent pixel results to the master".into(),
         ));
     }
-    Ok(ParallelRender {
+    Ok(Some(ParallelRender {
         film,
         options: popts.clone(),
         cache_bytes,
@@ -262,5 +335,37 @@ pub fn render_parallel(
         stats: report.stats,
         render_s,
         setup_s,
-    })
+        simulated_s,
+        timeline,
+        ranks,
+    }))
+}
+
+/// Starts MPI (once per process) and returns `(rank, ranks)`.
+#[cfg(feature = "mpi")]
+pub fn mpi_world() -> Result<(usize, usize)> {
+    let w = hybrid_sched::runtime::mpi::init()
+        .map_err(|e| Error::Other(format!("cannot start MPI: {e}")))?;
+    Ok((w.rank, w.size))
+}
+
+#[cfg(feature = "mpi")]
+fn run_mpi(
+    wl: Arc<RtWorkload>,
+    config: &Config,
+) -> Result<Option<(RunReport<RtWorkload>, Vec<RankTraffic>)>> {
+    let out = hybrid_sched::runtime::mpi::run_mpi(wl, config)
+        .map_err(|e| Error::Other(format!("parallel render failed: {e}")))?;
+    Ok(out.map(|m| (m.report, m.ranks)))
+}
+
+#[cfg(not(feature = "mpi"))]
+fn run_mpi(
+    _wl: Arc<RtWorkload>,
+    _config: &Config,
+) -> Result<Option<(RunReport<RtWorkload>, Vec<RankTraffic>)>> {
+    Err(Error::Usage(
+        "runtime \"mpi\" is not available in this build (build hybrid-rt with --features mpi)"
+            .into(),
+    ))
 }

@@ -24,8 +24,8 @@
 //! bundle continues data-parallel from where it stopped, and the event is
 //! counted as `clip.misses`.
 
-use std::collections::HashSet;
-use std::sync::Arc;
+use std::collections::{HashMap, HashSet};
+use std::sync::{Arc, Mutex};
 
 use hybrid_sched::serde::{Deserialize, Serialize};
 use hybrid_sched::{Addr, ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};
@@ -50,6 +50,10 @@ pub enum Distribution {
     Octree,
     /// The worst case: processor 0 holds everything.
     Worst,
+    /// Beyond the paper: the same cut, with each cell weighted by its
+    /// predicted work (see [`super::predict`]) instead of its objects, so
+    /// processors get equal work rather than equal memory.
+    Predicted,
 }
 
 impl std::str::FromStr for Distribution {
@@ -58,8 +62,9 @@ impl std::str::FromStr for Distribution {
         match s.trim().to_ascii_lowercase().as_str() {
             "octree" | "balanced" => Ok(Distribution::Octree),
             "worst" | "worst-case" | "one" => Ok(Distribution::Worst),
+            "predicted" | "cost-predicted" | "work" => Ok(Distribution::Predicted),
             _ => Err(format!(
-                "unknown distribution {s:?}: expected octree or worst"
+                "unknown distribution {s:?}: expected octree, predicted or worst"
             )),
         }
     }
@@ -70,6 +75,7 @@ impl std::fmt::Display for Distribution {
         f.write_str(match self {
             Distribution::Octree => "octree",
             Distribution::Worst => "worst",
+            Distribution::Predicted => "predicted",
         })
     }
 }
@@ -182,10 +188,13 @@ impl ByteSize for DpTask {
 pub mod work {
     pub static CLIP_NODES: &str = "clip.nodes";
     pub static CLIP_MISSES: &str = "clip.misses";
+    /// Shadow bundles that reused a cell's selection (option `clip_cache`).
+    pub static CLIP_REUSED: &str = "clip.reused";
     pub static RAYS_PRIMARY: &str = "rays.primary";
     pub static RAYS_REFLECTION: &str = "rays.reflection";
     pub static RAYS_REFRACTION: &str = "rays.refraction";
     pub static RAYS_PASS_THROUGH: &str = "rays.pass_through";
+    pub static RAYS_AMBIENT: &str = "rays.ambient";
     pub static RAYS_SPAWNED: &str = "rays.spawned";
     pub static RAYS_RETIRED: &str = "rays.retired";
     pub static SHADOW_BUNDLES: &str = "shadow.bundles";
@@ -198,6 +207,11 @@ pub mod work {
     pub static SHADOW_UNOCCLUDED: &str = "shadow.unoccluded";
     pub static SHADOW_SEGMENTS: &str = "shadow.transparent_segments";
     pub static SHADOW_RESTARTS: &str = "shadow.restarts";
+    /// Non-empty octree leaves entered by traversals (octree steps).
+    pub static TRACE_LEAVES: &str = "trace.leaves";
+    /// Objects listed in those leaves (intersection tests, counting an
+    /// object once per leaf; an any-hit query may stop earlier).
+    pub static TRACE_OBJECTS: &str = "trace.objects";
     pub static SHADE: &str = "shade";
 }
 
@@ -210,6 +224,14 @@ pub struct WorkloadOptions {
     /// Shadow bundles with fewer (estimated) rays than this go data-parallel.
     pub shadow_dp_below: usize,
     pub distribution: Distribution,
+    /// Beyond the paper: clip once per (processor, cell, light) instead of
+    /// once per shadow bundle, with the convex hull of the cell and the
+    /// light (which holds every bundle shaded in the cell), and reuse the
+    /// selection for every later bundle from that cell to that light.
+    /// Selections are supersets of the per-bundle ones (a little more data
+    /// may be fetched); clipping work drops by the bundles per cell.
+    #[serde(default)]
+    pub clip_cache: bool,
 }
 
 impl Default for WorkloadOptions {
@@ -218,6 +240,7 @@ impl Default for WorkloadOptions {
             tile: 16,
             shadow_dp_below: 2,
             distribution: Distribution::Octree,
+            clip_cache: false,
         }
     }
 }
@@ -236,7 +259,14 @@ pub struct RtWorkload {
     /// Per node: the one processor owning every non-empty leaf below it,
     /// [`EMPTY`] if there is none, [`MIXED`] if several own some.
     subtree_owner: Vec<u32>,
+    /// Predicted subtree costs ([`Distribution::Predicted`] only).
+    predicted: Vec<u64>,
+    /// Shadow selections per (processor, cell, light) (option `clip_cache`).
+    clip_cache: Mutex<ClipCache>,
 }
+
+/// Shadow selections per (processor, cell, light).
+type ClipCache = HashMap<(u32, NodeId, u32), Arc<[NodeId]>>;
 
 const EMPTY: u32 = u32::MAX - 1;
 const MIXED: u32 = u32::MAX;
@@ -279,10 +309,17 @@ impl RtWorkload {
                 })
             })
             .collect();
-        let partition = Self::partition_for(&renderer, opts.distribution, procs);
+        let predicted = if opts.distribution == Distribution::Predicted {
+            super::predict::subtree_costs(&renderer, &view, width, height)
+        } else {
+            Vec::new()
+        };
+        let partition = Self::partition_for(&renderer, opts.distribution, procs, &predicted);
         let subtree_owner = Self::subtree_owners(&renderer, &partition);
         RtWorkload {
             subtree_owner,
+            predicted,
+            clip_cache: Mutex::new(HashMap::new()),
             renderer,
             view,
             width,
@@ -296,12 +333,18 @@ impl RtWorkload {
         }
     }
 
-    fn partition_for(renderer: &Renderer<'static>, d: Distribution, procs: usize) -> Partition {
+    fn partition_for(
+        renderer: &Renderer<'static>,
+        d: Distribution,
+        procs: usize,
+        predicted: &[u64],
+    ) -> Partition {
         let (octree, objects) = (renderer.octree(), &renderer.scene().objects);
         let procs = u32::try_from(procs.max(1)).unwrap_or(u32::MAX);
         match d {
             Distribution::Octree => Partition::new(octree, objects, procs),
             Distribution::Worst => Partition::worst_case(octree, objects, procs),
+            Distribution::Predicted => Partition::by_cost(octree, objects, procs, predicted),
         }
     }
 
@@ -378,7 +421,12 @@ impl RtWorkload {
         let part = if self.partition.procs() as usize == procs.max(1) {
             &self.partition
         } else {
-            fresh = Self::partition_for(&self.renderer, self.opts.distribution, procs);
+            fresh = Self::partition_for(
+                &self.renderer,
+                self.opts.distribution,
+                procs,
+                &self.predicted,
+            );
             &fresh
         };
         self.cells
@@ -473,10 +521,65 @@ impl RtWorkload {
         if self.all_resident(bounds, ctx.proc_id(), ctx.procs()) {
             return Vec::new();
         }
+        if self.opts.clip_cache {
+            if let Some(sel) = self.select_shadow_cached(b, ctx) {
+                return sel;
+            }
+        }
         match self.shadow_pyramid(b) {
             Some(pyramid) => self.clip(&pyramid, ctx),
             None => Vec::new(),
         }
+    }
+
+    /// [`WorkloadOptions::clip_cache`]: the selection for every bundle from
+    /// the shaded point's cell to its (finite) light. `None` to clip the
+    /// bundle's own pyramid instead.
+    fn select_shadow_cached(&self, b: &ShadowBundle, ctx: &mut Ctx<Self>) -> Option<Vec<NodeId>> {
+        let octree = self.renderer.octree();
+        let light = self.renderer.lights().get(b.light as usize)?;
+        let LightExtent::Finite(lb) = light.extent(self.renderer.scene())? else {
+            return None;
+        };
+        let leaf = octree.find_leaf(b.point)?;
+        let key = (ctx.proc_id() as u32, leaf, b.light);
+        if let Some(sel) = self.clip_cache.lock().ok()?.get(&key) {
+            ctx.charge(work::CLIP_REUSED, 1);
+            return Some(sel.to_vec());
+        }
+        let cb = octree.node_bounds(leaf);
+        let lo = cb.min.min(lb.min).min(b.point);
+        let hi = cb.max.max(lb.max).max(b.point);
+        let mag = hi.abs().max(lo.abs()).max_element() + b.offset_scale.abs();
+        let pad = 1e-6 * ((hi - lo).max_element() + mag);
+        let corners = |bb: Aabb| {
+            (0..8).map(move |i| {
+                Vec3::new(
+                    if i & 1 == 0 {
+                        bb.min.x - pad
+                    } else {
+                        bb.max.x + pad
+                    },
+                    if i & 2 == 0 {
+                        bb.min.y - pad
+                    } else {
+                        bb.max.y + pad
+                    },
+                    if i & 4 == 0 {
+                        bb.min.z - pad
+                    } else {
+                        bb.max.z + pad
+                    },
+                )
+            })
+        };
+        let points: Vec<Vec3> = corners(cb).chain(corners(lb)).collect();
+        let hull = Pyramid::hull(&points, b.point)?;
+        let sel = self.clip(&hull, ctx);
+        if let Ok(mut cache) = self.clip_cache.lock() {
+            cache.insert(key, sel.clone().into());
+        }
+        Some(sel)
     }
 
     /// The non-empty leaves meeting `pyramid` that this processor does not
@@ -571,6 +674,7 @@ impl RtWorkload {
                 RayKind::Reflection => work::RAYS_REFLECTION,
                 RayKind::Refraction => work::RAYS_REFRACTION,
                 RayKind::PassThrough => work::RAYS_PASS_THROUGH,
+                RayKind::Ambient => work::RAYS_AMBIENT,
             },
             1,
         );
@@ -657,9 +761,16 @@ impl RtWorkload {
         let objects = &self.renderer.scene().objects;
         let t = &job.task;
         let (proc, procs) = (ctx.proc_id(), ctx.procs());
-        match octree.intersect_partial(objects, &t.ray, t.tmin, t.tmax, &mut job.cursor, |l| {
-            self.is_local(data, proc, procs, l)
-        }) {
+        let (mut leaves, mut tests) = (0u64, 0u64);
+        let partial =
+            octree.intersect_partial(objects, &t.ray, t.tmin, t.tmax, &mut job.cursor, |l| {
+                leaves += 1;
+                tests += octree.leaf_objects(l).len() as u64;
+                self.is_local(data, proc, procs, l)
+            });
+        ctx.charge(work::TRACE_LEAVES, leaves);
+        ctx.charge(work::TRACE_OBJECTS, tests);
+        match partial {
             Partial::Blocked(leaf) => {
                 job.next = Some(leaf);
                 Some(job)
@@ -687,10 +798,15 @@ impl RtWorkload {
         }
         let replay = std::mem::take(&mut job.replay);
         let (proc, procs) = (ctx.proc_id(), ctx.procs());
+        let visits = std::cell::Cell::new((0u64, 0u64));
         let caster = PartialCaster::new(
             octree,
             objects,
-            |l| self.is_local(data, proc, procs, l),
+            |l| {
+                let (a, b) = visits.get();
+                visits.set((a + 1, b + octree.leaf_objects(l).len() as u64));
+                self.is_local(data, proc, procs, l)
+            },
             replay,
         );
         let mut counts = ShadowCounts::default();
@@ -702,6 +818,9 @@ impl RtWorkload {
             &mut scratch,
             &mut counts,
         );
+        let (leaves, tests) = visits.get();
+        ctx.charge(work::TRACE_LEAVES, leaves);
+        ctx.charge(work::TRACE_OBJECTS, tests);
         if let Some(leaf) = caster.blocked() {
             job.replay = caster.into_replay();
             job.next = Some(leaf);

@@ -264,8 +264,30 @@ impl EffectsReport {
         } else {
             Effect::off("-av 0 0 0")
         };
-        let diffuse_interreflection =
-            Effect::off("-ab 0 (diffuse inter-reflection is not implemented yet)");
+        let diffuse_interreflection = if options.ab == 0 {
+            Effect::off("-ab 0: diffuse surfaces use the constant ambient -av")
+        } else if !diffuse {
+            Effect::off(format!(
+                "-ab {}: no diffuse surface (plastic, metal or trans) to gather light",
+                options.ab
+            ))
+        } else if options.lr == 0 {
+            Effect::off("-lr 0 limits rays to primary rays")
+        } else {
+            Effect::on(format!(
+                "-ab {} -aa {} -ar {} -ad {} -as {}: irradiance cache{}",
+                options.ab,
+                options.aa,
+                options.ar,
+                options.ad,
+                options.as_,
+                if options.aa > 0.0 {
+                    ""
+                } else {
+                    " off (-aa 0: a hemisphere at every diffuse point)"
+                }
+            ))
+        };
         Self {
             area_shadows,
             distant_shadows,

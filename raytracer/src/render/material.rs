@@ -21,6 +21,7 @@ use std::f64::consts::PI;
 
 use serde::{Deserialize, Serialize};
 
+use super::ambient::AmbientRequest;
 use super::effects::EffectsReport;
 use super::light::PreparedLight;
 use super::options::RenderOptions;
@@ -63,6 +64,8 @@ pub enum RayKind {
     /// A ray continued unchanged through an invisible surface (`void`,
     /// `illum` without alternate).
     PassThrough,
+    /// A hemisphere sample ray of diffuse inter-reflection (`-ab`).
+    Ambient,
 }
 
 /// A ray to trace and shade.
@@ -82,7 +85,11 @@ pub struct RayTask {
     pub extinction: Color,
     /// A sampled rough-specular ray: it sees sampled light sources as black,
     /// because direct lighting already includes their specular highlight.
+    /// Hemisphere rays are sampled too.
     pub sampled: bool,
+    /// Ambient bounces taken on the way to this ray (0 for primary rays).
+    #[serde(default)]
+    pub ambient: u32,
 }
 
 impl RayTask {
@@ -98,6 +105,7 @@ impl RayTask {
             seed,
             extinction: Color::ZERO,
             sampled: false,
+            ambient: 0,
         }
     }
 }
@@ -236,6 +244,10 @@ pub struct Shaded {
     /// Extinction to apply over the ray's length `t` (Radiance sets it when
     /// a ray reaches a dielectric from inside).
     pub extinction: Color,
+    /// Diffuse inter-reflection wanted here (`-ab` > bounces so far): the
+    /// reflected and transmitted sides. Their value replaces the `-av`
+    /// term; see [`super::ambient`].
+    pub ambient: [Option<AmbientRequest>; 2],
 }
 
 /// Everything shading reads: scene, options, lights, enabled effects.
@@ -265,6 +277,7 @@ struct Emitter<'c, 'o> {
     out: &'o mut Vec<Request>,
     start: usize,
     offset_scale: f64,
+    ambient: [Option<AmbientRequest>; 2],
 }
 
 impl Emitter<'_, '_> {
@@ -329,6 +342,7 @@ impl Emitter<'_, '_> {
             seed,
             extinction,
             sampled,
+            ambient: self.task.ambient,
         };
         self.out.push(Request::Trace { task, coef });
     }
@@ -394,11 +408,13 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
         out,
         start: 0,
         offset_scale,
+        ambient: [None; 2],
     };
     em.start = em.out.len();
     let mut shaded = Shaded {
         base: Color::ZERO,
         extinction: task.extinction,
+        ambient: [None; 2],
     };
     let dir = task.ray.dir;
     let rod = -dir.dot(hit.normal);
@@ -499,6 +515,7 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
             }
         }
     }
+    shaded.ambient = em.ambient;
     shaded
 }
 
@@ -608,7 +625,37 @@ fn normal(
     }
     let mut base = Color::ZERO;
     let av = opts.av;
-    if av != Color::ZERO {
+    if opts.ab > task.ambient && em.ctx.effects.diffuse_interreflection.enabled {
+        // Diffuse inter-reflection replaces the constant ambient term.
+        if b.rdiff > FTINY {
+            let f = if b.specfl & spec::RBLT != 0 {
+                1.0 - b.trans
+            } else {
+                b.rdiff
+            };
+            em.ambient[0] = Some(AmbientRequest {
+                point: em.hit.point,
+                normal: n,
+                coef: b.mcolor * f,
+                offset_scale: em.offset_scale,
+                side: 0,
+            });
+        }
+        if b.tdiff > FTINY {
+            let f = if b.specfl & spec::TBLT != 0 {
+                b.trans
+            } else {
+                b.tdiff
+            };
+            em.ambient[1] = Some(AmbientRequest {
+                point: em.hit.point,
+                normal: -n,
+                coef: b.mcolor * f,
+                offset_scale: em.offset_scale,
+                side: 1,
+            });
+        }
+    } else if av != Color::ZERO {
         if b.rdiff > FTINY {
             let f = if b.specfl & spec::RBLT != 0 {
                 1.0 - b.trans

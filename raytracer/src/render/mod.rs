@@ -1,16 +1,19 @@
 //! The sequential reference renderer and the shading model, after
-//! Radiance's `rpict` without diffuse inter-reflection (as in the paper).
+//! Radiance's `rpict` (diffuse inter-reflection, which the paper deferred,
+//! only when `-ab` > 0).
 //!
 //! - [`options`]: [`RenderOptions`] under Radiance's names (`-ds`, `-dt`, ...);
 //! - [`material`]: shading one hit point into local light plus *requests*
 //!   (shadow bundles, reflected and refracted rays), the unit of work the
 //!   parallel renderer schedules;
+//! - [`ambient`]: diffuse inter-reflection with an irradiance cache (`-ab`);
 //! - [`light`] and [`direct`]: source subdivision and adaptive shadow testing;
 //! - [`effects`]: which effects a scene calls for, and why;
 //! - [`sequential`]: the [`Renderer`] that evaluates it all in process;
 //! - [`stats`]: rays by kind, time per effect, `--stats` JSON;
 //! - [`rng`]: per-pixel random streams (tile order never changes a pixel).
 
+pub mod ambient;
 pub mod caster;
 pub mod direct;
 pub mod effects;
@@ -24,6 +27,6 @@ pub mod stats;
 pub use caster::{BruteForceCaster, OctreeCaster, RayCaster};
 pub use effects::{Effect, EffectsReport};
 pub use material::{RayKind, RayTask, Request, ShadowBundle};
-pub use options::{RenderOptions, RADIANCE_OPTIONS};
+pub use options::{RenderOptions, QUALITY_PRESETS, RADIANCE_OPTIONS};
 pub use sequential::{check_resolution, Camera, Region, Renderer, TraceState};
 pub use stats::{RayCounts, RenderStats, Timings};

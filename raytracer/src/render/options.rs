@@ -5,9 +5,17 @@ use serde::{Deserialize, Serialize};
 use crate::scene::Color;
 use crate::{Error, Result};
 
+/// Most ambient bounces accepted (`-ab`).
+pub const MAX_AMBIENT_BOUNCES: u32 = 8;
+/// Most hemisphere rays per record (`-ad`, `-as`).
+pub const MAX_AMBIENT_DIVISIONS: u32 = 1 << 16;
+/// Most primary rays per pixel (`-pn`).
+pub const MAX_PIXEL_SAMPLES: u32 = 4096;
+
 /// Rendering parameters. Field names follow Radiance's options (`-ds` is
 /// `ds`, ...); defaults are `rpict`'s unless noted.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct RenderOptions {
     /// `-ds`: source subdivision ratio. An area source is split until every
     /// patch's size over its distance is below this (0 = never split).
@@ -26,14 +34,30 @@ pub struct RenderOptions {
     pub lw: f64,
     /// `-av`: constant ambient radiance, multiplied by diffuse reflectance.
     pub av: Color,
-    /// `-ab`: ambient bounces. Diffuse inter-reflection is a later issue:
-    /// only 0 is accepted.
+    /// `-ab`: ambient bounces: diffuse inter-reflection computed with an
+    /// irradiance cache (see [`super::ambient`]); 0 uses the constant `-av`.
     pub ab: u32,
+    /// `-aa`: ambient accuracy: the largest interpolation error accepted
+    /// from the irradiance cache (Ward's `a`); 0 turns caching off (every
+    /// diffuse point samples its own hemisphere).
+    pub aa: f64,
+    /// `-ar`: ambient resolution: records are at least scene size / `ar`
+    /// apart (0: no lower limit).
+    pub ar: u32,
+    /// `-ad`: ambient divisions: hemisphere sample rays per record.
+    pub ad: u32,
+    /// `-as`: ambient super-samples: extra rays into the divisions whose
+    /// neighbours differ most.
+    #[serde(rename = "as")]
+    pub as_: u32,
     /// `-st`: specular threshold: rough specular components at or below this
     /// are not sampled with a ray (their energy goes to the diffuse ambient).
     pub st: f64,
     /// `-ss`: specular sampling jitter in [0, 1] for rough specular rays.
     pub ss: f64,
+    /// Pixel samples (not an `rpict` option; `-pn` here): primary rays per
+    /// pixel, averaged, each with its own jitter (`-pj`) and random stream.
+    pub pn: u32,
     /// `-ps`: pixel sample spacing. Only 1 (every pixel sampled once, no
     /// super-sampling, as in the paper) is supported.
     pub ps: u32,
@@ -55,12 +79,70 @@ impl Default for RenderOptions {
             lw: 0.002,
             av: Color::ZERO,
             ab: 0,
+            aa: 0.1,
+            ar: 256,
+            ad: 512,
+            as_: 128,
+            pn: 1,
             st: 0.15,
             ss: 1.0,
             ps: 1,
             pj: 0.0,
             seed: 0,
         }
+    }
+}
+
+/// Names of the quality presets ([`RenderOptions::preset`]).
+pub const QUALITY_PRESETS: &[&str] = &["draft", "normal", "high"];
+
+impl RenderOptions {
+    /// A quality preset, chosen from the Pareto front of `hybrid-rt sweep`
+    /// on the built-in scenes (book chapter "What accuracy costs"):
+    /// - `draft`: coarse sources, lenient adaptive shadow testing and one
+    ///   cheap ambient bounce;
+    /// - `normal`: rpict's direct-light settings, two ambient bounces with
+    ///   a coarse cache;
+    /// - `high`: fine jittered sources, near-exhaustive shadow testing, two
+    ///   ambient bounces, 4 jittered pixel samples.
+    pub fn preset(name: &str) -> Result<Self> {
+        let d = Self::default();
+        Ok(match name.trim().to_ascii_lowercase().as_str() {
+            "draft" => Self {
+                ds: 0.5,
+                dt: 0.3,
+                ab: 1,
+                aa: 0.3,
+                ad: 64,
+                as_: 16,
+                ..d
+            },
+            "normal" => Self {
+                ab: 2,
+                aa: 0.2,
+                ad: 128,
+                as_: 32,
+                ..d
+            },
+            "high" => Self {
+                ds: 0.1,
+                dt: 0.02,
+                dj: 0.7,
+                ab: 2,
+                aa: 0.15,
+                ad: 128,
+                as_: 32,
+                pn: 4,
+                pj: 1.0,
+                ..d
+            },
+            _ => {
+                return Err(Error::Usage(format!(
+                    "--quality {name:?}: expected one of {}",
+                    QUALITY_PRESETS.join(", ")
+                )))
+            }
+        })
     }
 }
 
@@ -114,7 +196,27 @@ pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
     RadianceOption {
         name: "ab",
         arity: 1,
-        help: "ambient bounces (only 0 supported yet)",
+        help: "ambient bounces: diffuse inter-reflection depth (default 0)",
+    },
+    RadianceOption {
+        name: "aa",
+        arity: 1,
+        help: "ambient accuracy: irradiance cache interpolation error, 0 = no cache (default 0.1)",
+    },
+    RadianceOption {
+        name: "ar",
+        arity: 1,
+        help: "ambient resolution: records at least scene size / ar apart (default 256)",
+    },
+    RadianceOption {
+        name: "ad",
+        arity: 1,
+        help: "ambient divisions: hemisphere rays per record (default 512)",
+    },
+    RadianceOption {
+        name: "as",
+        arity: 1,
+        help: "ambient super-samples (default 128)",
     },
     RadianceOption {
         name: "st",
@@ -135,6 +237,11 @@ pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
         name: "pj",
         arity: 1,
         help: "pixel jitter 0..1 (default 0)",
+    },
+    RadianceOption {
+        name: "pn",
+        arity: 1,
+        help: "pixel samples: primary rays per pixel, averaged (not in rpict; default 1)",
     },
 ];
 
@@ -205,6 +312,11 @@ impl RenderOptions {
                 self.av = Color::from_array(c);
             }
             "ab" => self.ab = integer(name, v0)?,
+            "aa" => self.aa = in_range(name, number(name, v0)?, 0.0, 1.0)?,
+            "ar" => self.ar = integer(name, v0)?,
+            "ad" => self.ad = integer(name, v0)?,
+            "as" => self.as_ = integer(name, v0)?,
+            "pn" => self.pn = integer(name, v0)?,
             "st" => self.st = in_range(name, number(name, v0)?, 0.0, 1.0)?,
             "ss" => self.ss = in_range(name, number(name, v0)?, 0.0, 1.0)?,
             "ps" => self.ps = integer(name, v0)?,
@@ -218,7 +330,7 @@ impl RenderOptions {
     /// in range, and no request for a feature that is not implemented yet.
     pub fn validate(&self) -> Result<()> {
         let finite = [
-            self.ds, self.dj, self.dt, self.dc, self.lw, self.st, self.ss, self.pj,
+            self.ds, self.dj, self.dt, self.dc, self.lw, self.st, self.ss, self.pj, self.aa,
         ];
         if finite.iter().any(|v| !v.is_finite()) || !self.av.is_finite() {
             return Err(Error::Usage(
@@ -238,10 +350,28 @@ impl RenderOptions {
                 "-av: ambient value must not be negative".into(),
             ));
         }
-        if self.ab > 0 {
+        in_range("aa", self.aa, 0.0, 1.0)?;
+        if self.ab > MAX_AMBIENT_BOUNCES {
             return Err(Error::Usage(format!(
-                "-ab {}: diffuse inter-reflection (ambient bounces) is not yet supported; use -ab 0 and -av for a constant ambient",
+                "-ab {}: at most {MAX_AMBIENT_BOUNCES} ambient bounces are supported (each one multiplies the work)",
                 self.ab
+            )));
+        }
+        if self.ab > 0 && self.ad == 0 {
+            return Err(Error::Usage(
+                "-ad 0: ambient bounces (-ab) need at least one hemisphere division".into(),
+            ));
+        }
+        if self.ad > MAX_AMBIENT_DIVISIONS || self.as_ > MAX_AMBIENT_DIVISIONS {
+            return Err(Error::Usage(format!(
+                "-ad {} -as {}: at most {MAX_AMBIENT_DIVISIONS} hemisphere rays each",
+                self.ad, self.as_
+            )));
+        }
+        if self.pn == 0 || self.pn > MAX_PIXEL_SAMPLES {
+            return Err(Error::Usage(format!(
+                "-pn {}: pixel samples must be between 1 and {MAX_PIXEL_SAMPLES}",
+                self.pn
             )));
         }
         if self.ps != 1 {
@@ -277,15 +407,39 @@ mod tests {
             ("dt", "NaN"),
             ("ds", "-1"),
             ("lr", "x"),
-            ("ab", "1"),
+            ("ab", "9"),
+            ("aa", "2"),
+            ("ad", "-1"),
+            ("pn", "0"),
             ("ps", "4"),
             ("zz", "1"),
         ] {
             let e = o.clone().set(n, &[v]).unwrap_err();
             assert_eq!(e.exit_code(), 2, "{n} {v}: {e}");
         }
-        let e = o.clone().set("ab", &["2"]).unwrap_err().to_string();
-        assert!(e.contains("not yet supported"), "{e}");
+        o.clone().set("ab", &["2"]).unwrap();
+        let e = o.clone().set("ab", &["100"]).unwrap_err().to_string();
+        assert!(e.contains("at most"), "{e}");
+        let mut z = o.clone();
+        z.set("ad", &["0"]).unwrap();
+        let e = z.set("ab", &["1"]).unwrap_err().to_string();
+        assert!(e.contains("-ad 0"), "{e}");
+        o.set("as", &["7"]).unwrap();
+        assert_eq!(o.as_, 7);
         assert!(o.set("av", &["1"]).is_err());
+    }
+
+    #[test]
+    fn presets_are_valid_and_ordered() {
+        let q: Vec<RenderOptions> = QUALITY_PRESETS
+            .iter()
+            .map(|n| RenderOptions::preset(n).unwrap())
+            .collect();
+        for o in &q {
+            o.validate().unwrap();
+        }
+        assert!(q[0].ds >= q[1].ds && q[1].ds >= q[2].ds);
+        assert!(q[0].pn <= q[1].pn && q[1].pn <= q[2].pn);
+        assert_eq!(RenderOptions::preset("fast").unwrap_err().exit_code(), 2);
     }
 }

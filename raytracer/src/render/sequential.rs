@@ -6,13 +6,14 @@ use std::ops::{Deref, Range};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use super::ambient::{AmbientRequest, AmbientSettings, AmbientStore, Hemisphere};
 use super::caster::{OctreeCaster, RayCaster};
 use super::direct::{run_shadow_bundle, Contribution};
 use super::effects::EffectsReport;
 use super::light::{prepare_lights, PreparedLight};
 use super::material::{shade, RayKind, RayTask, Request, ShadeContext};
 use super::options::RenderOptions;
-use super::rng::{pixel_seed, Rng};
+use super::rng::{child_seed, pixel_seed, Rng};
 use super::stats::{EffectTimes, RayCounts, RenderStats, Timings};
 use crate::accel::{Octree, OctreeParams};
 use crate::geometry::{Ray, Vec3};
@@ -60,6 +61,24 @@ pub struct TraceState {
     pub counts: RayCounts,
     pub times: EffectTimes,
     nested: Duration,
+    /// The irradiance cache this state reads and fills (`-ab` > 0).
+    pub ambient: AmbientStore,
+    /// Parallel use: instead of sampling a hemisphere for a ray that took
+    /// no ambient bounce yet, leave it in `deferred` and stop tracing.
+    pub defer_hemispheres: bool,
+    /// The hemisphere a deferring trace stopped at (the pixel's value is
+    /// then meaningless and must be computed again once it is cached).
+    pub deferred: Option<Box<Hemisphere>>,
+}
+
+impl TraceState {
+    /// A state whose irradiance cache is `store` (shared between threads).
+    pub fn with_store(store: AmbientStore) -> Self {
+        Self {
+            ambient: store,
+            ..Self::default()
+        }
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -68,6 +87,7 @@ enum Bucket {
     Direct,
     Reflection,
     Refraction,
+    Ambient,
 }
 
 /// A visible distant source (for rays that leave the scene).
@@ -110,6 +130,7 @@ pub struct Renderer<'s> {
     effects: EffectsReport,
     warnings: Vec<String>,
     build_s: f64,
+    ambient: AmbientSettings,
 }
 
 impl<'s> Renderer<'s> {
@@ -155,6 +176,8 @@ impl<'s> Renderer<'s> {
             );
         }
         let effects = EffectsReport::analyse(&scene, &options, &lights);
+        let ext = octree.root_bounds();
+        let ambient = AmbientSettings::new(&options, (ext.max - ext.min).max_element());
         let sky = scene
             .lights
             .iter()
@@ -192,6 +215,7 @@ impl<'s> Renderer<'s> {
             effects,
             warnings,
             build_s,
+            ambient,
         })
     }
 
@@ -209,6 +233,10 @@ impl<'s> Renderer<'s> {
     }
     pub fn effects(&self) -> &EffectsReport {
         &self.effects
+    }
+    /// Irradiance cache parameters (derived from `-a*` and the scene size).
+    pub fn ambient_settings(&self) -> &AmbientSettings {
+        &self.ambient
     }
     /// Warnings from preparing the render (not the scene loader's).
     pub fn warnings(&self) -> &[String] {
@@ -244,6 +272,7 @@ impl<'s> Renderer<'s> {
             Bucket::Direct => &mut st.times.direct,
             Bucket::Reflection => &mut st.times.reflection,
             Bucket::Refraction => &mut st.times.refraction,
+            Bucket::Ambient => &mut st.times.ambient,
         };
         *slot += own;
         st.nested = outer + total;
@@ -252,30 +281,44 @@ impl<'s> Renderer<'s> {
 
     /// Radiance arriving along `task.ray` (recursive; see the module docs).
     pub fn radiance(&self, task: &RayTask, st: &mut TraceState) -> Color {
+        self.trace(task, st).0
+    }
+
+    /// Radiance along `task.ray` and the distance to the surface it hit
+    /// (infinite if it left the scene).
+    pub fn trace(&self, task: &RayTask, st: &mut TraceState) -> (Color, f64) {
         let bucket = match task.kind {
             RayKind::Primary | RayKind::PassThrough => Bucket::Primary,
             RayKind::Reflection => Bucket::Reflection,
             RayKind::Refraction => Bucket::Refraction,
+            RayKind::Ambient => Bucket::Ambient,
         };
         Self::timed(st, bucket, |st| self.radiance_untimed(task, st))
     }
 
-    fn radiance_untimed(&self, task: &RayTask, st: &mut TraceState) -> Color {
+    fn radiance_untimed(&self, task: &RayTask, st: &mut TraceState) -> (Color, f64) {
+        if st.deferred.is_some() {
+            return (Color::ZERO, f64::INFINITY); // the pixel will be traced again
+        }
         match task.kind {
             RayKind::Primary => st.counts.primary += 1,
             RayKind::Reflection => st.counts.reflection += 1,
             RayKind::Refraction => st.counts.refraction += 1,
             RayKind::PassThrough => st.counts.pass_through += 1,
+            RayKind::Ambient => st.counts.ambient += 1,
         }
         let caster = self.caster();
         let Some(hit) = caster.intersect(&task.ray, task.tmin, task.tmax) else {
-            return self.sky(task);
+            return (self.sky(task), f64::INFINITY);
         };
         let ctx = self.context();
         let start = st.requests.len();
         let shaded = shade(&ctx, task, &hit, &mut st.requests);
         let end = st.requests.len();
         let mut sum = shaded.base;
+        for req in shaded.ambient.iter().flatten() {
+            sum += req.coef * self.ambient_value(task, req, st);
+        }
         for i in start..end {
             match st.requests[i] {
                 Request::Trace { task: child, coef } => {
@@ -301,7 +344,40 @@ impl<'s> Renderer<'s> {
             let e = shaded.extinction * hit.t;
             sum *= Color::new((-e.x).exp(), (-e.y).exp(), (-e.z).exp());
         }
-        sum
+        (sum, hit.t)
+    }
+
+    /// The ambient radiance for `req` at the hit of `task`: interpolated
+    /// from the irradiance cache, else a new hemisphere sampled now (and
+    /// cached), else `-av` where the sample rays would be too deep or too
+    /// light.
+    fn ambient_value(&self, task: &RayTask, req: &AmbientRequest, st: &mut TraceState) -> Color {
+        let s = &self.ambient;
+        st.counts.ambient_cache.lookups += 1;
+        if let Some(v) = st.ambient.lookup(s, req.point, req.normal, task.ambient) {
+            st.counts.ambient_cache.hits += 1;
+            return v;
+        }
+        let Some(mut h) = Hemisphere::new(s, &self.options, task, req) else {
+            st.counts.ambient_cache.fallbacks += 1;
+            return self.options.av;
+        };
+        if st.defer_hemispheres && task.ambient == 0 {
+            st.deferred = Some(Box::new(h));
+            return Color::ZERO;
+        }
+        st.counts.ambient_cache.hemispheres += 1;
+        for (div, t) in h.first_pass() {
+            let (c, d) = self.trace(&t, st);
+            h.add(div, c, d);
+        }
+        for (div, t) in h.second_pass(s.super_samples) {
+            let (c, d) = self.trace(&t, st);
+            h.add(div, c, d);
+        }
+        let rec = h.finish(s);
+        st.ambient.insert(s, rec);
+        rec.value
     }
 
     /// What a ray that leaves the scene sees: the smallest distant source
@@ -330,10 +406,38 @@ impl<'s> Renderer<'s> {
         y: usize,
         st: &mut TraceState,
     ) -> Color {
-        match self.primary_task(camera, width, height, x, y) {
-            Some(task) => self.radiance(&task, st),
-            None => Color::ZERO,
+        let n = self.options.pn.max(1);
+        if n == 1 {
+            return match self.primary_task(camera, width, height, x, y) {
+                Some(task) => self.radiance(&task, st),
+                None => Color::ZERO,
+            };
         }
+        let mut sum = Color::ZERO;
+        for k in 0..n {
+            if let Some(task) = self.sample_task(camera, width, height, x, y, k) {
+                sum += self.radiance(&task, st);
+            }
+        }
+        sum / n as f64
+    }
+
+    /// The primary ray of sample `k` of pixel (`x`, `y`) when `-pn` > 1:
+    /// its own random stream and jitter.
+    pub fn sample_task<C: Camera + ?Sized>(
+        &self,
+        camera: &C,
+        width: usize,
+        height: usize,
+        x: usize,
+        y: usize,
+        k: u32,
+    ) -> Option<RayTask> {
+        let seed = child_seed(
+            pixel_seed(self.options.seed, x as u32, y as u32),
+            0x706e_0000 + k,
+        );
+        self.primary_with_seed(camera, width, height, x, y, seed)
     }
 
     /// The primary ray of pixel (`x`, `y`) (jittered by `-pj` from the
@@ -348,6 +452,18 @@ impl<'s> Renderer<'s> {
         y: usize,
     ) -> Option<RayTask> {
         let seed = pixel_seed(self.options.seed, x as u32, y as u32);
+        self.primary_with_seed(camera, width, height, x, y, seed)
+    }
+
+    fn primary_with_seed<C: Camera + ?Sized>(
+        &self,
+        camera: &C,
+        width: usize,
+        height: usize,
+        x: usize,
+        y: usize,
+        seed: u64,
+    ) -> Option<RayTask> {
         let (mut jx, mut jy) = (0.5, 0.5);
         if self.options.pj > 0.0 {
             let mut rng = Rng::new(seed ^ 0x7069_7865_6c6a_6974);
@@ -445,11 +561,13 @@ impl<'s> Renderer<'s> {
                 direct_s: st.times.direct.as_secs_f64(),
                 reflection_s: st.times.reflection.as_secs_f64(),
                 refraction_s: st.times.refraction.as_secs_f64(),
+                ambient_s: st.times.ambient.as_secs_f64(),
             },
             octree: self.octree.stats().clone(),
             scene: self.scene.stats.clone(),
             options: self.options.clone(),
             warnings: self.warnings.clone(),
+            ambient_records: st.ambient.len(),
         }
     }
 }

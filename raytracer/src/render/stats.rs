@@ -5,6 +5,7 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
+use super::ambient::AmbientCounts;
 use super::direct::ShadowCounts;
 use super::effects::EffectsReport;
 use super::options::RenderOptions;
@@ -20,7 +21,13 @@ pub struct RayCounts {
     pub refraction: u64,
     /// Rays continued through invisible surfaces (`void`, bare `illum`).
     pub pass_through: u64,
+    /// Hemisphere sample rays of diffuse inter-reflection.
+    #[serde(default)]
+    pub ambient: u64,
     pub shadow: ShadowCounts,
+    /// Irradiance cache lookups, hits and hemispheres.
+    #[serde(default)]
+    pub ambient_cache: AmbientCounts,
 }
 
 impl RayCounts {
@@ -29,7 +36,9 @@ impl RayCounts {
         self.reflection += o.reflection;
         self.refraction += o.refraction;
         self.pass_through += o.pass_through;
+        self.ambient += o.ambient;
         self.shadow.add(&o.shadow);
+        self.ambient_cache.add(&o.ambient_cache);
     }
 
     /// Every ray cast into the octree.
@@ -38,6 +47,7 @@ impl RayCounts {
             + self.reflection
             + self.refraction
             + self.pass_through
+            + self.ambient
             + self.shadow.tested
             + self.shadow.transparent_segments
     }
@@ -57,6 +67,10 @@ pub struct Timings {
     pub direct_s: f64,
     pub reflection_s: f64,
     pub refraction_s: f64,
+    /// Hemisphere sample rays (their hits' shading included, except the
+    /// shadow bundles and specular rays they spawn).
+    #[serde(default)]
+    pub ambient_s: f64,
 }
 
 /// Accumulated per-effect durations (kept as `Duration` while rendering).
@@ -66,6 +80,7 @@ pub struct EffectTimes {
     pub direct: Duration,
     pub reflection: Duration,
     pub refraction: Duration,
+    pub ambient: Duration,
 }
 
 impl EffectTimes {
@@ -74,6 +89,7 @@ impl EffectTimes {
         self.direct += o.direct;
         self.reflection += o.reflection;
         self.refraction += o.refraction;
+        self.ambient += o.ambient;
     }
 }
 
@@ -92,4 +108,7 @@ pub struct RenderStats {
     pub options: RenderOptions,
     /// Warnings from preparing the render (lights that cannot be sampled).
     pub warnings: Vec<String>,
+    /// Irradiance cache records at the end of the render.
+    #[serde(default)]
+    pub ambient_records: usize,
 }
