@@ -427,19 +427,7 @@ fn experiments_run_on_a_small_scene_and_repeat_byte_for_byte() {
         let o = run(&argv.iter().map(String::as_str).collect::<Vec<_>>());
         assert!(o.status.success(), "{}", stderr(&o));
     }
-    for name in [
-        "table1",
-        "speedup",
-        "efficiency",
-        "clipping",
-        "idle",
-        "communication",
-        "data",
-        "cache",
-        "breakdown",
-        "memory",
-        "flow",
-    ] {
+    for name in hybrid_rt::experiment::NAMES {
         for ext in ["md", "json"] {
             let f = format!("{name}.{ext}");
             let x = std::fs::read(a.join(&f)).unwrap_or_else(|e| panic!("{f}: {e}"));
