@@ -482,12 +482,7 @@ proptest! {
         let off = Vec3::splat(3.0 * s);
         let ba = crate::geometry::Aabb::new(Vec3::from(a) * s + off, (Vec3::from(a) + Vec3::from(ea)) * s + off);
         let bb = crate::geometry::Aabb::new(Vec3::from(b) * 2.0 * s + off, (Vec3::from(b) * 2.0 + Vec3::from(eb)) * s + off);
-        let corners = |x: crate::geometry::Aabb| (0..8).map(move |i| v(
-            if i & 1 == 0 { x.min.x } else { x.max.x },
-            if i & 2 == 0 { x.min.y } else { x.max.y },
-            if i & 4 == 0 { x.min.z } else { x.max.z },
-        ));
-        let pts: Vec<Vec3> = corners(ba).chain(corners(bb)).collect();
+        let pts: Vec<Vec3> = ba.corners().into_iter().chain(bb.corners()).collect();
         let hull = Pyramid::hull(&pts, ba.center()).expect("two boxes, one with volume, span a volume");
         let mut rnd = lcg(seed);
         let tol = 1e-9 * s;
@@ -514,16 +509,7 @@ fn hull_clip_selects_every_leaf_a_cell_to_light_ray_crosses() {
         .collect();
     for &cell in leaves.iter().step_by(7) {
         let cb = octree.node_bounds(cell);
-        let corners = |x: crate::geometry::Aabb| {
-            (0..8).map(move |i| {
-                v(
-                    if i & 1 == 0 { x.min.x } else { x.max.x },
-                    if i & 2 == 0 { x.min.y } else { x.max.y },
-                    if i & 4 == 0 { x.min.z } else { x.max.z },
-                )
-            })
-        };
-        let pts: Vec<Vec3> = corners(cb).chain(corners(light)).collect();
+        let pts: Vec<Vec3> = cb.corners().into_iter().chain(light.corners()).collect();
         let hull = Pyramid::hull(&pts, cb.center()).unwrap();
         let mut selected = std::collections::HashSet::new();
         octree.clip_leaves(&hull, |l| {

@@ -23,6 +23,18 @@ impl Aabb {
         Self { min, max }
     }
 
+    /// The eight corners; corner `i` takes `max` on axis x if bit 0 of `i`
+    /// is set (y: bit 1, z: bit 2), `min` otherwise.
+    pub fn corners(&self) -> [Vec3; 8] {
+        std::array::from_fn(|i| {
+            Vec3::new(
+                if i & 1 == 0 { self.min.x } else { self.max.x },
+                if i & 2 == 0 { self.min.y } else { self.max.y },
+                if i & 4 == 0 { self.min.z } else { self.max.z },
+            )
+        })
+    }
+
     pub fn from_points<I: IntoIterator<Item = Vec3>>(points: I) -> Self {
         points.into_iter().fold(Self::EMPTY, |b, p| b.grow(p))
     }

@@ -595,12 +595,7 @@ pub(crate) fn transform_bounds(t: &Transform, b: &Aabb) -> Aabb {
         return Aabb::EMPTY;
     }
     let mut out = Aabb::EMPTY;
-    for i in 0..8 {
-        let p = Vec3::new(
-            if i & 1 == 0 { b.min.x } else { b.max.x },
-            if i & 2 == 0 { b.min.y } else { b.max.y },
-            if i & 4 == 0 { b.min.z } else { b.max.z },
-        );
+    for p in b.corners() {
         out = out.grow(t.point(p));
     }
     // Rounding of the matrix product: widen by a few ulps of the magnitude.

@@ -552,28 +552,8 @@ impl RtWorkload {
         let hi = cb.max.max(lb.max).max(b.point);
         let mag = hi.abs().max(lo.abs()).max_element() + b.offset_scale.abs();
         let pad = 1e-6 * ((hi - lo).max_element() + mag);
-        let corners = |bb: Aabb| {
-            (0..8).map(move |i| {
-                Vec3::new(
-                    if i & 1 == 0 {
-                        bb.min.x - pad
-                    } else {
-                        bb.max.x + pad
-                    },
-                    if i & 2 == 0 {
-                        bb.min.y - pad
-                    } else {
-                        bb.max.y + pad
-                    },
-                    if i & 4 == 0 {
-                        bb.min.z - pad
-                    } else {
-                        bb.max.z + pad
-                    },
-                )
-            })
-        };
-        let points: Vec<Vec3> = corners(cb).chain(corners(lb)).collect();
+        let padded = |bb: Aabb| Aabb::new(bb.min - pad, bb.max + pad).corners();
+        let points: Vec<Vec3> = padded(cb).into_iter().chain(padded(lb)).collect();
         let hull = Pyramid::hull(&points, b.point)?;
         let sel = self.clip(&hull, ctx);
         if let Ok(mut cache) = self.clip_cache.lock() {
@@ -605,18 +585,7 @@ impl RtWorkload {
     fn shadow_pyramid(&self, b: &ShadowBundle) -> Option<Pyramid> {
         let light = self.renderer.lights().get(b.light as usize)?;
         match light.extent(self.renderer.scene())? {
-            LightExtent::Finite(bb) => {
-                let corners: Vec<Vec3> = (0..8)
-                    .map(|i| {
-                        Vec3::new(
-                            if i & 1 == 0 { bb.min.x } else { bb.max.x },
-                            if i & 2 == 0 { bb.min.y } else { bb.max.y },
-                            if i & 4 == 0 { bb.min.z } else { bb.max.z },
-                        )
-                    })
-                    .collect();
-                Some(Pyramid::to_targets(b.point, &corners))
-            }
+            LightExtent::Finite(bb) => Some(Pyramid::to_targets(b.point, &bb.corners())),
             LightExtent::Distant { dir, cos_half } => {
                 let sin = (1.0 - cos_half * cos_half).max(0.0).sqrt();
                 let tan = sin / cos_half.max(1e-12);
