@@ -313,6 +313,10 @@ pub struct SweepArgs {
     /// A cheaper reference (-pn 4 -ab 2 -aa 0.1 -ad 256 -as 64), for quick looks and tests.
     #[arg(long)]
     pub quick_reference: bool,
+    /// Radiance options applied to the reference after --quick-reference, e.g. "-dt 0.01" for a
+    /// scene with hundreds of sources where testing every shadow ray takes hours.
+    #[arg(long, value_name = "OPTIONS", allow_hyphen_values = true)]
+    pub reference: Option<String>,
 }
 
 /// `hybrid-rt experiment NAME`: the paper's experiments on a simulated cluster.

@@ -31,6 +31,11 @@ pub(super) fn run(a: &SweepArgs) -> Result<()> {
         reference.ad = 256;
         reference.as_ = 64;
     }
+    if let Some(words) = &a.reference {
+        reference
+            .apply_words(words)
+            .map_err(|e| usage(format!("--reference: {e}")))?;
+    }
     let name = path
         .file_stem()
         .map_or_else(|| a.scene.clone(), |s| s.to_string_lossy().into_owned());

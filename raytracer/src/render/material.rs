@@ -269,6 +269,11 @@ pub fn hit_object<'a>(scene: &'a Scene, hit: &Hit) -> &'a crate::scene::Object {
     }
 }
 
+thread_local! {
+    /// Scratch of [`Emitter::direct`]: one rough potential per source.
+    static POTENTIALS: std::cell::RefCell<Vec<f64>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
 /// Writes requests for one hit point; see the module documentation.
 struct Emitter<'c, 'o> {
     ctx: &'c ShadeContext<'c>,
@@ -353,19 +358,31 @@ impl Emitter<'_, '_> {
         if ctx.lights.is_empty() || bsdf.is_black_to_lights() {
             return;
         }
-        // Rough potential of every source, for the threshold reference.
+        // Rough potential of every source, for the threshold reference:
+        // computed once per source (a scene may have hundreds) into a
+        // per-thread buffer, summed in source order.
         let point = self.hit.point;
         let potential = |l: &PreparedLight| {
             l.rough_sample(ctx.scene, point).map_or(0.0, |s| {
                 brightness(bsdf.coefficient(s.dir, s.omega) * l.emission(&s))
             })
         };
-        let total: f64 = ctx.lights.iter().map(potential).sum();
-        for (i, l) in ctx.lights.iter().enumerate() {
+        POTENTIALS.with_borrow_mut(|pot| {
+            pot.clear();
+            pot.extend(ctx.lights.iter().map(potential));
+            let total: f64 = pot.iter().sum();
+            self.bundles(bsdf, base, total, pot);
+        });
+    }
+
+    fn bundles(&mut self, bsdf: &NormalBsdf, base: Color, total: f64, potentials: &[f64]) {
+        let ctx = self.ctx;
+        let point = self.hit.point;
+        for (i, (l, &own)) in ctx.lights.iter().zip(potentials).enumerate() {
             if !l.may_reach(point) {
                 continue;
             }
-            let others = (total - potential(l)).max(0.0);
+            let others = (total - own).max(0.0);
             // Seeded by the light's index, not the request's position.
             let seed = child_seed(self.task.seed, 0x1_0000 + i as u32);
             self.out.push(Request::Shadow(ShadowBundle {

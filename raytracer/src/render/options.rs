@@ -326,6 +326,24 @@ impl RenderOptions {
         self.validate()
     }
 
+    /// Applies Radiance options written as one string, as on rpict's
+    /// command line (`"-ab 2 -dt 0.01 -av 0 0 0"`); see [`Self::set`].
+    pub fn apply_words(&mut self, words: &str) -> Result<()> {
+        let mut it = words.split_whitespace().peekable();
+        while let Some(w) = it.next() {
+            let name = w.strip_prefix('-').ok_or_else(|| {
+                Error::Usage(format!("{words:?}: expected an option like -ab, got {w:?}"))
+            })?;
+            let arity = RADIANCE_OPTIONS
+                .iter()
+                .find(|o| o.name == name)
+                .map_or(1, |o| o.arity);
+            let values: Vec<&str> = (0..arity).filter_map(|_| it.next()).collect();
+            self.set(name, &values)?;
+        }
+        Ok(())
+    }
+
     /// Checks the whole set (also for options built in code): finite values
     /// in range, and no request for a feature that is not implemented yet.
     pub fn validate(&self) -> Result<()> {
@@ -427,6 +445,19 @@ mod tests {
         o.set("as", &["7"]).unwrap();
         assert_eq!(o.as_, 7);
         assert!(o.set("av", &["1"]).is_err());
+    }
+
+    #[test]
+    fn apply_words_reads_an_option_string() {
+        let mut o = RenderOptions::default();
+        o.apply_words("  -dt 0.01 -av 0.1 0.2 0.3\t-ab 2 ").unwrap();
+        assert_eq!((o.dt, o.ab), (0.01, 2));
+        assert_eq!(o.av, Color::new(0.1, 0.2, 0.3));
+        for bad in ["dt 0.1", "-av 1 2", "-dt", "-zz 1", "-dt x"] {
+            let e = o.clone().apply_words(bad).unwrap_err();
+            assert_eq!(e.exit_code(), 2, "{bad}: {e}");
+        }
+        o.apply_words("").unwrap();
     }
 
     #[test]
