@@ -1,13 +1,17 @@
 //! A byte-budgeted LRU cache with pinning and reservations.
 //!
-//! Unpinned items live in an `lru::LruCache` (evicted least recently used
-//! first); pinned items, which a waiting or running task needs, are moved out
-//! of it into a plain map so that eviction can never touch them and stays O(1).
-//! Space for items that have been requested but have not arrived yet is
-//! *reserved*, so the invariant `pinned + unpinned + reserved <= budget` holds
-//! at all times: the budget is never exceeded, not even transiently.
+//! Every item lives in one `lru::LruCache` with a pin count. A pinned item
+//! (one a waiting or running task needs) is never evicted: eviction takes
+//! the least recently used *unpinned* item, moving any pinned item it meets
+//! at the old end to the recent end (its place does not matter while it is
+//! pinned: its last unpin makes it the most recently used item anyway).
+//! Pinning and unpinning change a counter in place, so the hot path of a
+//! task (pin its cells, run, unpin them) allocates nothing and does one
+//! lookup per item. Space for items that have been requested but have not
+//! arrived yet is *reserved*, so the invariant `pinned + unpinned +
+//! reserved <= budget` holds at all times: the budget is never exceeded,
+//! not even transiently.
 
-use std::collections::HashMap;
 use std::hash::Hash;
 
 use lru::LruCache;
@@ -27,7 +31,7 @@ pub struct CacheCounters {
 }
 
 #[derive(Debug)]
-struct PinnedEntry<V> {
+struct Entry<V> {
     value: V,
     bytes: u64,
     pins: u32,
@@ -37,8 +41,8 @@ struct PinnedEntry<V> {
 #[derive(Debug)]
 pub struct ByteLru<K: Hash + Eq, V> {
     budget: u64,
-    lru: LruCache<K, (V, u64)>,
-    pinned: HashMap<K, PinnedEntry<V>>,
+    lru: LruCache<K, Entry<V>>,
+    pinned_items: usize,
     unpinned_bytes: u64,
     pinned_bytes: u64,
     reserved: u64,
@@ -52,7 +56,7 @@ impl<K: Hash + Eq + Clone, V> ByteLru<K, V> {
         ByteLru {
             budget: budget.unwrap_or(u64::MAX),
             lru: LruCache::unbounded(),
-            pinned: HashMap::new(),
+            pinned_items: 0,
             unpinned_bytes: 0,
             pinned_bytes: 0,
             reserved: 0,
@@ -88,7 +92,7 @@ impl<K: Hash + Eq + Clone, V> ByteLru<K, V> {
 
     /// Number of items held.
     pub fn len(&self) -> usize {
-        self.lru.len() + self.pinned.len()
+        self.lru.len()
     }
 
     /// Whether the cache holds nothing.
@@ -103,48 +107,42 @@ impl<K: Hash + Eq + Clone, V> ByteLru<K, V> {
 
     /// Whether `key` is held.
     pub fn contains(&self, key: &K) -> bool {
-        self.pinned.contains_key(key) || self.lru.contains(key)
+        self.lru.contains(key)
     }
 
     /// Whether `key` is held and pinned.
     pub fn is_pinned(&self, key: &K) -> bool {
-        self.pinned.contains_key(key)
+        self.lru.peek(key).is_some_and(|e| e.pins > 0)
     }
 
     /// Bytes of `key` if held.
     pub fn bytes_of(&self, key: &K) -> Option<u64> {
-        self.pinned
-            .get(key)
-            .map(|e| e.bytes)
-            .or_else(|| self.lru.peek(key).map(|(_, b)| *b))
+        self.lru.peek(key).map(|e| e.bytes)
     }
 
     /// The value without touching recency or counters.
     pub fn peek(&self, key: &K) -> Option<&V> {
-        self.pinned
-            .get(key)
-            .map(|e| &e.value)
-            .or_else(|| self.lru.peek(key).map(|(v, _)| v))
+        self.lru.peek(key).map(|e| &e.value)
     }
 
     /// A counted lookup: refreshes recency and counts a hit or a miss.
     pub fn get(&mut self, key: &K) -> Option<&V> {
-        if self.contains(key) {
-            self.counters.hits += 1;
-            if let Some(e) = self.pinned.get(key) {
-                return Some(&e.value);
+        match self.lru.get(key) {
+            Some(e) => {
+                self.counters.hits += 1;
+                Some(&e.value)
             }
-            return self.lru.get(key).map(|(v, _)| v);
+            None => {
+                self.counters.misses += 1;
+                None
+            }
         }
-        self.counters.misses += 1;
-        None
     }
 
-    /// Refreshes recency of `key` (if held and unpinned) and counts a hit.
+    /// Refreshes recency of `key` (if held) and counts a hit.
     pub fn touch(&mut self, key: &K) {
-        if self.contains(key) {
+        if self.lru.promote(key) {
             self.counters.hits += 1;
-            self.lru.promote(key);
         }
     }
 
@@ -170,41 +168,35 @@ impl<K: Hash + Eq + Clone, V> ByteLru<K, V> {
     /// Pins a held item (nested pins are counted). Returns false when the item
     /// is not held.
     pub fn pin(&mut self, key: &K) -> bool {
-        if let Some(e) = self.pinned.get_mut(key) {
-            e.pins += 1;
-            return true;
+        let Some(e) = self.lru.peek_mut(key) else {
+            return false;
+        };
+        e.pins += 1;
+        if e.pins == 1 {
+            let bytes = e.bytes;
+            self.unpinned_bytes -= bytes;
+            self.pinned_bytes += bytes;
+            self.pinned_items += 1;
         }
-        match self.lru.pop(key) {
-            Some((value, bytes)) => {
-                self.unpinned_bytes -= bytes;
-                self.pinned_bytes += bytes;
-                self.pinned.insert(
-                    key.clone(),
-                    PinnedEntry {
-                        value,
-                        bytes,
-                        pins: 1,
-                    },
-                );
-                true
-            }
-            None => false,
-        }
+        true
     }
 
     /// Drops one pin; the last one makes the item evictable again (as the most
     /// recently used item, since a task has just used it).
     pub fn unpin(&mut self, key: &K) {
-        let Some(e) = self.pinned.get_mut(key) else {
+        let Some(e) = self.lru.peek_mut(key) else {
             return;
         };
+        if e.pins == 0 {
+            return;
+        }
         e.pins -= 1;
         if e.pins == 0 {
-            if let Some((k, e)) = self.pinned.remove_entry(key) {
-                self.pinned_bytes -= e.bytes;
-                self.unpinned_bytes += e.bytes;
-                self.lru.put(k, (e.value, e.bytes));
-            }
+            let bytes = e.bytes;
+            self.pinned_bytes -= bytes;
+            self.unpinned_bytes += bytes;
+            self.pinned_items -= 1;
+            self.lru.promote(key);
         }
     }
 
@@ -228,11 +220,11 @@ impl<K: Hash + Eq + Clone, V> ByteLru<K, V> {
         self.counters.insertions += 1;
         if pins > 0 {
             self.pinned_bytes += bytes;
-            self.pinned.insert(key, PinnedEntry { value, bytes, pins });
+            self.pinned_items += 1;
         } else {
             self.unpinned_bytes += bytes;
-            self.lru.put(key, (value, bytes));
         }
+        self.lru.put(key, Entry { value, bytes, pins });
         self.evict_to_budget();
         self.high_water = self.high_water.max(self.used());
     }
@@ -250,27 +242,40 @@ impl<K: Hash + Eq + Clone, V> ByteLru<K, V> {
 
     /// Removes an item (pinned or not) without counting an eviction.
     pub fn remove(&mut self, key: &K) -> Option<V> {
-        if let Some(e) = self.pinned.remove(key) {
+        let e = self.lru.pop(key)?;
+        if e.pins > 0 {
             self.pinned_bytes -= e.bytes;
-            return Some(e.value);
+            self.pinned_items -= 1;
+        } else {
+            self.unpinned_bytes -= e.bytes;
         }
-        let (v, b) = self.lru.pop(key)?;
-        self.unpinned_bytes -= b;
-        Some(v)
+        Some(e.value)
     }
 
     fn evict_to_budget(&mut self) {
-        while self.used().saturating_add(self.reserved) > self.budget {
-            match self.lru.pop_lru() {
-                Some((_, (_, bytes))) => {
-                    self.unpinned_bytes -= bytes;
-                    self.counters.evictions += 1;
+        // Each pinned item is passed over (moved to the recent end) at most
+        // once per call, so the loop ends.
+        let mut passes = self.pinned_items;
+        while self.used().saturating_add(self.reserved) > self.budget && self.unpinned_bytes > 0 {
+            let Some((key, pinned)) = self.lru.peek_lru().map(|(k, e)| (k.clone(), e.pins > 0))
+            else {
+                break;
+            };
+            if pinned {
+                if passes == 0 {
+                    break;
                 }
-                // Only pinned items and reservations are left; callers never
-                // let those exceed the budget (see `can_pin_more`).
-                None => break,
+                passes -= 1;
+                self.lru.promote(&key);
+                continue;
+            }
+            if let Some((_, e)) = self.lru.pop_lru() {
+                self.unpinned_bytes -= e.bytes;
+                self.counters.evictions += 1;
             }
         }
+        // Otherwise only pinned items and reservations are left; callers
+        // never let those exceed the budget (see `can_pin_more`).
     }
 }
 
@@ -360,5 +365,124 @@ mod tests {
         c.touch(&7); // not held: nothing counted
         let k = c.counters();
         assert_eq!((k.hits, k.misses, k.insertions, k.evictions), (2, 1, 1, 0));
+    }
+
+    /// The old two-structure design, written plainly: unpinned items in
+    /// recency order (least recent first), pinned items aside. The cache
+    /// must evict exactly what it evicts.
+    #[derive(Default)]
+    struct Model {
+        budget: u64,
+        order: Vec<(u32, u64)>,
+        pinned: Vec<(u32, u64, u32)>,
+        reserved: u64,
+    }
+
+    impl Model {
+        fn used(&self) -> u64 {
+            self.order.iter().map(|e| e.1).sum::<u64>()
+                + self.pinned.iter().map(|e| e.1).sum::<u64>()
+        }
+        fn pinned_bytes(&self) -> u64 {
+            self.pinned.iter().map(|e| e.1).sum()
+        }
+        fn evict(&mut self) {
+            while self.used() + self.reserved > self.budget && !self.order.is_empty() {
+                self.order.remove(0);
+            }
+        }
+        fn remove(&mut self, k: u32) {
+            self.order.retain(|e| e.0 != k);
+            self.pinned.retain(|e| e.0 != k);
+        }
+        fn insert(&mut self, k: u32, b: u64) -> bool {
+            self.remove(k);
+            if self.pinned_bytes() + self.reserved + b > self.budget {
+                return false;
+            }
+            self.reserved += b;
+            self.evict();
+            self.reserved -= b;
+            self.order.push((k, b));
+            self.evict();
+            true
+        }
+        fn pin(&mut self, k: u32) -> bool {
+            if let Some(e) = self.pinned.iter_mut().find(|e| e.0 == k) {
+                e.2 += 1;
+                return true;
+            }
+            match self.order.iter().position(|e| e.0 == k) {
+                Some(i) => {
+                    let (k, b) = self.order.remove(i);
+                    self.pinned.push((k, b, 1));
+                    true
+                }
+                None => false,
+            }
+        }
+        fn unpin(&mut self, k: u32) {
+            if let Some(i) = self.pinned.iter().position(|e| e.0 == k) {
+                self.pinned[i].2 -= 1;
+                if self.pinned[i].2 == 0 {
+                    let (k, b, _) = self.pinned.remove(i);
+                    self.order.push((k, b));
+                }
+            }
+        }
+        fn touch(&mut self, k: u32) {
+            if let Some(i) = self.order.iter().position(|e| e.0 == k) {
+                let e = self.order.remove(i);
+                self.order.push(e);
+            }
+        }
+        fn keys(&self) -> Vec<u32> {
+            let mut k: Vec<u32> = self.order.iter().map(|e| e.0).collect();
+            k.extend(self.pinned.iter().map(|e| e.0));
+            k.sort_unstable();
+            k
+        }
+    }
+
+    #[test]
+    fn evicts_like_the_plain_model_under_random_operations() {
+        for seed in 1..=20u64 {
+            let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            let mut next = |n: u64| {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                x % n
+            };
+            let mut c: ByteLru<u32, u32> = ByteLru::new(Some(100));
+            let mut m = Model {
+                budget: 100,
+                ..Model::default()
+            };
+            for step in 0..2000 {
+                let k = next(24) as u32;
+                match next(5) {
+                    0 | 1 => {
+                        let b = 1 + next(30);
+                        assert_eq!(c.insert(k, k, b), m.insert(k, b), "seed {seed} step {step}");
+                    }
+                    2 => assert_eq!(c.pin(&k), m.pin(k), "seed {seed} step {step}"),
+                    3 => {
+                        c.unpin(&k);
+                        m.unpin(k);
+                    }
+                    _ => {
+                        c.touch(&k);
+                        m.touch(k);
+                    }
+                }
+                let mut held: Vec<u32> = (0..24).filter(|k| c.contains(k)).collect();
+                held.sort_unstable();
+                assert_eq!(held, m.keys(), "seed {seed} step {step}");
+                assert_eq!(c.used(), m.used());
+                assert_eq!(c.pinned_bytes(), m.pinned_bytes());
+                assert!(c.used() <= 100);
+            }
+        }
     }
 }

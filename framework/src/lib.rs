@@ -56,5 +56,5 @@ pub use runtime::sim::{run_sim, CostModel, Network, Sim, Timeline};
 pub use runtime::threads::{run_threads, Threads};
 pub use runtime::{Node, RunReport, Runtime};
 pub use stats::{ProcStats, RankTraffic, RunStats, State};
-pub use store::DataStore;
+pub use store::{DataStore, IdMap};
 pub use workload::{ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};

@@ -16,6 +16,10 @@
 
 use std::collections::{BTreeMap, HashMap};
 
+/// Maps keyed by data id, looked up on every cell a task touches: a fast
+/// non-cryptographic hash (the one `lru` uses) instead of SipHash.
+pub type IdMap<K, V> = HashMap<K, V, lru::DefaultHasher>;
+
 use crate::cache::ByteLru;
 use crate::message::DdEnvelope;
 use crate::workload::{ByteSize, DataView, Placement, Workload};
@@ -23,13 +27,13 @@ use crate::workload::{ByteSize, DataView, Placement, Workload};
 /// The replicated ownership directory: data id -> (owner, bytes).
 #[derive(Clone, Debug)]
 pub struct Directory<Id> {
-    map: HashMap<Id, (usize, u64)>,
+    map: IdMap<Id, (usize, u64)>,
 }
 
 impl<Id: std::hash::Hash + Eq + Clone + std::fmt::Debug> Directory<Id> {
     /// Builds the directory, rejecting duplicate ids and owners out of range.
     pub fn build(placement: Vec<Placement<Id>>, procs: usize) -> Result<Self, String> {
-        let mut map = HashMap::with_capacity(placement.len());
+        let mut map = IdMap::with_capacity_and_hasher(placement.len(), Default::default());
         for p in placement {
             if p.owner >= procs {
                 return Err(format!(
@@ -108,11 +112,11 @@ pub enum Admission<W: Workload> {
 /// The data store of one processor. See the module documentation.
 pub struct DataStore<W: Workload> {
     me: usize,
-    resident: HashMap<W::DataId, W::DataItem>,
+    resident: IdMap<W::DataId, W::DataItem>,
     resident_bytes: u64,
     cache: ByteLru<W::DataId, W::DataItem>,
     dir: Directory<W::DataId>,
-    in_flight: HashMap<W::DataId, InFlight>,
+    in_flight: IdMap<W::DataId, InFlight>,
     waiting: HashMap<TaskKey, WaitingTask<W>>,
     next_key: TaskKey,
     waiting_bytes: usize,
@@ -128,7 +132,7 @@ impl<W: Workload> DataStore<W> {
         dir: Directory<W::DataId>,
         cache_bytes: Option<u64>,
     ) -> Result<Self, String> {
-        let mut map = HashMap::with_capacity(resident.len());
+        let mut map = IdMap::with_capacity_and_hasher(resident.len(), Default::default());
         let mut resident_bytes = 0u64;
         for (id, item) in resident {
             match dir.map.get(&id) {
@@ -168,7 +172,7 @@ impl<W: Workload> DataStore<W> {
             resident_bytes,
             cache: ByteLru::new(cache_bytes),
             dir,
-            in_flight: HashMap::new(),
+            in_flight: IdMap::default(),
             waiting: HashMap::new(),
             next_key: 0,
             waiting_bytes: 0,

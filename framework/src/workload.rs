@@ -8,7 +8,6 @@
 //! the [`Ctx`] it is handed.
 
 use std::cell::RefCell;
-use std::collections::HashMap;
 use std::fmt::Debug;
 use std::hash::Hash;
 
@@ -17,6 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::cache::ByteLru;
 use crate::message::Addr;
+use crate::store::IdMap;
 
 /// Size of a value in bytes as the framework should account for it (memory
 /// high-water marks, cache budget, message sizes). It need not be exact, but it
@@ -212,7 +212,7 @@ impl<W: Workload> Ctx<W> {
 /// whatever its cache holds. Lookups of cached items are remembered so that the
 /// processor can refresh their LRU recency after the hook returns.
 pub struct DataView<'a, W: Workload> {
-    resident: &'a HashMap<W::DataId, W::DataItem>,
+    resident: &'a IdMap<W::DataId, W::DataItem>,
     cache: Option<&'a ByteLru<W::DataId, W::DataItem>>,
     touched: RefCell<Vec<W::DataId>>,
 }
@@ -220,7 +220,7 @@ pub struct DataView<'a, W: Workload> {
 impl<'a, W: Workload> DataView<'a, W> {
     /// A view over resident items and an optional cache.
     pub fn new(
-        resident: &'a HashMap<W::DataId, W::DataItem>,
+        resident: &'a IdMap<W::DataId, W::DataItem>,
         cache: Option<&'a ByteLru<W::DataId, W::DataItem>>,
     ) -> Self {
         DataView {
@@ -236,7 +236,12 @@ impl<'a, W: Workload> DataView<'a, W> {
             return Some(item);
         }
         let item = self.cache?.peek(id)?;
-        self.touched.borrow_mut().push(id.clone());
+        // A task visits the same cell many times in a row (every ray of a
+        // bundle); its recency is refreshed once per run of visits.
+        let mut touched = self.touched.borrow_mut();
+        if touched.last() != Some(id) {
+            touched.push(id.clone());
+        }
         Some(item)
     }
 

@@ -5,7 +5,9 @@
 //! with, so results are merged into the same per-destination accumulators and
 //! a parallel report can be compared field by field.
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::VecDeque;
+
+use crate::store::IdMap;
 use std::sync::Arc;
 
 use super::{RunReport, Runtime};
@@ -61,7 +63,7 @@ pub fn run_sequential_observed<W: Workload>(
         message,
     };
     let clock = WallClock::new();
-    let mut data = HashMap::new();
+    let mut data = IdMap::default();
     for p in 0..procs {
         data.extend(workload.load_partition(p, procs));
     }

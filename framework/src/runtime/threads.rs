@@ -50,17 +50,25 @@ pub fn run_threads<W: Workload>(
     config: &Config,
 ) -> Result<RunReport<W>, RunError> {
     let nodes = Node::build_all(&workload, config)?;
-    let threads = config.threads.unwrap_or_else(|| {
-        std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(2)
-    });
+    // By default one thread per core plus one for the master, which mostly
+    // sleeps waiting for messages: with as many processors as cores, every
+    // actor then has a thread of its own and none needs to yield.
+    let threads = config
+        .threads
+        .unwrap_or_else(|| {
+            std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(2)
+                + 1
+        })
+        .clamp(1, nodes.len());
     let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(threads.clamp(1, nodes.len()))
+        .worker_threads(threads)
         .enable_time()
         .build()
         .map_err(|e| RunError::Runtime(format!("cannot start tokio: {e}")))?;
-    rt.block_on(run_actors(nodes, config))
+    let share = threads < nodes.len();
+    rt.block_on(run_actors(nodes, config, share))
 }
 
 type Finished<W> = (Addr, <W as Workload>::Accumulator, ProcStats);
@@ -68,6 +76,7 @@ type Finished<W> = (Addr, <W as Workload>::Accumulator, ProcStats);
 async fn run_actors<W: Workload>(
     nodes: Vec<Node<W>>,
     config: &Config,
+    share: bool,
 ) -> Result<RunReport<W>, RunError> {
     let clock = Arc::new(WallClock::new());
     let procs = nodes.len() - 1;
@@ -84,7 +93,8 @@ async fn run_actors<W: Workload>(
     for (node, rx) in nodes.into_iter().zip(rxs) {
         let addr = node.addr();
         let span = tracing::debug_span!("actor", %addr);
-        let handle = set.spawn(actor(node, rx, txs.clone(), clock.clone(), procs).instrument(span));
+        let handle =
+            set.spawn(actor(node, rx, txs.clone(), clock.clone(), procs, share).instrument(span));
         addrs.insert(handle.id(), addr);
     }
     drop(txs);
@@ -131,6 +141,7 @@ async fn actor<W: Workload>(
     txs: Arc<Vec<UnboundedSender<Packet<W>>>>,
     clock: Arc<WallClock>,
     procs: usize,
+    share: bool,
 ) -> Result<Finished<W>, RunError> {
     let addr = node.addr();
     let mut last_yield = clock.now();
@@ -165,16 +176,18 @@ async fn actor<W: Workload>(
         }
         match step {
             Step::Finished => break,
-            // Share the thread with other actors, but not after every
-            // step: a yield costs a trip through the scheduler (and often a
-            // futex wake-up), more than a small task's work.
-            Step::Worked(_) => {
+            // Share the thread with other actors (when there are more actors
+            // than threads), but not after every step: a yield costs a trip
+            // through the scheduler (and often a futex wake-up), more than a
+            // small task's work.
+            Step::Worked(_) if share => {
                 let now = clock.now();
                 if now.saturating_sub(last_yield) >= YIELD_EVERY_NS {
                     tokio::task::yield_now().await;
                     last_yield = clock.now();
                 }
             }
+            Step::Worked(_) => {}
             Step::Idle => {
                 let blocked = node.blocked_state();
                 let t = clock.now();

@@ -244,7 +244,7 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub credits: usize,
-    /// Worker threads for the threads runtime [default: one per core].
+    /// Worker threads for the threads runtime [default: one per core plus one for the master, at most one per actor].
     #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
     pub threads: Option<usize>,
     /// With -ab: how processors treat the irradiance cache's data dependency: one-at-a-time (wait for the hemisphere in flight) or extra (start hemispheres freely, count the redundant ones).

@@ -42,6 +42,12 @@ use crate::render::material::shade;
 use crate::render::{RayKind, RayTask, Renderer, Request, ShadowBundle};
 use crate::scene::{Color, View, ViewType};
 
+thread_local! {
+    /// The patch list of [`run_shadow_bundle`], reused by every bundle a
+    /// thread runs (a fresh one per bundle grew on the hot path).
+    static SCRATCH: std::cell::RefCell<Vec<crate::render::direct::Contribution>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
 /// How the octree's objects are spread over the processors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(crate = "hybrid_sched::serde")]
@@ -779,14 +785,15 @@ impl RtWorkload {
             replay,
         );
         let mut counts = ShadowCounts::default();
-        let mut scratch = Vec::new();
-        let value = run_shadow_bundle(
-            &self.renderer.context(),
-            &caster,
-            &job.bundle,
-            &mut scratch,
-            &mut counts,
-        );
+        let value = SCRATCH.with_borrow_mut(|scratch| {
+            run_shadow_bundle(
+                &self.renderer.context(),
+                &caster,
+                &job.bundle,
+                scratch,
+                &mut counts,
+            )
+        });
         let (leaves, tests) = visits.get();
         ctx.charge(work::TRACE_LEAVES, leaves);
         ctx.charge(work::TRACE_OBJECTS, tests);
