@@ -71,6 +71,13 @@ pub struct Processor<W: Workload> {
     basic_sent: u64,
     basic_received: u64,
     last_charges: Vec<(&'static str, u64)>,
+    /// Work charged since the last flush into `stats.work` (kinds matched
+    /// by pointer first: no string comparisons on the hot path).
+    pending_work: Vec<(&'static str, u64)>,
+    /// A drained hook context whose buffers are reused by the next hook (a
+    /// tile emits thousands of tasks; fresh vectors grew into fresh pages
+    /// every time).
+    spare_ctx: Option<Ctx<W>>,
     queued_high_water: usize,
 }
 
@@ -106,6 +113,8 @@ impl<W: Workload> Processor<W> {
             basic_sent: 0,
             basic_received: 0,
             last_charges: Vec::new(),
+            pending_work: Vec::new(),
+            spare_ctx: None,
             queued_high_water: 0,
             workload,
         })
@@ -122,8 +131,14 @@ impl<W: Workload> Processor<W> {
     }
 
     /// Statistics so far.
-    pub fn stats(&self) -> &ProcStats {
+    pub fn stats(&mut self) -> &ProcStats {
+        self.flush_work();
         &self.stats
+    }
+
+    fn flush_work(&mut self) {
+        self.stats.charge(&self.pending_work);
+        self.pending_work.clear();
     }
 
     /// The accumulator results are merged into.
@@ -337,8 +352,11 @@ impl<W: Workload> Processor<W> {
     fn select(&mut self, mut env: DdEnvelope<W>, now: Time) -> Result<(), String> {
         // The processor that runs a root task is the origin of its family.
         let origin = *env.origin.get_or_insert(self.id);
-        let mut ctx = Ctx::new(self.id, self.procs);
-        let ids = self.workload.select_data(&env.task, &mut ctx);
+        let mut ctx = self.new_ctx();
+        let ids = {
+            let local = self.store.view();
+            self.workload.select_data_in(&env.task, &local, &mut ctx)
+        };
         self.stats.tasks.selections += 1;
         self.dispatch(ctx, Some(origin), now)?;
         self.admit(env, ids, now)
@@ -355,7 +373,7 @@ impl<W: Workload> Processor<W> {
     fn execute_dd(&mut self, task: ReadyTask<W>, now: Time) -> Result<(), String> {
         let ReadyTask { env, pinned } = task;
         let origin = env.origin;
-        let mut ctx = Ctx::new(self.id, self.procs);
+        let mut ctx = self.new_ctx();
         {
             let view = self.store.view();
             self.workload.execute_dd(env.task, &view, &mut ctx);
@@ -393,7 +411,7 @@ impl<W: Workload> Processor<W> {
             Admission::TooBig(env) => {
                 self.stats.tasks.fallbacks += 1;
                 debug!(proc = self.id, task = ?env.task, "data exceeds cache budget: data-parallel fallback");
-                let mut ctx = Ctx::new(self.id, self.procs);
+                let mut ctx = self.new_ctx();
                 self.workload.to_data_parallel(env.task, &mut ctx);
                 self.dispatch(ctx, env.origin, now)?;
             }
@@ -403,7 +421,7 @@ impl<W: Workload> Processor<W> {
 
     fn execute_dp(&mut self, env: DpEnvelope<W>, now: Time) -> Result<(), String> {
         let origin = env.origin;
-        let mut ctx = Ctx::new(self.id, self.procs);
+        let mut ctx = self.new_ctx();
         let (outcome, touched) = {
             let view = self.store.view();
             let outcome = self.workload.execute_dp(env.task, &view, &mut ctx);
@@ -438,22 +456,34 @@ impl<W: Workload> Processor<W> {
     }
 
     /// Schedules everything a hook emitted and records its charged work.
-    fn dispatch(&mut self, ctx: Ctx<W>, origin: Option<usize>, now: Time) -> Result<(), String> {
-        self.stats.charge(&ctx.charges);
+    fn new_ctx(&mut self) -> Ctx<W> {
+        self.spare_ctx
+            .take()
+            .unwrap_or_else(|| Ctx::new(self.id, self.procs))
+    }
+
+    fn dispatch(&mut self, mut ctx: Ctx<W>, origin: Option<usize>, now: Time) -> Result<(), String> {
+        let r = self.dispatch_drain(&mut ctx, origin, now);
+        ctx.clear();
+        self.spare_ctx = Some(ctx);
+        r
+    }
+
+    fn dispatch_drain(
+        &mut self,
+        ctx: &mut Ctx<W>,
+        origin: Option<usize>,
+        now: Time,
+    ) -> Result<(), String> {
         for &(kind, units) in &ctx.charges {
-            match self
-                .last_charges
-                .iter_mut()
-                .find(|(k, _)| crate::workload::same_kind(k, kind))
-            {
-                Some(e) => e.1 += units,
-                None => self.last_charges.push((kind, units)),
+            for acc in [&mut self.pending_work, &mut self.last_charges] {
+                add_charge(acc, kind, units);
             }
         }
         if !ctx.has_emissions() {
             return Ok(());
         }
-        for task in ctx.dd {
+        for task in ctx.dd.drain(..) {
             self.stats.tasks.children_spawned += 1;
             let env = DdEnvelope {
                 task,
@@ -467,7 +497,7 @@ impl<W: Workload> Processor<W> {
                 Target::Proc(p) => self.send(Addr::Proc(p), Msg::Dd(env), now),
             }
         }
-        for task in ctx.dp {
+        for task in ctx.dp.drain(..) {
             let target = match self.workload.route_dp(&task) {
                 Some(id) if !self.store.is_local(&id) => Some(
                     self.store
@@ -483,7 +513,7 @@ impl<W: Workload> Processor<W> {
                 None => self.push_local(msg),
             }
         }
-        for (dest, result) in ctx.results {
+        for (dest, result) in ctx.results.drain(..) {
             match dest {
                 d if d == self.addr => {
                     self.workload.merge(&mut self.acc, result);
@@ -558,6 +588,7 @@ impl<W: Workload> Processor<W> {
 
     /// Ends the run for this processor: its accumulator and statistics.
     pub fn finish(mut self) -> (W::Accumulator, ProcStats) {
+        self.flush_work();
         let m = &mut self.stats.memory;
         m.resident_bytes = self.store.resident_bytes();
         m.cached_bytes = self.store.cache().high_water();
@@ -569,5 +600,21 @@ impl<W: Workload> Processor<W> {
         m.send_backlog = self.outbox.backlog_high_water();
         self.stats.cache = self.store.cache().counters();
         (self.acc, self.stats)
+    }
+}
+
+/// Adds `units` of `kind` to `acc`: the same `&'static str` is found by
+/// address (one pass without string comparisons), an equal string from
+/// elsewhere by value.
+#[inline]
+fn add_charge(acc: &mut Vec<(&'static str, u64)>, kind: &'static str, units: u64) {
+    let same_ptr = |k: &&str| std::ptr::eq(k.as_ptr(), kind.as_ptr()) && k.len() == kind.len();
+    let i = acc
+        .iter()
+        .position(|(k, _)| same_ptr(k))
+        .or_else(|| acc.iter().position(|(k, _)| *k == kind));
+    match i {
+        Some(i) => acc[i].1 = acc[i].1.saturating_add(units),
+        None => acc.push((kind, units)),
     }
 }

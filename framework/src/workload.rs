@@ -97,6 +97,26 @@ pub trait Workload: Send + Sync + Sized + 'static {
     /// included; duplicates are ignored.
     fn select_data(&self, task: &Self::DdTask, ctx: &mut Ctx<Self>) -> Vec<Self::DataId>;
 
+    /// Data selection that can see what is local already (resident or
+    /// cached, in `local`): what the processor calls. The default ignores
+    /// `local` and calls [`Workload::select_data`].
+    ///
+    /// A selection may leave out cached items (for example when a workload
+    /// remembers that a region is all local and skips its clipping), at a
+    /// price: only selected items are pinned, so a left-out cached item may
+    /// be evicted before the task runs, and the task must cope (a
+    /// demand-driven task can emit data-parallel work for what it finds
+    /// missing). [`DataView::evictions`] tells when anything may have left.
+    fn select_data_in(
+        &self,
+        task: &Self::DdTask,
+        local: &DataView<'_, Self>,
+        ctx: &mut Ctx<Self>,
+    ) -> Vec<Self::DataId> {
+        let _ = local;
+        self.select_data(task, ctx)
+    }
+
     /// Executes a demand-driven task. Every id returned by
     /// [`Workload::select_data`] is present in `data`. May emit results,
     /// data-parallel tasks and child demand-driven tasks through `ctx`.
@@ -158,6 +178,14 @@ impl<W: Workload> Ctx<W> {
             dp: Vec::new(),
             results: Vec::new(),
         }
+    }
+
+    /// Empties the context for reuse (keeping its buffers).
+    pub(crate) fn clear(&mut self) {
+        self.charges.clear();
+        self.dd.clear();
+        self.dp.clear();
+        self.results.clear();
     }
 
     /// The processor running the hook. Informational only: results must not
@@ -253,6 +281,12 @@ impl<'a, W: Workload> DataView<'a, W> {
     /// Whether the item is resident (owned) here.
     pub fn is_resident(&self, id: &W::DataId) -> bool {
         self.resident.contains_key(id)
+    }
+
+    /// Items evicted from the cache so far: while this number stays the
+    /// same, everything that was local is still local.
+    pub fn evictions(&self) -> u64 {
+        self.cache.map_or(0, |c| c.counters().evictions)
     }
 
     pub(crate) fn into_touched(self) -> Vec<W::DataId> {

@@ -109,6 +109,9 @@ impl Pyramid {
                         let s = nrm.dot(*p) - d;
                         above |= s > eps;
                         below |= s < -eps;
+                        if above && below {
+                            break; // not a face (most triples): stop early
+                        }
                     }
                     let face = match (above, below) {
                         (false, _) => Some(nrm),

@@ -313,9 +313,19 @@ pub fn render_parallel_ranked(
             film.set(i % width, i / width, c);
         }
         let resident = part.resident(p as u32);
+        let replicated = popts.workload.distribution == Distribution::Replicated;
         procs.push(ProcSummary {
-            resident_bytes: part.resident_bytes().get(p).copied().unwrap_or(0) as u64,
-            resident_objects: resident.len(),
+            // Replicated: every processor reads the whole scene.
+            resident_bytes: if replicated {
+                data_bytes
+            } else {
+                part.resident_bytes().get(p).copied().unwrap_or(0) as u64
+            },
+            resident_objects: if replicated {
+                wl.renderer().scene().objects.len()
+            } else {
+                resident.len()
+            },
             cost: part.cost().get(p).copied().unwrap_or(0),
             pixels: acc.pixels.len(),
             peak_tree_nodes: acc.peak_pending,

@@ -60,6 +60,12 @@ pub enum Distribution {
     /// predicted work (see [`super::predict`]) instead of its objects, so
     /// processors get equal work rather than equal memory.
     Predicted,
+    /// Every processor holds the whole scene (under the threads runtime one
+    /// shared copy; under MPI a copy per rank): nothing is selected,
+    /// fetched or cached, only the work is scheduled (tiles on demand,
+    /// shadow bundles by the policy). The mode for a scene that fits one
+    /// machine; the others emulate or use distributed memory.
+    Replicated,
 }
 
 impl std::str::FromStr for Distribution {
@@ -69,8 +75,9 @@ impl std::str::FromStr for Distribution {
             "octree" | "balanced" => Ok(Distribution::Octree),
             "worst" | "worst-case" | "one" => Ok(Distribution::Worst),
             "predicted" | "cost-predicted" | "work" => Ok(Distribution::Predicted),
+            "replicated" | "shared" => Ok(Distribution::Replicated),
             _ => Err(format!(
-                "unknown distribution {s:?}: expected octree, predicted or worst"
+                "unknown distribution {s:?}: expected octree, predicted, replicated or worst"
             )),
         }
     }
@@ -82,6 +89,7 @@ impl std::fmt::Display for Distribution {
             Distribution::Octree => "octree",
             Distribution::Worst => "worst",
             Distribution::Predicted => "predicted",
+            Distribution::Replicated => "replicated",
         })
     }
 }
@@ -196,6 +204,9 @@ pub mod work {
     pub static CLIP_MISSES: &str = "clip.misses";
     /// Shadow bundles that reused a cell's selection (option `clip_cache`).
     pub static CLIP_REUSED: &str = "clip.reused";
+    /// Of those, bundles whose whole selection was local already: nothing
+    /// to select or pin (option `clip_cache`).
+    pub static CLIP_ALL_LOCAL: &str = "clip.all_local";
     pub static RAYS_PRIMARY: &str = "rays.primary";
     pub static RAYS_REFLECTION: &str = "rays.reflection";
     pub static RAYS_REFRACTION: &str = "rays.refraction";
@@ -267,12 +278,23 @@ pub struct RtWorkload {
     subtree_owner: Vec<u32>,
     /// Predicted subtree costs ([`Distribution::Predicted`] only).
     predicted: Vec<u64>,
-    /// Shadow selections per (processor, cell, light) (option `clip_cache`).
-    clip_cache: Mutex<ClipCache>,
+    /// Shadow selections per (processor, cell, light) (option
+    /// `clip_cache`), one map per processor so they do not contend.
+    clip_cache: Vec<Mutex<ClipCache>>,
 }
 
 /// Shadow selections per (processor, cell, light).
-type ClipCache = HashMap<(u32, NodeId, u32), Arc<[NodeId]>>;
+type ClipCache = HashMap<(u32, NodeId, u32), ClipEntry>;
+
+/// One cached shadow selection.
+#[derive(Debug)]
+struct ClipEntry {
+    leaves: Arc<[NodeId]>,
+    /// The cache's eviction count when every leaf of the selection was
+    /// found local: until it changes, bundles from this cell to this light
+    /// need no selection at all.
+    all_local_at: Option<u64>,
+}
 
 const EMPTY: u32 = u32::MAX - 1;
 const MIXED: u32 = u32::MAX;
@@ -325,7 +347,9 @@ impl RtWorkload {
         RtWorkload {
             subtree_owner,
             predicted,
-            clip_cache: Mutex::new(HashMap::new()),
+            clip_cache: (0..procs.max(1))
+                .map(|_| Mutex::new(HashMap::new()))
+                .collect(),
             renderer,
             view,
             width,
@@ -348,7 +372,10 @@ impl RtWorkload {
         let (octree, objects) = (renderer.octree(), &renderer.scene().objects);
         let procs = u32::try_from(procs.max(1)).unwrap_or(u32::MAX);
         match d {
-            Distribution::Octree => Partition::new(octree, objects, procs),
+            // Replicated: the memory cut, for the per-processor report only.
+            Distribution::Octree | Distribution::Replicated => {
+                Partition::new(octree, objects, procs)
+            }
             Distribution::Worst => Partition::worst_case(octree, objects, procs),
             Distribution::Predicted => Partition::by_cost(octree, objects, procs, predicted),
         }
@@ -422,7 +449,17 @@ impl RtWorkload {
         self.cells.iter().map(|c| c.2).max().unwrap_or(0)
     }
 
+    /// [`Distribution::Replicated`]: every leaf is local everywhere.
+    #[inline]
+    fn replicated(&self) -> bool {
+        self.opts.distribution == Distribution::Replicated
+    }
+
+    /// Leaves as data items: (leaf, owner, bytes); none when replicated.
     fn owner_table(&self, procs: usize) -> Vec<(NodeId, usize, u64)> {
+        if self.replicated() {
+            return Vec::new();
+        }
         let fresh;
         let part = if self.partition.procs() as usize == procs.max(1) {
             &self.partition
@@ -446,8 +483,17 @@ impl RtWorkload {
     /// (cached, or resident under a runtime that holds everything locally).
     #[inline]
     fn is_local(&self, view: &DataView<'_, Self>, proc: usize, procs: usize, leaf: NodeId) -> bool {
-        (self.partition.procs() as usize == procs && self.partition.owner(leaf) as usize == proc)
+        self.replicated()
+            || (self.partition.procs() as usize == procs && self.partition.owner(leaf) as usize == proc)
             || view.get(&leaf).is_some()
+    }
+
+    /// Whether `leaf` is resident here by the partition or local in
+    /// `view` (resident or cached), without touching its recency.
+    fn held(&self, view: &DataView<'_, Self>, proc: usize, procs: usize, leaf: NodeId) -> bool {
+        self.replicated()
+            || (self.partition.procs() as usize == procs && self.partition.owner(leaf) as usize == proc)
+            || view.is_local(&leaf)
     }
 
     /// The non-empty leaves among `leaves`, each once, in order.
@@ -464,7 +510,7 @@ impl RtWorkload {
     /// tile's corners (perspective views), else the leaves along every
     /// primary ray.
     fn select_tile(&self, t: &Tile, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
-        if self.all_resident(None, ctx.proc_id(), ctx.procs()) {
+        if self.replicated() || self.all_resident(None, ctx.proc_id(), ctx.procs()) {
             return Vec::new();
         }
         let octree = self.renderer.octree();
@@ -504,7 +550,15 @@ impl RtWorkload {
 
     /// Data selection for a shadow bundle: the pyramid from the shaded
     /// point around the whole source.
-    fn select_shadow(&self, b: &ShadowBundle, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
+    fn select_shadow(
+        &self,
+        b: &ShadowBundle,
+        local: Option<&DataView<'_, Self>>,
+        ctx: &mut Ctx<Self>,
+    ) -> Vec<NodeId> {
+        if self.replicated() {
+            return Vec::new();
+        }
         // The box holding every shadow ray of the bundle (padded for the
         // origin offsets), if the source is finite.
         let bounds = self
@@ -528,7 +582,7 @@ impl RtWorkload {
             return Vec::new();
         }
         if self.opts.clip_cache {
-            if let Some(sel) = self.select_shadow_cached(b, ctx) {
+            if let Some(sel) = self.select_shadow_cached(b, local, ctx) {
                 return sel;
             }
         }
@@ -541,18 +595,42 @@ impl RtWorkload {
     /// [`WorkloadOptions::clip_cache`]: the selection for every bundle from
     /// the shaded point's cell to its (finite) light. `None` to clip the
     /// bundle's own pyramid instead.
-    fn select_shadow_cached(&self, b: &ShadowBundle, ctx: &mut Ctx<Self>) -> Option<Vec<NodeId>> {
+    ///
+    /// With `local` (what the processor holds), a selection found entirely
+    /// local is remembered, and later bundles from the cell to the light
+    /// select nothing until the cache evicts something. (Should a needed
+    /// cell be evicted before such a bundle runs, the bundle meets it
+    /// missing and continues data-parallel: nothing is lost.)
+    fn select_shadow_cached(
+        &self,
+        b: &ShadowBundle,
+        local: Option<&DataView<'_, Self>>,
+        ctx: &mut Ctx<Self>,
+    ) -> Option<Vec<NodeId>> {
         let octree = self.renderer.octree();
+        let leaf = octree.find_leaf(b.point)?;
+        let (proc, procs) = (ctx.proc_id(), ctx.procs());
+        let key = (proc as u32, leaf, b.light);
+        let shard = &self.clip_cache[proc % self.clip_cache.len()];
+        if let Some(e) = shard.lock().ok()?.get_mut(&key) {
+            ctx.charge(work::CLIP_REUSED, 1);
+            if let Some(local) = local {
+                let now = local.evictions();
+                if e.all_local_at == Some(now)
+                    || e.leaves.iter().all(|&l| self.held(local, proc, procs, l))
+                {
+                    e.all_local_at = Some(now);
+                    ctx.charge(work::CLIP_ALL_LOCAL, 1);
+                    return Some(Vec::new());
+                }
+            }
+            return Some(e.leaves.to_vec());
+        }
+        // Entries exist only for finite sources (checked here, on a miss).
         let light = self.renderer.lights().get(b.light as usize)?;
         let LightExtent::Finite(lb) = light.extent(self.renderer.scene())? else {
             return None;
         };
-        let leaf = octree.find_leaf(b.point)?;
-        let key = (ctx.proc_id() as u32, leaf, b.light);
-        if let Some(sel) = self.clip_cache.lock().ok()?.get(&key) {
-            ctx.charge(work::CLIP_REUSED, 1);
-            return Some(sel.to_vec());
-        }
         let cb = octree.node_bounds(leaf);
         let lo = cb.min.min(lb.min).min(b.point);
         let hi = cb.max.max(lb.max).max(b.point);
@@ -562,8 +640,14 @@ impl RtWorkload {
         let points: Vec<Vec3> = padded(cb).into_iter().chain(padded(lb)).collect();
         let hull = Pyramid::hull(&points, b.point)?;
         let sel = self.clip(&hull, ctx);
-        if let Ok(mut cache) = self.clip_cache.lock() {
-            cache.insert(key, sel.clone().into());
+        if let Ok(mut cache) = shard.lock() {
+            cache.insert(
+                key,
+                ClipEntry {
+                    leaves: sel.clone().into(),
+                    all_local_at: None,
+                },
+            );
         }
         Some(sel)
     }
@@ -877,7 +961,19 @@ impl Workload for RtWorkload {
     fn select_data(&self, task: &DdTask, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
         match task {
             DdTask::Tile(t) => self.select_tile(t, ctx),
-            DdTask::Shadow(j) => self.select_shadow(&j.bundle, ctx),
+            DdTask::Shadow(j) => self.select_shadow(&j.bundle, None, ctx),
+        }
+    }
+
+    fn select_data_in(
+        &self,
+        task: &DdTask,
+        local: &DataView<'_, Self>,
+        ctx: &mut Ctx<Self>,
+    ) -> Vec<NodeId> {
+        match task {
+            DdTask::Tile(t) => self.select_tile(t, ctx),
+            DdTask::Shadow(j) => self.select_shadow(&j.bundle, Some(local), ctx),
         }
     }
 

@@ -14,8 +14,11 @@
 //! - **mean relative luminance error**: the mean of `|L - L_ref| /
 //!   max(L_ref, 0.01)` (the floor keeps black pixels from dominating).
 //!
-//! Times are the sequential renderer's pixel loop (one thread, wall clock),
-//! so they are only comparable within one sweep on one machine.
+//! Times are the CPU time of the thread running the sequential renderer
+//! (render and octree build; wall-clock time where the platform has no
+//! thread clock): other work on a shared machine, or a paused sweep, does
+//! not count. Wall-clock seconds are kept beside them. Either is only
+//! comparable within one sweep on one machine.
 
 use std::time::Instant;
 
@@ -40,7 +43,11 @@ pub struct SweepConfig {
 pub struct SweepPoint {
     pub name: String,
     pub options: RenderOptions,
+    /// CPU seconds of the rendering thread (see the module documentation).
     pub time_s: f64,
+    /// Wall-clock seconds of the same render.
+    #[serde(default)]
+    pub wall_s: f64,
     /// Rays cast (all kinds).
     pub rays: u64,
     pub rmse: f64,
@@ -232,24 +239,27 @@ pub fn run(
     configs: &[SweepConfig],
     progress: &mut dyn FnMut(&str),
 ) -> Result<(SweepReport, Film)> {
-    let t0 = Instant::now();
-    let r = Renderer::new(scene, reference.clone())?;
-    let (ref_film, _) = r.render(view, width, height)?;
-    let reference_s = t0.elapsed().as_secs_f64();
-    progress(&format!("reference: {reference_s:.2} s"));
+    let ((ref_film, _), reference_s, ref_wall) = timed(|| {
+        Renderer::new(scene, reference.clone())?.render(view, width, height)
+    })?;
+    progress(&format!(
+        "reference: {reference_s:.2} s CPU ({ref_wall:.2} s wall)"
+    ));
     let mut points = Vec::with_capacity(configs.len());
     for c in configs {
-        let r = Renderer::new(scene, c.options.clone())?;
-        let (film, stats) = r.render(view, width, height)?;
+        let ((film, stats), cpu_s, wall_s) = timed(|| {
+            Renderer::new(scene, c.options.clone())?.render(view, width, height)
+        })?;
         let (rmse, rel_rmse, mrle) = image_error(&film, &ref_film);
         progress(&format!(
-            "{:<22} {:>8.3} s  rel. RMSE {:.4}  mean rel. lum. error {:.4}",
-            c.name, stats.time.render_s, rel_rmse, mrle
+            "{:<22} {:>8.3} s CPU {:>8.3} s wall  rel. RMSE {:.4}  mean rel. lum. error {:.4}",
+            c.name, cpu_s, wall_s, rel_rmse, mrle
         ));
         points.push(SweepPoint {
             name: c.name.clone(),
             options: c.options.clone(),
-            time_s: stats.time.render_s,
+            time_s: cpu_s,
+            wall_s,
             rays: stats.rays.traced(),
             rmse,
             rel_rmse,
@@ -269,6 +279,36 @@ pub fn run(
         },
         ref_film,
     ))
+}
+
+/// Runs `f` on this thread: its result, CPU seconds and wall seconds.
+fn timed<T>(f: impl FnOnce() -> Result<T>) -> Result<(T, f64, f64)> {
+    let (c0, w0) = (thread_cpu_s(), Instant::now());
+    let out = f()?;
+    let wall = w0.elapsed().as_secs_f64();
+    let cpu = match (c0, thread_cpu_s()) {
+        (Some(a), Some(b)) => b - a,
+        _ => wall,
+    };
+    Ok((out, cpu, wall))
+}
+
+/// CPU time consumed by the calling thread, in seconds.
+#[cfg(unix)]
+pub fn thread_cpu_s() -> Option<f64> {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec; the call only writes it.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    (rc == 0).then(|| ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
+}
+
+/// CPU time consumed by the calling thread (not available here).
+#[cfg(not(unix))]
+pub fn thread_cpu_s() -> Option<f64> {
+    None
 }
 
 /// The options that differ from rpict's defaults, Radiance style.
@@ -304,12 +344,12 @@ pub fn option_words(o: &RenderOptions) -> String {
 impl SweepReport {
     pub fn to_csv(&self) -> String {
         let mut s = String::from(
-            "name,ds,dt,dc,dj,pn,pj,ab,aa,ar,ad,as,time_s,rays,rmse,rel_rmse,mean_rel_lum_err,pareto\n",
+            "name,ds,dt,dc,dj,pn,pj,ab,aa,ar,ad,as,time_s,wall_s,rays,rmse,rel_rmse,mean_rel_lum_err,pareto\n",
         );
         for p in &self.points {
             let o = &p.options;
             s += &format!(
-                "{},{},{},{},{},{},{},{},{},{},{},{},{:.6},{},{:.6e},{:.6},{:.6},{}\n",
+                "{},{},{},{},{},{},{},{},{},{},{},{},{:.6},{:.6},{},{:.6e},{:.6},{:.6},{}\n",
                 p.name.replace(',', ";"),
                 o.ds,
                 o.dt,
@@ -323,6 +363,7 @@ impl SweepReport {
                 o.ad,
                 o.as_,
                 p.time_s,
+                p.wall_s,
                 p.rays,
                 p.rmse,
                 p.rel_rmse,
@@ -338,7 +379,7 @@ impl SweepReport {
         let mut t = Table::new([
             "configuration",
             "options",
-            "time (s)",
+            "CPU time (s)",
             "rays",
             "rel. RMSE",
             "mean rel. lum. error",
@@ -412,6 +453,7 @@ mod tests {
             name: format!("{t}/{e}"),
             options: RenderOptions::default(),
             time_s: t,
+            wall_s: t,
             rays: 0,
             rmse: e,
             rel_rmse: e,
