@@ -392,3 +392,58 @@ fn the_clip_cache_selects_enough_for_every_bundle() {
         }
     }
 }
+
+#[test]
+fn the_replicated_distribution_schedules_only_work() {
+    // Every processor holds the scene: tiles are traced whole, nothing is
+    // selected, fetched or migrated, and the picture is the sequential one
+    // on threads, on the framework's sequential runtime and on the
+    // simulated cluster, with and without asking for work ahead.
+    let c = case("studio", 40, 30, RenderOptions::default());
+    for runtime in [
+        RuntimeKind::Threads,
+        RuntimeKind::Sequential,
+        RuntimeKind::Sim,
+    ] {
+        for procs in [1, 2, 3] {
+            if runtime == RuntimeKind::Sequential && procs > 1 {
+                continue;
+            }
+            for prefetch in [true, false] {
+                let mut p = ParallelOptions::new(procs);
+                p.runtime = runtime;
+                p.workload.distribution = Distribution::Replicated;
+                p.workload.tile = 8;
+                p.prefetch_work = prefetch;
+                let out = check(&c, &p);
+                let what = format!("{runtime:?} procs {procs} prefetch {prefetch}");
+                for st in &out.stats.procs {
+                    assert_eq!(st.data_items_requested, 0, "{what}");
+                    assert_eq!(st.tasks.migrations, 0, "{what}");
+                }
+                assert_eq!(out.work(work::CLIP_NODES), 0, "{what}");
+                // Every processor reads the whole scene.
+                for s in &out.procs {
+                    assert_eq!(s.resident_objects, c.scene.objects.len(), "{what}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn asking_for_work_ahead_keeps_every_distribution_exact() {
+    let c = case("cornell", 24, 24, RenderOptions::default());
+    for distribution in [Distribution::Octree, Distribution::Worst] {
+        for procs in [2, 3] {
+            for prefetch in [true, false] {
+                let mut p = ParallelOptions::new(procs);
+                p.workload.distribution = distribution;
+                p.workload.tile = 4;
+                p.cache = CacheSize::Percent(20.0);
+                p.prefetch_work = prefetch;
+                check(&c, &p);
+            }
+        }
+    }
+}

@@ -60,10 +60,19 @@ pub struct Config {
     /// A processor asks for new demand-driven work while fewer than this many
     /// of its tasks wait for data (latency hiding versus memory).
     pub max_waiting_tasks: usize,
+    /// A processor asks the master for its next root task as soon as it
+    /// starts one (one in reserve) instead of when it runs dry, so the
+    /// reply's round trip overlaps work. `false`: the paper's ask-when-idle.
+    #[serde(default = "yes")]
+    pub prefetch_work: bool,
     /// Threads for the threads runtime (`None`: available parallelism).
     pub threads: Option<usize>,
     /// Abort the run with [`crate::RunError::TimedOut`] after this long.
     pub time_limit: Option<Duration>,
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl Config {
@@ -77,6 +86,7 @@ impl Config {
             bundle: BundleConfig::default(),
             credits_per_link: 64,
             max_waiting_tasks: 2,
+            prefetch_work: true,
             threads: None,
             time_limit: None,
         }

@@ -65,6 +65,7 @@ pub struct Processor<W: Workload> {
     acc: W::Accumulator,
     stats: ProcStats,
     max_waiting: usize,
+    prefetch_work: bool,
     requested_work: bool,
     probe: Option<u64>,
     terminated: bool,
@@ -107,6 +108,7 @@ impl<W: Workload> Processor<W> {
             acc: W::Accumulator::default(),
             stats: ProcStats::new(addr),
             max_waiting: config.max_waiting_tasks,
+            prefetch_work: config.prefetch_work,
             requested_work: false,
             probe: None,
             terminated: false,
@@ -267,7 +269,14 @@ impl<W: Workload> Processor<W> {
         // in the (credit-bounded) input buffer.
         if self.room_for_more_waiting() {
             if let Some(inc) = self.mailbox.pop_class(Class::DemandDriven) {
-                return self.handle(inc, now).map(Step::Worked);
+                let root = matches!(&inc.msg, Msg::Dd(env) if env.handout);
+                let state = self.handle(inc, now)?;
+                if root && self.prefetch_work && !self.requested_work {
+                    // One root in reserve: ask now, work while it comes.
+                    self.requested_work = true;
+                    self.send(Addr::Master, Msg::WorkRequest, now);
+                }
+                return Ok(Step::Worked(state));
             }
         }
         self.on_idle(now);
@@ -462,7 +471,12 @@ impl<W: Workload> Processor<W> {
             .unwrap_or_else(|| Ctx::new(self.id, self.procs))
     }
 
-    fn dispatch(&mut self, mut ctx: Ctx<W>, origin: Option<usize>, now: Time) -> Result<(), String> {
+    fn dispatch(
+        &mut self,
+        mut ctx: Ctx<W>,
+        origin: Option<usize>,
+        now: Time,
+    ) -> Result<(), String> {
         let r = self.dispatch_drain(&mut ctx, origin, now);
         ctx.clear();
         self.spare_ctx = Some(ctx);

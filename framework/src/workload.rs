@@ -106,7 +106,7 @@ pub trait Workload: Send + Sync + Sized + 'static {
     /// price: only selected items are pinned, so a left-out cached item may
     /// be evicted before the task runs, and the task must cope (a
     /// demand-driven task can emit data-parallel work for what it finds
-    /// missing). [`DataView::evictions`] tells when anything may have left.
+    /// missing). [`DataView::keeps_everything`] tells when nothing can leave.
     fn select_data_in(
         &self,
         task: &Self::DdTask,
@@ -283,10 +283,10 @@ impl<'a, W: Workload> DataView<'a, W> {
         self.resident.contains_key(id)
     }
 
-    /// Items evicted from the cache so far: while this number stays the
-    /// same, everything that was local is still local.
-    pub fn evictions(&self) -> u64 {
-        self.cache.map_or(0, |c| c.counters().evictions)
+    /// Whether the cache has no budget: nothing cached is ever evicted, so
+    /// whatever is local now stays local for the whole run.
+    pub fn keeps_everything(&self) -> bool {
+        self.cache.is_none_or(|c| c.budget() == u64::MAX)
     }
 
     pub(crate) fn into_touched(self) -> Vec<W::DataId> {

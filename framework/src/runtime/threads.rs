@@ -50,16 +50,16 @@ pub fn run_threads<W: Workload>(
     config: &Config,
 ) -> Result<RunReport<W>, RunError> {
     let nodes = Node::build_all(&workload, config)?;
-    // By default one thread per core plus one for the master, which mostly
-    // sleeps waiting for messages: with as many processors as cores, every
-    // actor then has a thread of its own and none needs to yield.
+    // By default one thread per core. (An extra thread for the mostly
+    // sleeping master was measured slower on 2 cores: the master then waits
+    // for the OS to preempt a busy processor before it can hand out work,
+    // while on a shared worker it runs at the processors' next yield.)
     let threads = config
         .threads
         .unwrap_or_else(|| {
             std::thread::available_parallelism()
                 .map(|n| n.get())
                 .unwrap_or(2)
-                + 1
         })
         .clamp(1, nodes.len());
     let rt = tokio::runtime::Builder::new_multi_thread()
@@ -144,24 +144,32 @@ async fn actor<W: Workload>(
     share: bool,
 ) -> Result<Finished<W>, RunError> {
     let addr = node.addr();
-    let mut last_yield = clock.now();
+    // One clock reading per step: each reading ends one accounted interval
+    // and starts the next (a million tiny steps made 3 readings per step
+    // a tenth of the run).
+    let mut now = clock.now();
+    let mut last_yield = now;
     loop {
-        let t0 = clock.now();
+        let t0 = now;
         let mut received = false;
         while let Ok(packet) = rx.try_recv() {
             node.deliver(packet, t0);
             received = true;
         }
-        let t1 = clock.now();
-        if received {
-            node.account(State::Receiving, t1 - t0);
-        }
+        let t1 = if received {
+            let t = clock.now();
+            node.account(State::Receiving, t - t0);
+            t
+        } else {
+            t0
+        };
         let step = node.step(t1)?;
         let t2 = clock.now();
         match step {
             Step::Worked(state) => node.account(state, t2 - t1),
             _ => node.account(State::Sending, t2 - t1),
         }
+        now = t2;
         let packets = node.take_packets(t2);
         if !packets.is_empty() {
             for packet in packets {
@@ -172,7 +180,8 @@ async fn actor<W: Workload>(
                     ))
                 })?;
             }
-            node.account(State::Sending, clock.now() - t2);
+            now = clock.now();
+            node.account(State::Sending, now - t2);
         }
         match step {
             Step::Finished => break,
@@ -181,23 +190,23 @@ async fn actor<W: Workload>(
             // through the scheduler (and often a futex wake-up), more than a
             // small task's work.
             Step::Worked(_) if share => {
-                let now = clock.now();
                 if now.saturating_sub(last_yield) >= YIELD_EVERY_NS {
                     tokio::task::yield_now().await;
-                    last_yield = clock.now();
+                    now = clock.now();
+                    last_yield = now;
                 }
             }
             Step::Worked(_) => {}
             Step::Idle => {
                 let blocked = node.blocked_state();
-                let t = clock.now();
                 let packet = rx
                     .recv()
                     .await
                     .ok_or_else(|| RunError::Runtime(format!("{addr}: every sender is gone")))?;
                 let t4 = clock.now();
-                node.account(blocked, t4 - t);
+                node.account(blocked, t4 - now);
                 node.deliver(packet, t4);
+                now = t4;
             }
         }
     }

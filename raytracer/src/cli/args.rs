@@ -244,7 +244,10 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub credits: usize,
-    /// Worker threads for the threads runtime [default: one per core plus one for the master, at most one per actor].
+    /// Ask the master for a new tile only when out of work (the paper's way) instead of one tile ahead.
+    #[arg(long, help_heading = "Parallel rendering")]
+    pub no_prefetch: bool,
+    /// Worker threads for the threads runtime [default: one per core].
     #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
     pub threads: Option<usize>,
     /// With -ab: how processors treat the irradiance cache's data dependency: one-at-a-time (wait for the hemisphere in flight) or extra (start hemispheres freely, count the redundant ones).
@@ -392,6 +395,7 @@ const VALUE_FLAGS: &[&str] = &[
     "--detail-procs",
     "--cache-procs",
     "--cache-size",
+    "--reference",
 ];
 
 /// Number of values each Radiance view option takes.

@@ -105,6 +105,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
         network,
         sim_seed: 0,
         credits: a.credits,
+        prefetch_work: !a.no_prefetch,
     })
 }
 

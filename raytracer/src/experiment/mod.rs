@@ -172,6 +172,8 @@ impl Ctx<'_> {
         p.network = s.network.clone();
         p.sim_seed = s.seed;
         p.credits = spec.credits;
+        // The paper's processors ask for a tile when they run dry.
+        p.prefetch_work = false;
         let r = Arc::new(render_parallel(
             s.scene.clone(),
             s.options.clone(),

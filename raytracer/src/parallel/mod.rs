@@ -137,6 +137,10 @@ pub struct ParallelOptions {
     pub sim_seed: u64,
     /// Flow control: credits per link (see [`hybrid_sched::Config`]).
     pub credits: usize,
+    /// Ask for the next tile when starting one (see
+    /// [`hybrid_sched::Config::prefetch_work`]); `false`: the paper's
+    /// ask-when-idle.
+    pub prefetch_work: bool,
 }
 
 impl ParallelOptions {
@@ -152,6 +156,7 @@ impl ParallelOptions {
             network: Network::ten_gbe(),
             sim_seed: 0,
             credits: Config::new(1).credits_per_link,
+            prefetch_work: Config::new(1).prefetch_work,
         }
     }
 }
@@ -263,6 +268,7 @@ pub fn render_parallel_ranked(
     config.threads = popts.threads;
     config.time_limit = popts.time_limit;
     config.credits_per_link = popts.credits;
+    config.prefetch_work = popts.prefetch_work;
     config
         .validate()
         .map_err(|e| Error::Usage(format!("parallel configuration: {e}")))?;

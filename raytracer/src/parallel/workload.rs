@@ -290,10 +290,10 @@ type ClipCache = HashMap<(u32, NodeId, u32), ClipEntry>;
 #[derive(Debug)]
 struct ClipEntry {
     leaves: Arc<[NodeId]>,
-    /// The cache's eviction count when every leaf of the selection was
-    /// found local: until it changes, bundles from this cell to this light
-    /// need no selection at all.
-    all_local_at: Option<u64>,
+    /// Every leaf of the selection was found local, under a cache that
+    /// never evicts: bundles from this cell to this light need no
+    /// selection at all.
+    all_local: bool,
 }
 
 const EMPTY: u32 = u32::MAX - 1;
@@ -484,7 +484,8 @@ impl RtWorkload {
     #[inline]
     fn is_local(&self, view: &DataView<'_, Self>, proc: usize, procs: usize, leaf: NodeId) -> bool {
         self.replicated()
-            || (self.partition.procs() as usize == procs && self.partition.owner(leaf) as usize == proc)
+            || (self.partition.procs() as usize == procs
+                && self.partition.owner(leaf) as usize == proc)
             || view.get(&leaf).is_some()
     }
 
@@ -492,7 +493,8 @@ impl RtWorkload {
     /// `view` (resident or cached), without touching its recency.
     fn held(&self, view: &DataView<'_, Self>, proc: usize, procs: usize, leaf: NodeId) -> bool {
         self.replicated()
-            || (self.partition.procs() as usize == procs && self.partition.owner(leaf) as usize == proc)
+            || (self.partition.procs() as usize == procs
+                && self.partition.owner(leaf) as usize == proc)
             || view.is_local(&leaf)
     }
 
@@ -596,11 +598,9 @@ impl RtWorkload {
     /// the shaded point's cell to its (finite) light. `None` to clip the
     /// bundle's own pyramid instead.
     ///
-    /// With `local` (what the processor holds), a selection found entirely
-    /// local is remembered, and later bundles from the cell to the light
-    /// select nothing until the cache evicts something. (Should a needed
-    /// cell be evicted before such a bundle runs, the bundle meets it
-    /// missing and continues data-parallel: nothing is lost.)
+    /// With `local` (what the processor holds) and an unlimited cache, a
+    /// selection found entirely local is remembered, and later bundles from
+    /// the cell to the light select (and pin) nothing.
     fn select_shadow_cached(
         &self,
         b: &ShadowBundle,
@@ -614,12 +614,12 @@ impl RtWorkload {
         let shard = &self.clip_cache[proc % self.clip_cache.len()];
         if let Some(e) = shard.lock().ok()?.get_mut(&key) {
             ctx.charge(work::CLIP_REUSED, 1);
-            if let Some(local) = local {
-                let now = local.evictions();
-                if e.all_local_at == Some(now)
-                    || e.leaves.iter().all(|&l| self.held(local, proc, procs, l))
-                {
-                    e.all_local_at = Some(now);
+            // Only where nothing is ever evicted: a selection left empty
+            // pins nothing, so with a budget a cell could leave before the
+            // bundle runs.
+            if let Some(local) = local.filter(|l| l.keeps_everything()) {
+                if e.all_local || e.leaves.iter().all(|&l| self.held(local, proc, procs, l)) {
+                    e.all_local = true;
                     ctx.charge(work::CLIP_ALL_LOCAL, 1);
                     return Some(Vec::new());
                 }
@@ -645,7 +645,7 @@ impl RtWorkload {
                 key,
                 ClipEntry {
                     leaves: sel.clone().into(),
-                    all_local_at: None,
+                    all_local: false,
                 },
             );
         }
@@ -715,6 +715,45 @@ impl RtWorkload {
     fn primary(&self, x: u32, y: u32) -> Option<RayTask> {
         self.renderer
             .primary_task(&self.view, self.width, self.height, x as usize, y as usize)
+    }
+
+    /// [`Distribution::Replicated`]: with the whole scene at hand there is
+    /// nothing to migrate or fetch, so a tile's pixels are traced whole by
+    /// the sequential renderer (the very code the other distributions must
+    /// equal) and only finished pixels are emitted.
+    fn trace_tile_whole(&self, t: &Tile, ctx: &mut Ctx<Self>) {
+        let origin = Addr::Proc(ctx.proc_id());
+        let mut st = crate::render::TraceState::default();
+        for y in t.y0..t.y1 {
+            for x in t.x0..t.x1 {
+                let Some(task) = self.primary(x, y) else {
+                    continue;
+                };
+                let value = self.renderer.radiance(&task, &mut st);
+                ctx.emit_result(
+                    origin,
+                    RtResult {
+                        key: NodeKey::root(y * self.width as u32 + x),
+                        record: Record::Value(value),
+                    },
+                );
+            }
+        }
+        let c = &st.counts;
+        for (kind, n) in [
+            (work::RAYS_PRIMARY, c.primary),
+            (work::RAYS_REFLECTION, c.reflection),
+            (work::RAYS_REFRACTION, c.refraction),
+            (work::RAYS_PASS_THROUGH, c.pass_through),
+        ] {
+            ctx.charge(kind, n);
+        }
+        ctx.charge(work::SHADOW_BUNDLES, c.shadow.bundles);
+        ctx.charge(work::SHADOW_PATCHES, c.shadow.patches);
+        ctx.charge(work::SHADOW_TESTED, c.shadow.tested);
+        ctx.charge(work::SHADOW_ESTIMATED, c.shadow.estimated);
+        ctx.charge(work::SHADOW_UNOCCLUDED, c.shadow.unoccluded);
+        ctx.charge(work::SHADOW_SEGMENTS, c.shadow.transparent_segments);
     }
 
     /// A traced ray is complete: shade its hit here (or take the sky), send
@@ -979,6 +1018,7 @@ impl Workload for RtWorkload {
 
     fn execute_dd(&self, task: DdTask, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
         match task {
+            DdTask::Tile(t) if self.replicated() => self.trace_tile_whole(&t, ctx),
             DdTask::Tile(t) => {
                 let origin = ctx.proc_id() as u32;
                 for y in t.y0..t.y1 {

@@ -239,17 +239,15 @@ pub fn run(
     configs: &[SweepConfig],
     progress: &mut dyn FnMut(&str),
 ) -> Result<(SweepReport, Film)> {
-    let ((ref_film, _), reference_s, ref_wall) = timed(|| {
-        Renderer::new(scene, reference.clone())?.render(view, width, height)
-    })?;
+    let ((ref_film, _), reference_s, ref_wall) =
+        timed(|| Renderer::new(scene, reference.clone())?.render(view, width, height))?;
     progress(&format!(
         "reference: {reference_s:.2} s CPU ({ref_wall:.2} s wall)"
     ));
     let mut points = Vec::with_capacity(configs.len());
     for c in configs {
-        let ((film, stats), cpu_s, wall_s) = timed(|| {
-            Renderer::new(scene, c.options.clone())?.render(view, width, height)
-        })?;
+        let ((film, stats), cpu_s, wall_s) =
+            timed(|| Renderer::new(scene, c.options.clone())?.render(view, width, height))?;
         let (rmse, rel_rmse, mrle) = image_error(&film, &ref_film);
         progress(&format!(
             "{:<22} {:>8.3} s CPU {:>8.3} s wall  rel. RMSE {:.4}  mean rel. lum. error {:.4}",
