@@ -423,7 +423,7 @@ impl SweepReport {
                 "{}: error against time ({}x{})",
                 self.scene, self.width, self.height
             ),
-            x_label: "render time (s, log scale)".into(),
+            x_label: "CPU time (s, log scale)".into(),
             y_label: "RMSE / mean reference luminance".into(),
             series: vec![
                 Series::new("configurations", all, Mark::Points),
