@@ -557,3 +557,45 @@ fn mpi_runtime_needs_the_mpi_feature() {
         assert!(!out.exists());
     }
 }
+
+#[test]
+fn bench_scaling_prints_the_curve_and_checks_every_picture() {
+    let d = tmpdir("scaling");
+    let (rad, vf) = cornell_files(&d);
+    let o = run(&[
+        "bench",
+        "--scene",
+        &rad,
+        "--view-file",
+        &vf,
+        "--width",
+        "24",
+        "--height",
+        "24",
+        "--scaling",
+        "1,2",
+        "--repeat",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("equals the sequential one"), "{out}");
+    for row in [
+        "| sequential |",
+        "| replicated | 1 |",
+        "| replicated | 2 |",
+        "| octree | 2 |",
+    ] {
+        assert!(out.contains(row), "{row} missing in\n{out}");
+    }
+    let o = run(&[
+        "bench",
+        "--scene",
+        &rad,
+        "--view-file",
+        &vf,
+        "--scaling",
+        "0",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}

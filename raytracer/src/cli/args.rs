@@ -289,6 +289,14 @@ pub struct BenchArgs {
     /// Also run a full render and report its throughput.
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     pub render: bool,
+    /// Thread scaling instead: render with the threads runtime on each of these processor counts
+    /// (e.g. 1,2,4), replicated and octree-distributed, beside the sequential renderer; runs are
+    /// interleaved and each time is the median of --repeat runs.
+    #[arg(long, value_name = "N,N,...", value_delimiter = ',')]
+    pub scaling: Vec<usize>,
+    /// Runs per configuration for --scaling (the median is reported).
+    #[arg(long, default_value_t = 3, value_name = "K")]
+    pub repeat: usize,
     #[command(flatten)]
     pub radiance: RadianceArgs,
 }

@@ -157,6 +157,9 @@ fn rate(n: u64, d: Duration) -> f64 {
 
 pub(super) fn run(a: &BenchArgs) -> Result<()> {
     check_resolution(a.width as usize, a.height as usize)?;
+    if !a.scaling.is_empty() {
+        return scaling(a);
+    }
     let options = options_from(&a.radiance, 0)?;
     let (path, view) = resolve_scene(a)?;
     let (view, w, h) = view.fit_aspect(a.width, a.height);
@@ -311,5 +314,94 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         show(rss_bench),
         if a.render { show(rss_render) } else { "-".to_string() }
     );
+    Ok(())
+}
+
+/// `bench --scaling N,N,...`: the sequential renderer and the parallel
+/// renderer (threads runtime, replicated and octree distributions) on each
+/// processor count, every configuration run `--repeat` times in
+/// interleaved rounds (so a slow spell of a shared machine hits all of
+/// them), medians reported with their ratio to one processor.
+fn scaling(a: &BenchArgs) -> Result<()> {
+    use crate::parallel::{render_parallel, Distribution, ParallelOptions};
+    if a.scaling.contains(&0) || a.repeat == 0 {
+        return Err(super::usage(
+            "--scaling counts and --repeat must be at least 1",
+        ));
+    }
+    let options = options_from(&a.radiance, 0)?;
+    let (path, view) = resolve_scene(a)?;
+    let (view, w, h) = view.fit_aspect(a.width, a.height);
+    let (w, h) = (w as usize, h as usize);
+    let scene = Arc::new(scene::load(&[&path])?);
+    let mut configs: Vec<(String, Option<ParallelOptions>)> = vec![("sequential".into(), None)];
+    for dist in [Distribution::Replicated, Distribution::Octree] {
+        for &n in &a.scaling {
+            let mut p = ParallelOptions::new(n);
+            p.workload.distribution = dist;
+            configs.push((format!("{dist} {n}"), Some(p)));
+        }
+    }
+    let mut times = vec![Vec::new(); configs.len()];
+    let mut reference: Option<Vec<[u64; 3]>> = None;
+    let bits = |f: &crate::image::Film| -> Vec<[u64; 3]> {
+        f.pixels()
+            .iter()
+            .map(|c| c.to_array().map(f64::to_bits))
+            .collect()
+    };
+    for round in 0..a.repeat {
+        for (i, (name, popts)) in configs.iter().enumerate() {
+            let t0 = Instant::now();
+            let film = match popts {
+                None => {
+                    Renderer::new(&scene, options.clone())?
+                        .render(&view, w, h)?
+                        .0
+                }
+                Some(p) => render_parallel(scene.clone(), options.clone(), &view, w, h, p)?.film,
+            };
+            let dt = t0.elapsed().as_secs_f64();
+            let b = bits(&film);
+            match &reference {
+                None => reference = Some(b),
+                Some(r) if *r != b => {
+                    return Err(Error::Other(format!(
+                        "{name}: the picture differs from the sequential one"
+                    )))
+                }
+                _ => {}
+            }
+            eprintln!("  round {} {name}: {dt:.3} s", round + 1);
+            times[i].push(dt);
+        }
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let med: Vec<f64> = times.iter_mut().map(median).collect();
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    println!(
+        "{} at {w}x{h}, {} runs each (median), {cores} cores; every picture equals the sequential one bit for bit",
+        path.display(),
+        a.repeat
+    );
+    println!("| renderer | processors | time (s) | speed-up over 1 processor | over sequential |");
+    println!("| --- | --- | --- | --- | --- |");
+    println!("| sequential | - | {:.3} | - | 1.00 |", med[0]);
+    let per = a.scaling.len();
+    for (d, dist) in ["replicated", "octree"].iter().enumerate() {
+        let one = a
+            .scaling
+            .iter()
+            .position(|&n| n == 1)
+            .map(|k| med[1 + d * per + k]);
+        for (k, &n) in a.scaling.iter().enumerate() {
+            let t = med[1 + d * per + k];
+            let rel = one.map_or("-".to_string(), |o| format!("{:.2}", o / t));
+            println!("| {dist} | {n} | {t:.3} | {rel} | {:.2} |", med[0] / t);
+        }
+    }
     Ok(())
 }
