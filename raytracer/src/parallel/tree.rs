@@ -133,7 +133,7 @@ impl PixelTrees {
     /// The entry of node (`pixel`, `path`), created if absent.
     fn entry(&mut self, pixel: u32, path: &[u16]) -> &mut Pending {
         let list = self.pending.entry(pixel).or_default();
-        let i = match list.iter().position(|(p, _)| p.as_slice() == path) {
+        let i = match list.iter().position(|(p, _)| same_path(p, path)) {
             Some(i) => i,
             None => {
                 list.push((path.to_vec(), Pending::default()));
@@ -148,13 +148,13 @@ impl PixelTrees {
     fn get(&self, pixel: u32, path: &[u16]) -> Option<&Pending> {
         let list = self.pending.get(&pixel)?;
         list.iter()
-            .find(|(p, _)| p.as_slice() == path)
+            .find(|(p, _)| same_path(p, path))
             .map(|(_, e)| e)
     }
 
     fn remove(&mut self, pixel: u32, path: &[u16]) -> Option<Pending> {
         let list = self.pending.get_mut(&pixel)?;
-        let i = list.iter().position(|(p, _)| p.as_slice() == path)?;
+        let i = list.iter().position(|(p, _)| same_path(p, path))?;
         let (_, e) = list.swap_remove(i);
         if list.is_empty() {
             self.pending.remove(&pixel);
@@ -238,6 +238,14 @@ fn evaluate(
         sum *= a;
     }
     sum
+}
+
+/// `a == b` for the short paths of ray-tree nodes, element by element
+/// (a slice comparison calls `memcmp`, which cost more than the
+/// comparison itself for two or three elements).
+#[inline]
+fn same_path(a: &[u16], b: &[u16]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x == y)
 }
 
 #[cfg(test)]
