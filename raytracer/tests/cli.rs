@@ -562,12 +562,12 @@ fn mpi_runtime_needs_the_mpi_feature() {
 fn bench_scaling_prints_the_curve_and_checks_every_picture() {
     let d = tmpdir("scaling");
     let (rad, vf) = cornell_files(&d);
-    let o = run(&[
-        "bench",
-        "--scene",
-        &rad,
-        "--view-file",
-        &vf,
+    let bench = |extra: &[&str]| {
+        let mut args = vec!["bench", "--scene", &rad, "--view-file", &vf];
+        args.extend_from_slice(extra);
+        run(&args)
+    };
+    let o = bench(&[
         "--width",
         "24",
         "--height",
@@ -588,14 +588,6 @@ fn bench_scaling_prints_the_curve_and_checks_every_picture() {
     ] {
         assert!(out.contains(row), "{row} missing in\n{out}");
     }
-    let o = run(&[
-        "bench",
-        "--scene",
-        &rad,
-        "--view-file",
-        &vf,
-        "--scaling",
-        "0",
-    ]);
+    let o = bench(&["--scaling", "0"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
