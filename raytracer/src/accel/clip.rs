@@ -94,25 +94,41 @@ impl Pyramid {
         let pad = REL_EPS * (size + scale);
         let mut planes: Vec<Plane> = Vec::new();
         let n = pts.len();
+        // The side test below stops at the first points found on both
+        // sides of a candidate plane; trying far-apart points first (each
+        // box corner and its opposite, the boxes alternating, when the
+        // points are two boxes' corners) finds them sooner. The answer
+        // does not depend on the order.
+        let probe: Vec<Vec3> = if n == 16 {
+            const ORDER: [usize; 16] = [0, 15, 7, 8, 3, 12, 4, 11, 1, 14, 6, 9, 2, 13, 5, 10];
+            ORDER.iter().map(|&i| pts[i]).collect()
+        } else {
+            pts.clone()
+        };
         for i in 0..n {
             for j in i + 1..n {
                 for k in j + 1..n {
-                    let nrm = (pts[j] - pts[i]).cross(pts[k] - pts[i]);
-                    let len = nrm.length();
-                    if len.is_nan() || len <= 1e-12 * size * size {
+                    let raw = (pts[j] - pts[i]).cross(pts[k] - pts[i]);
+                    let len2 = raw.length_squared();
+                    if len2.is_nan() || len2 <= (1e-12 * size * size).powi(2) {
                         continue;
                     }
-                    let nrm = nrm / len;
-                    let d = nrm.dot(pts[i]);
+                    // Most triples are not faces: decide that on the
+                    // unnormalised normal (|s| > eps |n| as s^2 > eps^2 |n|^2,
+                    // no square root or division) and normalise faces only.
+                    let d_raw = raw.dot(pts[i]);
+                    let lim2 = eps * eps * len2;
                     let (mut above, mut below) = (false, false);
-                    for p in &pts {
-                        let s = nrm.dot(*p) - d;
-                        above |= s > eps;
-                        below |= s < -eps;
+                    for p in &probe {
+                        let s = raw.dot(*p) - d_raw;
+                        let far = s * s > lim2;
+                        above |= far && s > 0.0;
+                        below |= far && s < 0.0;
                         if above && below {
-                            break; // not a face (most triples): stop early
+                            break; // not a face
                         }
                     }
+                    let nrm = raw / len2.sqrt();
                     let face = match (above, below) {
                         (false, _) => Some(nrm),
                         (true, false) => Some(-nrm),
