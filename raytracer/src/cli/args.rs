@@ -225,8 +225,16 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub shadow_dp_below: usize,
-    /// Clip once per (cell, light) with the cell-to-light hull and reuse the selection for every shadow bundle from that cell (fewer clipping steps, slightly larger selections).
-    #[arg(long = "clip-cache", help_heading = "Parallel rendering")]
+    /// Clip once per (cell, light) with the cell-to-light hull and reuse the selection for every shadow bundle from that cell (fewer clipping steps, slightly larger selections); `--clip-cache false`: clip every bundle, as the paper does.
+    #[arg(
+        long = "clip-cache",
+        value_name = "BOOL",
+        default_value_t = true,
+        num_args = 0..=1,
+        default_missing_value = "true",
+        action = clap::ArgAction::Set,
+        help_heading = "Parallel rendering"
+    )]
     pub clip_cache: bool,
     /// Simulated machine for --runtime sim: parsytec-cc (the paper's) or 10gbe.
     #[arg(

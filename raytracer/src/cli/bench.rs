@@ -318,7 +318,8 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
 }
 
 /// `bench --scaling N,N,...`: the sequential renderer and the parallel
-/// renderer (threads runtime, replicated and octree distributions) on each
+/// renderer (threads runtime, replicated and octree distributions, the
+/// clip cache on as `render` has it) on each
 /// processor count, every configuration run `--repeat` times in
 /// interleaved rounds (so a slow spell of a shared machine hits all of
 /// them), medians reported with their ratio to one processor.
@@ -339,6 +340,8 @@ fn scaling(a: &BenchArgs) -> Result<()> {
         for &n in &a.scaling {
             let mut p = ParallelOptions::new(n);
             p.workload.distribution = dist;
+            // As `render` does by default.
+            p.workload.clip_cache = true;
             configs.push((format!("{dist} {n}"), Some(p)));
         }
     }
