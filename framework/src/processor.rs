@@ -464,13 +464,15 @@ impl<W: Workload> Processor<W> {
         self.dispatch(ctx, origin, now)
     }
 
-    /// Schedules everything a hook emitted and records its charged work.
+    /// A context for the next hook: the spare one's buffers, or new ones.
     fn new_ctx(&mut self) -> Ctx<W> {
         self.spare_ctx
             .take()
             .unwrap_or_else(|| Ctx::new(self.id, self.procs))
     }
 
+    /// Schedules everything a hook emitted and records its charged work;
+    /// the emptied context becomes the spare.
     fn dispatch(
         &mut self,
         mut ctx: Ctx<W>,
