@@ -591,3 +591,24 @@ fn bench_scaling_prints_the_curve_and_checks_every_picture() {
     let o = bench(&["--scaling", "0"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
+
+#[test]
+fn sweep_reference_options_are_checked() {
+    let d = tmpdir("sweep-reference");
+    let (rad, vf) = cornell_files(&d);
+    let out = d.join("out");
+    for bad in ["-ab", "-zz 1", "dt 0.1"] {
+        let o = run(&[
+            "sweep",
+            &rad,
+            "--view-file",
+            &vf,
+            "--out",
+            out.to_str().unwrap(),
+            "--reference",
+            bad,
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {}", stderr(&o));
+        assert!(stderr(&o).contains("--reference"), "{bad}: {}", stderr(&o));
+    }
+}

@@ -32,9 +32,10 @@ pub(super) fn run(a: &SweepArgs) -> Result<()> {
         reference.as_ = 64;
     }
     if let Some(words) = &a.reference {
-        reference
-            .apply_words(words)
-            .map_err(|e| usage(format!("--reference: {e}")))?;
+        reference.apply_words(words).map_err(|e| match e {
+            Error::Usage(m) => usage(format!("--reference: {m}")),
+            other => other,
+        })?;
     }
     let name = path
         .file_stem()
