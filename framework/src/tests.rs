@@ -314,16 +314,28 @@ proptest! {
         cache in prop_oneof![Just(None), (1u64..400).prop_map(Some)],
         credits in 1usize..4,
         bundling in any::<bool>(),
+        prefetch in any::<bool>(),
     ) {
         let w = Mini { seed, ..Mini::default() };
-        let cfg = Config::new(procs)
+        let mut cfg = Config::new(procs)
             .with_policy(Policy::ALL[policy])
             .with_cache_bytes(cache)
             .with_credits(credits)
             .with_bundling(bundling);
+        // Asking for work ahead leaves a request at the master while the
+        // processor is busy: termination must still be exact.
+        cfg.prefetch_work = prefetch;
         let r = run_lockstep(Arc::new(w.clone()), &cfg, seed ^ 0xABCD).expect("terminates");
         check_against_sequential(&w, &r);
     }
+}
+
+#[test]
+fn configs_written_before_prefetch_existed_still_load() {
+    let mut v = serde_json::to_value(Config::new(2)).unwrap();
+    v.as_object_mut().unwrap().remove("prefetch_work");
+    let c: Config = serde_json::from_value(v).unwrap();
+    assert!(c.prefetch_work, "the default asks for work ahead");
 }
 
 #[test]
