@@ -20,7 +20,8 @@ use serde::{Deserialize, Serialize};
 /// Cache counters (also part of the processor statistics).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct CacheCounters {
-    /// Lookups answered from the cache.
+    /// Lookups answered from the cache (a hook's consecutive lookups of one
+    /// item count once; see [`crate::DataView::get`]).
     pub hits: u64,
     /// Lookups that had to fetch (or migrate).
     pub misses: u64,
