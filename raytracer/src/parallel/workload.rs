@@ -48,6 +48,7 @@ thread_local! {
     static SCRATCH: std::cell::RefCell<Vec<crate::render::direct::Contribution>> =
         const { std::cell::RefCell::new(Vec::new()) };
 }
+
 /// How the octree's objects are spread over the processors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(crate = "hybrid_sched::serde")]
@@ -62,9 +63,9 @@ pub enum Distribution {
     Predicted,
     /// Every processor holds the whole scene (under the threads runtime one
     /// shared copy; under MPI a copy per rank): nothing is selected,
-    /// fetched or cached, only the work is scheduled (tiles on demand,
-    /// shadow bundles by the policy). The mode for a scene that fits one
-    /// machine; the others emulate or use distributed memory.
+    /// fetched or cached, only the work is scheduled: tiles on demand, each
+    /// traced whole. The mode for a scene that fits one machine; the others
+    /// emulate or use distributed memory.
     Replicated,
 }
 
@@ -720,7 +721,10 @@ impl RtWorkload {
     /// [`Distribution::Replicated`]: with the whole scene at hand there is
     /// nothing to migrate or fetch, so a tile's pixels are traced whole by
     /// the sequential renderer (the very code the other distributions must
-    /// equal) and only finished pixels are emitted.
+    /// equal) and only finished pixels are emitted. Its ray and shadow
+    /// counts are charged; traversal units (`trace.*`) are not, since the
+    /// sequential kernel does not count them, so a simulated replicated run
+    /// prices tracing from the ray counts alone.
     fn trace_tile_whole(&self, t: &Tile, ctx: &mut Ctx<Self>) {
         let origin = Addr::Proc(ctx.proc_id());
         let mut st = crate::render::TraceState::default();
