@@ -195,6 +195,21 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
     let (mut n_primary, mut n_hits, mut n_shadow, mut n_blocked) = (0u64, 0u64, 0u64, 0u64);
     let (mut fp_primary, mut fp_shadow) = (Fingerprint::new(), Fingerprint::new());
     let mut rng = Rng::new(1);
+    // Times one batch of shadow rays and folds its answers in.
+    let mut flush = |shadow: &mut Vec<(Ray, f64, Option<ObjectId>)>| {
+        if shadow.is_empty() {
+            return;
+        }
+        let t0 = Instant::now();
+        trace_shadow(&caster, shadow, &mut blocked);
+        shadow_time += t0.elapsed();
+        n_blocked += blocked.iter().filter(|&&b| b).count() as u64;
+        for &b in &blocked {
+            fp_shadow.word(b as u64);
+        }
+        n_shadow += shadow.len() as u64;
+        shadow.clear();
+    };
     let mut pixel = 0;
     while pixel < pixels {
         let end = (pixel + CHUNK).min(pixels);
@@ -243,32 +258,13 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
                     }
                 });
             }
-            let last = pixel == pixels && i + 1 == hits.len();
-            if shadow.len() >= 1 << 16 || last {
-                let t0 = Instant::now();
-                trace_shadow(&caster, &shadow, &mut blocked);
-                shadow_time += t0.elapsed();
-                n_blocked += blocked.iter().filter(|&&b| b).count() as u64;
-                for &b in &blocked {
-                    fp_shadow.word(b as u64);
-                }
-                n_shadow += shadow.len() as u64;
-                shadow.clear();
+            if shadow.len() >= 1 << 16 {
+                flush(&mut shadow);
             }
         }
     }
-    if !shadow.is_empty() {
-        // The last chunk ended without a hit on a lit surface.
-        let t0 = Instant::now();
-        trace_shadow(&caster, &shadow, &mut blocked);
-        shadow_time += t0.elapsed();
-        n_blocked += blocked.iter().filter(|&&b| b).count() as u64;
-        for &b in &blocked {
-            fp_shadow.word(b as u64);
-        }
-        n_shadow += shadow.len() as u64;
-        shadow.clear();
-    }
+    // Whatever is left, however the image ended.
+    flush(&mut shadow);
     let _ = ctx;
     println!(
         "primary rays: {} in {:.3} s = {:.2} Mrays/s ({} hits)",
