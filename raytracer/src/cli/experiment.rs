@@ -3,8 +3,6 @@
 
 use std::sync::Arc;
 
-use hybrid_sched::Network;
-
 use super::args::ExperimentArgs;
 use super::bench::resolve_scene_view;
 use super::{options_from, usage};
@@ -32,13 +30,7 @@ pub(super) fn run(a: &ExperimentArgs) -> Result<()> {
             experiment::NAMES.join(", ")
         )));
     }
-    let network = Network::preset(&a.network).ok_or_else(|| {
-        usage(format!(
-            "--network {:?}: expected one of {}",
-            a.network,
-            Network::PRESETS.join(", ")
-        ))
-    })?;
+    let network = super::parallel::network_preset(&a.network)?;
     let options = options_from(&a.radiance, 0)?;
     let (path, view) = resolve_scene_view(&a.scene, a.view_file.as_deref())?;
     let (view, w, h) = view.fit_aspect(a.width, a.height);

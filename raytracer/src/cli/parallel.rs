@@ -70,13 +70,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
         .policy
         .parse()
         .map_err(|e| usage(format!("--policy: {e}")))?;
-    let network = Network::preset(&a.network).ok_or_else(|| {
-        usage(format!(
-            "--network {:?}: expected one of {}",
-            a.network,
-            Network::PRESETS.join(", ")
-        ))
-    })?;
+    let network = network_preset(&a.network)?;
     if a.credits == 0 {
         return Err(usage("--credits 0: at least one credit per link is needed"));
     }
@@ -252,4 +246,15 @@ pub fn summary(r: &ParallelRender) -> String {
         }
     }
     s
+}
+
+/// `--network NAME`: a simulated machine preset, or a usage error naming
+/// the presets.
+pub(super) fn network_preset(name: &str) -> Result<Network> {
+    Network::preset(name).ok_or_else(|| {
+        usage(format!(
+            "--network {name:?}: expected one of {}",
+            Network::PRESETS.join(", ")
+        ))
+    })
 }
