@@ -153,30 +153,38 @@ impl Chart {
                 let mut chart = builder
                     .build_cartesian_2d((lo..hi).log_scale(), y0..y1)
                     .map_err(plot_err)?;
-                chart
-                    .configure_mesh()
-                    .x_desc(&self.x_label)
-                    .y_desc(&self.y_label)
-                    .label_style(("sans-serif", 12))
-                    .draw()
-                    .map_err(plot_err)?;
-                draw_series(&mut chart, &self.series)?;
+                self.draw_mesh_and_series(&mut chart)?;
             } else {
                 let mut chart = builder
                     .build_cartesian_2d(x0..x1, y0..y1)
                     .map_err(plot_err)?;
-                chart
-                    .configure_mesh()
-                    .x_desc(&self.x_label)
-                    .y_desc(&self.y_label)
-                    .label_style(("sans-serif", 12))
-                    .draw()
-                    .map_err(plot_err)?;
-                draw_series(&mut chart, &self.series)?;
+                self.draw_mesh_and_series(&mut chart)?;
             }
             root.present().map_err(plot_err)?;
         }
         Ok(out)
+    }
+
+    /// Axes, labels and every series, on either x axis (linear or log).
+    fn draw_mesh_and_series<'a, DB, X, Y>(
+        &self,
+        chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    ) -> Result<()>
+    where
+        DB: DrawingBackend + 'a,
+        X: plotters::coord::ranged1d::Ranged<ValueType = f64>
+            + plotters::coord::ranged1d::ValueFormatter<f64>,
+        Y: plotters::coord::ranged1d::Ranged<ValueType = f64>
+            + plotters::coord::ranged1d::ValueFormatter<f64>,
+    {
+        chart
+            .configure_mesh()
+            .x_desc(&self.x_label)
+            .y_desc(&self.y_label)
+            .label_style(("sans-serif", 12))
+            .draw()
+            .map_err(plot_err)?;
+        draw_series(chart, &self.series)
     }
 
     /// Writes the chart as SVG to `path`.
