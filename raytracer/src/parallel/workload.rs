@@ -484,19 +484,22 @@ impl RtWorkload {
     /// (cached, or resident under a runtime that holds everything locally).
     #[inline]
     fn is_local(&self, view: &DataView<'_, Self>, proc: usize, procs: usize, leaf: NodeId) -> bool {
-        self.replicated()
-            || (self.partition.procs() as usize == procs
-                && self.partition.owner(leaf) as usize == proc)
-            || view.get(&leaf).is_some()
+        self.owned(proc, procs, leaf) || view.get(&leaf).is_some()
     }
 
-    /// Whether `leaf` is resident here by the partition or local in
-    /// `view` (resident or cached), without touching its recency.
+    /// [`Self::is_local`] without touching the leaf's cache recency.
     fn held(&self, view: &DataView<'_, Self>, proc: usize, procs: usize, leaf: NodeId) -> bool {
+        self.owned(proc, procs, leaf) || view.is_local(&leaf)
+    }
+
+    /// Whether `leaf` is resident on processor `proc` (of `procs`) without
+    /// asking a view: everything is when replicated, else the partition's
+    /// owner (an array lookup).
+    #[inline]
+    fn owned(&self, proc: usize, procs: usize, leaf: NodeId) -> bool {
         self.replicated()
             || (self.partition.procs() as usize == procs
                 && self.partition.owner(leaf) as usize == proc)
-            || view.is_local(&leaf)
     }
 
     /// The non-empty leaves among `leaves`, each once, in order.
