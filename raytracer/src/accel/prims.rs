@@ -105,7 +105,7 @@ impl Prims {
             normals: Vec::with_capacity(objects.len()),
         };
         for o in objects {
-            match &o.shape {
+            let quadric = match &o.shape {
                 Shape::Polygon(poly) if !poly.tri_verts.is_empty() => {
                     let start = p.pairs.len() as u32;
                     for two in poly.tri_verts.chunks(2) {
@@ -124,45 +124,42 @@ impl Prims {
                         pairs: p.pairs.len() as u32 - start,
                     });
                     p.normals.push(poly.normal);
+                    continue;
                 }
                 &Shape::Sphere {
                     center,
                     radius,
                     inward,
-                } => {
-                    p.refs.push(PrimRef {
-                        start: p.quadrics.len() as u32,
-                        pairs: 0,
-                    });
-                    p.quadrics.push(Quadric::Sphere {
-                        center,
-                        radius,
-                        inward,
-                    });
-                    p.normals.push(Vec3::ZERO);
-                }
+                } => Some(Quadric::Sphere {
+                    center,
+                    radius,
+                    inward,
+                }),
                 &Shape::Cone {
                     p0,
                     p1,
                     r0,
                     r1,
                     inward,
-                } => {
-                    p.refs.push(PrimRef {
-                        start: p.quadrics.len() as u32,
+                } => Some(Quadric::Cone {
+                    c: ConeConsts::new(p0, p1, r0, r1),
+                    inward,
+                }),
+                _ => None,
+            };
+            // Quadrics and the shapes tested through `Shape` report no
+            // stored normal.
+            p.refs.push(match quadric {
+                Some(q) => {
+                    p.quadrics.push(q);
+                    PrimRef {
+                        start: p.quadrics.len() as u32 - 1,
                         pairs: 0,
-                    });
-                    p.quadrics.push(Quadric::Cone {
-                        c: ConeConsts::new(p0, p1, r0, r1),
-                        inward,
-                    });
-                    p.normals.push(Vec3::ZERO);
+                    }
                 }
-                _ => {
-                    p.refs.push(PrimRef::default());
-                    p.normals.push(Vec3::ZERO);
-                }
-            }
+                None => PrimRef::default(),
+            });
+            p.normals.push(Vec3::ZERO);
         }
         p
     }
