@@ -13,7 +13,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::prims::{Prims, TriRay};
+use super::prims::{Prims, Tester};
 use crate::geometry::robust::next_up;
 use crate::geometry::{Aabb, PreparedRay, Ray, ShapeHit, Vec3};
 use crate::scene::{Object, ObjectId};
@@ -246,36 +246,6 @@ impl Mailbox {
         self.ids[self.next & 7] = id;
         self.next = self.next.wrapping_add(1);
         false
-    }
-}
-
-/// Object tests for one ray.
-struct Tester<'a> {
-    prims: Option<&'a Prims>,
-    objects: &'a [Object],
-    pre: &'a PreparedRay,
-    tr: TriRay,
-}
-
-impl Tester<'_> {
-    #[inline]
-    fn intersect(&self, id: ObjectId, tmin: f64, tmax: f64) -> Option<ShapeHit> {
-        match self.prims {
-            Some(p) => p.intersect(self.objects, id, self.pre, &self.tr, tmin, tmax),
-            None => self.objects[id as usize]
-                .shape
-                .intersect_prepared(self.pre, tmin, tmax),
-        }
-    }
-
-    #[inline]
-    fn occludes(&self, id: ObjectId, tmin: f64, tmax: f64) -> bool {
-        match self.prims {
-            Some(p) => p.occludes(self.objects, id, self.pre, &self.tr, tmin, tmax),
-            None => self.objects[id as usize]
-                .shape
-                .occludes_prepared(self.pre, tmin, tmax),
-        }
     }
 }
 
@@ -599,12 +569,7 @@ impl Octree {
     /// for `objects`, else through the shapes.
     #[inline]
     fn tester<'a>(&'a self, objects: &'a [Object], pre: &'a PreparedRay) -> Tester<'a> {
-        Tester {
-            prims: self.prims.matches(objects).then_some(&self.prims),
-            objects,
-            pre,
-            tr: TriRay::new(pre),
-        }
+        Tester::new(&self.prims, objects, pre)
     }
 
     /// Parametric interval of the ray inside the root cube, clipped to `[tmin, tmax]`.

@@ -273,6 +273,49 @@ impl Prims {
     }
 }
 
+/// Object tests for one ray: through the compact data where it was built
+/// for `objects`, else through the shapes.
+pub(crate) struct Tester<'a> {
+    prims: Option<&'a Prims>,
+    objects: &'a [Object],
+    pre: &'a PreparedRay,
+    tr: TriRay,
+}
+
+impl<'a> Tester<'a> {
+    #[inline]
+    pub(crate) fn new(prims: &'a Prims, objects: &'a [Object], pre: &'a PreparedRay) -> Self {
+        Tester {
+            prims: prims.matches(objects).then_some(prims),
+            objects,
+            pre,
+            tr: TriRay::new(pre),
+        }
+    }
+
+    /// Nearest hit of object `id` with `tmin < t < tmax`.
+    #[inline]
+    pub(crate) fn intersect(&self, id: ObjectId, tmin: f64, tmax: f64) -> Option<ShapeHit> {
+        match self.prims {
+            Some(p) => p.intersect(self.objects, id, self.pre, &self.tr, tmin, tmax),
+            None => self.objects[id as usize]
+                .shape
+                .intersect_prepared(self.pre, tmin, tmax),
+        }
+    }
+
+    /// True if object `id` has a hit with `tmin < t < tmax`.
+    #[inline]
+    pub(crate) fn occludes(&self, id: ObjectId, tmin: f64, tmax: f64) -> bool {
+        match self.prims {
+            Some(p) => p.occludes(self.objects, id, self.pre, &self.tr, tmin, tmax),
+            None => self.objects[id as usize]
+                .shape
+                .occludes_prepared(self.pre, tmin, tmax),
+        }
+    }
+}
+
 /// Two lanes of doubles; the operators work lane by lane (compiled to
 /// packed SSE2 arithmetic, each lane rounded exactly like the scalar code).
 #[derive(Debug, Clone, Copy)]

@@ -171,16 +171,27 @@ fn check_structure(tree: &Octree, objects: &[Object]) {
     assert_eq!(tree.leaves().count(), st.leaf_nodes);
 }
 
-fn assert_same(objects: &[Object], tree: &Octree, ray: &Ray, tmin: f64, tmax: f64) {
+/// The octree and the hierarchy answer like the brute-force reference.
+fn assert_same(objects: &[Object], tree: &Octree, bvh: &Bvh, ray: &Ray, tmin: f64, tmax: f64) {
     let a = tree.intersect(objects, ray, tmin, tmax);
     let b = intersect_brute_force(objects, ray, tmin, tmax);
     assert_eq!(a, b, "octree vs brute force for {ray:?}");
+    assert_eq!(
+        bvh.intersect(objects, ray, tmin, tmax),
+        b,
+        "bvh vs brute force for {ray:?} in [{tmin}, {tmax}]"
+    );
     assert_eq!(tree.occluded(objects, ray, tmin, tmax, None), b.is_some());
+    assert_eq!(bvh.occluded(objects, ray, tmin, tmax, None), b.is_some());
     if let Some(h) = b {
         // Ignoring the nearest object: occluded iff some other object is hit.
         let others = occluded_brute_force(objects, ray, tmin, tmax, Some(h.object));
         assert_eq!(
             tree.occluded(objects, ray, tmin, tmax, Some(h.object)),
+            others
+        );
+        assert_eq!(
+            bvh.occluded(objects, ray, tmin, tmax, Some(h.object)),
             others
         );
     }
@@ -235,13 +246,14 @@ fn empty_and_degenerate_scenes() {
         .collect();
     objs.push(obj(Shape::sphere(v(0.5, 0.5, 0.0), 1e-3, false).unwrap()));
     let tree = Octree::build(&objs, &OctreeParams::default());
+    let bvh = Bvh::build(&objs);
     check_structure(&tree, &objs);
     // Coincident surfaces stop subdividing (stall rule): the tree stays small.
     assert!(tree.node_count() < 20_000, "{:?}", tree.stats());
     let ray = Ray::new(v(0.7, 0.2, 1.0), -Vec3::Z);
     let h = tree.intersect(&objs, &ray, 0.0, f64::INFINITY).unwrap();
     assert_eq!(h.object, 0, "ties resolve to the smallest id");
-    assert_same(&objs, &tree, &ray, 0.0, f64::INFINITY);
+    assert_same(&objs, &tree, &bvh, &ray, 0.0, f64::INFINITY);
 }
 
 #[test]
@@ -291,11 +303,12 @@ fn early_out_does_not_stop_at_far_hit_of_earlier_cell() {
             ..OctreeParams::default()
         },
     );
+    let bvh = Bvh::build(&objs);
     let ray = Ray::new(v(0.5, 0.0, 0.0), Vec3::X);
     let h = tree.intersect(&objs, &ray, 0.0, f64::INFINITY).unwrap();
     assert_eq!(h.object, objs.len() as u32 - 1);
     assert!((h.t - 5.0).abs() < 1e-12);
-    assert_same(&objs, &tree, &ray, 0.0, f64::INFINITY);
+    assert_same(&objs, &tree, &bvh, &ray, 0.0, f64::INFINITY);
 }
 
 fn arb_dir() -> impl Strategy<Value = Vec3> {
@@ -318,6 +331,7 @@ fn octree_equals_brute_force_on_random_scenes() {
             ..OctreeParams::default()
         };
         let tree = Octree::build(&objects, &params);
+        let bvh = Bvh::build(&objects);
         check_structure(&tree, &objects);
         let mut runner = TestRunner::new(Config {
             cases: 400,
@@ -333,16 +347,16 @@ fn octree_equals_brute_force_on_random_scenes() {
                 ),
                 |((x, y, z), d, tm)| {
                     let ray = Ray::new(v(x, y, z), d);
-                    assert_same(&objects, &tree, &ray, 0.0, f64::INFINITY);
+                    assert_same(&objects, &tree, &bvh, &ray, 0.0, f64::INFINITY);
                     // Limited segments (shadow rays) too.
-                    assert_same(&objects, &tree, &ray, 0.0, tm * 8.0);
+                    assert_same(&objects, &tree, &bvh, &ray, 0.0, tm * 8.0);
                     // Rays aimed at an object's sample point.
                     let k = ((x + 2.0) * 1000.0) as usize % objects.len();
                     let (p, _) = objects[k].shape.sample(tm, (y + 2.0) / 14.0);
                     let o = v(x, y, z);
                     if (p - o).length() > 1e-6 {
                         let ray = Ray::new(o, p - o);
-                        assert_same(&objects, &tree, &ray, 0.0, f64::INFINITY);
+                        assert_same(&objects, &tree, &bvh, &ray, 0.0, f64::INFINITY);
                         prop_assert!(tree.intersect(&objects, &ray, 0.0, f64::INFINITY).is_some());
                     }
                     Ok(())
@@ -385,6 +399,7 @@ fn rays_along_cell_faces_edges_and_corners() {
             ..OctreeParams::default()
         },
     );
+    let bvh = Bvh::build(&objects);
     check_structure(&tree, &objects);
     assert_eq!(tree.root_bounds(), root);
     // Collect every distinct cell-boundary coordinate per axis.
@@ -421,12 +436,12 @@ fn rays_along_cell_faces_edges_and_corners() {
                     let mut d = Vec3::ZERO;
                     d[axis] = sign;
                     let ray = Ray { origin: o, dir: d };
-                    assert_same(&objects, &tree, &ray, 0.0, f64::INFINITY);
+                    assert_same(&objects, &tree, &bvh, &ray, 0.0, f64::INFINITY);
                     // Starting exactly on a cell corner, inside the tree.
                     let mut o2 = o;
                     o2[axis] = planes[axis][iu % planes[axis].len()];
                     let ray2 = Ray { origin: o2, dir: d };
-                    assert_same(&objects, &tree, &ray2, 0.0, f64::INFINITY);
+                    assert_same(&objects, &tree, &bvh, &ray2, 0.0, f64::INFINITY);
                     count += 2;
                     hits += tree.intersect(&objects, &ray, 0.0, f64::INFINITY).is_some() as usize;
                 }
@@ -444,9 +459,9 @@ fn rays_along_cell_faces_edges_and_corners() {
             v(-1.0, -1.0, 1.0),
         ] {
             let ray = Ray::new(v(x, y, z), d);
-            assert_same(&objects, &tree, &ray, 0.0, f64::INFINITY);
+            assert_same(&objects, &tree, &bvh, &ray, 0.0, f64::INFINITY);
             let back = Ray::new(v(x, y, z) - ray.dir * 20.0, d);
-            assert_same(&objects, &tree, &back, 0.0, f64::INFINITY);
+            assert_same(&objects, &tree, &bvh, &back, 0.0, f64::INFINITY);
             count += 2;
         }
     }
@@ -456,7 +471,7 @@ fn rays_along_cell_faces_edges_and_corners() {
             origin: v(root.min.x - 1.0, g(j, 1), g(4, 2)),
             dir: Vec3::X,
         };
-        assert_same(&objects, &tree, &ray, 0.0, f64::INFINITY);
+        assert_same(&objects, &tree, &bvh, &ray, 0.0, f64::INFINITY);
         let h = tree
             .intersect(&objects, &ray, 0.0, f64::INFINITY)
             .expect("row of objects");
@@ -465,7 +480,7 @@ fn rays_along_cell_faces_edges_and_corners() {
             origin: v(g(j, 0), g(j, 1), root.max.z + 1.0),
             dir: -Vec3::Z,
         };
-        assert_same(&objects, &tree, &ray, 0.0, f64::INFINITY);
+        assert_same(&objects, &tree, &bvh, &ray, 0.0, f64::INFINITY);
         assert!(tree.intersect(&objects, &ray, 0.0, f64::INFINITY).is_some());
         count += 2;
     }
@@ -512,6 +527,7 @@ fn same_hits_at_all_scales() {
         .iter()
         .map(|(_, o)| Octree::build(o, &OctreeParams::default()))
         .collect();
+    let bvhs: Vec<Bvh> = scenes.iter().map(|(_, o)| Bvh::build(o)).collect();
     let mut runner = TestRunner::new(Config {
         cases: 500,
         rng_seed: RngSeed::Fixed(99),
@@ -545,6 +561,19 @@ fn same_hits_at_all_scales() {
                         )
                     })
                     .collect();
+                for (((s, objs), t), b) in scenes.iter().zip(&trees).zip(&bvhs) {
+                    let ray = Ray {
+                        origin: o * *s,
+                        dir: d,
+                    };
+                    let want = t.intersect(objs, &ray, 0.0, f64::INFINITY);
+                    prop_assert_eq!(b.intersect(objs, &ray, 0.0, f64::INFINITY), want);
+                    if let Some(h) = want {
+                        // A shadow ray to just short of the hit, and past it.
+                        prop_assert!(!b.occluded(objs, &ray, 0.0, h.t * (1.0 - 1e-9), None));
+                        prop_assert!(b.occluded(objs, &ray, 0.0, h.t * (1.0 + 1e-9), None));
+                    }
+                }
                 let h1 = hits[1].expect("aimed at an object");
                 for (i, h) in hits.iter().enumerate() {
                     let s = scenes[i].0;
@@ -820,4 +849,64 @@ fn resumable_traversal_equals_intersect_and_occluded_wherever_it_stops() {
         total_hops += hops.get();
     }
     assert!(total_hops > 100, "rays should have migrated: {total_hops}");
+}
+
+#[test]
+fn bvh_on_empty_single_and_coincident_scenes() {
+    let r = Ray::new(v(0.2, 0.3, 5.0), -Vec3::Z);
+    for bvh in [Bvh::default(), Bvh::build(&[])] {
+        assert!(bvh.intersect(&[], &r, 0.0, f64::INFINITY).is_none());
+        assert!(!bvh.occluded(&[], &r, 0.0, f64::INFINITY, None));
+        assert_eq!(bvh.stats().nodes, 0);
+    }
+    // One object: a single leaf beside an unused child.
+    let one = vec![obj(Shape::sphere(Vec3::ZERO, 1.0, false).unwrap())];
+    let bvh = Bvh::build(&one);
+    assert_eq!(bvh.stats().leaves, 1);
+    assert_eq!(
+        bvh.intersect(&one, &r, 0.0, f64::INFINITY),
+        intersect_brute_force(&one, &r, 0.0, f64::INFINITY)
+    );
+    // 300 coincident triangles (no centre spread: split by count) plus a
+    // flat sheet of them in one plane, hit on the plane's edge and along it.
+    let mut objs: Vec<Object> = (0..300)
+        .map(|_| {
+            obj(Shape::polygon(vec![v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(1.0, 1.0, 0.0)]).unwrap())
+        })
+        .collect();
+    for i in 0..50 {
+        let x = i as f64;
+        objs.push(obj(Shape::polygon(vec![
+            v(x, 2.0, 0.0),
+            v(x + 1.0, 2.0, 0.0),
+            v(x + 1.0, 3.0, 0.0),
+        ])
+        .unwrap()));
+    }
+    let tree = Octree::build(&objs, &OctreeParams::default());
+    let bvh = Bvh::build(&objs);
+    let s = bvh.stats();
+    assert_eq!(s.objects, objs.len());
+    assert!(s.depth < 96, "{s:?}");
+    for ray in [
+        Ray::new(v(0.7, 0.2, 1.0), -Vec3::Z),
+        Ray::new(v(0.5, 0.5, 1.0), -Vec3::Z),
+        Ray::new(v(10.0, 2.0, 1.0), -Vec3::Z),
+        Ray::new(v(-1.0, 2.5, 0.0), Vec3::X),
+        Ray::new(v(-1.0, 2.0, 0.0), v(1.0, 0.0, 1e-300)),
+        Ray::new(v(25.5, 2.5, 1.0), v(1e-9, 0.0, -1.0)),
+    ] {
+        assert_same(&objs, &tree, &bvh, &ray, 0.0, f64::INFINITY);
+        assert_same(&objs, &tree, &bvh, &ray, 0.0, 1.0);
+    }
+    let h = bvh
+        .intersect(
+            &objs,
+            &Ray::new(v(0.7, 0.2, 1.0), -Vec3::Z),
+            0.0,
+            f64::INFINITY,
+        )
+        .unwrap();
+    assert_eq!(h.object, 0, "ties resolve to the smallest id");
+    assert!(bvh.memory_bytes() > 0);
 }

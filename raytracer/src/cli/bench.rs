@@ -167,6 +167,7 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
     let scene = scene::load(&[&path])?;
     let renderer = Renderer::new(&scene, options.clone())?;
     let caster = renderer.caster();
+    let octree_caster = renderer.octree_caster();
     let ctx = renderer.context();
     let os = renderer.octree().stats();
     println!(
@@ -180,6 +181,18 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         renderer.stats(w, h, &Default::default(), 1.0).time.octree_build_s
     );
 
+    let bs = renderer.bvh().stats();
+    println!(
+        "hierarchy: {} nodes, {} leaves, {} objects, depth {}, built in {:.3} s",
+        bs.nodes,
+        bs.leaves,
+        bs.objects,
+        bs.depth,
+        renderer
+            .stats(w, h, &Default::default(), 1.0)
+            .time
+            .bvh_build_s
+    );
     let rss_scene = peak_rss();
 
     // Primary rays, a chunk of pixels at a time, then the shadow rays from
@@ -189,9 +202,16 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
     let pixels = w * h;
     let mut rays: Vec<(Ray, f64, f64)> = Vec::with_capacity(CHUNK);
     let mut hits: Vec<Option<crate::accel::Hit>> = Vec::with_capacity(CHUNK);
+    let mut octree_hits: Vec<Option<crate::accel::Hit>> = Vec::with_capacity(CHUNK);
     let mut shadow: Vec<(Ray, f64, Option<ObjectId>)> = Vec::new();
     let mut blocked: Vec<bool> = Vec::new();
+    let mut octree_blocked: Vec<bool> = Vec::new();
     let (mut primary_time, mut shadow_time) = (Duration::ZERO, Duration::ZERO);
+    // The same queries through the octree, batch by batch beside the
+    // hierarchy's (a slow spell of a shared machine hits both), and the
+    // answers on which the two differ (there should be none).
+    let (mut octree_primary, mut octree_shadow) = (Duration::ZERO, Duration::ZERO);
+    let (mut differ_primary, mut differ_shadow) = (0u64, 0u64);
     let (mut n_primary, mut n_hits, mut n_shadow, mut n_blocked) = (0u64, 0u64, 0u64, 0u64);
     let (mut fp_primary, mut fp_shadow) = (Fingerprint::new(), Fingerprint::new());
     let mut rng = Rng::new(1);
@@ -203,6 +223,14 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         let t0 = Instant::now();
         trace_shadow(&caster, shadow, &mut blocked);
         shadow_time += t0.elapsed();
+        let t0 = Instant::now();
+        trace_shadow(&octree_caster, shadow, &mut octree_blocked);
+        octree_shadow += t0.elapsed();
+        differ_shadow += blocked
+            .iter()
+            .zip(&octree_blocked)
+            .filter(|(a, b)| a != b)
+            .count() as u64;
         n_blocked += blocked.iter().filter(|&&b| b).count() as u64;
         for &b in &blocked {
             fp_shadow.word(b as u64);
@@ -226,6 +254,14 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         let t0 = Instant::now();
         trace_primary(&caster, &rays, &mut hits);
         primary_time += t0.elapsed();
+        let t0 = Instant::now();
+        trace_primary(&octree_caster, &rays, &mut octree_hits);
+        octree_primary += t0.elapsed();
+        differ_primary += hits
+            .iter()
+            .zip(&octree_hits)
+            .filter(|(a, b)| a != b)
+            .count() as u64;
         n_primary += rays.len() as u64;
         for h in &hits {
             fp_primary.hit(h);
@@ -288,6 +324,15 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         "fingerprint: primary {:016x}, shadow {:016x}",
         fp_primary.0, fp_shadow.0
     );
+    println!(
+        "octree kernel on the same rays: primary {:.2}, shadow {:.2}, primary + shadow {:.2} Mrays/s; hierarchy / octree {:.2}x; {} answers differ",
+        rate(n_primary, octree_primary),
+        rate(n_shadow, octree_shadow),
+        rate(n_primary + n_shadow, octree_primary + octree_shadow),
+        (octree_primary + octree_shadow).as_secs_f64()
+            / (primary_time + shadow_time).as_secs_f64().max(1e-12),
+        differ_primary + differ_shadow
+    );
     let rss_bench = peak_rss();
 
     let mut rss_render = None;
@@ -302,8 +347,9 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
     }
     let show = |b: Option<usize>| b.map_or("n/a".to_string(), |b| format!("{:.1} MiB", mib(b)));
     println!(
-        "memory: octree {:.2} MiB, objects {:.2} MiB, film {:.2} MiB; peak RSS {} after loading, {} after the ray benchmark, {} after the render",
+        "memory: octree {:.2} MiB, hierarchy {:.2} MiB, objects {:.2} MiB, film {:.2} MiB; peak RSS {} after loading, {} after the ray benchmark, {} after the render",
         mib(renderer.octree().memory_bytes()),
+        mib(renderer.bvh().memory_bytes()),
         mib(object_bytes(&scene.objects)),
         mib(w * h * std::mem::size_of::<crate::scene::Color>()),
         show(rss_scene),

@@ -1,9 +1,11 @@
 //! What shading needs from the geometry: nearest hit and any hit.
 //!
-//! The sequential renderer casts against the whole octree; the parallel
-//! renderer will implement [`RayCaster`] over the cells a processor holds.
+//! The sequential renderer casts through a hierarchy over the whole scene
+//! ([`BvhCaster`]); the octree ([`OctreeCaster`]) answers the same queries
+//! exactly, and the parallel renderer implements [`RayCaster`] over the
+//! octree cells a processor holds.
 
-use crate::accel::{intersect_brute_force, occluded_brute_force, Hit, Octree};
+use crate::accel::{intersect_brute_force, occluded_brute_force, Bvh, Hit, Octree};
 use crate::geometry::Ray;
 use crate::scene::{Object, ObjectId};
 
@@ -31,6 +33,25 @@ impl RayCaster for OctreeCaster<'_> {
     #[inline]
     fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> bool {
         self.octree.occluded(self.objects, ray, tmin, tmax, ignore)
+    }
+}
+
+/// Casts rays through a [`Bvh`] built over `objects`.
+#[derive(Debug, Clone, Copy)]
+pub struct BvhCaster<'a> {
+    pub bvh: &'a Bvh,
+    pub objects: &'a [Object],
+}
+
+impl RayCaster for BvhCaster<'_> {
+    #[inline]
+    fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        self.bvh.intersect(self.objects, ray, tmin, tmax)
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> bool {
+        self.bvh.occluded(self.objects, ray, tmin, tmax, ignore)
     }
 }
 

@@ -24,7 +24,7 @@ pub mod rng;
 pub mod sequential;
 pub mod stats;
 
-pub use caster::{BruteForceCaster, OctreeCaster, RayCaster};
+pub use caster::{BruteForceCaster, BvhCaster, OctreeCaster, RayCaster};
 pub use effects::{Effect, EffectsReport};
 pub use material::{RayKind, RayTask, Request, ShadowBundle};
 pub use options::{RenderOptions, QUALITY_PRESETS, RADIANCE_OPTIONS};

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::ambient::{AmbientRequest, AmbientSettings, AmbientStore, Hemisphere};
-use super::caster::{OctreeCaster, RayCaster};
+use super::caster::{BvhCaster, OctreeCaster, RayCaster};
 use super::direct::{run_shadow_bundle, Contribution};
 use super::effects::EffectsReport;
 use super::light::{prepare_lights, PreparedLight};
@@ -15,7 +15,7 @@ use super::material::{shade, RayKind, RayTask, Request, ShadeContext};
 use super::options::RenderOptions;
 use super::rng::{child_seed, pixel_seed, Rng};
 use super::stats::{EffectTimes, RayCounts, RenderStats, Timings};
-use crate::accel::{Octree, OctreeParams};
+use crate::accel::{Bvh, Octree, OctreeParams};
 use crate::geometry::{Ray, Vec3};
 use crate::image::Film;
 use crate::scene::{Color, LightKind, Material, Scene};
@@ -125,11 +125,13 @@ pub struct Renderer<'s> {
     scene: SceneRef<'s>,
     options: RenderOptions,
     octree: Octree,
+    bvh: Bvh,
     lights: Vec<PreparedLight>,
     sky: Vec<SkySource>,
     effects: EffectsReport,
     warnings: Vec<String>,
     build_s: f64,
+    bvh_build_s: f64,
     ambient: AmbientSettings,
 }
 
@@ -168,6 +170,9 @@ impl<'s> Renderer<'s> {
         let t0 = Instant::now();
         let octree = Octree::build(&scene.objects, params);
         let build_s = t0.elapsed().as_secs_f64();
+        let t0 = Instant::now();
+        let bvh = Bvh::build(&scene.objects);
+        let bvh_build_s = t0.elapsed().as_secs_f64();
         let (lights, mut warnings) = prepare_lights(&scene);
         if scene.lights.is_empty() && options.av == Color::ZERO {
             warnings.push(
@@ -210,11 +215,13 @@ impl<'s> Renderer<'s> {
             scene,
             options,
             octree,
+            bvh,
             lights,
             sky,
             effects,
             warnings,
             build_s,
+            bvh_build_s,
             ambient,
         })
     }
@@ -253,8 +260,22 @@ impl<'s> Renderer<'s> {
         }
     }
 
-    /// The ray caster over the whole octree.
-    pub fn caster(&self) -> OctreeCaster<'_> {
+    /// The hierarchy rays are traced through (see [`crate::accel::Bvh`]).
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    /// The ray caster over the whole scene (through the hierarchy; the
+    /// same answers as [`Renderer::octree_caster`]).
+    pub fn caster(&self) -> BvhCaster<'_> {
+        BvhCaster {
+            bvh: &self.bvh,
+            objects: &self.scene.objects,
+        }
+    }
+
+    /// The ray caster through the whole octree.
+    pub fn octree_caster(&self) -> OctreeCaster<'_> {
         OctreeCaster {
             octree: &self.octree,
             objects: &self.scene.objects,
@@ -563,6 +584,7 @@ impl<'s> Renderer<'s> {
             effects: self.effects.clone(),
             time: Timings {
                 octree_build_s: self.build_s,
+                bvh_build_s: self.bvh_build_s,
                 render_s,
                 primary_s: st.times.primary.as_secs_f64(),
                 direct_s: st.times.direct.as_secs_f64(),

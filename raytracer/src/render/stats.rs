@@ -59,6 +59,9 @@ impl RayCounts {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Timings {
     pub octree_build_s: f64,
+    /// Building the hierarchy rays are traced through within a processor.
+    #[serde(default)]
+    pub bvh_build_s: f64,
     /// Wall-clock time of the pixel loop.
     pub render_s: f64,
     /// Tracing and shading primary rays (and rays passed through invisible surfaces).
