@@ -80,8 +80,9 @@ pub struct InstanceGeometry {
     /// A name for statistics and messages (the source file or generator name).
     pub name: String,
     pub objects: Vec<crate::scene::Object>,
-    /// Acceleration structure over `objects`, in object space.
-    pub accel: crate::accel::Octree,
+    /// Acceleration structure over `objects`, in object space (a
+    /// hierarchy: an instance is never split between processors).
+    pub accel: crate::accel::Bvh,
     pub bounds: Aabb,
 }
 

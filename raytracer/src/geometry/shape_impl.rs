@@ -14,7 +14,7 @@ use super::robust::{diff_of_products, orthonormal_basis};
 use super::shape::{Instance, InstanceGeometry, Polygon, Shape, ShapeHit, Transform};
 use super::triangulate::{ear_clip, project};
 use super::{Aabb, PreparedRay, Ray, Vec3};
-use crate::accel::{Octree, OctreeParams};
+use crate::accel::Bvh;
 use crate::scene::Object;
 
 /// Largest distance of a polygon vertex from the polygon's plane, relative
@@ -550,21 +550,12 @@ impl Shape {
 }
 
 impl InstanceGeometry {
-    /// Shared geometry with its own octree (default parameters) in object space.
+    /// Shared geometry with its own hierarchy ([`Bvh`]) in object space.
     pub fn new(name: impl Into<String>, objects: Vec<Object>) -> Self {
-        Self::with_params(name, objects, &OctreeParams::default())
-    }
-
-    /// Like [`InstanceGeometry::new`] with explicit octree parameters.
-    pub fn with_params(
-        name: impl Into<String>,
-        objects: Vec<Object>,
-        params: &OctreeParams,
-    ) -> Self {
         let bounds = objects
             .iter()
             .fold(Aabb::EMPTY, |b, o| b.union(o.shape.bounds()));
-        let accel = Octree::build(&objects, params);
+        let accel = Bvh::build(&objects);
         Self {
             name: name.into(),
             objects,
