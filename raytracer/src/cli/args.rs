@@ -297,6 +297,10 @@ pub struct BenchArgs {
     /// Also run a full render and report its throughput.
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     pub render: bool,
+    /// Also time the octree kernel on the same rays, batch by batch beside
+    /// the hierarchy, and check that every answer agrees.
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub octree: bool,
     /// Thread scaling instead: render with the threads runtime on each of these processor counts
     /// (e.g. 1,2,4), replicated and octree-distributed, beside the sequential renderer; runs are
     /// interleaved and each time is the median of --repeat runs.

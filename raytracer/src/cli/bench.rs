@@ -223,14 +223,16 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         let t0 = Instant::now();
         trace_shadow(&caster, shadow, &mut blocked);
         shadow_time += t0.elapsed();
-        let t0 = Instant::now();
-        trace_shadow(&octree_caster, shadow, &mut octree_blocked);
-        octree_shadow += t0.elapsed();
-        differ_shadow += blocked
-            .iter()
-            .zip(&octree_blocked)
-            .filter(|(a, b)| a != b)
-            .count() as u64;
+        if a.octree {
+            let t0 = Instant::now();
+            trace_shadow(&octree_caster, shadow, &mut octree_blocked);
+            octree_shadow += t0.elapsed();
+            differ_shadow += blocked
+                .iter()
+                .zip(&octree_blocked)
+                .filter(|(a, b)| a != b)
+                .count() as u64;
+        }
         n_blocked += blocked.iter().filter(|&&b| b).count() as u64;
         for &b in &blocked {
             fp_shadow.word(b as u64);
@@ -254,14 +256,16 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         let t0 = Instant::now();
         trace_primary(&caster, &rays, &mut hits);
         primary_time += t0.elapsed();
-        let t0 = Instant::now();
-        trace_primary(&octree_caster, &rays, &mut octree_hits);
-        octree_primary += t0.elapsed();
-        differ_primary += hits
-            .iter()
-            .zip(&octree_hits)
-            .filter(|(a, b)| a != b)
-            .count() as u64;
+        if a.octree {
+            let t0 = Instant::now();
+            trace_primary(&octree_caster, &rays, &mut octree_hits);
+            octree_primary += t0.elapsed();
+            differ_primary += hits
+                .iter()
+                .zip(&octree_hits)
+                .filter(|(a, b)| a != b)
+                .count() as u64;
+        }
         n_primary += rays.len() as u64;
         for h in &hits {
             fp_primary.hit(h);
@@ -324,7 +328,8 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         "fingerprint: primary {:016x}, shadow {:016x}",
         fp_primary.0, fp_shadow.0
     );
-    println!(
+    if a.octree {
+        println!(
         "octree kernel on the same rays: primary {:.2}, shadow {:.2}, primary + shadow {:.2} Mrays/s; hierarchy / octree {:.2}x; {} answers differ",
         rate(n_primary, octree_primary),
         rate(n_shadow, octree_shadow),
@@ -333,6 +338,7 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
             / (primary_time + shadow_time).as_secs_f64().max(1e-12),
         differ_primary + differ_shadow
     );
+    }
     let rss_bench = peak_rss();
 
     let mut rss_render = None;
