@@ -148,12 +148,6 @@ struct Builder {
     depth: u32,
 }
 
-/// What the build does with a set of references.
-enum Split {
-    Leaf(Vec<Item>),
-    Two(Vec<Item>, Vec<Item>),
-}
-
 fn area(b: &Aabb) -> f64 {
     if b.is_empty() {
         return 0.0;
@@ -199,23 +193,24 @@ fn sweep(bin_box: &[Aabb; BINS], bin_n: &[usize; BINS], parent_area: f64) -> Opt
 impl Builder {
     /// Builds the subtree over `items` and returns its box, link and count
     /// (see [`Node`]).
-    fn subtree(&mut self, items: Vec<Item>, depth: u32) -> (Aabb, u32, u32) {
-        let bounds = bounds_of(&items);
+    fn subtree(&mut self, items: &mut [Item], depth: u32) -> (Aabb, u32, u32) {
+        let bounds = bounds_of(items);
         match self.split(items, &bounds, depth) {
-            Split::Leaf(items) => {
+            None => {
                 self.depth = self.depth.max(depth);
                 let start = self.ids.len() as u32;
                 self.ids.extend(items.iter().map(|it| it.id));
                 (bounds, start, items.len() as u32)
             }
-            Split::Two(left, right) => (bounds, self.node(left, right, depth), 0),
+            Some(mid) => (bounds, self.node(items, mid, depth), 0),
         }
     }
 
-    /// A node with children over `left` and `right`.
-    fn node(&mut self, left: Vec<Item>, right: Vec<Item>, depth: u32) -> u32 {
+    /// A node with children over `items[..mid]` and `items[mid..]`.
+    fn node(&mut self, items: &mut [Item], mid: usize, depth: u32) -> u32 {
         let id = self.nodes.len() as u32;
         self.nodes.push(Node::UNUSED);
+        let (left, right) = items.split_at_mut(mid);
         let (b0, l0, c0) = self.subtree(left, depth + 1);
         let (b1, l1, c1) = self.subtree(right, depth + 1);
         let n = &mut self.nodes[id as usize];
@@ -228,25 +223,24 @@ impl Builder {
     /// three axes (objects binned by box centre); a split by count where
     /// centres coincide or the tree would grow too deep for the traversal
     /// stack.
-    fn split(&self, items: Vec<Item>, bounds: &Aabb, depth: u32) -> Split {
+    fn split(&self, items: &mut [Item], bounds: &Aabb, depth: u32) -> Option<usize> {
         let n = items.len();
         if n <= 1 {
-            return Split::Leaf(items);
+            return None;
         }
         let cb = items.iter().fold(Aabb::EMPTY, |a, it| a.grow(it.center));
         let axis_ext = cb.extent();
         let widest = axis_ext.max_position();
-        let by_count = |mut items: Vec<Item>| {
+        let by_count = |items: &mut [Item]| {
             if n <= MAX_LEAF {
-                return Split::Leaf(items);
+                return None;
             }
-            items.sort_by(|a, b| {
+            items.sort_unstable_by(|a, b| {
                 a.center[widest]
                     .total_cmp(&b.center[widest])
                     .then(a.id.cmp(&b.id))
             });
-            let right = items.split_off(n / 2);
-            Split::Two(items, right)
+            Some(n / 2)
         };
         if depth >= SAH_DEPTH || axis_ext.max_element() <= 0.0 || !axis_ext.is_finite() {
             return by_count(items);
@@ -263,7 +257,7 @@ impl Builder {
             }
             let mut bin_box = [Aabb::EMPTY; BINS];
             let mut bin_n = [0usize; BINS];
-            for it in &items {
+            for it in items.iter() {
                 let b = bin(it, axis);
                 bin_box[b] = bin_box[b].union(it.bounds);
                 bin_n[b] += 1;
@@ -280,10 +274,9 @@ impl Builder {
         if n <= MAX_LEAF && cost >= n as f64 {
             return by_count(items);
         }
-        // A stable partition: the build does not depend on the sort.
-        let (left, right): (Vec<Item>, Vec<Item>) =
-            items.into_iter().partition(|it| bin(it, axis) < b);
-        Split::Two(left, right)
+        // In place, ordered by side and id: deterministic.
+        items.sort_unstable_by_key(|it| (bin(it, axis) >= b, it.id));
+        Some(items.iter().take_while(|it| bin(it, axis) < b).count())
     }
 }
 
@@ -331,15 +324,15 @@ impl Bvh {
             ids: Vec::with_capacity(items.len()),
             depth: 0,
         };
-        match b.split(items, &all, 0) {
-            Split::Leaf(items) => {
+        match b.split(&mut items, &all, 0) {
+            None => {
                 b.nodes.push(Node::UNUSED);
                 b.nodes[0].set(0, all, 0, items.len() as u32);
                 b.ids.extend(items.iter().map(|it| it.id));
                 b.depth = 1;
             }
-            Split::Two(left, right) => {
-                b.node(left, right, 1);
+            Some(mid) => {
+                b.node(&mut items, mid, 1);
             }
         }
         bvh.nodes = b.nodes;

@@ -191,12 +191,18 @@ pub fn shadow_transmission<C: RayCaster + ?Sized>(
     } else {
         f64::INFINITY
     };
+    let mut ray = Ray { origin, dir };
+    // Nothing but the source on the way: what the segment loop below would
+    // also find (its first nearest hit is none or the source), for one
+    // any-hit query.
+    let blocked = caster.occluded(&ray, 0.0, tmax, target);
+    if !blocked {
+        return Color::ONE;
+    }
     if !ctx.effects.transparent_shadows.enabled {
-        let blocked = caster.occluded(&Ray { origin, dir }, 0.0, tmax, target);
-        return if blocked { Color::ZERO } else { Color::ONE };
+        return Color::ZERO;
     }
     let mut trans = Color::ONE;
-    let mut ray = Ray { origin, dir };
     let mut remaining = tmax;
     for _ in 0..MAX_SHADOW_SEGMENTS {
         let Some(hit) = caster.intersect(&ray, 0.0, remaining) else {
