@@ -4,10 +4,11 @@
 //! The octree stays what the paper made it: the partition of the scene into
 //! cells that processors own, and the structure a migrating ray's progress
 //! is counted in. Within one processor, for rays whose whole path is local
-//! (the sequential renderer, a replicated scene), this hierarchy answers the
-//! same queries with fewer steps: a binary tree built with the surface area
-//! heuristic, each node holding its two children's boxes so that both are
-//! tested at once, two double-precision lanes side by side.
+//! (the sequential renderer, a replicated scene, the shared geometry of
+//! instances), this hierarchy answers the same queries with fewer steps: a
+//! binary tree built with the surface area heuristic, each node holding its
+//! two children's boxes so that both are tested at once, two
+//! double-precision lanes side by side.
 //!
 //! **Same answers as the octree.** A node is only a filter: the objects it
 //! lets through are tested with the same code ([`Tester`]), and the answer
