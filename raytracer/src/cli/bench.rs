@@ -147,6 +147,11 @@ fn trace_shadow<C: RayCaster>(
     );
 }
 
+/// How many answers differ between two kernels' runs over the same rays.
+fn differing<T: PartialEq>(a: &[T], b: &[T]) -> u64 {
+    a.iter().zip(b).filter(|(x, y)| x != y).count() as u64
+}
+
 fn resolve_scene(a: &BenchArgs) -> Result<(PathBuf, View)> {
     resolve_scene_view(&a.scene, a.view_file.as_deref())
 }
@@ -227,11 +232,7 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
             let t0 = Instant::now();
             trace_shadow(&octree_caster, shadow, &mut octree_blocked);
             octree_shadow += t0.elapsed();
-            differ_shadow += blocked
-                .iter()
-                .zip(&octree_blocked)
-                .filter(|(a, b)| a != b)
-                .count() as u64;
+            differ_shadow += differing(&blocked, &octree_blocked);
         }
         n_blocked += blocked.iter().filter(|&&b| b).count() as u64;
         for &b in &blocked {
@@ -260,11 +261,7 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
             let t0 = Instant::now();
             trace_primary(&octree_caster, &rays, &mut octree_hits);
             octree_primary += t0.elapsed();
-            differ_primary += hits
-                .iter()
-                .zip(&octree_hits)
-                .filter(|(a, b)| a != b)
-                .count() as u64;
+            differ_primary += differing(&hits, &octree_hits);
         }
         n_primary += rays.len() as u64;
         for h in &hits {
