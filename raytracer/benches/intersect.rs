@@ -1,8 +1,9 @@
-//! Intersection micro-benchmarks: ray/triangle, ray/sphere, and octree
-//! nearest-hit and occlusion queries on a random scene of a few thousand polygons.
+//! Intersection micro-benchmarks: ray/triangle, ray/sphere, and octree and
+//! hierarchy nearest-hit and occlusion queries on a random scene of a few
+//! thousand polygons.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-use hybrid_rt::accel::{Octree, OctreeParams};
+use hybrid_rt::accel::{Bvh, Octree, OctreeParams};
 use hybrid_rt::geometry::{intersect_sphere, intersect_triangle, PreparedRay, Ray, Shape, Vec3};
 use hybrid_rt::scene::Object;
 
@@ -141,5 +142,45 @@ fn octree(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, primitives, octree);
+/// The hierarchy on the octree group's scene and rays (the same answers;
+/// `hybrid-rt bench` times the two side by side on real scenes).
+fn bvh(c: &mut Criterion) {
+    let mut rng = Lcg(2);
+    let objects = random_scene(&mut rng, 4000);
+    let bvh = Bvh::build(&objects);
+    eprintln!(
+        "hierarchy over {} polygons: {:?}",
+        objects.len(),
+        bvh.stats()
+    );
+    let rays = random_rays(&mut rng, 4096);
+    let mut g = c.benchmark_group("bvh");
+    g.throughput(Throughput::Elements(rays.len() as u64));
+    g.bench_function("build_4000_polygons", |bch| {
+        bch.iter(|| Bvh::build(black_box(&objects)).stats().nodes)
+    });
+    g.bench_function("nearest_hit", |bch| {
+        bch.iter(|| {
+            let mut n = 0u32;
+            for r in &rays {
+                n += bvh
+                    .intersect(&objects, black_box(r), 0.0, f64::INFINITY)
+                    .is_some() as u32;
+            }
+            n
+        })
+    });
+    g.bench_function("occlusion", |bch| {
+        bch.iter(|| {
+            let mut n = 0u32;
+            for r in &rays {
+                n += bvh.occluded(&objects, black_box(r), 0.0, 1.0, None) as u32;
+            }
+            n
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, primitives, octree, bvh);
 criterion_main!(benches);
