@@ -250,7 +250,12 @@ pub fn render_parallel_ranked(
         return Err(Error::Usage("--procs must be at least 1".into()));
     }
     let t0 = Instant::now();
-    let renderer = Renderer::shared(scene, options, &OctreeParams::default())?;
+    // Only the replicated distribution traces through the hierarchy.
+    let renderer = if popts.workload.distribution == Distribution::Replicated {
+        Renderer::shared(scene, options, &OctreeParams::default())?
+    } else {
+        Renderer::for_partition(scene, options, &OctreeParams::default())?
+    };
     ambient::check_hybrid(&renderer)?;
     let wl = RtWorkload::new(
         renderer,

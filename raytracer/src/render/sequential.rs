@@ -3,7 +3,7 @@
 //! in request order. It is the oracle the parallel renderer must match.
 
 use std::ops::{Deref, Range};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
 use super::ambient::{AmbientRequest, AmbientSettings, AmbientStore, Hemisphere};
@@ -132,13 +132,16 @@ pub struct Renderer<'s> {
     scene: SceneRef<'s>,
     options: RenderOptions,
     octree: Octree,
-    bvh: Bvh,
+    /// The hierarchy and its build time: built with the octree by the
+    /// constructors for rendering, on first use for a renderer that only
+    /// shades for the octree-distributed parallel renderer
+    /// ([`Renderer::for_partition`]).
+    bvh: OnceLock<(Bvh, f64)>,
     lights: Vec<PreparedLight>,
     sky: Vec<SkySource>,
     effects: EffectsReport,
     warnings: Vec<String>,
     build_s: f64,
-    bvh_build_s: f64,
     ambient: AmbientSettings,
 }
 
@@ -154,7 +157,7 @@ impl<'s> Renderer<'s> {
         options: RenderOptions,
         params: &OctreeParams,
     ) -> Result<Self> {
-        Self::build(SceneRef::Borrowed(scene), options, params)
+        Self::build(SceneRef::Borrowed(scene), options, params, true)
     }
 
     /// A renderer that shares ownership of its scene.
@@ -163,10 +166,26 @@ impl<'s> Renderer<'s> {
         options: RenderOptions,
         params: &OctreeParams,
     ) -> Result<Renderer<'static>> {
-        Renderer::build(SceneRef::Shared(scene), options, params)
+        Renderer::build(SceneRef::Shared(scene), options, params, true)
     }
 
-    fn build(scene: SceneRef<'s>, options: RenderOptions, params: &OctreeParams) -> Result<Self> {
+    /// [`Renderer::shared`] for the octree-distributed parallel renderer,
+    /// whose rays go through the octree's cells: the hierarchy is built
+    /// only if something asks for it.
+    pub fn for_partition(
+        scene: Arc<Scene>,
+        options: RenderOptions,
+        params: &OctreeParams,
+    ) -> Result<Renderer<'static>> {
+        Renderer::build(SceneRef::Shared(scene), options, params, false)
+    }
+
+    fn build(
+        scene: SceneRef<'s>,
+        options: RenderOptions,
+        params: &OctreeParams,
+        hierarchy: bool,
+    ) -> Result<Self> {
         options.validate()?;
         // An empty scene would render a silently black image.
         if scene.objects.is_empty() && scene.lights.is_empty() {
@@ -176,14 +195,23 @@ impl<'s> Renderer<'s> {
         }
         // The two structures side by side, each timed on its own thread.
         let objects = &scene.objects;
-        let ((octree, build_s), (bvh, bvh_build_s)) = std::thread::scope(|s| {
-            let bvh = s.spawn(|| timed_build(|| Bvh::build(objects)));
-            let octree = timed_build(|| Octree::build(objects, params));
-            (
-                octree,
-                bvh.join().unwrap_or_else(|p| std::panic::resume_unwind(p)),
-            )
-        });
+        let bvh = OnceLock::new();
+        let (octree, build_s) = if hierarchy {
+            let (octree, built) = std::thread::scope(|s| {
+                let built = s.spawn(|| timed_build(|| Bvh::build(objects)));
+                let octree = timed_build(|| Octree::build(objects, params));
+                (
+                    octree,
+                    built
+                        .join()
+                        .unwrap_or_else(|p| std::panic::resume_unwind(p)),
+                )
+            });
+            let _ = bvh.set(built);
+            octree
+        } else {
+            timed_build(|| Octree::build(objects, params))
+        };
         let (lights, mut warnings) = prepare_lights(&scene);
         if scene.lights.is_empty() && options.av == Color::ZERO {
             warnings.push(
@@ -232,7 +260,6 @@ impl<'s> Renderer<'s> {
             effects,
             warnings,
             build_s,
-            bvh_build_s,
             ambient,
         })
     }
@@ -273,14 +300,17 @@ impl<'s> Renderer<'s> {
 
     /// The hierarchy rays are traced through (see [`crate::accel::Bvh`]).
     pub fn bvh(&self) -> &Bvh {
-        &self.bvh
+        &self
+            .bvh
+            .get_or_init(|| timed_build(|| Bvh::build(&self.scene.objects)))
+            .0
     }
 
     /// The ray caster over the whole scene (through the hierarchy; the
     /// same answers as [`Renderer::octree_caster`]).
     pub fn caster(&self) -> BvhCaster<'_> {
         BvhCaster {
-            bvh: &self.bvh,
+            bvh: self.bvh(),
             objects: &self.scene.objects,
         }
     }
@@ -595,7 +625,7 @@ impl<'s> Renderer<'s> {
             effects: self.effects.clone(),
             time: Timings {
                 octree_build_s: self.build_s,
-                bvh_build_s: self.bvh_build_s,
+                bvh_build_s: self.bvh.get().map_or(0.0, |b| b.1),
                 render_s,
                 primary_s: st.times.primary.as_secs_f64(),
                 direct_s: st.times.direct.as_secs_f64(),
