@@ -72,8 +72,8 @@ pub fn subtree_costs(
             leaf[l as usize] += shade_ns;
         }
         for light in renderer.lights() {
-            let weight = light.patch_estimate(scene, h.point, ds) as f64;
-            let (dir, dist) = match light.extent(scene) {
+            let weight = light.patch_estimate(h.point, ds) as f64;
+            let (dir, dist) = match light.extent() {
                 Some(LightExtent::Finite(b)) => {
                     let d = b.center() - h.point;
                     let len = d.length();

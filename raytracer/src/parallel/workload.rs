@@ -571,7 +571,7 @@ impl RtWorkload {
             .renderer
             .lights()
             .get(b.light as usize)
-            .and_then(|l| l.extent(self.renderer.scene()))
+            .and_then(|l| l.extent())
             .and_then(|e| match e {
                 LightExtent::Finite(bb) => {
                     let lo = bb.min.min(b.point);
@@ -632,7 +632,7 @@ impl RtWorkload {
         }
         // Entries exist only for finite sources (checked here, on a miss).
         let light = self.renderer.lights().get(b.light as usize)?;
-        let LightExtent::Finite(lb) = light.extent(self.renderer.scene())? else {
+        let LightExtent::Finite(lb) = light.extent()? else {
             return None;
         };
         let cb = octree.node_bounds(leaf);
@@ -678,7 +678,7 @@ impl RtWorkload {
 
     fn shadow_pyramid(&self, b: &ShadowBundle) -> Option<Pyramid> {
         let light = self.renderer.lights().get(b.light as usize)?;
-        match light.extent(self.renderer.scene())? {
+        match light.extent()? {
             LightExtent::Finite(bb) => Some(Pyramid::to_targets(b.point, &bb.corners())),
             LightExtent::Distant { dir, cos_half } => {
                 let sin = (1.0 - cos_half * cos_half).max(0.0).sqrt();
@@ -697,11 +697,10 @@ impl RtWorkload {
     /// be worth clipping, or a pyramid that would not bound it (the point
     /// inside the source's box, a very wide distant source).
     fn shadow_goes_dp(&self, b: &ShadowBundle) -> bool {
-        let scene = self.renderer.scene();
         let Some(light) = self.renderer.lights().get(b.light as usize) else {
             return true;
         };
-        match light.extent(scene) {
+        match light.extent() {
             None => true,
             Some(LightExtent::Distant { cos_half, .. }) => {
                 cos_half < 0.5 || self.opts.shadow_dp_below > 1
@@ -710,7 +709,7 @@ impl RtWorkload {
                 let pad = 1e-6 * (bb.extent().max_element() + b.point.abs().max_element());
                 let inside = (b.point.cmpge(bb.min - pad) & b.point.cmple(bb.max + pad)).all();
                 inside
-                    || light.patch_estimate(scene, b.point, self.renderer.options().ds)
+                    || light.patch_estimate(b.point, self.renderer.options().ds)
                         < self.opts.shadow_dp_below
             }
         }

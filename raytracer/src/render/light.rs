@@ -80,6 +80,8 @@ pub struct PreparedLight {
     /// The light's emitting material (already resolved).
     pub material: Material,
     geometry: Geometry,
+    /// Where its samples can lie, worked out once (see [`LightExtent`]).
+    extent: Option<LightExtent>,
 }
 
 /// Prepares all of the scene's lights. Lights that cannot be sampled
@@ -165,11 +167,21 @@ pub fn prepare_lights(scene: &Scene) -> (Vec<PreparedLight>, Vec<String>) {
             LightKind::Area { object } => Some(object),
             LightKind::Distant { .. } => None,
         };
+        let extent = match &geometry {
+            Geometry::Distant { dir, cos_half, .. } => Some(LightExtent::Distant {
+                dir: *dir,
+                cos_half: *cos_half,
+            }),
+            _ => object
+                .and_then(|o| scene.objects.get(o as usize))
+                .map(|o| LightExtent::Finite(o.shape.bounds())),
+        };
         out.push(PreparedLight {
             index,
             object,
             material,
             geometry,
+            extent,
         });
     }
     (out, warnings)
@@ -333,26 +345,17 @@ pub enum LightExtent {
 
 impl PreparedLight {
     /// Where this source's samples can lie (see [`LightExtent`]); `None` if
-    /// the emitting object is missing from `scene`.
-    pub fn extent(&self, scene: &Scene) -> Option<LightExtent> {
-        match &self.geometry {
-            Geometry::Distant { dir, cos_half, .. } => Some(LightExtent::Distant {
-                dir: *dir,
-                cos_half: *cos_half,
-            }),
-            _ => {
-                let o = scene.objects.get(self.object? as usize)?;
-                Some(LightExtent::Finite(o.shape.bounds()))
-            }
-        }
+    /// the emitting object was missing from the scene it was prepared from.
+    pub fn extent(&self) -> Option<LightExtent> {
+        self.extent
     }
 
     /// A cheap estimate of the number of shadow rays a bundle from `p` to
     /// this source traces at source subdivision `ds`: 1 for distant sources
     /// or `ds == 0`, otherwise (size / (ds x distance))^2 clamped to
     /// `1..=MAX_PATCHES`, the subdivision rule of [`Self::for_each_patch`].
-    pub fn patch_estimate(&self, scene: &Scene, p: Vec3, ds: f64) -> usize {
-        let Some(LightExtent::Finite(b)) = self.extent(scene) else {
+    pub fn patch_estimate(&self, p: Vec3, ds: f64) -> usize {
+        let Some(LightExtent::Finite(b)) = self.extent() else {
             return 1;
         };
         if ds <= 0.0 {
