@@ -175,6 +175,7 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
     let octree_caster = renderer.octree_caster();
     let ctx = renderer.context();
     let os = renderer.octree().stats();
+    let built = renderer.stats(w, h, &Default::default(), 1.0).time;
     println!(
         "scene {}: {} objects, {} lights; octree {} leaves, {} internal nodes, {} references, built in {:.3} s",
         path.display(),
@@ -183,20 +184,13 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         os.leaf_nodes,
         os.internal_nodes,
         os.object_refs,
-        renderer.stats(w, h, &Default::default(), 1.0).time.octree_build_s
+        built.octree_build_s
     );
 
     let bs = renderer.bvh().stats();
     println!(
         "hierarchy: {} nodes, {} leaves, {} objects, depth {}, built in {:.3} s",
-        bs.nodes,
-        bs.leaves,
-        bs.objects,
-        bs.depth,
-        renderer
-            .stats(w, h, &Default::default(), 1.0)
-            .time
-            .bvh_build_s
+        bs.nodes, bs.leaves, bs.objects, bs.depth, built.bvh_build_s
     );
     let rss_scene = peak_rss();
 

@@ -250,8 +250,9 @@ pub fn render_parallel_ranked(
         return Err(Error::Usage("--procs must be at least 1".into()));
     }
     let t0 = Instant::now();
+    let replicated = popts.workload.distribution == Distribution::Replicated;
     // Only the replicated distribution traces through the hierarchy.
-    let renderer = if popts.workload.distribution == Distribution::Replicated {
+    let renderer = if replicated {
         Renderer::shared(scene, options, &OctreeParams::default())?
     } else {
         Renderer::for_partition(scene, options, &OctreeParams::default())?
@@ -324,7 +325,6 @@ pub fn render_parallel_ranked(
             film.set(i % width, i / width, c);
         }
         let resident = part.resident(p as u32);
-        let replicated = popts.workload.distribution == Distribution::Replicated;
         procs.push(ProcSummary {
             // Replicated: every processor reads the whole scene.
             resident_bytes: if replicated {
