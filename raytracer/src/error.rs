@@ -9,6 +9,10 @@ use std::path::PathBuf;
 pub struct SourceLoc {
     pub file: PathBuf,
     pub line: usize,
+    /// Column on the line, counting from 1 (0 = not known); expression
+    /// errors name it.
+    #[serde(default)]
+    pub column: usize,
 }
 
 impl SourceLoc {
@@ -16,6 +20,16 @@ impl SourceLoc {
         Self {
             file: file.into(),
             line,
+            column: 0,
+        }
+    }
+
+    /// A place with its column (`file:line:column`).
+    pub fn with_column(file: impl Into<PathBuf>, line: usize, column: usize) -> Self {
+        Self {
+            file: file.into(),
+            line,
+            column,
         }
     }
 }
@@ -24,6 +38,8 @@ impl fmt::Display for SourceLoc {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if self.line == 0 {
             write!(f, "{}", self.file.display())
+        } else if self.column > 0 {
+            write!(f, "{}:{}:{}", self.file.display(), self.line, self.column)
         } else {
             write!(f, "{}:{}", self.file.display(), self.line)
         }

@@ -6,11 +6,13 @@
 //! reproduce bit for bit.
 
 pub mod accel;
+pub mod cal;
 pub mod cli;
 pub mod error;
 pub mod experiment;
 pub mod geometry;
 pub mod image;
+pub mod modifier;
 pub mod parallel;
 pub mod render;
 pub mod report;

@@ -1,0 +1,1 @@
+//! Radiance's function language (`.cal` files and inline expressions).

@@ -1,0 +1,1 @@
+//! Radiance data files (`.dat`) and pictures as N-dimensional data.

@@ -1,0 +1,1 @@
+//! Radiance font files (`.fnt`) and text patterns.
