@@ -1,6 +1,546 @@
 //! Radiance's modifiers that are not materials: patterns (colour),
 //! textures (normal perturbation) and mixtures, with the data they read
 //! (data files, pictures, fonts).
+//!
+//! A scene's modifiers live in one [`Patterns`] table beside its compiled
+//! function program. Every material carries the chain of modifiers that
+//! apply to it, in the order Radiance applies them (`rayshade()` walks an
+//! object's modifier towards the material, the material's own modifiers
+//! follow through `raytexture()`): [`Patterns::apply`] runs a chain for one
+//! ray and returns the pattern colour (`r->pcol`) and the normal
+//! perturbation (`r->pert`). Materials multiply their colour by the first
+//! and perturb their normal by the second. A scene without modifiers never
+//! calls into this module (every chain is empty).
 
 pub mod data;
 pub mod font;
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+use crate::cal::{self, chan, ExprId, FuncId, Inputs, Program};
+use crate::geometry::{Transform, Vec3};
+use crate::scene::Color;
+use crate::SourceLoc;
+
+use data::{DataArray, PictureData};
+use font::TextLayout;
+
+/// Index into [`Patterns::modifiers`].
+pub type ModifierId = u32;
+
+/// One pattern, texture or mixture.
+#[derive(Debug)]
+pub struct Modifier {
+    pub name: String,
+    /// Radiance type (`brightfunc`, `texfunc`, ...), for messages.
+    pub ptype: String,
+    pub kind: Kind,
+    /// Pattern space to world (the transform in its string arguments,
+    /// followed by any enclosing `xform`); `None` is the identity.
+    pub xf: Option<Transform>,
+    /// The real arguments (`arg(n)`, `A1`...).
+    pub args: Vec<f64>,
+    pub loc: SourceLoc,
+}
+
+/// How a modifier computes its value.
+#[derive(Debug)]
+pub enum Kind {
+    /// `brightfunc`: the pattern colour is scaled by the expression.
+    BrightFunc(ExprId),
+    /// `colorfunc`: scaled per channel by three expressions.
+    ColorFunc([ExprId; 3]),
+    /// `brightdata`: `func(datavalue(coords))`.
+    BrightData {
+        func: FuncId,
+        data: Arc<DataArray>,
+        coords: Vec<ExprId>,
+    },
+    /// `colordata`: one data file and function per channel.
+    ColorData {
+        funcs: [FuncId; 3],
+        data: [Arc<DataArray>; 3],
+        coords: Vec<ExprId>,
+    },
+    /// `colorpict`: a picture looked up at `(u, v)`, then one function
+    /// per channel (of the channel, or of all three when `three[i]`).
+    ColorPict {
+        funcs: [FuncId; 3],
+        three: [bool; 3],
+        pict: Arc<PictureData>,
+        coords: [ExprId; 2],
+    },
+    /// `brighttext`/`colortext`: foreground inside the glyphs, background
+    /// outside.
+    Text {
+        layout: Arc<TextLayout>,
+        fore: Color,
+        back: Color,
+    },
+    /// `texfunc`: a normal perturbation from three expressions.
+    TexFunc([ExprId; 3]),
+    /// `texdata`: a normal perturbation from three data files.
+    TexData {
+        funcs: [FuncId; 3],
+        data: [Arc<DataArray>; 3],
+        coords: Vec<ExprId>,
+    },
+    /// A mixture of two pattern chains (`mixfunc`, `mixdata`, `mixpict`,
+    /// `mixtext` whose sides are not materials). A mixture of materials
+    /// is a material ([`crate::scene::Material::Mix`]) whose coefficient
+    /// comes from [`Patterns::mix_coefficient`].
+    Mix {
+        fore: Vec<ModifierId>,
+        back: Vec<ModifierId>,
+        coef: Mixing,
+    },
+}
+
+/// Where a mixture's coefficient comes from.
+#[derive(Debug)]
+pub enum Mixing {
+    Func(ExprId),
+    Data {
+        func: FuncId,
+        data: Arc<DataArray>,
+        coords: Vec<ExprId>,
+    },
+    Pict {
+        func: FuncId,
+        pict: Arc<PictureData>,
+        coords: [ExprId; 2],
+    },
+    /// 1 inside the glyphs (foreground), 0 outside.
+    Text(Arc<TextLayout>),
+}
+
+/// The ray at a surface, in world space: what the ray variables are made of.
+#[derive(Debug, Clone, Copy)]
+pub struct RayVars {
+    /// Unit ray direction.
+    pub dir: Vec3,
+    /// Unit surface normal as the surface defines it (not turned to the ray).
+    pub normal: Vec3,
+    pub point: Vec3,
+    /// Distance along the ray (`T`).
+    pub t: f64,
+    /// Shadow-ray distance (`Ts`): 0 for rays other than shadow rays.
+    pub ts: f64,
+    /// Local surface coordinates of meshes (`Lu`, `Lv`).
+    pub uv: [f64; 2],
+}
+
+/// What a chain of patterns and textures did to a ray: `r->pcol` and
+/// `r->pert`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Applied {
+    pub color: Color,
+    pub pert: Vec3,
+}
+
+impl Applied {
+    pub const NONE: Applied = Applied {
+        color: Color::ONE,
+        pert: Vec3::ZERO,
+    };
+
+    /// True when the perturbation is large enough to change the normal
+    /// (Radiance's `DOT(r->pert, r->pert) > FTINY*FTINY`).
+    pub fn perturbs(&self) -> bool {
+        self.pert.length_squared() > 1e-12
+    }
+}
+
+/// Deepest nesting of mixtures followed in one evaluation (a mixture
+/// whose side leads back to itself is refused when loading; this bounds
+/// what remains).
+const MAX_MIX_DEPTH: usize = 32;
+
+/// Evaluation failures of a render: counted, the first kept for the report.
+#[derive(Debug, Default)]
+pub struct EvalFailures {
+    nan: AtomicU64,
+    errors: AtomicU64,
+    first: Mutex<Option<String>>,
+}
+
+impl EvalFailures {
+    fn record_nan(&self, m: &Modifier) {
+        if self.nan.fetch_add(1, Ordering::Relaxed) == 0 {
+            self.keep(format!(
+                "{}: {} '{}' evaluated to NaN (treated as 0)",
+                m.loc, m.ptype, m.name
+            ));
+        }
+    }
+
+    fn record_error(&self, m: &Modifier, e: &cal::EvalError) {
+        if self.errors.fetch_add(1, Ordering::Relaxed) == 0 {
+            self.keep(format!("{}: {} '{}': {e}", m.loc, m.ptype, m.name));
+        }
+    }
+
+    fn keep(&self, msg: String) {
+        if let Ok(mut f) = self.first.lock() {
+            if f.is_none() {
+                *f = Some(msg);
+            }
+        }
+    }
+
+    /// NaN results so far.
+    pub fn nans(&self) -> u64 {
+        self.nan.load(Ordering::Relaxed)
+    }
+
+    /// Evaluations that failed (recursion too deep) so far.
+    pub fn errors(&self) -> u64 {
+        self.errors.load(Ordering::Relaxed)
+    }
+
+    /// The first failure, as a message naming the modifier.
+    pub fn first(&self) -> Option<String> {
+        self.first.lock().ok().and_then(|f| f.clone())
+    }
+}
+
+/// A scene's modifiers and the function program they evaluate.
+#[derive(Debug)]
+pub struct Patterns {
+    pub modifiers: Vec<Modifier>,
+    pub program: Program,
+    pub failures: EvalFailures,
+}
+
+impl Default for Patterns {
+    fn default() -> Self {
+        Self {
+            modifiers: Vec::new(),
+            program: Program::empty(),
+            failures: EvalFailures::default(),
+        }
+    }
+}
+
+/// One modifier's view of a ray: its inputs in pattern space.
+struct Eval<'a> {
+    p: &'a Patterns,
+    m: &'a Modifier,
+    inputs: Inputs<'a>,
+}
+
+impl<'a> Eval<'a> {
+    fn new(p: &'a Patterns, m: &'a Modifier, r: &RayVars, extra: &Applied) -> Self {
+        let mut v = [0.0; cal::N_INPUTS];
+        let (d, n, pt, t, ts, s, o, i, j, k) = match &m.xf {
+            None => (
+                r.dir,
+                r.normal,
+                r.point,
+                r.t,
+                r.ts,
+                1.0,
+                Vec3::ZERO,
+                Vec3::X,
+                Vec3::Y,
+                Vec3::Z,
+            ),
+            Some(xf) => {
+                // World to pattern space: directions rotated back and
+                // renormalised, points mapped, lengths scaled.
+                let inv = 1.0 / xf.scale;
+                let unit = |w: Vec3| xf.inv_vector(w) * xf.scale;
+                let m = xf.to_object;
+                (
+                    unit(r.dir),
+                    unit(r.normal),
+                    xf.inv_point(r.point),
+                    r.t * inv,
+                    r.ts * inv,
+                    inv,
+                    m.w_axis.truncate(),
+                    m.x_axis.truncate() * xf.scale,
+                    m.y_axis.truncate() * xf.scale,
+                    m.z_axis.truncate() * xf.scale,
+                )
+            }
+        };
+        let put = |v: &mut [f64; cal::N_INPUTS], at: usize, w: Vec3| {
+            v[at] = w.x;
+            v[at + 1] = w.y;
+            v[at + 2] = w.z;
+        };
+        put(&mut v, chan::DX, d);
+        put(&mut v, chan::NX, n);
+        put(&mut v, chan::PX, pt);
+        v[chan::T] = t;
+        v[chan::RDOT] = (-r.dir.dot(r.normal)).clamp(-1.0, 1.0);
+        v[chan::S] = s;
+        put(&mut v, chan::TX, o);
+        put(&mut v, chan::IX, i);
+        put(&mut v, chan::JX, j);
+        put(&mut v, chan::KX, k);
+        v[chan::TS] = ts;
+        v[chan::LU] = r.uv[0];
+        v[chan::LV] = r.uv[1];
+        // Perturbed normal and colour so far (Radiance sets these for
+        // *func materials; harmless for patterns).
+        let pn = (r.normal + extra.pert).normalize_or(r.normal);
+        put(&mut v, chan::NXP, pn);
+        v[chan::RDOTP] = -r.dir.dot(pn);
+        put(&mut v, chan::CRP, extra.color);
+        Self {
+            p,
+            m,
+            inputs: Inputs {
+                values: v,
+                args: &m.args,
+            },
+        }
+    }
+
+    /// One value; NaN and failures count and read as 0 (Radiance's
+    /// "compute error" leaves the ray unpatterned: see [`Self::ok`]).
+    fn expr(&self, e: ExprId) -> Option<f64> {
+        self.checked(self.p.program.eval(e, &self.inputs))
+    }
+
+    fn call(&self, f: FuncId, args: &[f64]) -> Option<f64> {
+        self.checked(self.p.program.call(f, args, &self.inputs))
+    }
+
+    fn checked(&self, r: Result<f64, cal::EvalError>) -> Option<f64> {
+        match r {
+            Ok(v) if v.is_nan() => {
+                self.p.failures.record_nan(self.m);
+                None
+            }
+            Ok(v) => Some(v),
+            Err(e) => {
+                self.p.failures.record_error(self.m, &e);
+                None
+            }
+        }
+    }
+
+    fn coords(&self, coords: &[ExprId]) -> Option<smallvec_coords::Coords> {
+        let mut c = smallvec_coords::Coords::default();
+        for &e in coords {
+            c.push(self.expr(e)?);
+        }
+        Some(c)
+    }
+
+    /// The picture coordinates: Radiance evaluates `u` then `v` and looks
+    /// the picture up `v`-major.
+    fn uv(&self, coords: &[ExprId; 2]) -> Option<(f64, f64)> {
+        Some((self.expr(coords[0])?, self.expr(coords[1])?))
+    }
+
+    /// A displacement in pattern space back to world space (with the
+    /// transform's scale, as Radiance's `multv3` with the forward matrix).
+    fn to_world(&self, d: Vec3) -> Vec3 {
+        match &self.m.xf {
+            None => d,
+            Some(xf) => xf.vector(d),
+        }
+    }
+}
+
+/// A few data coordinates without allocating.
+mod smallvec_coords {
+    /// Data files of more dimensions than this are refused when loading.
+    pub const MAX: usize = 8;
+
+    #[derive(Default)]
+    pub struct Coords {
+        v: [f64; MAX],
+        n: usize,
+    }
+
+    impl Coords {
+        pub fn push(&mut self, x: f64) {
+            if self.n < MAX {
+                self.v[self.n] = x;
+                self.n += 1;
+            }
+        }
+        pub fn as_slice(&self) -> &[f64] {
+            &self.v[..self.n]
+        }
+    }
+}
+
+pub use smallvec_coords::MAX as MAX_DATA_DIMS;
+
+impl Patterns {
+    /// True when the scene has no modifiers at all.
+    pub fn is_empty(&self) -> bool {
+        self.modifiers.is_empty()
+    }
+
+    /// Runs `chain` for one ray, starting from `acc`.
+    pub fn apply(&self, chain: &[ModifierId], r: &RayVars, acc: &mut Applied) {
+        self.apply_depth(chain, r, acc, 0);
+    }
+
+    fn apply_depth(&self, chain: &[ModifierId], r: &RayVars, acc: &mut Applied, depth: usize) {
+        for &id in chain {
+            let Some(m) = self.modifiers.get(id as usize) else {
+                continue;
+            };
+            self.apply_one(m, r, acc, depth);
+        }
+    }
+
+    fn apply_one(&self, m: &Modifier, r: &RayVars, acc: &mut Applied, depth: usize) {
+        let ev = Eval::new(self, m, r, acc);
+        match &m.kind {
+            Kind::BrightFunc(e) => {
+                if let Some(b) = ev.expr(*e) {
+                    acc.color *= b;
+                }
+            }
+            Kind::ColorFunc(es) => {
+                if let (Some(r), Some(g), Some(b)) = (ev.expr(es[0]), ev.expr(es[1]), ev.expr(es[2]))
+                {
+                    acc.color *= Color::new(r, g, b);
+                }
+            }
+            Kind::BrightData { func, data, coords } => {
+                let Some(x) = ev.coords(coords) else { return };
+                let v = data.value(x.as_slice());
+                if let Some(b) = ev.call(*func, &[v]) {
+                    acc.color *= b;
+                }
+            }
+            Kind::ColorData {
+                funcs,
+                data,
+                coords,
+            } => {
+                let Some(x) = ev.coords(coords) else { return };
+                let mut c = Color::ZERO;
+                for i in 0..3 {
+                    let v = data[i].value(x.as_slice());
+                    let Some(b) = ev.call(funcs[i], &[v]) else {
+                        return;
+                    };
+                    c[i] = b;
+                }
+                acc.color *= c;
+            }
+            Kind::ColorPict {
+                funcs,
+                three,
+                pict,
+                coords,
+            } => {
+                let Some((u, v)) = ev.uv(coords) else { return };
+                let col = pict.value(u, v);
+                let mut c = Color::ZERO;
+                for i in 0..3 {
+                    let r = if three[i] {
+                        ev.call(funcs[i], &col)
+                    } else {
+                        ev.call(funcs[i], &col[i..i + 1])
+                    };
+                    let Some(b) = r else { return };
+                    c[i] = b;
+                }
+                acc.color *= c;
+            }
+            Kind::Text { layout, fore, back } => {
+                let p = match &m.xf {
+                    None => r.point,
+                    Some(xf) => xf.inv_point(r.point),
+                };
+                acc.color *= if layout.inside(p) { *fore } else { *back };
+            }
+            Kind::TexFunc(es) => {
+                if let (Some(x), Some(y), Some(z)) = (ev.expr(es[0]), ev.expr(es[1]), ev.expr(es[2]))
+                {
+                    acc.pert += ev.to_world(Vec3::new(x, y, z));
+                }
+            }
+            Kind::TexData {
+                funcs,
+                data,
+                coords,
+            } => {
+                let Some(x) = ev.coords(coords) else { return };
+                let mut d = Vec3::ZERO;
+                for i in 0..3 {
+                    let v = data[i].value(x.as_slice());
+                    let Some(b) = ev.call(funcs[i], &[v]) else {
+                        return;
+                    };
+                    d[i] = b;
+                }
+                acc.pert += ev.to_world(d);
+            }
+            Kind::Mix { fore, back, coef } => {
+                if depth >= MAX_MIX_DEPTH {
+                    return;
+                }
+                let Some(c) = self.coefficient(&ev, coef, r) else {
+                    return;
+                };
+                // raymixture(): both sides start from the current state;
+                // the results are blended.
+                let mut f = *acc;
+                let mut b = *acc;
+                if c > 1e-6 {
+                    self.apply_depth(fore, r, &mut f, depth + 1);
+                }
+                if c < 1.0 - 1e-6 {
+                    self.apply_depth(back, r, &mut b, depth + 1);
+                }
+                acc.pert = f.pert * c + b.pert * (1.0 - c);
+                acc.color = f.color * c + b.color * (1.0 - c);
+            }
+        }
+    }
+
+    fn coefficient(&self, ev: &Eval, coef: &Mixing, r: &RayVars) -> Option<f64> {
+        let c = match coef {
+            Mixing::Func(e) => ev.expr(*e)?,
+            Mixing::Data { func, data, coords } => {
+                let x = ev.coords(coords)?;
+                let v = data.value(x.as_slice());
+                ev.call(*func, &[v])?
+            }
+            Mixing::Pict { func, pict, coords } => {
+                let (u, v) = ev.uv(coords)?;
+                let col = pict.value(u, v);
+                ev.call(*func, &col)?
+            }
+            Mixing::Text(layout) => {
+                let p = match &ev.m.xf {
+                    None => r.point,
+                    Some(xf) => xf.inv_point(r.point),
+                };
+                if layout.inside(p) {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+        };
+        Some(c.clamp(0.0, 1.0))
+    }
+
+    /// The foreground fraction of the mixture modifier `id` for one ray (a
+    /// mixture of materials): in [0, 1]; `None` when it could not be
+    /// computed (NaN or failure, counted), which Radiance treats as "no
+    /// mixture" (the ray passes through).
+    pub fn mix_coefficient(&self, id: ModifierId, r: &RayVars) -> Option<f64> {
+        let m = self.modifiers.get(id as usize)?;
+        let Kind::Mix { coef, .. } = &m.kind else {
+            return None;
+        };
+        let ev = Eval::new(self, m, r, &Applied::NONE);
+        self.coefficient(&ev, coef, r)
+    }
+}

@@ -87,13 +87,14 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
     scratch.clear();
     let mut rng = Rng::new(b.seed);
     let opts = ctx.options;
+    let from = b.point;
     light.for_each_patch(ctx.scene, b.point, opts.ds, opts.dj, &mut rng, |s| {
         let coef = b.surface.coefficient(s.dir, s.omega);
         let b = brightness(coef);
         if b.is_nan() || b <= 0.0 {
             return;
         }
-        let val = coef * light.emission(&s);
+        let val = coef * light.emission(from, &s);
         let brt = brightness(val);
         if brt > 0.0 && brt.is_finite() {
             scratch.push(Contribution {

@@ -79,6 +79,10 @@ pub struct PreparedLight {
     pub object: Option<ObjectId>,
     /// The light's emitting material (already resolved).
     pub material: Material,
+    /// Patterns on the emitting material (a luminaire's distribution):
+    /// evaluated per shadow ray; empty for most lights.
+    mods: Vec<crate::modifier::ModifierId>,
+    patterns: std::sync::Arc<crate::modifier::Patterns>,
     geometry: Geometry,
     /// Where its samples can lie, worked out once (see [`LightExtent`]).
     extent: Option<LightExtent>,
@@ -180,6 +184,8 @@ pub fn prepare_lights(scene: &Scene) -> (Vec<PreparedLight>, Vec<String>) {
             index,
             object,
             material,
+            mods: scene.mods(light.material).to_vec(),
+            patterns: scene.patterns.clone(),
             geometry,
             extent,
         });
@@ -387,9 +393,39 @@ impl PreparedLight {
         }
     }
 
-    /// Emitted radiance from a sample towards the shaded point, after the
-    /// light material (glow's radius of influence, spotlight's cone).
-    pub fn emission(&self, s: &PatchSample) -> Color {
+    /// Emitted radiance from a sample towards the shaded point `from`,
+    /// after the light material (glow's radius of influence, spotlight's
+    /// cone) and its patterns (evaluated for the shadow ray from `from`).
+    pub fn emission(&self, from: Vec3, s: &PatchSample) -> Color {
+        let c = self.bare_emission(s);
+        if self.mods.is_empty() || c == Color::ZERO {
+            return c;
+        }
+        let point = if s.dist.is_finite() {
+            from + s.dir * s.dist
+        } else {
+            Vec3::ZERO
+        };
+        // A distant source faces the ray (Radiance: Rdot = 1).
+        let normal = if s.normal == Vec3::ZERO {
+            -s.dir
+        } else {
+            s.normal
+        };
+        let vars = crate::modifier::RayVars {
+            dir: s.dir,
+            normal,
+            point,
+            t: if s.dist.is_finite() { s.dist } else { 0.0 },
+            ts: if s.dist.is_finite() { s.dist } else { 0.0 },
+            uv: [0.0; 2],
+        };
+        let mut a = crate::modifier::Applied::NONE;
+        self.patterns.apply(&self.mods, &vars, &mut a);
+        c * a.color
+    }
+
+    fn bare_emission(&self, s: &PatchSample) -> Color {
         match &self.material {
             Material::Light { radiance } | Material::Illum { radiance, .. } => *radiance,
             Material::Glow {

@@ -30,6 +30,7 @@ use crate::accel::Hit;
 use crate::geometry::robust::orthonormal_basis;
 use crate::geometry::{offset_origin_scaled, Ray, Shape, Vec3};
 use crate::image::brightness;
+use crate::modifier::{Applied, RayVars};
 use crate::scene::{Color, Material, Scene};
 
 /// Radiance's `FTINY`.
@@ -283,9 +284,28 @@ struct Emitter<'c, 'o> {
     start: usize,
     offset_scale: f64,
     ambient: [Option<AmbientRequest>; 2],
+    /// Share of the current material in a mixture (1 outside mixtures):
+    /// every coefficient this point asks for is scaled by it.
+    scale: f64,
+    /// Distinguishes the two sides of a mixture in shadow-bundle seeds.
+    salt: u32,
 }
 
 impl Emitter<'_, '_> {
+    /// Records a request for diffuse inter-reflection on `side`; the two
+    /// sides of a mixture add their coefficients.
+    fn want_ambient(&mut self, req: AmbientRequest) {
+        let k = req.side as usize;
+        let req = AmbientRequest {
+            coef: req.coef * self.scale,
+            ..req
+        };
+        match &mut self.ambient[k] {
+            Some(a) => a.coef += req.coef,
+            slot => *slot = Some(req),
+        }
+    }
+
     fn next_seed(&self) -> u64 {
         child_seed(self.task.seed, (self.out.len() - self.start) as u32)
     }
@@ -335,6 +355,7 @@ impl Emitter<'_, '_> {
             return;
         }
         let dir = dir / len;
+        let coef = coef * self.scale;
         let origin = offset_origin_scaled(self.hit.point, self.hit.normal, dir, self.offset_scale);
         let seed = self.next_seed();
         let task = RayTask {
@@ -364,7 +385,7 @@ impl Emitter<'_, '_> {
         let point = self.hit.point;
         let potential = |l: &PreparedLight| {
             l.rough_sample(ctx.scene, point).map_or(0.0, |s| {
-                brightness(bsdf.coefficient(s.dir, s.omega) * l.emission(&s))
+                brightness(bsdf.coefficient(s.dir, s.omega) * l.emission(point, &s))
             })
         };
         POTENTIALS.with_borrow_mut(|pot| {
@@ -384,13 +405,21 @@ impl Emitter<'_, '_> {
             }
             let others = (total - own).max(0.0);
             // Seeded by the light's index, not the request's position.
-            let seed = child_seed(self.task.seed, 0x1_0000 + i as u32);
+            let mut seed = child_seed(self.task.seed, 0x1_0000 + i as u32);
+            if self.salt != 0 {
+                seed = child_seed(seed, self.salt);
+            }
+            let mut surface = *bsdf;
+            if self.scale != 1.0 {
+                surface.mcolor *= self.scale;
+                surface.scolor *= self.scale;
+            }
             self.out.push(Request::Shadow(ShadowBundle {
                 light: i as u32,
                 point,
                 normal: self.hit.normal,
                 offset_scale: self.offset_scale,
-                surface: *bsdf,
+                surface,
                 reference: brightness(base) + others,
                 weight: self.task.weight,
                 seed,
@@ -404,7 +433,77 @@ impl Emitter<'_, '_> {
 pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Request>) -> Shaded {
     let obj = hit_object(ctx.scene, hit);
     let flat = matches!(obj.shape, Shape::Polygon(_) | Shape::Ring { .. });
-    let mut material = ctx.scene.material(obj.material);
+    let offset_scale = task.ray.origin.abs().max_element().max(hit.t);
+    let mut em = Emitter {
+        ctx,
+        task,
+        hit,
+        out,
+        start: 0,
+        offset_scale,
+        ambient: [None; 2],
+        scale: 1.0,
+        salt: 0,
+    };
+    em.start = em.out.len();
+    let mut shaded = Shaded {
+        base: Color::ZERO,
+        extinction: task.extinction,
+        ambient: [None; 2],
+    };
+    shade_material(&mut em, &mut shaded, obj.material, flat, Applied::NONE, 0);
+    shaded.ambient = em.ambient;
+    shaded
+}
+
+/// Deepest nesting of material mixtures followed.
+const MAX_MIX_DEPTH: usize = 16;
+
+/// The ray variables of the ray being shaded, for patterns.
+fn ray_vars(task: &RayTask, hit: &Hit) -> RayVars {
+    RayVars {
+        dir: task.ray.dir,
+        normal: hit.normal,
+        point: hit.point,
+        t: hit.t,
+        ts: 0.0,
+        uv: [0.0; 2],
+    }
+}
+
+/// Radiance's `raynormal()`: the normal `n` (facing the ray, cosine `rod`
+/// with the reversed ray) perturbed by `pert`, turned back if the
+/// perturbation would flip the surface's orientation towards the ray.
+fn perturbed_normal(n: Vec3, rod: f64, dir: Vec3, pert: Vec3) -> (Vec3, f64) {
+    let p = n + pert;
+    let len = p.length();
+    if !(len > 0.0 && len.is_finite()) {
+        return (n, rod);
+    }
+    let mut p = p / len;
+    let mut newdot = -p.dot(dir);
+    if (newdot > 0.0) != (rod > 0.0) {
+        p += dir * (2.0 * newdot);
+        newdot = -newdot;
+    }
+    (p, newdot)
+}
+
+/// Shades material `id` with the patterns applied so far (`applied`) and
+/// its own; a mixture shades both sides with their shares.
+fn shade_material(
+    em: &mut Emitter,
+    shaded: &mut Shaded,
+    id: crate::scene::MaterialId,
+    flat: bool,
+    applied: Applied,
+    depth: usize,
+) {
+    let ctx = em.ctx;
+    let task = em.task;
+    let hit = em.hit;
+    let mut id = id;
+    let mut material = ctx.scene.material(id);
     // Rays other than shadow rays see an illum as its alternate material.
     let mut hops = 0;
     while let Material::Illum {
@@ -415,34 +514,58 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
         if hops > MAX_ALTERNATES {
             break;
         }
-        material = ctx.scene.material(*a);
+        id = *a;
+        material = ctx.scene.material(id);
     }
-    let offset_scale = task.ray.origin.abs().max_element().max(hit.t);
-    let mut em = Emitter {
-        ctx,
-        task,
-        hit,
-        out,
-        start: 0,
-        offset_scale,
-        ambient: [None; 2],
-    };
-    em.start = em.out.len();
-    let mut shaded = Shaded {
-        base: Color::ZERO,
-        extinction: task.extinction,
-        ambient: [None; 2],
-    };
+    let mut ap = applied;
+    let mods = ctx.scene.mods(id);
+    if !mods.is_empty() {
+        ctx.scene
+            .patterns
+            .apply(mods, &ray_vars(task, hit), &mut ap);
+    }
     let dir = task.ray.dir;
     let rod = -dir.dot(hit.normal);
+    let scale = em.scale;
     match material {
         Material::Void | Material::Illum { .. } => {
             em.spawn(RayKind::PassThrough, dir, Color::ONE, task.extinction);
         }
+        Material::Mix {
+            fore,
+            back,
+            modifier,
+        } => {
+            let c = ctx
+                .scene
+                .patterns
+                .mix_coefficient(*modifier, &ray_vars(task, hit));
+            let (Some(c), true) = (c, depth < MAX_MIX_DEPTH) else {
+                em.spawn(RayKind::PassThrough, dir, Color::ONE, task.extinction);
+                return;
+            };
+            let salt = em.salt;
+            for (k, (side, share)) in [(fore, c), (back, 1.0 - c)].into_iter().enumerate() {
+                // raymixture(): a side below FTINY is not shaded.
+                if share <= FTINY {
+                    continue;
+                }
+                em.scale = scale * share;
+                em.salt = salt.wrapping_mul(3).wrapping_add(k as u32 + 1);
+                match side {
+                    Some(m) => shade_material(em, shaded, *m, flat, ap, depth + 1),
+                    None => em.spawn(RayKind::PassThrough, dir, Color::ONE, task.extinction),
+                }
+            }
+            em.scale = scale;
+            em.salt = salt;
+        }
         // Sampled specular rays skip emitters that direct lighting samples.
         Material::Light { .. } | Material::Spotlight { .. } if task.sampled => {}
         Material::Glow { max_radius, .. } if task.sampled && *max_radius > 0.0 => {}
-        Material::Light { radiance } | Material::Glow { radiance, .. } => shaded.base = *radiance,
+        Material::Light { radiance } | Material::Glow { radiance, .. } => {
+            shaded.base += *radiance * ap.color * scale
+        }
         Material::Spotlight {
             radiance,
             angle_deg,
@@ -454,16 +577,21 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
                 hit.normal
             };
             if super::light::spot_admits(aim, *angle_deg, -dir) {
-                shaded.base = *radiance;
+                shaded.base += *radiance * ap.color * scale;
             }
         }
         Material::Mirror { color } => {
             // Back is black (m_mirror.c).
             if rod >= 0.0 {
+                let (n, pdot) = if ap.perturbs() {
+                    perturbed_normal(hit.normal, rod, dir, ap.pert)
+                } else {
+                    (hit.normal, rod)
+                };
                 em.spawn(
                     RayKind::Reflection,
-                    dir + hit.normal * (2.0 * rod),
-                    *color,
+                    dir + n * (2.0 * pdot),
+                    *color * ap.color,
                     task.extinction,
                 );
             }
@@ -473,8 +601,8 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
             specularity,
             roughness,
         } => {
-            shaded.base = normal(
-                &mut em,
+            shaded.base += normal(
+                em,
                 Kind::Plastic,
                 *color,
                 *specularity,
@@ -482,15 +610,16 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
                 0.0,
                 0.0,
                 flat,
-            )
+                &ap,
+            ) * scale
         }
         Material::Metal {
             color,
             specularity,
             roughness,
         } => {
-            shaded.base = normal(
-                &mut em,
+            shaded.base += normal(
+                em,
                 Kind::Metal,
                 *color,
                 *specularity,
@@ -498,7 +627,8 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
                 0.0,
                 0.0,
                 flat,
-            )
+                &ap,
+            ) * scale
         }
         Material::Trans {
             color,
@@ -507,8 +637,8 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
             transmissivity,
             transmitted_specular,
         } => {
-            shaded.base = normal(
-                &mut em,
+            shaded.base += normal(
+                em,
                 Kind::Trans,
                 *color,
                 *specularity,
@@ -516,24 +646,23 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
                 *transmissivity,
                 *transmitted_specular,
                 flat,
-            )
+                &ap,
+            ) * scale
         }
         Material::Glass {
             transmission,
             index,
-        } => glass(&mut em, *transmission, *index),
+        } => glass(em, *transmission * ap.color, *index, &ap),
         Material::Dielectric {
             transmission,
             index,
             hartmann,
         } => {
-            if let Some(ext) = dielectric(&mut em, *transmission, *index, *hartmann) {
+            if let Some(ext) = dielectric(em, *transmission, *index, *hartmann) {
                 shaded.extinction = ext;
             }
         }
     }
-    shaded.ambient = em.ambient;
-    shaded
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -554,19 +683,25 @@ fn normal(
     transmissivity: f64,
     tspec_frac: f64,
     flat: bool,
+    ap: &Applied,
 ) -> Color {
     let opts = em.ctx.options;
     let task = em.task;
     let dir = task.ray.dir;
     let mut n = em.hit.normal;
     let mut rod = -dir.dot(n);
+    let mut pert = ap.pert;
     if rod < 0.0 {
         // Back faces are visible (Radiance's -bv default): turn the surface.
         n = -n;
         rod = -rod;
+        pert = -pert;
+    }
+    if ap.perturbs() {
+        (n, rod) = perturbed_normal(n, rod, dir, pert);
     }
     let mut b = NormalBsdf {
-        mcolor: color,
+        mcolor: color * ap.color,
         scolor: Color::ZERO,
         alpha2: roughness * roughness,
         rdiff: 0.0,
@@ -650,7 +785,7 @@ fn normal(
             } else {
                 b.rdiff
             };
-            em.ambient[0] = Some(AmbientRequest {
+            em.want_ambient(AmbientRequest {
                 point: em.hit.point,
                 normal: n,
                 coef: b.mcolor * f,
@@ -664,7 +799,7 @@ fn normal(
             } else {
                 b.tdiff
             };
-            em.ambient[1] = Some(AmbientRequest {
+            em.want_ambient(AmbientRequest {
                 point: em.hit.point,
                 normal: -n,
                 coef: b.mcolor * f,
@@ -690,7 +825,7 @@ fn normal(
             base += b.mcolor * f * av;
         }
     }
-    em.direct(&b, base);
+    em.direct(&b, base * em.scale);
     base
 }
 
@@ -782,13 +917,19 @@ pub fn glass_coefficients(transmission: Color, index: f64, pdot: f64) -> (Color,
     (trans, refl)
 }
 
-fn glass(em: &mut Emitter, transmission: Color, index: f64) {
+fn glass(em: &mut Emitter, transmission: Color, index: f64, ap: &Applied) {
     let dir = em.task.ray.dir;
     let mut n = em.hit.normal;
     let mut pdot = -dir.dot(n);
+    let mut pert = ap.pert;
     if pdot < 0.0 {
         n = -n;
         pdot = -pdot;
+        pert = -pert;
+    }
+    if ap.perturbs() {
+        (n, pdot) = perturbed_normal(n, pdot, dir, pert);
+        pdot = pdot.max(1e-6);
     }
     let (trans, refl) = glass_coefficients(transmission, index, pdot);
     let ext = em.task.extinction;

@@ -15,19 +15,26 @@ use super::rad::{Expander, RawPrim};
 use super::xform::{is_surface, parse_instance_xf};
 use crate::geometry::shape::{InstanceGeometry, Shape};
 use crate::geometry::Vec3;
+use crate::modifier::ModifierId;
 use crate::{Error, Result, SourceLoc};
 
 /// What a modifier name stands for.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Mod {
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum Mod {
+    /// A material (its own patterns are in `Scene::material_mods`).
     Material(MaterialId),
-    /// An unsupported pattern/texture/mixture (ignored with a warning); the
-    /// material its modifier chain leads to, if any.
-    Pattern(Option<MaterialId>),
+    /// A pattern, texture or pattern mixture: the chain it starts (itself,
+    /// then its modifier's chain, in application order) and the material
+    /// that chain leads to, if any (a surface may name a pattern whose
+    /// modifier is a material).
+    Pattern {
+        chain: Arc<[ModifierId]>,
+        material: Option<MaterialId>,
+    },
 }
 
-/// Pattern, texture and mixture types: accepted and ignored with a warning.
-const PATTERNS: &[&str] = &[
+/// Pattern, texture and mixture types.
+pub(super) const PATTERNS: &[&str] = &[
     "brightfunc",
     "colorfunc",
     "texfunc",
@@ -49,13 +56,17 @@ const PATTERNS: &[&str] = &[
 /// Builds a scene from raw primitives (and OBJ objects, see [`super::obj`]).
 pub(crate) struct Builder {
     pub scene: Scene,
-    scope: HashMap<String, Mod>,
+    pub(super) scope: HashMap<String, Mod>,
     void_id: Option<MaterialId>,
     default_id: Option<MaterialId>,
     pub exp: Expander,
     /// Instance geometry by source file (and material, for meshes).
     inst_cache: HashMap<(PathBuf, Option<MaterialId>), Arc<InstanceGeometry>>,
     inst_stack: Vec<PathBuf>,
+    /// Patterns, textures and mixtures, and what they load.
+    pub(super) mods: super::modifiers::ModState,
+    /// Unsupported-type warnings by key: index into `scene.warnings` and count.
+    grouped: HashMap<String, (usize, usize)>,
 }
 
 impl Builder {
@@ -68,6 +79,21 @@ impl Builder {
             exp: Expander::new(),
             inst_cache: HashMap::new(),
             inst_stack: Vec::new(),
+            mods: super::modifiers::ModState::from_env(),
+            grouped: HashMap::new(),
+        }
+    }
+
+    /// A warning that repeats per object (an unsupported type): said once
+    /// per `key`, with the number of times it applied.
+    pub fn warn_once(&mut self, key: &str, loc: &SourceLoc, msg: impl Into<String>) {
+        match self.grouped.get_mut(key) {
+            Some((_, n)) => *n += 1,
+            None => {
+                self.grouped
+                    .insert(key.to_string(), (self.scene.warnings.len(), 1));
+                self.scene.warnings.push((loc.clone(), msg.into()));
+            }
         }
     }
 
@@ -75,14 +101,15 @@ impl Builder {
         self.scene.warnings.push((loc.clone(), msg.into()));
     }
 
-    fn add_material(&mut self, name: &str, m: Material) -> MaterialId {
+    pub(super) fn add_material(&mut self, name: &str, m: Material) -> MaterialId {
         let id = self.scene.materials.len() as MaterialId;
         self.scene.materials.push(m);
         self.scene.material_names.push(name.to_string());
+        self.scene.material_mods.push(Vec::new());
         id
     }
 
-    fn void_material(&mut self) -> MaterialId {
+    pub(super) fn void_material(&mut self) -> MaterialId {
         match self.void_id {
             Some(id) => id,
             None => {
@@ -138,8 +165,8 @@ impl Builder {
         r
     }
 
-    fn lookup(&self, name: &str, loc: &SourceLoc, user: &RawPrim) -> Result<Mod> {
-        self.scope.get(name).copied().ok_or_else(|| {
+    pub(super) fn lookup(&self, name: &str, loc: &SourceLoc, user: &RawPrim) -> Result<Mod> {
+        self.scope.get(name).cloned().ok_or_else(|| {
             Error::parse(
                 loc.clone(),
                 format!(
@@ -157,8 +184,11 @@ impl Builder {
         }
         match self.lookup(&p.modifier, &p.loc, p)? {
             Mod::Material(id) => Ok(id),
-            Mod::Pattern(Some(id)) => Ok(id),
-            Mod::Pattern(None) => Err(Error::parse(
+            Mod::Pattern {
+                chain,
+                material: Some(id),
+            } => Ok(self.patterned_material(&chain, id)),
+            Mod::Pattern { material: None, .. } => Err(Error::parse(
                 p.loc.clone(),
                 format!(
                     "{} '{}': modifier '{}' is a pattern whose modifier chain leads to no material",
@@ -191,23 +221,7 @@ impl Builder {
             return self.add_surface(p, objects, top);
         }
         if PATTERNS.contains(&t) {
-            let chain = match p.modifier.as_str() {
-                "void" => None,
-                m => match self.lookup(m, &p.loc, p)? {
-                    Mod::Material(id) => Some(id),
-                    Mod::Pattern(x) => x,
-                },
-            };
-            self.warn(
-                &p.loc,
-                format!(
-                    "{t} '{}' is not supported yet and is ignored: materials it modifies render unpatterned",
-                    p.id
-                ),
-            );
-            self.scene.stats.materials += 1;
-            self.scope.insert(p.id.clone(), Mod::Pattern(chain));
-            return Ok(());
+            return self.add_modifier(p);
         }
         let Some(m) = self.material(p)? else {
             return Err(Error::parse(
@@ -215,41 +229,82 @@ impl Builder {
                 format!("unknown primitive type '{t}' (identifier '{}')", p.id),
             ));
         };
-        match p.modifier.as_str() {
-            "void" => {}
-            name => {
-                if let Mod::Material(_) = self.lookup(name, &p.loc, p)? {
+        let chain = match p.modifier.as_str() {
+            "void" => Vec::new(),
+            name => match self.lookup(name, &p.loc, p)? {
+                Mod::Material(_) => {
                     self.warn(
                         &p.loc,
                         format!("{t} '{}': its modifier '{name}' is a material, which has no effect here", p.id),
                     );
+                    Vec::new()
                 }
-            }
-        }
+                Mod::Pattern { chain, material } => {
+                    if material.is_some() {
+                        self.warn(
+                            &p.loc,
+                            format!("{t} '{}': the patterns of its modifier '{name}' lead to a material, which has no effect here", p.id),
+                        );
+                    }
+                    chain.to_vec()
+                }
+            },
+        };
         let id = self.add_material(&p.id, m);
+        self.scene.material_mods[id as usize] = chain;
         self.scene.stats.materials += 1;
         self.scope.insert(p.id.clone(), Mod::Material(id));
         Ok(())
     }
 
+    /// `mod alias new old`: a copy of `old` whose modifier is `mod`
+    /// (`inherit` keeps old's modifier, `void` leaves it without), as
+    /// Radiance's readers resolve aliases.
     fn add_alias(&mut self, p: &RawPrim) -> Result<()> {
         let target = &p.strs[0];
-        let m = if target == "void" {
+        let old = if target == "void" {
             Mod::Material(self.void_material())
         } else {
             self.lookup(target, &p.loc, p)?
         };
-        match p.modifier.as_str() {
-            "void" | "inherit" => {}
-            other => {
-                if let Mod::Pattern(_) = self.lookup(other, &p.loc, p)? {
+        // The new modifier's chain (None: inherit).
+        let new_chain: Option<(Vec<ModifierId>, Option<MaterialId>)> = match p.modifier.as_str() {
+            "inherit" => None,
+            "void" => Some((Vec::new(), None)),
+            other => match self.lookup(other, &p.loc, p)? {
+                Mod::Pattern { chain, material } => Some((chain.to_vec(), material)),
+                Mod::Material(_) => {
                     self.warn(
                         &p.loc,
-                        format!("alias '{}': pattern modifier '{other}' is not supported yet and is ignored", p.id),
+                        format!("alias '{}': its modifier '{other}' is a material, which has no effect here", p.id),
                     );
+                    Some((Vec::new(), None))
+                }
+            },
+        };
+        let m = match (old, new_chain) {
+            (m, None) => m,
+            (Mod::Material(id), Some((chain, _))) => {
+                if self.scene.material(id) == &Material::Void || self.scene.mods(id) == chain.as_slice() {
+                    // Nothing changes: the same material.
+                    Mod::Material(id)
+                } else {
+                    let copy = self.scene.material(id).clone();
+                    let nid = self.add_material(&p.id, copy);
+                    self.scene.material_mods[nid as usize] = chain;
+                    Mod::Material(nid)
                 }
             }
-        }
+            (Mod::Pattern { chain: old_chain, .. }, Some((chain, material))) => {
+                let own = old_chain[0];
+                let mut c = vec![own];
+                c.extend(chain);
+                Mod::Pattern {
+                    chain: c.into(),
+                    material,
+                }
+            }
+        };
         self.scope.insert(p.id.clone(), m);
         Ok(())
     }
@@ -393,8 +448,12 @@ impl Builder {
                 let alternate = match p.strs.first().map(String::as_str) {
                     None | Some("void") => None,
                     Some(name) => Some(match self.lookup(name, &p.loc, p)? {
-                        Mod::Material(id) | Mod::Pattern(Some(id)) => id,
-                        Mod::Pattern(None) => {
+                        Mod::Material(id) => id,
+                        Mod::Pattern {
+                            chain,
+                            material: Some(id),
+                        } => self.patterned_material(&chain, id),
+                        Mod::Pattern { material: None, .. } => {
                             return Err(Error::parse(
                                 p.loc.clone(),
                                 format!(
@@ -525,7 +584,8 @@ impl Builder {
             ),
             _ => return Ok(None),
         };
-        self.warn(
+        self.warn_once(
+            t,
             &p.loc,
             format!(
                 "material type {t} ('{}') is not supported yet; rendered as {what}",
@@ -824,7 +884,14 @@ impl Builder {
     }
 
     /// Fills in the statistics and hands over the scene.
-    pub fn finish(mut self) -> Scene {
+    pub fn finish(mut self) -> Result<Scene> {
+        for (idx, n) in self.grouped.values() {
+            if *n > 1 {
+                self.scene.warnings[*idx].1 += &format!(" ({n} primitives like this one)");
+            }
+        }
+        let patterns = std::mem::take(&mut self.mods).finish()?;
+        self.scene.patterns = Arc::new(patterns);
         let mut seen = HashSet::new();
         let mut primitives = 0;
         let mut instances = 0;
@@ -838,7 +905,7 @@ impl Builder {
         self.scene.stats.objects = self.scene.objects.len();
         self.scene.stats.primitives = primitives;
         self.scene.stats.instances = instances;
-        self.scene
+        Ok(self.scene)
     }
 }
 

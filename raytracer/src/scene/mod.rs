@@ -14,6 +14,7 @@ mod build;
 mod genbox;
 pub mod generate;
 mod model;
+mod modifiers;
 mod obj;
 mod rad;
 pub mod view;
@@ -48,7 +49,7 @@ pub fn load(paths: &[impl AsRef<Path>]) -> Result<Scene> {
             }
         }
     }
-    Ok(b.finish())
+    b.finish()
 }
 
 /// Loads Radiance scene text. `name` is used in messages and as the place
@@ -56,7 +57,7 @@ pub fn load(paths: &[impl AsRef<Path>]) -> Result<Scene> {
 pub fn load_rad_str(text: &str, name: impl AsRef<Path>) -> Result<Scene> {
     let mut b = build::Builder::new();
     b.add_rad_text(text, name.as_ref())?;
-    Ok(b.finish())
+    b.finish()
 }
 
 #[cfg(test)]

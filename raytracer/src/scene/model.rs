@@ -70,6 +70,15 @@ pub enum Material {
         angle_deg: f64,
         direction: Vec3,
     },
+    /// A mixture of two materials (`mixfunc`, `mixdata`, `mixpict`,
+    /// `mixtext` whose sides are materials): `modifier` computes the
+    /// foreground fraction per ray ([`crate::modifier::Patterns::mix_coefficient`]);
+    /// a side of `None` (`void`) lets the ray pass through.
+    Mix {
+        fore: Option<MaterialId>,
+        back: Option<MaterialId>,
+        modifier: crate::modifier::ModifierId,
+    },
 }
 
 impl Material {
@@ -123,6 +132,12 @@ pub struct Scene {
     pub material_names: Vec<String>,
     /// Light sources, derived from emitting objects and `source` primitives.
     pub lights: Vec<Light>,
+    /// Per material, the patterns and textures that modify it, in the
+    /// order Radiance applies them (empty for most materials).
+    pub material_mods: Vec<Vec<crate::modifier::ModifierId>>,
+    /// The scene's patterns, textures and mixtures and the function
+    /// program they evaluate (empty when the scene has none).
+    pub patterns: std::sync::Arc<crate::modifier::Patterns>,
     /// Warnings produced while loading (unsupported patterns, ignored options), with locations.
     pub warnings: Vec<(SourceLoc, String)>,
     pub stats: SceneStats,
@@ -131,6 +146,14 @@ pub struct Scene {
 impl Scene {
     pub fn material(&self, id: MaterialId) -> &Material {
         &self.materials[id as usize]
+    }
+
+    /// The patterns and textures applied to material `id` (often none).
+    #[inline]
+    pub fn mods(&self, id: MaterialId) -> &[crate::modifier::ModifierId] {
+        self.material_mods
+            .get(id as usize)
+            .map_or(&[], |v| v.as_slice())
     }
 
     /// World bounds of all objects.

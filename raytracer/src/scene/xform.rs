@@ -292,6 +292,13 @@ pub(crate) fn transform_prim(p: &RawPrim, xf: &Xf, invert: bool) -> Result<RawPr
         "instance" | "mesh" => {
             q.post = Some(p.post.unwrap_or(Xf::IDENTITY).then(xf));
         }
+        "brighttext" | "colortext" | "mixtext" => {
+            super::modifiers::transform_text_reals(&mut q.reals, xf);
+        }
+        t if super::build::PATTERNS.contains(&t) => {
+            // Radiance's xform appends its transform to a pattern's.
+            q.post = Some(p.post.unwrap_or(Xf::IDENTITY).then(xf));
+        }
         _ => {}
     }
     Ok(q)

@@ -1,0 +1,633 @@
+//! Reading patterns, textures and mixtures into [`crate::modifier`]:
+//! their string arguments (functions, expressions, files, a transform),
+//! the files they load (function files, data files, pictures, fonts) and
+//! how they attach to materials.
+//!
+//! Files named by a modifier are looked up beside the scene file that
+//! names them, then along the search path (`RAYPATH`, or what the caller
+//! set with [`super::LoadOptions`]), as Radiance's `getpath` does.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use super::build::{Builder, Mod};
+use super::model::{Color, Material, MaterialId};
+use super::rad::RawPrim;
+use super::xform::{parse_instance_xf, Xf};
+use crate::cal::{Context, ExprId, FuncId, Library};
+use crate::geometry::Vec3;
+use crate::modifier::data::{DataArray, PictureData};
+use crate::modifier::font::{Font, TextLayout};
+use crate::modifier::{Kind, Mixing, Modifier, ModifierId, Patterns, MAX_DATA_DIMS};
+use crate::{Error, Result};
+
+/// What patterns load while a scene is read.
+#[derive(Default)]
+pub(crate) struct ModState {
+    /// Where files are searched after the naming file's own directory.
+    pub search_path: Vec<PathBuf>,
+    /// The function library, created on the first modifier that needs it
+    /// (a scene without functions never builds one).
+    lib: Option<Library>,
+    modifiers: Vec<Modifier>,
+    data: HashMap<PathBuf, Arc<DataArray>>,
+    picts: HashMap<PathBuf, Arc<PictureData>>,
+    fonts: HashMap<PathBuf, Arc<Font>>,
+    /// Materials made for a surface whose modifier is a pattern in front
+    /// of a material: (chain, material) -> the patterned copy.
+    derived: HashMap<(Vec<ModifierId>, MaterialId), MaterialId>,
+}
+
+impl ModState {
+    /// The search path from the `RAYPATH` environment variable.
+    pub fn from_env() -> Self {
+        let search_path = std::env::var_os("RAYPATH")
+            .map(|v| std::env::split_paths(&v).collect())
+            .unwrap_or_default();
+        Self {
+            search_path,
+            ..Default::default()
+        }
+    }
+
+    fn lib(&mut self) -> Result<&mut Library> {
+        if self.lib.is_none() {
+            self.lib = Some(Library::new(self.search_path.clone())?);
+        }
+        Ok(self.lib.as_mut().expect("just created"))
+    }
+
+    /// Finds a file the way Radiance does: as given if absolute, else
+    /// beside the scene file, else along the search path.
+    fn find(&self, name: &str, base: &Path) -> Option<PathBuf> {
+        let p = Path::new(name);
+        if p.is_absolute() {
+            return p.is_file().then(|| p.to_path_buf());
+        }
+        std::iter::once(base.to_path_buf())
+            .chain(self.search_path.iter().cloned())
+            .map(|d| d.join(p))
+            .find(|c| c.is_file())
+    }
+
+    fn locate(&self, name: &str, what: &str, p: &RawPrim) -> Result<PathBuf> {
+        self.find(name, &p.base_dir()).ok_or_else(|| {
+            Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{} '{}': cannot find {what} '{name}' (looked beside the scene file and in RAYPATH{})",
+                    p.ptype,
+                    p.id,
+                    if self.search_path.is_empty() {
+                        ", which is not set".to_string()
+                    } else {
+                        format!(
+                            ": {}",
+                            self.search_path
+                                .iter()
+                                .map(|d| d.display().to_string())
+                                .collect::<Vec<_>>()
+                                .join(":")
+                        )
+                    }
+                ),
+            )
+        })
+    }
+
+    fn data(&mut self, name: &str, p: &RawPrim) -> Result<Arc<DataArray>> {
+        let path = self.locate(name, "data file", p)?;
+        if let Some(d) = self.data.get(&path) {
+            return Ok(d.clone());
+        }
+        let d = Arc::new(DataArray::load(&path, &p.loc)?);
+        if d.dims() == 0 || d.dims() > MAX_DATA_DIMS {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{} '{}': data file '{}' has {} dimensions (1 to {MAX_DATA_DIMS} are supported)",
+                    p.ptype,
+                    p.id,
+                    path.display(),
+                    d.dims()
+                ),
+            ));
+        }
+        self.data.insert(path, d.clone());
+        Ok(d)
+    }
+
+    fn pict(&mut self, name: &str, p: &RawPrim) -> Result<Arc<PictureData>> {
+        let path = self.locate(name, "picture", p)?;
+        if let Some(d) = self.picts.get(&path) {
+            return Ok(d.clone());
+        }
+        let d = Arc::new(PictureData::load(&path, &p.loc)?);
+        self.picts.insert(path, d.clone());
+        Ok(d)
+    }
+
+    fn font(&mut self, name: &str, p: &RawPrim) -> Result<Arc<Font>> {
+        let path = self.locate(name, "font", p)?;
+        if let Some(d) = self.fonts.get(&path) {
+            return Ok(d.clone());
+        }
+        let d = Arc::new(Font::load(&path, &p.loc)?);
+        self.fonts.insert(path, d.clone());
+        Ok(d)
+    }
+
+    /// Compiles every function and hands over the scene's patterns.
+    pub fn finish(self) -> Result<Patterns> {
+        let program = match self.lib {
+            Some(lib) => lib.finish()?,
+            None => crate::cal::Program::empty(),
+        };
+        Ok(Patterns {
+            modifiers: self.modifiers,
+            program,
+            failures: Default::default(),
+        })
+    }
+}
+
+/// The first `fixed` string arguments, and the transform in the rest.
+fn split_xf(p: &RawPrim, fixed: usize, meaning: &str) -> Result<Option<Xf>> {
+    if p.strs.len() < fixed {
+        return Err(Error::parse(
+            p.loc.clone(),
+            format!(
+                "{} '{}': expected at least {fixed} string arguments ({meaning}), got {}",
+                p.ptype,
+                p.id,
+                p.strs.len()
+            ),
+        ));
+    }
+    let own = &p.strs[fixed..];
+    if own.is_empty() && p.post.is_none() {
+        return Ok(None);
+    }
+    let xf = parse_instance_xf(own, &p.loc).map_err(|e| match e {
+        Error::Parse { loc, reason } => Error::Parse {
+            loc,
+            reason: format!(
+                "{} '{}': after its {fixed} arguments ({meaning}) only a transform may follow: {reason}",
+                p.ptype, p.id
+            ),
+        },
+        other => other,
+    })?;
+    Ok(Some(xf.then(&p.post.unwrap_or_default())))
+}
+
+/// One side of a mixture.
+enum Side {
+    Void,
+    Material(MaterialId),
+    Patterns(Vec<ModifierId>),
+}
+
+impl Builder {
+    /// A copy of `material` with `chain` applied in front of its own
+    /// patterns (a surface whose modifier is a pattern leading to a
+    /// material); made once per pair.
+    pub(super) fn patterned_material(&mut self, chain: &[ModifierId], material: MaterialId) -> MaterialId {
+        let key = (chain.to_vec(), material);
+        if let Some(&id) = self.mods.derived.get(&key) {
+            return id;
+        }
+        let name = self.scene.material_names[material as usize].clone();
+        let m = self.scene.material(material).clone();
+        let mut mods = chain.to_vec();
+        mods.extend_from_slice(self.scene.mods(material));
+        let id = self.add_material(&name, m);
+        self.scene.material_mods[id as usize] = mods;
+        self.mods.derived.insert(key, id);
+        id
+    }
+
+    fn context(&mut self, file: &str, p: &RawPrim) -> Result<Context> {
+        let base = p.base_dir();
+        let lib = self.mods.lib()?;
+        if file == "." {
+            Ok(lib.global())
+        } else {
+            lib.load_file(file, &base, &p.loc)
+        }
+    }
+
+    fn exprs(&mut self, ctx: Context, texts: &[String], p: &RawPrim) -> Result<Vec<ExprId>> {
+        let lib = self.mods.lib()?;
+        texts.iter().map(|t| lib.expr(ctx, t, &p.loc)).collect()
+    }
+
+    fn func(&mut self, ctx: Context, name: &str, arity: usize, p: &RawPrim) -> Result<FuncId> {
+        self.mods.lib()?.function(ctx, name, arity, &p.loc)
+    }
+
+    /// Reads one pattern, texture or mixture and binds its name.
+    pub(super) fn add_modifier(&mut self, p: &RawPrim) -> Result<()> {
+        let t = p.ptype.as_str();
+        self.scene.stats.materials += 1;
+        // What this modifier's own modifier contributes.
+        let (tail, material): (Vec<ModifierId>, Option<MaterialId>) = match p.modifier.as_str() {
+            "void" => (Vec::new(), None),
+            m => match self.lookup(m, &p.loc, p)? {
+                Mod::Material(id) => (Vec::new(), Some(id)),
+                Mod::Pattern { chain, material } => (chain.to_vec(), material),
+            },
+        };
+        if !p.ints.is_empty() {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{t} '{}': expected 0 integer arguments, got {}",
+                    p.id,
+                    p.ints.len()
+                ),
+            ));
+        }
+        if matches!(t, "specfunc" | "specdata" | "specpict") {
+            self.warn_once(
+                t,
+                &p.loc,
+                format!("{t} '{}': spectral patterns are not supported yet; the materials it modifies render unpatterned", p.id),
+            );
+            self.scope_insert(&p.id, Mod::Pattern { chain: tail.into(), material });
+            return Ok(());
+        }
+        if t.starts_with("mix") {
+            return self.add_mixture(p, tail, material);
+        }
+        let (kind, xf) = self.pattern_kind(p)?;
+        let id = self.push_modifier(p, kind, xf);
+        let mut chain = vec![id];
+        chain.extend(tail);
+        self.scope_insert(&p.id, Mod::Pattern {
+            chain: chain.into(),
+            material,
+        });
+        Ok(())
+    }
+
+    fn scope_insert(&mut self, name: &str, m: Mod) {
+        self.scope.insert(name.to_string(), m);
+    }
+
+    fn push_modifier(&mut self, p: &RawPrim, kind: Kind, xf: Option<Xf>) -> ModifierId {
+        let id = self.mods.modifiers.len() as ModifierId;
+        self.mods.modifiers.push(Modifier {
+            name: p.id.clone(),
+            ptype: p.ptype.clone(),
+            kind,
+            xf,
+            args: p.reals.clone(),
+            loc: p.loc.clone(),
+        });
+        id
+    }
+
+    /// Data coordinates: the `n` expressions from `start`, then the transform.
+    fn data_coords(
+        &mut self,
+        p: &RawPrim,
+        ctx: Context,
+        start: usize,
+        n: usize,
+        meaning: &str,
+    ) -> Result<(Vec<ExprId>, Option<Xf>)> {
+        let xf = split_xf(p, start + n, meaning)?;
+        let coords = self.exprs(ctx, &p.strs[start..start + n], p)?;
+        Ok((coords, xf))
+    }
+
+    fn pattern_kind(&mut self, p: &RawPrim) -> Result<(Kind, Option<Xf>)> {
+        let s = &p.strs;
+        let need = |n: usize, meaning: &str| -> Result<()> {
+            if s.len() < n {
+                Err(Error::parse(
+                    p.loc.clone(),
+                    format!(
+                        "{} '{}': expected at least {n} string arguments ({meaning}), got {}",
+                        p.ptype,
+                        p.id,
+                        s.len()
+                    ),
+                ))
+            } else {
+                Ok(())
+            }
+        };
+        Ok(match p.ptype.as_str() {
+            "brightfunc" => {
+                let xf = split_xf(p, 2, "function, function file")?;
+                let ctx = self.context(&s[1], p)?;
+                let e = self.exprs(ctx, &s[..1], p)?;
+                (Kind::BrightFunc(e[0]), xf)
+            }
+            "colorfunc" | "texfunc" => {
+                let meaning = if p.ptype == "colorfunc" {
+                    "red, green and blue functions, function file"
+                } else {
+                    "x, y and z perturbations, function file"
+                };
+                let xf = split_xf(p, 4, meaning)?;
+                let ctx = self.context(&s[3], p)?;
+                let e = self.exprs(ctx, &s[..3], p)?;
+                let e = [e[0], e[1], e[2]];
+                if p.ptype == "colorfunc" {
+                    (Kind::ColorFunc(e), xf)
+                } else {
+                    (Kind::TexFunc(e), xf)
+                }
+            }
+            "brightdata" => {
+                need(3, "function, data file, function file, coordinates")?;
+                let data = self.mods.data(&s[1], p)?;
+                let ctx = self.context(&s[2], p)?;
+                let n = data.dims();
+                let (coords, xf) =
+                    self.data_coords(p, ctx, 3, n, "function, data file, function file, one coordinate per data dimension")?;
+                let func = self.func(ctx, &s[0], 1, p)?;
+                (Kind::BrightData { func, data, coords }, xf)
+            }
+            "colordata" | "texdata" => {
+                need(7, "three functions, three data files, function file, coordinates")?;
+                let data = [
+                    self.mods.data(&s[3], p)?,
+                    self.mods.data(&s[4], p)?,
+                    self.mods.data(&s[5], p)?,
+                ];
+                let n = data[0].dims();
+                if data.iter().any(|d| d.dims() != n) {
+                    return Err(Error::parse(
+                        p.loc.clone(),
+                        format!("{} '{}': its three data files differ in dimensions", p.ptype, p.id),
+                    ));
+                }
+                let ctx = self.context(&s[6], p)?;
+                let (coords, xf) = self.data_coords(p, ctx, 7, n, "three functions, three data files, function file, one coordinate per data dimension")?;
+                let funcs = [
+                    self.func(ctx, &s[0], 1, p)?,
+                    self.func(ctx, &s[1], 1, p)?,
+                    self.func(ctx, &s[2], 1, p)?,
+                ];
+                if p.ptype == "colordata" {
+                    (Kind::ColorData { funcs, data, coords }, xf)
+                } else {
+                    (Kind::TexData { funcs, data, coords }, xf)
+                }
+            }
+            "colorpict" => {
+                let xf = split_xf(p, 7, "three functions, picture, function file, u, v")?;
+                let pict = self.mods.pict(&s[3], p)?;
+                let ctx = self.context(&s[4], p)?;
+                let c = self.exprs(ctx, &s[5..7], p)?;
+                let mut funcs = Vec::with_capacity(3);
+                let mut three = [true; 3];
+                for (i, name) in s[..3].iter().enumerate() {
+                    // Radiance calls a function of fewer than three
+                    // arguments with its own channel only.
+                    let arity = self.mods.lib()?.arity(ctx, name).unwrap_or(3);
+                    three[i] = arity >= 3;
+                    funcs.push(self.func(ctx, name, if three[i] { 3 } else { 1 }, p)?);
+                }
+                (
+                    Kind::ColorPict {
+                        funcs: [funcs[0], funcs[1], funcs[2]],
+                        three,
+                        pict,
+                        coords: [c[0], c[1]],
+                    },
+                    xf,
+                )
+            }
+            "brighttext" | "colortext" => {
+                let (layout, rest) = self.text_layout(p, 0)?;
+                let (fore, back) = if p.ptype == "brighttext" {
+                    (Color::splat(rest[0]), Color::splat(rest[1]))
+                } else {
+                    (
+                        Color::new(rest[0], rest[1], rest[2]),
+                        Color::new(rest[3], rest[4], rest[5]),
+                    )
+                };
+                (Kind::Text { layout, fore, back }, None)
+            }
+            other => {
+                return Err(Error::parse(
+                    p.loc.clone(),
+                    format!("'{other}' is not a pattern or texture type"),
+                ))
+            }
+        })
+    }
+
+    /// A text pattern's font, text and placement; returns the reals after
+    /// the placement (the foreground and background values).
+    fn text_layout(&mut self, p: &RawPrim, first: usize) -> Result<(Arc<TextLayout>, Vec<f64>)> {
+        let s = &p.strs[first..];
+        let values = match p.ptype.as_str() {
+            "brighttext" => 2,
+            "colortext" => 6,
+            _ => 0,
+        };
+        let r = &p.reals;
+        if s.len() < 2 || !(r.len() == 9 + values || r.len() == 10 + values) {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{} '{}': expected a font file and a text file or '.' and words, and {} or {} real arguments \
+                     (origin, right and down vectors{}, optional spacing), got {} strings and {} reals",
+                    p.ptype,
+                    p.id,
+                    9 + values,
+                    10 + values,
+                    if values > 0 { ", foreground and background" } else { "" },
+                    s.len(),
+                    r.len()
+                ),
+            ));
+        }
+        let font = self.mods.font(&s[0], p)?;
+        let lines: Vec<String> = if s[1] == "." {
+            vec![s[2..].join(" ")]
+        } else {
+            let path = self.mods.locate(&s[1], "text file", p)?;
+            let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
+            let text = String::from_utf8_lossy(&bytes);
+            let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+            if s.len() > 2 {
+                lines.push(s[2..].join(" "));
+            }
+            lines
+        };
+        let mut placement: Vec<f64> = r[..9].to_vec();
+        if r.len() == 10 + values {
+            placement.push(r[9 + values]);
+        }
+        let layout = TextLayout::new(font, lines, &placement, &p.loc)?;
+        Ok((Arc::new(layout), r[9..9 + values].to_vec()))
+    }
+
+    fn side(&mut self, name: &str, p: &RawPrim) -> Result<Side> {
+        if name == "void" {
+            return Ok(Side::Void);
+        }
+        Ok(match self.lookup(name, &p.loc, p)? {
+            Mod::Material(id) => Side::Material(id),
+            Mod::Pattern {
+                chain,
+                material: Some(id),
+            } => Side::Material(self.patterned_material(&chain, id)),
+            Mod::Pattern {
+                chain,
+                material: None,
+            } => Side::Patterns(chain.to_vec()),
+        })
+    }
+
+    fn add_mixture(
+        &mut self,
+        p: &RawPrim,
+        tail: Vec<ModifierId>,
+        material: Option<MaterialId>,
+    ) -> Result<()> {
+        let s = &p.strs;
+        if s.len() < 2 {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{} '{}': expected the foreground and background modifiers first, got {} string arguments",
+                    p.ptype,
+                    p.id,
+                    s.len()
+                ),
+            ));
+        }
+        let fore = self.side(&s[0], p)?;
+        let back = self.side(&s[1], p)?;
+        let (coef, xf) = match p.ptype.as_str() {
+            "mixfunc" => {
+                let xf = split_xf(p, 4, "foreground, background, coefficient, function file")?;
+                let ctx = self.context(&s[3], p)?;
+                let e = self.exprs(ctx, &s[2..3], p)?;
+                (Mixing::Func(e[0]), xf)
+            }
+            "mixdata" => {
+                if s.len() < 5 {
+                    return Err(Error::parse(
+                        p.loc.clone(),
+                        format!("{} '{}': expected foreground, background, function, data file, function file and coordinates", p.ptype, p.id),
+                    ));
+                }
+                let data = self.mods.data(&s[3], p)?;
+                let ctx = self.context(&s[4], p)?;
+                let n = data.dims();
+                let (coords, xf) = self.data_coords(p, ctx, 5, n, "foreground, background, function, data file, function file, one coordinate per data dimension")?;
+                let func = self.func(ctx, &s[2], 1, p)?;
+                (Mixing::Data { func, data, coords }, xf)
+            }
+            "mixpict" => {
+                let xf = split_xf(p, 7, "foreground, background, function, picture, function file, u, v")?;
+                let pict = self.mods.pict(&s[3], p)?;
+                let ctx = self.context(&s[4], p)?;
+                let c = self.exprs(ctx, &s[5..7], p)?;
+                let func = self.func(ctx, &s[2], 3, p)?;
+                (
+                    Mixing::Pict {
+                        func,
+                        pict,
+                        coords: [c[0], c[1]],
+                    },
+                    xf,
+                )
+            }
+            "mixtext" => {
+                let (layout, _) = self.text_layout(p, 2)?;
+                (Mixing::Text(layout), None)
+            }
+            other => {
+                return Err(Error::parse(
+                    p.loc.clone(),
+                    format!("'{other}' is not a mixture type"),
+                ))
+            }
+        };
+        let is_material = |s: &Side| matches!(s, Side::Material(_));
+        if is_material(&fore) || is_material(&back) {
+            // A mixture of materials is a material.
+            let id = self.push_modifier(
+                p,
+                Kind::Mix {
+                    fore: Vec::new(),
+                    back: Vec::new(),
+                    coef,
+                },
+                xf,
+            );
+            let side = |s: Side| match s {
+                Side::Material(m) => Some(m),
+                _ => None,
+            };
+            if !tail.is_empty() || material.is_some() {
+                self.warn(
+                    &p.loc,
+                    format!(
+                        "{} '{}': a mixture of materials takes no modifier ('{}' is ignored)",
+                        p.ptype, p.id, p.modifier
+                    ),
+                );
+            }
+            let mid = self.add_material(
+                &p.id,
+                Material::Mix {
+                    fore: side(fore),
+                    back: side(back),
+                    modifier: id,
+                },
+            );
+            self.scope_insert(&p.id, Mod::Material(mid));
+            return Ok(());
+        }
+        let chain_of = |s: Side| match s {
+            Side::Patterns(c) => c,
+            _ => Vec::new(),
+        };
+        let id = self.push_modifier(
+            p,
+            Kind::Mix {
+                fore: chain_of(fore),
+                back: chain_of(back),
+                coef,
+            },
+            xf,
+        );
+        let mut chain = vec![id];
+        chain.extend(tail);
+        self.scope_insert(&p.id, Mod::Pattern {
+            chain: chain.into(),
+            material,
+        });
+        Ok(())
+    }
+}
+
+/// Text patterns' placement through `xform` (Radiance's xform moves the
+/// origin and scales and turns the two vectors).
+pub(crate) fn transform_text_reals(reals: &mut [f64], xf: &Xf) {
+    if reals.len() < 9 {
+        return;
+    }
+    let v = |r: &[f64], k: usize| Vec3::new(r[k], r[k + 1], r[k + 2]);
+    let o = xf.point(v(reals, 0));
+    let r = xf.vector(v(reals, 3));
+    let d = xf.vector(v(reals, 6));
+    for (k, w) in [(0, o), (3, r), (6, d)] {
+        reals[k] = w.x;
+        reals[k + 1] = w.y;
+        reals[k + 2] = w.z;
+    }
+}
