@@ -15,7 +15,10 @@ mod genbox;
 pub mod generate;
 mod model;
 mod obj;
+mod octfile;
 mod rad;
+mod radbin;
+mod rtm;
 pub mod view;
 mod xform;
 
@@ -59,5 +62,7 @@ pub fn load_rad_str(text: &str, name: impl AsRef<Path>) -> Result<Scene> {
     Ok(b.finish())
 }
 
+#[cfg(test)]
+mod binformat_tests;
 #[cfg(test)]
 mod tests;
