@@ -632,6 +632,40 @@ fn woman_rtm_reads() {
             v.p
         );
     }
+    // Vertex order agrees with the normals (decoding and joiner vertex
+    // order): the face normal points the way of the vertex normals for
+    // nearly every triangle.
+    let mut agree = 0;
+    for t in &m.triangles {
+        let [a, b, c] = t.v.map(|k| m.vertices[k as usize]);
+        let face = (b.p - a.p).cross(c.p - a.p);
+        let n = a.n.unwrap() + b.n.unwrap() + c.n.unwrap();
+        if face.dot(n) > 0.0 {
+            agree += 1;
+        }
+    }
+    println!(
+        "woman.rtm: {agree} of {} triangles wind with their vertex normals",
+        m.triangles.len()
+    );
+    assert!(agree as f64 > 0.97 * m.triangles.len() as f64, "{agree}");
+    // (u,v) within the limits.
+    let [lo, hi] = m.uv_limits;
+    for v in &m.vertices {
+        let uv = v.uv.unwrap();
+        assert!((0..2).all(|i| uv[i] > lo[i] && uv[i] < hi[i]), "{uv:?}");
+    }
+    // Every vertex is used.
+    let mut used = vec![false; nv];
+    for t in &m.triangles {
+        for k in t.v {
+            used[k as usize] = true;
+        }
+    }
+    println!(
+        "woman.rtm: {} vertices unused",
+        used.iter().filter(|u| !**u).count()
+    );
     // The cube is tight around the model on at least one axis.
     assert!((tight.max - tight.min).max_element() > 0.9 * m.cube_size);
 }
