@@ -16,7 +16,10 @@ pub mod generate;
 mod model;
 mod modifiers;
 mod obj;
+mod octfile;
 mod rad;
+mod radbin;
+mod rtm;
 pub mod view;
 mod xform;
 
@@ -60,5 +63,7 @@ pub fn load_rad_str(text: &str, name: impl AsRef<Path>) -> Result<Scene> {
     b.finish()
 }
 
+#[cfg(test)]
+mod binformat_tests;
 #[cfg(test)]
 mod tests;
