@@ -79,7 +79,10 @@ impl Builder {
             exp: Expander::new(),
             inst_cache: HashMap::new(),
             inst_stack: Vec::new(),
-            mods: super::modifiers::ModState::from_env(),
+            mods: super::modifiers::ModState {
+                search_path: super::LoadOptions::from_env().search_path,
+                ..Default::default()
+            },
             grouped: HashMap::new(),
         }
     }
@@ -151,6 +154,24 @@ impl Builder {
         self.exp.parse_file(path, None, &mut prims)?;
         let mut objs = std::mem::take(&mut self.scene.objects);
         let r = self.add_prims(&prims, &mut objs, true);
+        self.scene.objects = objs;
+        r
+    }
+
+    /// Adds a Radiance octree at top level (its files or frozen objects).
+    pub fn add_octree_file(&mut self, path: &Path) -> Result<()> {
+        let p = RawPrim {
+            modifier: "void".into(),
+            ptype: "octree".into(),
+            id: path.display().to_string(),
+            strs: Vec::new(),
+            ints: Vec::new(),
+            reals: Vec::new(),
+            loc: SourceLoc::new(path, 0),
+            post: None,
+        };
+        let mut objs = std::mem::take(&mut self.scene.objects);
+        let r = self.add_octree_top(&p, path, &mut objs);
         self.scene.objects = objs;
         r
     }
@@ -769,17 +790,30 @@ impl Builder {
             ));
         };
         let named = p.base_dir().join(file);
-        let (source, want) = if t == "instance" {
+        // Radiance's own files first (a compiled mesh, an octree), then a
+        // source of the same name beside it (an .obj, a .rad).
+        let ext = named
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        let native = match (t, ext.as_deref()) {
+            ("mesh", Some("rtm")) | ("instance", Some("oct" | "octf")) => named.is_file(),
+            _ => false,
+        };
+        let (source, want) = if native {
+            (named.clone(), "")
+        } else if t == "instance" {
             (named.with_extension("rad"), "rad")
         } else {
             (named.with_extension("obj"), "obj")
         };
-        let ext_ok = match named.extension().and_then(|e| e.to_str()) {
-            Some("oct") => t == "instance",
-            Some("rtm") => t == "mesh",
-            Some(e) => e == want,
-            None => false,
-        };
+        let ext_ok = native
+            || match ext.as_deref() {
+                Some("oct" | "octf") => t == "instance",
+                Some("rtm") => t == "mesh",
+                Some(e) => e == want,
+                None => false,
+            };
         if !ext_ok || !source.is_file() {
             let kind = if t == "instance" {
                 "an octree"
@@ -789,11 +823,9 @@ impl Builder {
             return Err(Error::parse(
                 p.loc.clone(),
                 format!(
-                    "{t} '{}': cannot read {kind} '{}': this loader reads scene sources, not {} files; \
-                     put '{}' beside it (its source, with the same name)",
+                    "{t} '{}': cannot read {kind} '{}': the file is missing, and so is its source '{}' beside it",
                     p.id,
                     named.display(),
-                    if t == "instance" { "oconv" } else { "obj2mesh" },
                     source.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(),
                 ),
             ));
@@ -835,19 +867,31 @@ impl Builder {
     ) -> Result<InstanceGeometry> {
         let saved = std::mem::take(&mut self.scope);
         let mut objects = Vec::new();
-        let r = if p.ptype == "mesh" {
-            let mat = if Some(material) == self.void_id {
-                None
-            } else {
-                Some(material)
-            };
-            super::obj::load_obj_into(self, source, mat, Some(&p.loc), &mut objects)
-        } else {
-            let mut prims = Vec::new();
-            self.exp
-                .parse_file(source, Some(&p.loc), &mut prims)
-                .and_then(|()| self.add_prims(&prims, &mut objects, false))
+        let native = source.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        // An instance's modifier, when not void, overrides the materials inside.
+        let overriding = (Some(material) != self.void_id).then_some(material);
+        let r = match native.as_deref() {
+            Some("rtm") if p.ptype == "mesh" => self.add_rtm(p, source, overriding, &mut objects),
+            Some("oct" | "octf") if p.ptype == "instance" => {
+                self.add_octree(p, source, &mut objects)
+            }
+            _ if p.ptype == "mesh" => {
+                super::obj::load_obj_into(self, source, overriding, Some(&p.loc), &mut objects)
+            }
+            _ => {
+                let mut prims = Vec::new();
+                self.exp
+                    .parse_file(source, Some(&p.loc), &mut prims)
+                    .and_then(|()| self.add_prims(&prims, &mut objects, false))
+            }
         };
+        if r.is_ok() && p.ptype == "instance" {
+            if let Some(m) = overriding {
+                for o in &mut objects {
+                    o.material = m;
+                }
+            }
+        }
         self.scope = saved;
         r?;
         if objects.is_empty() {
@@ -862,6 +906,93 @@ impl Builder {
             ));
         }
         Ok(InstanceGeometry::new(source.display().to_string(), objects))
+    }
+
+    /// A Radiance compiled mesh: its stored materials (unless `overriding`)
+    /// and its triangles.
+    fn add_rtm(
+        &mut self,
+        p: &RawPrim,
+        path: &Path,
+        overriding: Option<MaterialId>,
+        objects: &mut Vec<Object>,
+    ) -> Result<()> {
+        let mesh = super::rtm::read_rtm(path, Some(&p.loc))?;
+        self.exp.reserve(mesh.triangles.len(), &p.loc)?;
+        let mut mats: Vec<Option<MaterialId>> = Vec::with_capacity(mesh.materials.len());
+        if overriding.is_none() {
+            let mut none = Vec::new();
+            for m in &mesh.materials {
+                self.add_prim(m, &mut none, false)?;
+                mats.push(match self.scope.get(&m.id) {
+                    Some(Mod::Material(id)) => Some(*id),
+                    Some(Mod::Pattern {
+                        chain,
+                        material: Some(id),
+                    }) => {
+                        let (chain, id) = (chain.clone(), *id);
+                        Some(self.patterned_material(&chain, id))
+                    }
+                    _ => None,
+                });
+            }
+        }
+        let own = match overriding {
+            Some(m) => m,
+            None => self.void_material(),
+        };
+        for (k, tri) in mesh.triangles.iter().enumerate() {
+            let material = match (overriding, tri.material) {
+                (Some(m), _) => m,
+                (None, Some(i)) => mats.get(i as usize).copied().flatten().unwrap_or(own),
+                (None, None) => own,
+            };
+            let v = tri.v.map(|i| mesh.vertices[i as usize].p);
+            // Degenerate triangles (zero area) are skipped, as Radiance's
+            // mesh intersection never reports them.
+            let Ok(shape) = Shape::polygon(v.to_vec()) else {
+                continue;
+            };
+            objects.push(Object {
+                name: format!("{}.{k}", p.id),
+                shape,
+                material,
+            });
+        }
+        Ok(())
+    }
+
+    /// A Radiance octree: the scene files it lists (read as text, relative
+    /// to the octree's folder) or the objects a frozen octree stores.
+    fn add_octree(&mut self, p: &RawPrim, path: &Path, objects: &mut Vec<Object>) -> Result<()> {
+        let prims = self.octree_prims(p, path)?;
+        self.add_prims(&prims, objects, false)
+    }
+
+    fn add_octree_top(&mut self, p: &RawPrim, path: &Path, objects: &mut Vec<Object>) -> Result<()> {
+        let prims = self.octree_prims(p, path)?;
+        self.add_prims(&prims, objects, true)
+    }
+
+    fn octree_prims(&mut self, p: &RawPrim, path: &Path) -> Result<Vec<RawPrim>> {
+        let prims = match super::octfile::read_octree(path, Some(&p.loc))? {
+            super::octfile::OctreeContents::Frozen(prims) => prims,
+            super::octfile::OctreeContents::Files(names) => {
+                let dir = super::rad::base_dir_of(path);
+                let loc = SourceLoc::new(path, 0);
+                let mut prims = Vec::new();
+                for n in names {
+                    if let Some(cmd) = n.strip_prefix('!') {
+                        let text = format!("!{cmd}\n");
+                        self.exp.parse_text(&text, &dir.join("octree-command"), &mut prims)?;
+                    } else {
+                        self.exp.parse_file(&dir.join(&n), Some(&loc), &mut prims)?;
+                    }
+                }
+                prims
+            }
+        };
+        Ok(prims)
     }
 
     /// Loads an OBJ file at top level; its emitting faces become area lights.

@@ -28,28 +28,59 @@ use std::path::Path;
 pub use model::*;
 pub use view::{View, ViewType};
 
-use crate::{Error, Result, SourceLoc};
+use crate::{Error, Result};
 
-/// Loads a scene from files, dispatching on the extension (`.rad`, `.obj`).
-/// Files are read in order into one scene.
+/// Loads a scene from files, dispatching on the extension: `.obj` is
+/// Wavefront, `.oct` and `.octf` Radiance octrees, anything else (`.rad`,
+/// `.mat`, `.norm`, no extension) Radiance scene text, and `-` standard
+/// input. Files are read in order into one scene, as `oconv` does.
+/// Function, data, picture and font files are found beside the scene file
+/// that names them, then along `RAYPATH`.
 pub fn load(paths: &[impl AsRef<Path>]) -> Result<Scene> {
+    load_with(paths, &LoadOptions::from_env())
+}
+
+/// How scene files are read.
+#[derive(Debug, Clone, Default)]
+pub struct LoadOptions {
+    /// Where `.cal`, data, picture and font files are searched after the
+    /// naming file's folder (Radiance's `RAYPATH`).
+    pub search_path: Vec<std::path::PathBuf>,
+}
+
+impl LoadOptions {
+    /// The search path from the `RAYPATH` environment variable.
+    pub fn from_env() -> Self {
+        Self {
+            search_path: std::env::var_os("RAYPATH")
+                .map(|v| std::env::split_paths(&v).collect())
+                .unwrap_or_default(),
+        }
+    }
+}
+
+/// [`load`] with explicit options.
+pub fn load_with(paths: &[impl AsRef<Path>], options: &LoadOptions) -> Result<Scene> {
     let mut b = build::Builder::new();
+    b.mods.search_path = options.search_path.clone();
     for p in paths {
         let p = p.as_ref();
+        if p == Path::new("-") {
+            let mut bytes = Vec::new();
+            std::io::Read::read_to_end(&mut std::io::stdin(), &mut bytes)
+                .map_err(|e| Error::io("<standard input>", e))?;
+            b.add_rad_text(&String::from_utf8_lossy(&bytes), Path::new("<standard input>"))?;
+            continue;
+        }
         match p
             .extension()
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase)
             .as_deref()
         {
-            Some("rad") => b.add_rad_file(p)?,
             Some("obj") => b.add_obj_file(p)?,
-            _ => {
-                return Err(Error::parse(
-                    SourceLoc::new(p, 0),
-                    "unknown scene file type: expected a .rad (Radiance) or .obj (Wavefront) file",
-                ))
-            }
+            Some("oct" | "octf") => b.add_octree_file(p)?,
+            _ => b.add_rad_file(p)?,
         }
     }
     b.finish()

@@ -40,17 +40,6 @@ pub(crate) struct ModState {
 }
 
 impl ModState {
-    /// The search path from the `RAYPATH` environment variable.
-    pub fn from_env() -> Self {
-        let search_path = std::env::var_os("RAYPATH")
-            .map(|v| std::env::split_paths(&v).collect())
-            .unwrap_or_default();
-        Self {
-            search_path,
-            ..Default::default()
-        }
-    }
-
     fn lib(&mut self) -> Result<&mut Library> {
         if self.lib.is_none() {
             self.lib = Some(Library::new(self.search_path.clone())?);

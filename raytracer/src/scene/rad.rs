@@ -108,6 +108,10 @@ impl<'a> Lexer<'a> {
         self.src[self.pos..].chars().next()
     }
 
+    /// The next word. A word that starts with a double or single quote
+    /// runs to the matching quote, spaces and newlines included, and the
+    /// quotes are dropped (Radiance's `fgetword`: `"porsche #1"`); an
+    /// unclosed quote runs to the end of the file, as there.
     pub fn next_token(&mut self) -> Option<Token> {
         self.skip_space();
         if self.pos >= self.src.len() {
@@ -115,14 +119,26 @@ impl<'a> Lexer<'a> {
         }
         let start = self.pos;
         let rest = &self.src[start..];
+        let line = self.line;
+        self.last = self.line;
+        if let Some(q) = rest.chars().next().filter(|c| *c == '"' || *c == '\'') {
+            let body = &rest[1..];
+            let len = body.find(q).unwrap_or(body.len());
+            let text = &body[..len];
+            self.line += text.bytes().filter(|b| *b == b'\n').count();
+            self.pos += 1 + len + usize::from(len < body.len());
+            return Some(Token {
+                text: text.to_string(),
+                line,
+            });
+        }
         let len = rest
             .find(|c: char| c.is_ascii_whitespace())
             .unwrap_or(rest.len());
         self.pos += len;
-        self.last = self.line;
         Some(Token {
             text: rest[..len].to_string(),
-            line: self.line,
+            line,
         })
     }
 
@@ -185,13 +201,16 @@ impl Expander {
         from: Option<&SourceLoc>,
         out: &mut Vec<RawPrim>,
     ) -> Result<()> {
-        let text = std::fs::read_to_string(path).map_err(|e| match from {
+        let bytes = std::fs::read(path).map_err(|e| match from {
             Some(loc) => Error::parse(
                 loc.clone(),
                 format!("cannot read scene file '{}': {e}", path.display()),
             ),
             None => Error::io(path, e),
         })?;
+        // Bytes that are not UTF-8 (Latin-1 comments, names) do not
+        // reject a file: Radiance reads bytes.
+        let text = String::from_utf8_lossy(&bytes);
         let key = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
         if self.stack.contains(&key) {
             let loc = from.cloned().unwrap_or_else(|| SourceLoc::new(path, 0));
