@@ -79,10 +79,7 @@ impl Builder {
             exp: Expander::new(),
             inst_cache: HashMap::new(),
             inst_stack: Vec::new(),
-            mods: super::modifiers::ModState {
-                search_path: super::LoadOptions::from_env().search_path,
-                ..Default::default()
-            },
+            mods: super::modifiers::ModState::new(super::LoadOptions::from_env().search_path),
             grouped: HashMap::new(),
         }
     }

@@ -40,6 +40,13 @@ pub(crate) struct ModState {
 }
 
 impl ModState {
+    pub fn new(search_path: Vec<PathBuf>) -> Self {
+        Self {
+            search_path,
+            ..Default::default()
+        }
+    }
+
     fn lib(&mut self) -> Result<&mut Library> {
         if self.lib.is_none() {
             self.lib = Some(Library::new(self.search_path.clone())?);
