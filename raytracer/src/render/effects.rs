@@ -30,6 +30,9 @@ impl Effect {
             reason: reason.into(),
         }
     }
+    fn no_patterns() -> Self {
+        Self::off("no pattern, texture or mixture modifies a material the scene uses")
+    }
 }
 
 /// The effects a render simulates.
@@ -53,6 +56,10 @@ pub struct EffectsReport {
     pub ambient: Effect,
     /// Diffuse inter-reflection (`-ab`).
     pub diffuse_interreflection: Effect,
+    /// Patterns, textures and mixtures evaluated per ray (Radiance's
+    /// function language, data files, pictures, text).
+    #[serde(default = "Effect::no_patterns")]
+    pub patterns: Effect,
 }
 
 /// Materials some surface actually uses (instances included; an `illum`'s
@@ -79,14 +86,16 @@ fn used_materials(scene: &Scene) -> Vec<bool> {
     while changed {
         changed = false;
         for (i, m) in scene.materials.iter().enumerate() {
-            if let (
-                true,
-                Material::Illum {
-                    alternate: Some(a), ..
-                },
-            ) = (used[i], m)
-            {
-                if let Some(u) = used.get_mut(*a as usize) {
+            if !used[i] {
+                continue;
+            }
+            let next: [Option<MaterialId>; 2] = match m {
+                Material::Illum { alternate, .. } => [*alternate, None],
+                Material::Mix { fore, back, .. } => [*fore, *back],
+                _ => [None, None],
+            };
+            for a in next.into_iter().flatten() {
+                if let Some(u) = used.get_mut(a as usize) {
                     if !*u {
                         *u = true;
                         changed = true;
@@ -126,11 +135,15 @@ impl EffectsReport {
         let mut absorbing = Vec::new();
         let mut see_through = Vec::new();
         let mut diffuse = false;
+        let mut patterned = Vec::new();
         for (i, m) in scene.materials.iter().enumerate() {
             if !used[i] {
                 continue;
             }
             let id = i as MaterialId;
+            if !scene.mods(id).is_empty() || matches!(m, Material::Mix { .. }) {
+                patterned.push(id);
+            }
             match m {
                 Material::Mirror { .. } => reflective.push(id),
                 Material::Glass { transmission, .. } => {
@@ -288,7 +301,18 @@ impl EffectsReport {
                 }
             ))
         };
+        let patterns = if patterned.is_empty() {
+            Effect::no_patterns()
+        } else {
+            Effect::on(format!(
+                "{} modifier(s) of {} material(s) evaluated per ray: {}",
+                scene.patterns.modifiers.len(),
+                patterned.len(),
+                names(scene, &patterned)
+            ))
+        };
         Self {
+            patterns,
             area_shadows,
             distant_shadows,
             adaptive_shadow_testing,

@@ -623,39 +623,137 @@ fn meshes_load_from_a_sibling_obj() {
 // ---------------------------------------------------------------------------
 // Materials, patterns, lights.
 
+/// A scratch folder for files a test writes.
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("hybrid-rt-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
 #[test]
-fn unsupported_patterns_warn_and_load() {
-    let text = "void brightfunc dirt\n2 dirt dirt.cal\n0\n0\n\
-                dirt colorpict pic\n5 r g b pic.hdr pic.cal\n0\n0\n\
-                pic plastic floor\n0\n0\n5 .5 .5 .5 0 0\n\
+fn patterns_attach_to_materials_in_radiance_order() {
+    let d = scratch("patterns");
+    std::fs::write(d.join("dirt.cal"), "dirt = .5 + .25*A1;\n{ a comment }\nbump = .1;\n").unwrap();
+    let text = "void brightfunc dirt\n2 dirt dirt.cal\n0\n1 2\n\
+                dirt colorfunc tint\n4 1 .5 .25 .\n0\n0\n\
+                tint plastic floor\n0\n0\n5 .5 .5 .5 0 0\n\
                 floor polygon f\n0\n0\n9 0 0 0 1 0 0 0 1 0\n\
-                floor texfunc bump\n4 dx dy dz bump.cal\n0\n0\n\
-                bump polygon g\n0\n0\n9 0 0 1 1 0 1 0 1 1\n";
-    let s = load_rad_str(text, "pat.rad").unwrap();
+                void texfunc bump\n4 bump 0 0 dirt.cal\n0\n0\n\
+                bump plastic wall\n0\n0\n5 .5 .5 .5 0 0\n\
+                wall polygon g\n0\n0\n9 0 0 1 1 0 1 0 1 1\n";
+    let s = load_rad_str(text, d.join("pat.rad")).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     assert_eq!(s.objects.len(), 2);
-    assert_eq!(s.stats.materials, 4);
-    assert_eq!(s.warnings.len(), 3);
-    let (loc, msg) = &s.warnings[1];
-    assert_eq!((loc.file.as_path(), loc.line), (Path::new("pat.rad"), 5));
-    assert!(
-        msg.contains("colorpict 'pic'") && msg.contains("not supported"),
-        "{msg}"
-    );
-    // Both surfaces are plain plastic: the pattern is ignored, the chain resolved.
-    let floor = s.material_names.iter().position(|n| n == "floor").unwrap() as u32;
-    assert!(s.objects.iter().all(|o| o.material == floor));
-    assert!(s.warnings[2].1.contains("texfunc 'bump'"));
+    assert_eq!(s.stats.materials, 5);
+    let floor = s.objects[0].material;
+    // The material's own modifier first, then that pattern's modifier.
+    let names: Vec<&str> = s
+        .mods(floor)
+        .iter()
+        .map(|&m| s.patterns.modifiers[m as usize].name.as_str())
+        .collect();
+    assert_eq!(names, ["tint", "dirt"]);
+    let vars = crate::modifier::RayVars {
+        dir: -Vec3::Z,
+        normal: Vec3::Z,
+        point: Vec3::ZERO,
+        t: 1.0,
+        ts: 0.0,
+        uv: [0.0; 2],
+    };
+    let mut a = crate::modifier::Applied::NONE;
+    s.patterns.apply(s.mods(floor), &vars, &mut a);
+    // dirt = .5 + .25*2 = 1, tint = (1, .5, .25).
+    assert_eq!(a.color, Vec3::new(1.0, 0.5, 0.25));
+    let mut a = crate::modifier::Applied::NONE;
+    s.patterns.apply(s.mods(s.objects[1].material), &vars, &mut a);
+    assert_eq!(a.pert, Vec3::new(0.1, 0.0, 0.0));
     // A surface whose modifier is a pattern leading to no material is an error.
-    let f = Path::new("p.rad");
+    let f = d.join("p.rad");
     assert_parse_err(
         load_rad_str(
-            "void brightfunc d\n2 a b\n0\n0\nd sphere s\n0\n0\n4 0 0 0 1\n",
-            f,
+            "void brightfunc d\n2 1 .\n0\n0\nd sphere s\n0\n0\n4 0 0 0 1\n",
+            &f,
         ),
-        f,
+        &f,
         5,
         "leads to no material",
     );
+    // A missing function file names the scene line and where it looked.
+    assert_parse_err(
+        load_rad_str("void brightfunc d\n2 x nowhere.cal\n0\n0\n", &f),
+        &f,
+        1,
+        "nowhere.cal",
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn aliases_copy_with_their_new_modifier() {
+    // patterns.mat's forms: `inherit` keeps the pattern, `void` drops it,
+    // a pattern replaces it; a later definition does not change earlier aliases.
+    let text = "void brightfunc half\n2 .5 .\n0\n0\n\
+                void brightfunc third\n2 1/3 .\n0\n0\n\
+                half plastic base\n0\n0\n5 .8 .8 .8 0 0\n\
+                inherit alias keeps base\n\
+                void alias bare base\n\
+                third alias swapped base\n\
+                void plastic base\n0\n0\n5 .1 .1 .1 0 0\n\
+                keeps sphere a\n0\n0\n4 0 0 0 1\n\
+                bare sphere b\n0\n0\n4 0 0 3 1\n\
+                swapped sphere c\n0\n0\n4 0 0 6 1\n\
+                base sphere d\n0\n0\n4 0 0 9 1\n";
+    let s = load_rad_str(text, "a.rad").unwrap();
+    let chain = |k: usize| -> Vec<String> {
+        s.mods(s.objects[k].material)
+            .iter()
+            .map(|&m| s.patterns.modifiers[m as usize].name.clone())
+            .collect()
+    };
+    assert_eq!(chain(0), ["half"]);
+    assert!(chain(1).is_empty());
+    assert_eq!(chain(2), ["third"]);
+    assert!(chain(3).is_empty());
+    for k in 0..3 {
+        assert!(matches!(s.material(s.objects[k].material), Material::Plastic { color, .. } if color.x == 0.8));
+    }
+    assert!(matches!(s.material(s.objects[3].material), Material::Plastic { color, .. } if color.x == 0.1));
+}
+
+#[test]
+fn file_forms_radiance_reads() {
+    let d = scratch("forms");
+    // Quoted names and arguments with spaces; Latin-1 bytes in a comment
+    // and a name; a file with no extension and one named .mat.
+    let mut bytes = b"# caf\xe9 au lait\nvoid plastic 'm #1'\n0\n0\n5 .5 .5 .5 0 0\n".to_vec();
+    bytes.extend_from_slice(b"'m #1' sphere \"ball \xe9\"\n0\n0\n4 0 0 0 1\n");
+    std::fs::write(d.join("scene"), &bytes).unwrap();
+    let s = load(&[d.join("scene")]).unwrap();
+    assert_eq!(s.objects.len(), 1);
+    assert_eq!(s.objects[0].name, "ball \u{fffd}");
+    assert_eq!(s.material_names.last().unwrap(), "m #1");
+    // .mat and .norm files are Radiance text too.
+    std::fs::write(d.join("a.mat"), "void plastic red\n0\n0\n5 .7 .2 .2 0 0\n").unwrap();
+    std::fs::write(d.join("b.norm"), "red sphere s\n0\n0\n4 0 0 0 1\n").unwrap();
+    let s = load(&[d.join("a.mat"), d.join("b.norm")]).unwrap();
+    assert_eq!(s.objects.len(), 1);
+    // An unclosed quote reads to the end of the file and then reports it.
+    let f = d.join("q.rad");
+    std::fs::write(&f, "void plastic 'open\n0\n0\n5 .5 .5 .5 0 0\n").unwrap();
+    assert!(load(&[&f]).is_err());
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn unsupported_types_are_named_once_with_their_count() {
+    let mut text = String::new();
+    for k in 0..50 {
+        text += &format!("void plastic2 aniso{k}\n4 0 0 1 .\n0\n6 .5 .5 .5 .05 .04 .09\n");
+    }
+    let s = load_rad_str(&text, "many.rad").unwrap();
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(s.warnings[0].1.contains("50 primitives"), "{}", s.warnings[0].1);
 }
 
 #[test]
