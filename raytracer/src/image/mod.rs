@@ -6,6 +6,7 @@
 //! Output format is chosen by the file extension ([`ImageFormat::from_path`]).
 
 mod film;
+pub mod compare;
 pub mod hdr;
 pub mod tonemap;
 

@@ -448,17 +448,13 @@ impl Builder {
             ));
         }
         let font = self.mods.font(&s[0], p)?;
-        let lines: Vec<String> = if s[1] == "." {
+        // text.c: words after the file name are the text (the name, usually
+        // `.`, is then ignored); otherwise the file holds the lines.
+        let lines: Vec<String> = if s.len() > 2 {
             vec![s[2..].join(" ")]
         } else {
             let path = self.mods.locate(&s[1], "text file", p)?;
-            let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
-            let text = String::from_utf8_lossy(&bytes);
-            let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
-            if s.len() > 2 {
-                lines.push(s[2..].join(" "));
-            }
-            lines
+            crate::modifier::font::read_text_file(&path, &p.loc)?
         };
         let mut placement: Vec<f64> = r[..9].to_vec();
         if r.len() == 10 + values {
