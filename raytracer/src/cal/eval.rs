@@ -86,7 +86,9 @@ pub struct Program {
 /// function used as a value (or a value called), or a missing real argument.
 #[derive(Debug, Clone)]
 pub struct EvalError {
-    message: String,
+    // Boxed: keeps `Result<f64, EvalError>` two words, returned in registers.
+    #[allow(clippy::box_collection)] // one word, where String is three
+    message: Box<String>,
 }
 
 impl fmt::Display for EvalError {
@@ -98,10 +100,14 @@ impl fmt::Display for EvalError {
 impl std::error::Error for EvalError {}
 
 impl EvalError {
-    fn in_def(d: &CDef, what: &str) -> Self {
+    fn new(message: impl Into<String>) -> Self {
         EvalError {
-            message: format!("{}: `{}` (defined here): {what}", d.loc, d.name),
+            message: Box::new(message.into()),
         }
+    }
+
+    fn in_def(d: &CDef, what: &str) -> Self {
+        EvalError::new(format!("{}: `{}` (defined here): {what}", d.loc, d.name))
     }
 }
 
@@ -465,9 +471,7 @@ impl<'p> Eval<'p> {
     fn too_few(&self, f: &Frame<'_>) -> EvalError {
         match self.code.defs.get(f.def as usize) {
             Some(d) => EvalError::in_def(d, "too few arguments"),
-            None => EvalError {
-                message: "too few arguments".into(),
-            },
+            None => EvalError::new("too few arguments"),
         }
     }
 
@@ -526,15 +530,13 @@ impl<'p> Eval<'p> {
     }
 
     fn not_value(&self, c: Callable) -> EvalError {
-        EvalError {
-            message: match c {
-                Callable::User(d) => {
-                    let d = self.def(d);
-                    format!("{}: function `{}` used as a value", d.loc, d.name)
-                }
-                Callable::Builtin(b) => format!("built-in function {b:?} used as a value"),
-            },
-        }
+        EvalError::new(match c {
+            Callable::User(d) => {
+                let d = self.def(d);
+                format!("{}: function `{}` used as a value", d.loc, d.name)
+            }
+            Callable::Builtin(b) => format!("built-in function {b:?} used as a value"),
+        })
     }
 
     /// A user function call or a variable's evaluation.
@@ -586,9 +588,7 @@ impl<'p> Eval<'p> {
         let mut fr = f;
         let not_fn = |fr: &Frame<'_>| match self.code.defs.get(fr.def as usize) {
             Some(d) => EvalError::in_def(d, "argument is not a function"),
-            None => EvalError {
-                message: "argument is not a function".into(),
-            },
+            None => EvalError::new("argument is not a function"),
         };
         loop {
             match fr.src {
@@ -614,16 +614,13 @@ impl<'p> Eval<'p> {
         match src {
             Src::Nodes(list, caller) => match list.get(i) {
                 Some(&n) => self.eval(n, caller),
-                None => Err(EvalError {
-                    message: "too few arguments to a built-in function".into(),
-                }),
+                None => Err(EvalError::new("too few arguments to a built-in function")),
             },
-            Src::Values(v) => v.get(i).copied().ok_or_else(|| EvalError {
-                message: "too few arguments to a built-in function".into(),
-            }),
-            Src::None => Err(EvalError {
-                message: "too few arguments to a built-in function".into(),
-            }),
+            Src::Values(v) => v
+                .get(i)
+                .copied()
+                .ok_or_else(|| EvalError::new("too few arguments to a built-in function")),
+            Src::None => Err(EvalError::new("too few arguments to a built-in function")),
         }
     }
 
@@ -717,9 +714,7 @@ impl<'p> Eval<'p> {
                 } else if let Some(&v) = args.get(n as usize - 1) {
                     Ok(v)
                 } else {
-                    Err(EvalError {
-                        message: format!("missing real argument {n}"),
-                    })
+                    Err(EvalError::new(format!("missing real argument {n}")))
                 }
             }
             _ => unreachable!("unary built-ins are handled above"),

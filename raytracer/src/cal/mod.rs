@@ -328,9 +328,9 @@ impl Library {
             name: ctx_name,
             defs: HashMap::new(),
         });
-        // Registered before parsing: a file is loaded once even when it fails.
-        self.files.insert(key, ctx);
+        // Statements are added only when the whole file parses.
         self.define_text(ctx, &text, &path, 0)?;
+        self.files.insert(key, ctx);
         Ok(ctx)
     }
 
