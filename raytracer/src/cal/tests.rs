@@ -417,6 +417,8 @@ fn cal_errors_name_file_line_column() {
         .to_string();
     let want = format!("{}:3:12", dir.join("bad.cal").display());
     assert!(e.starts_with(&want), "{e} (want {want})");
+    // A file that failed is not taken as loaded the next time.
+    assert!(lib.load_file("bad.cal", &dir, &here()).is_err());
     std::fs::write(dir.join("undef.cal"), "a = 1;\n\nf(x) = x + nothere;\n").unwrap();
     let u = lib.load_file("undef.cal", &dir, &here()).unwrap();
     // Unreachable: no error yet.
