@@ -275,45 +275,42 @@ fn cal_frand_against_c() {
     assert!(close(noise::frand(-7), 0.018403123132884502));
 }
 
-/// At a lattice point the Hermite weights are (1, 0, 0, 0), so noise3x..z
-/// and noise3 are the lattice hashes: at (1,2,3) noise3x = frand(67+118+213)
-/// = frand(398), noise3 = frand(103+214+327) = frand(644). Off the lattice
-/// the expected values come from an independent port of noise3.c's
-/// `interpolate` and `fnoise3` (64-bit wrapping `long`), run by hand.
+/// Radiance 5's noise3 (noise3.c 2.14) is Perlin's improved noise, which
+/// is 0 at every lattice point; its partials are backward differences over
+/// 0.0005. Off the lattice the expected values come from an independent
+/// Python port of noise3.c 2.14's `perlin_noise`, `noise3partial` and
+/// `fnoise3` (EPSILON .0005; with .001 the same port gives the earlier
+/// Radiance's fnoise3(0.5, 0.25, 0.125) = -0.7006690010076829).
 #[test]
 fn cal_noise_against_c() {
-    assert_eq!(ev("noise3x(1, 2, 3)"), noise::frand(398));
-    assert_eq!(ev("noise3(1, 2, 3)"), noise::frand(644));
-    assert!(close(ev("noise3x(1, 2, 3)"), -0.7440137220546603));
-    assert!(close(ev("noise3y(1, 2, 3)"), -0.8412958206608891));
-    assert!(close(ev("noise3z(1, 2, 3)"), 0.34466946963220835));
-    assert!(close(ev("noise3(1, 2, 3)"), -0.8992333123460412));
+    assert_eq!(ev("noise3(1, 2, 3)"), 0.0);
+    assert_eq!(ev("noise3(-4, 0, 7)"), 0.0);
     let cases: [([f64; 3], [f64; 4]); 3] = [
         (
             [0.5, 0.25, 0.125],
             [
-                0.1634905740230579,
-                0.0482144006090266,
-                -0.10212097599708159,
-                0.09176983749560463,
+                -1.3155529491812035,
+                -0.6674905177851964,
+                -0.13254968119300048,
+                -0.08358576893806458,
             ],
         ),
         (
             [-1.3, 2.7, 0.01],
             [
-                0.11578001817844144,
-                -0.39917367493018124,
-                0.059015195610532756,
-                -0.11329259625215254,
+                2.016165819725635,
+                -0.9367198390284048,
+                0.02539796161282748,
+                -0.10024579294338018,
             ],
         ),
         (
             [10.1, -3.3, 5.5],
             [
-                0.2906120184183716,
-                0.5241150904438199,
-                0.3078399861987234,
-                -0.6097748414099257,
+                0.5206864184833515,
+                -0.12291085459825712,
+                0.006318497656199185,
+                -0.1739783859200002,
             ],
         ),
     ];
@@ -326,9 +323,13 @@ fn cal_noise_against_c() {
         assert!(close(ev(&format!("noise3a({a})")), f[0]), "{a}");
         assert!(close(ev(&format!("noise3d(3, {a})")), f[2]), "{a}");
     }
-    assert!(close(ev("fnoise3(0.5, 0.25, 0.125)"), -0.7006690010076829));
-    assert!(close(ev("fnoise3(-1.3, 2.7, 0.01)"), -0.4086438221217283));
-    assert!(close(ev("fnoise3(3.3, 6.6, 9.9)"), -0.0856557782433278));
+    assert!(close(ev("fnoise3(0.5, 0.25, 0.125)"), -0.2619491657206533));
+    assert!(close(ev("fnoise3(-1.3, 2.7, 0.01)"), -0.13085776401369742));
+    assert!(close(ev("fnoise3(3.3, 6.6, 9.9)"), -0.059519024884313786));
+    // The partials are the slope of noise3 (central differences agree).
+    let h = 1e-4;
+    let slope = (ev("noise3(0.5 + 1e-4, 0.25, 0.125)") - ev("noise3(0.5 - 1e-4, 0.25, 0.125)")) / (2.0 * h);
+    assert!((slope - ev("noise3x(0.5, 0.25, 0.125)")).abs() < 2e-3, "{slope}");
 }
 
 #[test]
