@@ -15,6 +15,8 @@ echo "== clippy"
 cargo clippy --workspace --all-targets --locked -- -D warnings
 echo "== tests (workspace: unit, integration, doctests incl. the book)"
 cargo test --workspace --locked
+echo "== Radiance's regression scenes against its reference images (release build)"
+cargo test --release --locked -p hybrid-rt --test radiance_suite
 
 if [ "${SKIP_MPI:-0}" = 1 ]; then
     echo "== MPI checks skipped (SKIP_MPI=1)"

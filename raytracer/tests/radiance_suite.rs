@@ -3,19 +3,32 @@
 //! are, and compared with Radiance's reference pictures.
 //!
 //! The references were rendered at 2048 pixels and reduced to 128; we
-//! render at `SCALE` times the reference's size and reduce the same way
-//! (box filter). The figures are those of the folder's README: the ratio
+//! render at a multiple of the reference's size (4 for patterns, 2 for the
+//! mesh scene) and reduce the same way (box filter). The figures are those of the folder's README: the ratio
 //! of mean luminances, and the RMS of the per-pixel luminance difference
 //! over the reference's mean after both pictures are smoothed with a
 //! 3x3 box (different sampling noise, same structure). Each test writes
 //! the render and a difference picture to `target/radiance-suite/` when
-//! it fails, and prints its figures either way (`--nocapture`).
+//! it fails (also when `RADIANCE_SUITE_KEEP` is set), and prints its
+//! figures either way (`--nocapture`).
+//!
+//! Tolerances, against the README's measurements between two Radiance
+//! runs: mean luminance within 3% (patterns) and 5% (mesh: 18 chrome and
+//! clothed figures whose highlights are smaller than a pixel); per pixel,
+//! Radiance repeats itself at 512 pixels to 2.3-3.5% nRMSE on patterns and
+//! 27-46% on the mesh views, and our renders at 512 and 256 are held to
+//! 8% and 40-70%.
+//!
+//! Scenes that wait for the light-transport issue (mist, spotlights,
+//! prisms, mirrors as virtual sources, illum windows, BSDFs) or for files
+//! the suite lacks (`sunset.hdr`, `vase.rtm`, `blinds20c.xml`) are not
+//! here.
 //!
 //! Rendering settings: the suite's own (from the references' headers)
-//! where this renderer has the option; `-ss 32` (32 specular samples) is
-//! Radiance's newer meaning of `-ss` and is read as `-ss 1` here, and
-//! `-ps`/`-pt` (adaptive pixel sampling) is replaced by rendering at a
-//! finer grid, so only sampling noise differs.
+//! where this renderer has the option; `-ps`/`-pt` (adaptive pixel
+//! sampling) is replaced by rendering at a finer grid, and `-dp`, `-ms`,
+//! `-dr` (options of features this renderer does not have: secondary
+//! source pretests, mist sampling, virtual-source relays) are left out.
 
 use std::path::{Path, PathBuf};
 
@@ -34,7 +47,7 @@ fn suite() -> Option<PathBuf> {
 fn options(av: f64) -> RenderOptions {
     let mut o = RenderOptions::default();
     o.apply_words(&format!(
-        "-ds .2 -dj .9 -dt .1 -dc .5 -ab 1 -aa .1 -ar 49 -ad 1536 -as 392 -av {av} {av} {av} -lr 8 -lw 1e-4 -st .02 -ss 1"
+        "-ds .2 -dj .9 -dt .1 -dc .5 -ab 1 -aa .1 -ar 49 -ad 1536 -as 392 -av {av} {av} {av} -lr 8 -lw 1e-4 -st .02 -ss 32"
     ))
     .unwrap();
     o.validate().unwrap();
@@ -61,7 +74,23 @@ fn run(c: &Case) {
     let reference = Reference::load(&dir.join("ref").join(format!("{}.hdr", c.name))).unwrap();
     let view_text = reference.view.clone().expect("reference has a VIEW line");
     let view = View::from_options(&view_text).unwrap();
-    let files: Vec<PathBuf> = c.files.iter().map(|f| dir.join(f)).collect();
+    let files: Vec<PathBuf> = c
+        .files
+        .iter()
+        .map(|f| match f.strip_prefix('!') {
+            // A rif's in-line scene command: written into a file of its
+            // own (the command's file names made absolute).
+            Some(cmd) => {
+                let tmp = Path::new(env!("CARGO_TARGET_TMPDIR")).join("radiance-suite");
+                std::fs::create_dir_all(&tmp).unwrap();
+                let name = tmp.join(format!("{}-{}.rad", c.name, cmd.len()));
+                let cmd = cmd.replace("./", &format!("{}/", dir.display()));
+                std::fs::write(&name, format!("!{cmd}\n")).unwrap();
+                name
+            }
+            None => dir.join(f),
+        })
+        .collect();
     let scene = load_with(
         &files,
         &LoadOptions {
@@ -110,7 +139,13 @@ fn run(c: &Case) {
         };
         let info = HdrInfo::default();
         write_image(&film, &out.join(format!("{}.png", c.name)), &tone, &info).unwrap();
-        write_image(&reference.film, &out.join(format!("{}-ref.png", c.name)), &tone, &info).unwrap();
+        write_image(
+            &reference.film,
+            &out.join(format!("{}-ref.png", c.name)),
+            &tone,
+            &info,
+        )
+        .unwrap();
     }
     if !ok {
         let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("radiance-suite");
@@ -137,57 +172,92 @@ const PATTERNS: &[&str] = &[
 ];
 
 #[test]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "renders for a minute unoptimised: scripts/test.sh runs it with --release"
+)]
 fn patterns_def() {
     run(&Case {
         name: "patterns_def",
         files: PATTERNS,
         av: 0.12,
-        scale: 2,
-        mean_tol: 0.05,
-        rms_tol: 0.2,
+        scale: 4,
+        mean_tol: 0.03,
+        rms_tol: 0.08,
     });
 }
 
 #[test]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "renders for a minute unoptimised: scripts/test.sh runs it with --release"
+)]
 fn patterns_plan() {
     run(&Case {
         name: "patterns_plan",
         files: PATTERNS,
         av: 0.12,
+        scale: 4,
+        mean_tol: 0.03,
+        rms_tol: 0.08,
+    });
+}
+
+const MESH: &[&str] = &[
+    "basic.mat",
+    "chrome.mat",
+    "diorama_walls.rad",
+    "closed_end.rad",
+    "front_cap.rad",
+    "!xform -n plainclothes -s 1.5 -rx 90 -rz -80 -t 1 0 0 -a 9 -rz 40 -i 1 -t -5 2.5 0 ./woman.rad",
+    "!xform -m chrome -n shiny -s 1.5 -rx 90 -rz -105 -t 1 0 0 -rz 20 -a 9 -rz 40 -i 1 -t -5 2.5 0 ./woman.rad",
+    "rect_fixture.rad",
+];
+
+#[test]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "renders for a minute unoptimised: scripts/test.sh runs it with --release"
+)]
+fn mesh_def() {
+    run(&Case {
+        name: "mesh_def",
+        files: MESH,
+        av: 0.12,
         scale: 2,
         mean_tol: 0.05,
-        rms_tol: 0.2,
+        rms_tol: 0.4,
     });
 }
 
 #[test]
-#[ignore]
-fn debug_dump() {
-    let dir = suite().unwrap();
-    let files: Vec<PathBuf> = PATTERNS.iter().map(|f| dir.join(f)).collect();
-    let scene = load_with(&files, &LoadOptions { search_path: vec![dir.clone(), dir.join("lib")] }).unwrap();
-    for o in scene.objects.iter().filter(|o| o.name.ends_with(".1")) {
-        let m = o.material;
-        let mods: Vec<String> = scene.mods(m).iter().map(|&i| scene.patterns.modifiers[i as usize].name.clone()).collect();
-        println!("{} -> {} {:?} {:?}", o.name, scene.material_names[m as usize], scene.material(m), mods);
-    }
+#[cfg_attr(
+    debug_assertions,
+    ignore = "renders for a minute unoptimised: scripts/test.sh runs it with --release"
+)]
+fn mesh_cyl() {
+    run(&Case {
+        name: "mesh_cyl",
+        files: MESH,
+        av: 0.12,
+        scale: 2,
+        mean_tol: 0.05,
+        rms_tol: 0.7,
+    });
 }
 
 #[test]
-#[ignore]
-fn debug_noise() {
-    use hybrid_rt::cal::*;
-    let mut lib = Library::new(vec![]).unwrap();
-    let g = lib.global();
-    let loc = hybrid_rt::SourceLoc::new("x", 1);
-    let e = lib.expr(g, ".5+.2*noise3x(5*Px,5*Py,5*Pz)", &loc).unwrap();
-    let f = lib.expr(g, "noise3(5*Px,5*Py,5*Pz)", &loc).unwrap();
-    let p = lib.finish().unwrap();
-    for k in 0..10 {
-        let mut inp = Inputs::new(&[]);
-        inp.values[chan::PX] = -2.5 + 0.037 * k as f64;
-        inp.values[chan::PY] = 1.0 + 0.051 * k as f64;
-        inp.values[chan::PZ] = 0.6;
-        println!("{} {}", p.eval(e, &inp).unwrap(), p.eval(f, &inp).unwrap());
-    }
+#[cfg_attr(
+    debug_assertions,
+    ignore = "renders for a minute unoptimised: scripts/test.sh runs it with --release"
+)]
+fn mesh_cyl2() {
+    run(&Case {
+        name: "mesh_cyl2",
+        files: MESH,
+        av: 0.12,
+        scale: 2,
+        mean_tol: 0.05,
+        rms_tol: 0.45,
+    });
 }

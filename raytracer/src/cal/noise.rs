@@ -110,7 +110,11 @@ pub fn perlin(x: f64, y: f64, z: f64) -> f64 {
         lerp(
             v,
             lerp(u, grad(perm(aa), x, y, z), grad(perm(ba), x - 1.0, y, z)),
-            lerp(u, grad(perm(ab), x, y - 1.0, z), grad(perm(bb), x - 1.0, y - 1.0, z)),
+            lerp(
+                u,
+                grad(perm(ab), x, y - 1.0, z),
+                grad(perm(bb), x - 1.0, y - 1.0, z),
+            ),
         ),
         lerp(
             v,
@@ -148,7 +152,6 @@ pub fn noise3(x: [f64; 3]) -> [f64; 4] {
 fn frand3(x: i64, y: i64, z: i64) -> f64 {
     rand3([17, 23, 29], x, y, z)
 }
-
 
 /// `fnoise3`: fractal noise.
 #[allow(clippy::needless_range_loop)] // kept in the shape of the C loops

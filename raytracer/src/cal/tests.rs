@@ -328,8 +328,12 @@ fn cal_noise_against_c() {
     assert!(close(ev("fnoise3(3.3, 6.6, 9.9)"), -0.059519024884313786));
     // The partials are the slope of noise3 (central differences agree).
     let h = 1e-4;
-    let slope = (ev("noise3(0.5 + 1e-4, 0.25, 0.125)") - ev("noise3(0.5 - 1e-4, 0.25, 0.125)")) / (2.0 * h);
-    assert!((slope - ev("noise3x(0.5, 0.25, 0.125)")).abs() < 2e-3, "{slope}");
+    let slope =
+        (ev("noise3(0.5 + 1e-4, 0.25, 0.125)") - ev("noise3(0.5 - 1e-4, 0.25, 0.125)")) / (2.0 * h);
+    assert!(
+        (slope - ev("noise3x(0.5, 0.25, 0.125)")).abs() < 2e-3,
+        "{slope}"
+    );
 }
 
 #[test]

@@ -84,6 +84,21 @@ pub struct InstanceGeometry {
     /// hierarchy: an instance is never split between processors).
     pub accel: crate::accel::Bvh,
     pub bounds: Aabb,
+    /// Vertex normals and (u, v) of a Radiance mesh (`.rtm`): its
+    /// triangles shade smoothly and patterns see `Lu`, `Lv`.
+    pub shading: Option<Arc<MeshShading>>,
+}
+
+/// Per-vertex data of a triangle mesh, for shading (Radiance's `o_mesh`).
+#[derive(Debug, Clone, Default)]
+pub struct MeshShading {
+    /// Per object of the geometry: the vertex indices of its triangle.
+    pub triangles: Vec<[u32; 3]>,
+    pub positions: Vec<Vec3>,
+    /// Unit vertex normals (all vertices or none).
+    pub normals: Option<Vec<Vec3>>,
+    /// Vertex (u, v) (all vertices or none).
+    pub uv: Option<Vec<[f64; 2]>>,
 }
 
 #[derive(Debug, Clone)]

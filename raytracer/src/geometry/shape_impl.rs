@@ -11,7 +11,7 @@ use std::f64::consts::PI;
 use std::sync::Arc;
 
 use super::robust::{diff_of_products, orthonormal_basis};
-use super::shape::{Instance, InstanceGeometry, Polygon, Shape, ShapeHit, Transform};
+use super::shape::{Instance, InstanceGeometry, MeshShading, Polygon, Shape, ShapeHit, Transform};
 use super::triangulate::{ear_clip, project};
 use super::{Aabb, PreparedRay, Ray, Vec3};
 use crate::accel::Bvh;
@@ -549,6 +549,44 @@ impl Shape {
     }
 }
 
+impl MeshShading {
+    /// Barycentric weights of `p` (object space, in the triangle's plane)
+    /// in triangle `k`, `None` for a degenerate triangle.
+    fn weights(&self, k: usize, p: Vec3) -> Option<([usize; 3], [f64; 3])> {
+        let t = self.triangles.get(k)?;
+        let v = t.map(|i| i as usize);
+        let [a, b, c] = v.map(|i| self.positions[i]);
+        let n = (b - a).cross(c - a);
+        let den = n.length_squared();
+        if !(den > 0.0 && den.is_finite()) {
+            return None;
+        }
+        let w0 = (b - p).cross(c - p).dot(n) / den;
+        let w1 = (c - p).cross(a - p).dot(n) / den;
+        Some((v, [w0, w1, 1.0 - w0 - w1]))
+    }
+
+    /// The interpolated unit normal (object space) and (u, v) at `p` on
+    /// triangle `k`, as Radiance's `o_mesh` computes them.
+    pub fn at(&self, k: usize, p: Vec3) -> (Option<Vec3>, Option<[f64; 2]>) {
+        let Some((v, w)) = self.weights(k, p) else {
+            return (None, None);
+        };
+        let n = self.normals.as_ref().and_then(|ns| {
+            let n = ns[v[0]] * w[0] + ns[v[1]] * w[1] + ns[v[2]] * w[2];
+            let len = n.length();
+            (len > 0.0 && len.is_finite()).then(|| n / len)
+        });
+        let uv = self.uv.as_ref().map(|uv| {
+            [
+                uv[v[0]][0] * w[0] + uv[v[1]][0] * w[1] + uv[v[2]][0] * w[2],
+                uv[v[0]][1] * w[0] + uv[v[1]][1] * w[1] + uv[v[2]][1] * w[2],
+            ]
+        });
+        (n, uv)
+    }
+}
+
 impl InstanceGeometry {
     /// Shared geometry with its own hierarchy ([`Bvh`]) in object space.
     pub fn new(name: impl Into<String>, objects: Vec<Object>) -> Self {
@@ -561,6 +599,7 @@ impl InstanceGeometry {
             objects,
             accel,
             bounds,
+            shading: None,
         }
     }
 

@@ -126,8 +126,18 @@ pub fn compare(render: &Film, reference: &Film, radius: usize) -> Result<Compari
     let a = smoothed(render, radius);
     let b = smoothed(reference, radius);
     let mean_a = render.pixels().iter().map(|&c| luminance(c)).sum::<f64>() / n;
-    let mean_b = reference.pixels().iter().map(|&c| luminance(c)).sum::<f64>() / n;
-    let mse = a.iter().zip(&b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>() / n;
+    let mean_b = reference
+        .pixels()
+        .iter()
+        .map(|&c| luminance(c))
+        .sum::<f64>()
+        / n;
+    let mse = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        / n;
     Ok(Comparison {
         mean_ratio: mean_a / mean_b,
         reference_mean: mean_b,
@@ -161,14 +171,30 @@ pub fn downsample(f: &Film, k: usize) -> Film {
 /// picture: red where the render is brighter, blue where darker, scaled
 /// by the reference's mean.
 pub fn write_difference(render: &Film, reference: &Film, path: &Path) -> Result<()> {
-    let (w, h) = (render.width().min(reference.width()), render.height().min(reference.height()));
-    let mean = reference.pixels().iter().map(|&c| luminance(c)).sum::<f64>()
+    let (w, h) = (
+        render.width().min(reference.width()),
+        render.height().min(reference.height()),
+    );
+    let mean = reference
+        .pixels()
+        .iter()
+        .map(|&c| luminance(c))
+        .sum::<f64>()
         / (reference.pixels().len().max(1) as f64);
     let mut d = Film::new(w, h);
     for y in 0..h {
         for x in 0..w {
-            let v = (luminance(render.get(x, y)) - luminance(reference.get(x, y))) / mean.max(1e-12);
-            d.set(x, y, if v > 0.0 { Color::new(v, 0.0, 0.0) } else { Color::new(0.0, 0.0, -v) });
+            let v =
+                (luminance(render.get(x, y)) - luminance(reference.get(x, y))) / mean.max(1e-12);
+            d.set(
+                x,
+                y,
+                if v > 0.0 {
+                    Color::new(v, 0.0, 0.0)
+                } else {
+                    Color::new(0.0, 0.0, -v)
+                },
+            );
         }
     }
     let f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;

@@ -5,8 +5,8 @@
 //! channel) in `f64`, row-major with row 0 at the **top** of the picture.
 //! Output format is chosen by the file extension ([`ImageFormat::from_path`]).
 
-mod film;
 pub mod compare;
+mod film;
 pub mod hdr;
 pub mod tonemap;
 

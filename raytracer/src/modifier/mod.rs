@@ -403,7 +403,8 @@ impl Patterns {
                 }
             }
             Kind::ColorFunc(es) => {
-                if let (Some(r), Some(g), Some(b)) = (ev.expr(es[0]), ev.expr(es[1]), ev.expr(es[2]))
+                if let (Some(r), Some(g), Some(b)) =
+                    (ev.expr(es[0]), ev.expr(es[1]), ev.expr(es[2]))
                 {
                     acc.color *= Color::new(r, g, b);
                 }
@@ -459,7 +460,8 @@ impl Patterns {
                 acc.color *= if layout.inside(p) { *fore } else { *back };
             }
             Kind::TexFunc(es) => {
-                if let (Some(x), Some(y), Some(z)) = (ev.expr(es[0]), ev.expr(es[1]), ev.expr(es[2]))
+                if let (Some(x), Some(y), Some(z)) =
+                    (ev.expr(es[0]), ev.expr(es[1]), ev.expr(es[2]))
                 {
                     acc.pert += ev.to_world(Vec3::new(x, y, z));
                 }

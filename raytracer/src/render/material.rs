@@ -41,6 +41,8 @@ const FRESTHRESH: f64 = 0.017999;
 const MAXITER: usize = 10;
 /// Radiance's `MLAMBDA`: mean wavelength (nm) for Hartmann's formula.
 const MLAMBDA: f64 = 500.0;
+/// Most rays one rough specular sample sends (`-ss` above 1.5).
+const MAX_SPECULAR_RAYS: usize = 1024;
 /// Longest chain of `illum` alternates followed before giving up.
 const MAX_ALTERNATES: usize = 8;
 
@@ -289,6 +291,8 @@ struct Emitter<'c, 'o> {
     scale: f64,
     /// Distinguishes the two sides of a mixture in shadow-bundle seeds.
     salt: u32,
+    /// Local surface coordinates of a mesh hit (`Lu`, `Lv`).
+    uv: [f64; 2],
 }
 
 impl Emitter<'_, '_> {
@@ -444,6 +448,7 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
         ambient: [None; 2],
         scale: 1.0,
         salt: 0,
+        uv: [0.0; 2],
     };
     em.start = em.out.len();
     let mut shaded = Shaded {
@@ -451,23 +456,48 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
         extinction: task.extinction,
         ambient: [None; 2],
     };
-    shade_material(&mut em, &mut shaded, obj.material, flat, Applied::NONE, 0);
+    let (start, uv) = mesh_shading(ctx.scene, hit);
+    em.uv = uv;
+    shade_material(&mut em, &mut shaded, obj.material, flat, start, 0);
     shaded.ambient = em.ambient;
     shaded
+}
+
+/// A Radiance mesh's smooth shading at the hit (`o_mesh`): the
+/// interpolated vertex normal as a perturbation of the geometric one, and
+/// the interpolated (u, v).
+fn mesh_shading(scene: &Scene, hit: &Hit) -> (Applied, [f64; 2]) {
+    let top = &scene.objects[hit.object as usize];
+    let (Shape::Instance(inst), Some(k)) = (&top.shape, hit.inner) else {
+        return (Applied::NONE, [0.0; 2]);
+    };
+    let Some(sh) = &inst.geometry.shading else {
+        return (Applied::NONE, [0.0; 2]);
+    };
+    let p = inst.transform.inv_point(hit.point);
+    let (n, uv) = sh.at(k as usize, p);
+    let mut a = Applied::NONE;
+    if let Some(n) = n {
+        let w = inst.transform.vector(n).normalize_or_zero();
+        if w != Vec3::ZERO {
+            a.pert = w - hit.normal;
+        }
+    }
+    (a, uv.unwrap_or([0.0; 2]))
 }
 
 /// Deepest nesting of material mixtures followed.
 const MAX_MIX_DEPTH: usize = 16;
 
 /// The ray variables of the ray being shaded, for patterns.
-fn ray_vars(task: &RayTask, hit: &Hit) -> RayVars {
+fn ray_vars(task: &RayTask, hit: &Hit, uv: [f64; 2]) -> RayVars {
     RayVars {
         dir: task.ray.dir,
         normal: hit.normal,
         point: hit.point,
         t: hit.t,
         ts: 0.0,
-        uv: [0.0; 2],
+        uv,
     }
 }
 
@@ -522,7 +552,7 @@ fn shade_material(
     if !mods.is_empty() {
         ctx.scene
             .patterns
-            .apply(mods, &ray_vars(task, hit), &mut ap);
+            .apply(mods, &ray_vars(task, hit, em.uv), &mut ap);
     }
     let dir = task.ray.dir;
     let rod = -dir.dot(hit.normal);
@@ -539,7 +569,7 @@ fn shade_material(
             let c = ctx
                 .scene
                 .patterns
-                .mix_coefficient(*modifier, &ray_vars(task, hit));
+                .mix_coefficient(*modifier, &ray_vars(task, hit, em.uv));
             let (Some(c), true) = (c, depth < MAX_MIX_DEPTH) else {
                 em.spawn(RayKind::PassThrough, dir, Color::ONE, task.extinction);
                 return;
@@ -839,13 +869,30 @@ fn gaussamp(em: &mut Emitter, b: &NormalBsdf) {
     }
     let (u, v) = orthonormal_basis(b.pnorm);
     let ss = em.ctx.options.ss;
+    // Radiance 5: -ss above 1.5 asks for that many rays (times the ray's
+    // weight, within -lw), each with its share and full jitter.
+    let (samples, jitter) = if ss > 1.5 {
+        let mut n = (ss * em.task.weight + 0.5).floor();
+        let lw = em.ctx.options.lw;
+        if lw > 0.0 && em.task.weight <= lw * n {
+            n = (em.task.weight / lw).floor();
+        }
+        ((n.max(1.0) as usize).min(MAX_SPECULAR_RAYS), 1.0)
+    } else {
+        (1, ss)
+    };
+    let share = 1.0 / samples as f64;
     let dir = b.rdir;
     let mut rng = Rng::new(child_seed(em.task.seed, 0x6761_7573));
     let ext = em.task.extinction;
     if refl {
-        for _ in 0..MAXITER {
+        let mut taken = 0;
+        for _ in 0..MAXITER * samples {
+            if taken == samples {
+                break;
+            }
             let phi = 2.0 * PI * rng.next_f64();
-            let r1 = 1.0 - ss * rng.next_f64();
+            let r1 = 1.0 - jitter * rng.next_f64();
             let d = if r1 <= FTINY {
                 1.0
             } else {
@@ -855,15 +902,19 @@ fn gaussamp(em: &mut Emitter, b: &NormalBsdf) {
             let k = -2.0 * h.dot(dir) / (1.0 + d * d);
             let rdir = dir + h * k;
             if rdir.dot(b.pnorm) > FTINY {
-                em.spawn_ray(RayKind::Reflection, rdir, b.scolor, ext, true);
-                break;
+                em.spawn_ray(RayKind::Reflection, rdir, b.scolor * share, ext, true);
+                taken += 1;
             }
         }
     }
     if tran {
-        for _ in 0..MAXITER {
+        let mut taken = 0;
+        for _ in 0..MAXITER * samples {
+            if taken == samples {
+                break;
+            }
             let phi = 2.0 * PI * rng.next_f64();
-            let r1 = 1.0 - ss * rng.next_f64();
+            let r1 = 1.0 - jitter * rng.next_f64();
             let d = if r1 <= FTINY {
                 1.0
             } else {
@@ -871,8 +922,14 @@ fn gaussamp(em: &mut Emitter, b: &NormalBsdf) {
             };
             let rdir = b.prdir + (u * phi.cos() + v * phi.sin()) * d;
             if rdir.dot(b.pnorm) < -FTINY {
-                em.spawn_ray(RayKind::Refraction, rdir, b.mcolor * b.tspec, ext, true);
-                break;
+                em.spawn_ray(
+                    RayKind::Refraction,
+                    rdir,
+                    b.mcolor * b.tspec * share,
+                    ext,
+                    true,
+                );
+                taken += 1;
             }
         }
     }

@@ -11,6 +11,8 @@ pub const MAX_AMBIENT_BOUNCES: u32 = 8;
 pub const MAX_AMBIENT_DIVISIONS: u32 = 1 << 16;
 /// Most primary rays per pixel (`-pn`).
 pub const MAX_PIXEL_SAMPLES: u32 = 4096;
+/// Most rays one rough specular sample may take (`-ss`).
+pub const MAX_SPECULAR_SAMPLES: f64 = 1024.0;
 
 /// Rendering parameters. Field names follow Radiance's options (`-ds` is
 /// `ds`, ...); defaults are `rpict`'s unless noted.
@@ -53,7 +55,9 @@ pub struct RenderOptions {
     /// `-st`: specular threshold: rough specular components at or below this
     /// are not sampled with a ray (their energy goes to the diffuse ambient).
     pub st: f64,
-    /// `-ss`: specular sampling jitter in [0, 1] for rough specular rays.
+    /// `-ss`: specular sampling for rough specular rays: below 1, how far
+    /// the one sampled ray is jittered; above 1.5, rays per rough
+    /// reflection or transmission (times the ray's weight), as Radiance 5.
     pub ss: f64,
     /// Pixel samples (not an `rpict` option; `-pn` here): primary rays per
     /// pixel, averaged, each with its own jitter (`-pj`) and random stream.
@@ -226,7 +230,7 @@ pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
     RadianceOption {
         name: "ss",
         arity: 1,
-        help: "specular jitter 0..1 (default 1)",
+        help: "specular sampling: jitter 0..1, or rays per rough specular sample above 1.5 (default 1)",
     },
     RadianceOption {
         name: "ps",
@@ -318,7 +322,7 @@ impl RenderOptions {
             "as" => self.as_ = integer(name, v0)?,
             "pn" => self.pn = integer(name, v0)?,
             "st" => self.st = in_range(name, number(name, v0)?, 0.0, 1.0)?,
-            "ss" => self.ss = in_range(name, number(name, v0)?, 0.0, 1.0)?,
+            "ss" => self.ss = in_range(name, number(name, v0)?, 0.0, MAX_SPECULAR_SAMPLES)?,
             "ps" => self.ps = integer(name, v0)?,
             "pj" => self.pj = in_range(name, number(name, v0)?, 0.0, 1.0)?,
             _ => unreachable!("option table and match disagree"),
@@ -361,7 +365,7 @@ impl RenderOptions {
         in_range("dc", self.dc, 0.0, 1.0)?;
         in_range("lw", self.lw, 0.0, 1.0)?;
         in_range("st", self.st, 0.0, 1.0)?;
-        in_range("ss", self.ss, 0.0, 1.0)?;
+        in_range("ss", self.ss, 0.0, MAX_SPECULAR_SAMPLES)?;
         in_range("pj", self.pj, 0.0, 1.0)?;
         if self.av.min_element() < 0.0 {
             return Err(Error::Usage(

@@ -63,6 +63,8 @@ pub(crate) struct Builder {
     /// Instance geometry by source file (and material, for meshes).
     inst_cache: HashMap<(PathBuf, Option<MaterialId>), Arc<InstanceGeometry>>,
     inst_stack: Vec<PathBuf>,
+    /// Vertex data of the mesh being loaded as instance geometry.
+    pending_shading: Option<crate::geometry::shape::MeshShading>,
     /// Patterns, textures and mixtures, and what they load.
     pub(super) mods: super::modifiers::ModState,
     /// Unsupported-type warnings by key: index into `scene.warnings` and count.
@@ -79,6 +81,7 @@ impl Builder {
             exp: Expander::new(),
             inst_cache: HashMap::new(),
             inst_stack: Vec::new(),
+            pending_shading: None,
             mods: super::modifiers::ModState::new(super::LoadOptions::from_env().search_path),
             grouped: HashMap::new(),
         }
@@ -303,7 +306,9 @@ impl Builder {
         let m = match (old, new_chain) {
             (m, None) => m,
             (Mod::Material(id), Some((chain, _))) => {
-                if self.scene.material(id) == &Material::Void || self.scene.mods(id) == chain.as_slice() {
+                if self.scene.material(id) == &Material::Void
+                    || self.scene.mods(id) == chain.as_slice()
+                {
                     // Nothing changes: the same material.
                     Mod::Material(id)
                 } else {
@@ -313,7 +318,12 @@ impl Builder {
                     Mod::Material(nid)
                 }
             }
-            (Mod::Pattern { chain: old_chain, .. }, Some((chain, material))) => {
+            (
+                Mod::Pattern {
+                    chain: old_chain, ..
+                },
+                Some((chain, material)),
+            ) => {
                 let own = old_chain[0];
                 let mut c = vec![own];
                 c.extend(chain);
@@ -864,7 +874,10 @@ impl Builder {
     ) -> Result<InstanceGeometry> {
         let saved = std::mem::take(&mut self.scope);
         let mut objects = Vec::new();
-        let native = source.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        let native = source
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
         // An instance's modifier, when not void, overrides the materials inside.
         let overriding = (Some(material) != self.void_id).then_some(material);
         let r = match native.as_deref() {
@@ -902,7 +915,9 @@ impl Builder {
                 ),
             ));
         }
-        Ok(InstanceGeometry::new(source.display().to_string(), objects))
+        let mut g = InstanceGeometry::new(source.display().to_string(), objects);
+        g.shading = self.pending_shading.take().map(Arc::new);
+        Ok(g)
     }
 
     /// A Radiance compiled mesh: its stored materials (unless `overriding`)
@@ -938,6 +953,24 @@ impl Builder {
             Some(m) => m,
             None => self.void_material(),
         };
+        let smooth = mesh.vertices.iter().all(|v| v.n.is_some());
+        let mapped = mesh.vertices.iter().all(|v| v.uv.is_some());
+        let mut shading = crate::geometry::shape::MeshShading {
+            triangles: Vec::with_capacity(mesh.triangles.len()),
+            positions: mesh.vertices.iter().map(|v| v.p).collect(),
+            normals: smooth.then(|| {
+                mesh.vertices
+                    .iter()
+                    .map(|v| v.n.unwrap_or_default())
+                    .collect()
+            }),
+            uv: mapped.then(|| {
+                mesh.vertices
+                    .iter()
+                    .map(|v| v.uv.unwrap_or_default())
+                    .collect()
+            }),
+        };
         for (k, tri) in mesh.triangles.iter().enumerate() {
             let material = match (overriding, tri.material) {
                 (Some(m), _) => m,
@@ -955,6 +988,10 @@ impl Builder {
                 shape,
                 material,
             });
+            shading.triangles.push(tri.v);
+        }
+        if smooth || mapped {
+            self.pending_shading = Some(shading);
         }
         Ok(())
     }
@@ -966,7 +1003,12 @@ impl Builder {
         self.add_prims(&prims, objects, false)
     }
 
-    fn add_octree_top(&mut self, p: &RawPrim, path: &Path, objects: &mut Vec<Object>) -> Result<()> {
+    fn add_octree_top(
+        &mut self,
+        p: &RawPrim,
+        path: &Path,
+        objects: &mut Vec<Object>,
+    ) -> Result<()> {
         let prims = self.octree_prims(p, path)?;
         self.add_prims(&prims, objects, true)
     }
@@ -981,7 +1023,8 @@ impl Builder {
                 for n in names {
                     if let Some(cmd) = n.strip_prefix('!') {
                         let text = format!("!{cmd}\n");
-                        self.exp.parse_text(&text, &dir.join("octree-command"), &mut prims)?;
+                        self.exp
+                            .parse_text(&text, &dir.join("octree-command"), &mut prims)?;
                     } else {
                         self.exp.parse_file(&dir.join(&n), Some(&loc), &mut prims)?;
                     }

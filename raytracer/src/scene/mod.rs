@@ -69,7 +69,10 @@ pub fn load_with(paths: &[impl AsRef<Path>], options: &LoadOptions) -> Result<Sc
             let mut bytes = Vec::new();
             std::io::Read::read_to_end(&mut std::io::stdin(), &mut bytes)
                 .map_err(|e| Error::io("<standard input>", e))?;
-            b.add_rad_text(&String::from_utf8_lossy(&bytes), Path::new("<standard input>"))?;
+            b.add_rad_text(
+                &String::from_utf8_lossy(&bytes),
+                Path::new("<standard input>"),
+            )?;
             continue;
         }
         match p

@@ -189,7 +189,11 @@ impl Builder {
     /// A copy of `material` with `chain` applied in front of its own
     /// patterns (a surface whose modifier is a pattern leading to a
     /// material); made once per pair.
-    pub(super) fn patterned_material(&mut self, chain: &[ModifierId], material: MaterialId) -> MaterialId {
+    pub(super) fn patterned_material(
+        &mut self,
+        chain: &[ModifierId],
+        material: MaterialId,
+    ) -> MaterialId {
         let key = (chain.to_vec(), material);
         if let Some(&id) = self.mods.derived.get(&key) {
             return id;
@@ -251,7 +255,13 @@ impl Builder {
                 &p.loc,
                 format!("{t} '{}': spectral patterns are not supported yet; the materials it modifies render unpatterned", p.id),
             );
-            self.scope_insert(&p.id, Mod::Pattern { chain: tail.into(), material });
+            self.scope_insert(
+                &p.id,
+                Mod::Pattern {
+                    chain: tail.into(),
+                    material,
+                },
+            );
             return Ok(());
         }
         if t.starts_with("mix") {
@@ -261,10 +271,13 @@ impl Builder {
         let id = self.push_modifier(p, kind, xf);
         let mut chain = vec![id];
         chain.extend(tail);
-        self.scope_insert(&p.id, Mod::Pattern {
-            chain: chain.into(),
-            material,
-        });
+        self.scope_insert(
+            &p.id,
+            Mod::Pattern {
+                chain: chain.into(),
+                material,
+            },
+        );
         Ok(())
     }
 
@@ -344,13 +357,21 @@ impl Builder {
                 let data = self.mods.data(&s[1], p)?;
                 let ctx = self.context(&s[2], p)?;
                 let n = data.dims();
-                let (coords, xf) =
-                    self.data_coords(p, ctx, 3, n, "function, data file, function file, one coordinate per data dimension")?;
+                let (coords, xf) = self.data_coords(
+                    p,
+                    ctx,
+                    3,
+                    n,
+                    "function, data file, function file, one coordinate per data dimension",
+                )?;
                 let func = self.func(ctx, &s[0], 1, p)?;
                 (Kind::BrightData { func, data, coords }, xf)
             }
             "colordata" | "texdata" => {
-                need(7, "three functions, three data files, function file, coordinates")?;
+                need(
+                    7,
+                    "three functions, three data files, function file, coordinates",
+                )?;
                 let data = [
                     self.mods.data(&s[3], p)?,
                     self.mods.data(&s[4], p)?,
@@ -360,7 +381,10 @@ impl Builder {
                 if data.iter().any(|d| d.dims() != n) {
                     return Err(Error::parse(
                         p.loc.clone(),
-                        format!("{} '{}': its three data files differ in dimensions", p.ptype, p.id),
+                        format!(
+                            "{} '{}': its three data files differ in dimensions",
+                            p.ptype, p.id
+                        ),
                     ));
                 }
                 let ctx = self.context(&s[6], p)?;
@@ -371,9 +395,23 @@ impl Builder {
                     self.func(ctx, &s[2], 1, p)?,
                 ];
                 if p.ptype == "colordata" {
-                    (Kind::ColorData { funcs, data, coords }, xf)
+                    (
+                        Kind::ColorData {
+                            funcs,
+                            data,
+                            coords,
+                        },
+                        xf,
+                    )
                 } else {
-                    (Kind::TexData { funcs, data, coords }, xf)
+                    (
+                        Kind::TexData {
+                            funcs,
+                            data,
+                            coords,
+                        },
+                        xf,
+                    )
                 }
             }
             "colorpict" => {
@@ -523,7 +561,11 @@ impl Builder {
                 (Mixing::Data { func, data, coords }, xf)
             }
             "mixpict" => {
-                let xf = split_xf(p, 7, "foreground, background, function, picture, function file, u, v")?;
+                let xf = split_xf(
+                    p,
+                    7,
+                    "foreground, background, function, picture, function file, u, v",
+                )?;
                 let pict = self.mods.pict(&s[3], p)?;
                 let ctx = self.context(&s[4], p)?;
                 let c = self.exprs(ctx, &s[5..7], p)?;
@@ -599,10 +641,13 @@ impl Builder {
         );
         let mut chain = vec![id];
         chain.extend(tail);
-        self.scope_insert(&p.id, Mod::Pattern {
-            chain: chain.into(),
-            material,
-        });
+        self.scope_insert(
+            &p.id,
+            Mod::Pattern {
+                chain: chain.into(),
+                material,
+            },
+        );
         Ok(())
     }
 }

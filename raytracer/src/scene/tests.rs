@@ -633,7 +633,11 @@ fn scratch(name: &str) -> PathBuf {
 #[test]
 fn patterns_attach_to_materials_in_radiance_order() {
     let d = scratch("patterns");
-    std::fs::write(d.join("dirt.cal"), "dirt = .5 + .25*A1;\n{ a comment }\nbump = .1;\n").unwrap();
+    std::fs::write(
+        d.join("dirt.cal"),
+        "dirt = .5 + .25*A1;\n{ a comment }\nbump = .1;\n",
+    )
+    .unwrap();
     let text = "void brightfunc dirt\n2 dirt dirt.cal\n0\n1 2\n\
                 dirt colorfunc tint\n4 1 .5 .25 .\n0\n0\n\
                 tint plastic floor\n0\n0\n5 .5 .5 .5 0 0\n\
@@ -666,7 +670,8 @@ fn patterns_attach_to_materials_in_radiance_order() {
     // dirt = .5 + .25*2 = 1, tint = (1, .5, .25).
     assert_eq!(a.color, Vec3::new(1.0, 0.5, 0.25));
     let mut a = crate::modifier::Applied::NONE;
-    s.patterns.apply(s.mods(s.objects[1].material), &vars, &mut a);
+    s.patterns
+        .apply(s.mods(s.objects[1].material), &vars, &mut a);
     assert_eq!(a.pert, Vec3::new(0.1, 0.0, 0.0));
     // A surface whose modifier is a pattern leading to no material is an error.
     let f = d.join("p.rad");
@@ -716,9 +721,13 @@ fn aliases_copy_with_their_new_modifier() {
     assert_eq!(chain(2), ["third"]);
     assert!(chain(3).is_empty());
     for k in 0..3 {
-        assert!(matches!(s.material(s.objects[k].material), Material::Plastic { color, .. } if color.x == 0.8));
+        assert!(
+            matches!(s.material(s.objects[k].material), Material::Plastic { color, .. } if color.x == 0.8)
+        );
     }
-    assert!(matches!(s.material(s.objects[3].material), Material::Plastic { color, .. } if color.x == 0.1));
+    assert!(
+        matches!(s.material(s.objects[3].material), Material::Plastic { color, .. } if color.x == 0.1)
+    );
 }
 
 #[test]
@@ -753,7 +762,11 @@ fn unsupported_types_are_named_once_with_their_count() {
     }
     let s = load_rad_str(&text, "many.rad").unwrap();
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
-    assert!(s.warnings[0].1.contains("50 primitives"), "{}", s.warnings[0].1);
+    assert!(
+        s.warnings[0].1.contains("50 primitives"),
+        "{}",
+        s.warnings[0].1
+    );
 }
 
 #[test]
