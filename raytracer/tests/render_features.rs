@@ -240,3 +240,39 @@ fn radiance_cornell_box_layout() {
     );
     assert!(film.pixels().iter().all(|c| c.is_finite()));
 }
+
+/// Pattern functions that go wrong are counted in the render's statistics
+/// (and the first named), never printed per ray and never a crash.
+#[test]
+fn pattern_errors_are_counted_in_the_report() {
+    let dir = std::env::temp_dir().join(format!("hybrid-rt-paterr-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("bad.cal"),
+        "deep(x) = deep(x + 1) + 1;\nloop = deep(Px);\n",
+    )
+    .unwrap();
+    let text = "void light lamp 0 0 3 10 10 10\n\
+        void brightfunc oops 2 sqrt(-1) . 0 0\n\
+        void brightfunc forever 2 loop bad.cal 0 0\n\
+        oops plastic w 0 0 5 .6 .6 .6 0 0\n\
+        forever plastic v 0 0 5 .6 .6 .6 0 0\n\
+        lamp polygon light 0 0 12 -0.2 -0.2 1.9  -0.2 0.2 1.9  0.2 0.2 1.9  0.2 -0.2 1.9\n\
+        w polygon floor 0 0 12 -2 -2 0  2 -2 0  2 2 0  -2 2 0\n\
+        v sphere ball 0 0 4 0.3 0 0.4 0.4\n";
+    let s = hybrid_rt::scene::load_rad_str(text, dir.join("s.rad")).unwrap();
+    let v = view("-vtv -vp 0 -3 1.5 -vd 0 1 -0.5 -vu 0 0 1 -vh 60 -vv 60");
+    let (film, stats) = render(&s, &v, 16, 16, RenderOptions::default());
+    let e = &stats.pattern_errors;
+    assert!(e.math_errors > 0, "{e:?}");
+    assert!(e.failures > 0, "{e:?}");
+    let first = e.first.as_deref().unwrap();
+    assert!(
+        first.contains("forever") && first.contains("s.rad"),
+        "{first}"
+    );
+    assert!(stats.effects.patterns.enabled);
+    // The floor reads the failed brightness as 0 (black); the ball is unpatterned.
+    assert!(film.mean_brightness() > 0.0);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -128,6 +128,7 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
     if let Some(path) = &a.stats {
         write_json(path, &stats)?;
     }
+    print_pattern_errors(&stats.pattern_errors);
     tracing::info!(
         width,
         height,
@@ -138,6 +139,24 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
         a.output.display()
     );
     Ok(())
+}
+
+/// One line for pattern evaluations that went wrong (Radiance prints a
+/// "compute error" per ray; a real scene would print millions).
+pub(super) fn print_pattern_errors(e: &crate::render::stats::PatternErrors) {
+    if e.is_empty() {
+        return;
+    }
+    eprintln!(
+        "warning: pattern functions: {} math errors (read as 0), {} NaN results and {} failed evaluations (pattern ignored){}",
+        e.math_errors,
+        e.nans,
+        e.failures,
+        e.first
+            .as_deref()
+            .map(|f| format!("; first: {f}"))
+            .unwrap_or_default()
+    );
 }
 
 fn write_film(a: &RenderArgs, film: &Film, view: &View, exposure: Option<f64>) -> Result<()> {

@@ -638,6 +638,15 @@ impl<'s> Renderer<'s> {
             options: self.options.clone(),
             warnings: self.warnings.clone(),
             ambient_records: st.ambient.len(),
+            pattern_errors: {
+                let p = &self.scene.patterns;
+                super::stats::PatternErrors {
+                    math_errors: p.program.warnings(),
+                    nans: p.failures.nans(),
+                    failures: p.failures.errors(),
+                    first: p.failures.first(),
+                }
+            },
         }
     }
 }

@@ -114,4 +114,31 @@ pub struct RenderStats {
     /// Irradiance cache records at the end of the render.
     #[serde(default)]
     pub ambient_records: usize,
+    /// Pattern and texture evaluations that went wrong (counted over the
+    /// scene's renders so far).
+    #[serde(default)]
+    pub pattern_errors: PatternErrors,
+}
+
+/// Function evaluations of patterns, textures and mixtures that failed:
+/// Radiance's "compute error" warnings, counted instead of printed per ray.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PatternErrors {
+    /// Library calls, divisions and powers that failed and gave 0 (as in
+    /// Radiance's calcomp).
+    pub math_errors: u64,
+    /// Results that were NaN (the pattern left the ray unchanged).
+    pub nans: u64,
+    /// Evaluations stopped by an error (recursion too deep, a missing
+    /// argument): the pattern left the ray unchanged.
+    pub failures: u64,
+    /// The first NaN or failure, naming the modifier and its file:line.
+    pub first: Option<String>,
+}
+
+impl PatternErrors {
+    /// True when nothing went wrong.
+    pub fn is_empty(&self) -> bool {
+        self.math_errors == 0 && self.nans == 0 && self.failures == 0
+    }
 }
