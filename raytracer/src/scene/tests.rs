@@ -965,6 +965,17 @@ mod fuzz {
         "\\\n",
         "\t",
         "!",
+        "'",
+        "\"",
+        "\"a b\"",
+        "'x #1'",
+        "colorfunc",
+        "texfunc",
+        "mixfunc",
+        "brightdata",
+        "colortext",
+        "a.cal",
+        ".",
     ];
 
     fn any_text() -> impl Strategy<Value = String> {
@@ -997,6 +1008,13 @@ mod fuzz {
             "instance",
             "mesh",
             "brightfunc",
+            "colorfunc",
+            "texfunc",
+            "mixfunc",
+            "brightdata",
+            "colorpict",
+            "brighttext",
+            "mixtext",
             "plastic2",
             "BSDF",
             "antimatter",
@@ -1004,7 +1022,8 @@ mod fuzz {
         ];
         const NAMES: &[&str] = &["void", "a", "b", "c", "inherit"];
         const STRS: &[&str] = &[
-            "a", "b", "x.oct", "y.rtm", "-t", "-rz", "1", "-s", "-1", "-i", "2",
+            "a", "b", "x.oct", "y.rtm", "-t", "-rz", "1", "-s", "-1", "-i", "2", ".", "Px",
+            "'1 + Dx'", "f.cal", "x.dat",
         ];
         const NUMS: &[&str] = &[
             "0", "1", "-1", ".5", "2", "1e-300", "1e300", "180", "360", "0.0001",
@@ -1054,6 +1073,108 @@ mod fuzz {
             }
             String::from_utf8_lossy(&b).into_owned()
         })
+    }
+
+    /// Words of the function language, for random `.cal` files.
+    const CAL: &[&str] = &[
+        "a", "b", "f", "g", "x", "=", ":", ";", "(", ")", ",", "+", "-", "*", "/", "^", "{", "}",
+        "$1", "$27", "Px", "Dx", "A1", "arg(0)", "1", ".5", "1e308", "if", "select", "noise3",
+        "fnoise3", "rand", "sqrt", "f(x)", "g(a,b)", "f(f(1))", "\n", "`", "c`P.",
+    ];
+
+    fn cal_text() -> impl Strategy<Value = String> {
+        prop::collection::vec(prop::sample::select(CAL), 0..40).prop_map(|w| w.join(" "))
+    }
+
+    /// The suite's pattern scene with random byte edits.
+    fn mutated_patterns() -> impl Strategy<Value = String> {
+        let dir = super::shared("scenes/radiance-tests");
+        let base = std::fs::read_to_string(dir.join("patterns.mat")).unwrap_or_default()
+            + &std::fs::read_to_string(dir.join("rect_fixture.rad")).unwrap_or_default()
+            + "mat1 sphere s1\n0\n0\n4 0 0 0 1\nmat7 sphere s2\n0\n0\n4 0 0 3 1\n";
+        let n = base.len().max(1);
+        (prop::collection::vec((0..n, any::<u8>(), 0u8..3), 1..6)).prop_map(move |edits| {
+            let mut b = base.clone().into_bytes();
+            for (at, byte, op) in edits {
+                let at = at.min(b.len());
+                match op {
+                    0 if at < b.len() => b[at] = byte,
+                    1 => b.insert(at, byte),
+                    _ => b.truncate(at),
+                }
+            }
+            String::from_utf8_lossy(&b).into_owned()
+        })
+    }
+
+    /// Loads `text` with the suite on the search path and evaluates every
+    /// material's patterns for a few rays.
+    fn load_and_shade(text: &str, dir: &std::path::Path) -> bool {
+        let suite = super::shared("scenes/radiance-tests");
+        let opts = super::LoadOptions {
+            search_path: vec![dir.to_path_buf(), suite.clone(), suite.join("lib")],
+        };
+        let file = dir.join("fuzz.rad");
+        if std::fs::write(&file, text).is_err() {
+            return false;
+        }
+        let Ok(s) = super::load_with(&[&file], &opts) else {
+            return false;
+        };
+        for m in 0..s.materials.len() as u32 {
+            for k in 0..3 {
+                let d = crate::geometry::Vec3::new(0.3 * k as f64 - 0.4, 0.5, -0.7).normalize();
+                let vars = crate::modifier::RayVars {
+                    dir: d,
+                    normal: crate::geometry::Vec3::Z,
+                    point: crate::geometry::Vec3::new(k as f64 * 1.7 - 5.0, 2.5, 0.5),
+                    t: 1.0 + k as f64,
+                    ts: 0.0,
+                    uv: [0.25, 0.75],
+                };
+                let mut a = crate::modifier::Applied::NONE;
+                s.patterns.apply(s.mods(m), &vars, &mut a);
+            }
+        }
+        true
+    }
+
+    #[test]
+    fn the_unmutated_pattern_scene_loads_and_shades() {
+        if !super::shared("scenes/radiance-tests").is_dir() {
+            return;
+        }
+        let dir = std::env::temp_dir().join(format!("hybrid-rt-patbase-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let suite = super::shared("scenes/radiance-tests");
+        let base = std::fs::read_to_string(suite.join("patterns.mat")).unwrap()
+            + &std::fs::read_to_string(suite.join("rect_fixture.rad")).unwrap()
+            + "mat1 sphere s1\n0\n0\n4 0 0 0 1\n";
+        assert!(load_and_shade(&base, &dir));
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, rng_seed: proptest::test_runner::RngSeed::Fixed(0xca1), failure_persistence: None, ..ProptestConfig::default() })]
+
+        #[test]
+        fn random_cal_files_never_panic(cal in cal_text(), expr in cal_text()) {
+            let dir = std::env::temp_dir().join(format!("hybrid-rt-calfuzz-{}", std::process::id()));
+            let _ = std::fs::create_dir_all(&dir);
+            let _ = std::fs::write(dir.join("f.cal"), &cal);
+            let text = format!(
+                "void brightfunc p\n2 '{}' f.cal\n0\n2 1 2\nvoid colorfunc q\n4 a b '{}' f.cal\n0\n0\n\
+                 p plastic m\n0\n0\n5 .5 .5 .5 0 0\nq plastic n\n0\n0\n5 .5 .5 .5 0 0\n",
+                expr.replace('\'', ""), expr.replace('\'', "")
+            );
+            let _ = load_and_shade(&text, &dir);
+        }
+
+        #[test]
+        fn mutated_pattern_scene_never_panics(text in mutated_patterns()) {
+            let dir = std::env::temp_dir().join(format!("hybrid-rt-patfuzz-{}", std::process::id()));
+            let _ = std::fs::create_dir_all(&dir);
+            let _ = load_and_shade(&text, &dir);
+        }
     }
 
     proptest! {
