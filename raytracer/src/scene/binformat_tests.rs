@@ -930,3 +930,109 @@ proptest! {
         }
     }
 }
+
+// ---------------------------------------------------------------------------
+// Loading them as scenes: octrees as scene files and as instances, meshes
+// with their own or an overriding material.
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("hybrid-rt-bin-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn octrees_load_as_scenes_and_instances() {
+    let d = scratch("oct");
+    // A frozen octree holds its objects (without the mesh, not here).
+    let objs: Vec<RawPrim> = frozen_objects().into_iter().take(4).collect();
+    let mut b = oct_head(4);
+    put_str(&mut b, "");
+    put_int(&mut b, objs.len() as i64, 4);
+    b.push(1);
+    put_int(&mut b, 2, 4);
+    for k in [2, 3] {
+        put_int(&mut b, k, 4);
+    }
+    put_scene(&mut b, &objs, 4);
+    std::fs::write(d.join("frozen.octf"), &b).unwrap();
+    let s = super::load(&[d.join("frozen.octf")]).unwrap();
+    assert_eq!(s.objects.len(), 2);
+    assert_eq!(s.lights.len(), 1, "the frozen lamp is a light at top level");
+    // A normal octree lists the files oconv read (one a command).
+    std::fs::write(
+        d.join("materials.rad"),
+        "void plastic grey\n0\n0\n5 .5 .5 .5 0 0\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("room.rad"), "grey sphere s\n0\n0\n4 0 0 0 1\n").unwrap();
+    std::fs::write(d.join("listed.oct"), normal_octree()).unwrap();
+    let s = super::load(&[d.join("listed.oct")]).unwrap();
+    assert_eq!(s.objects.len(), 1);
+    match &s.objects[0].shape {
+        crate::geometry::Shape::Sphere { center, .. } => assert_eq!(center.x, 1.0),
+        other => panic!("{other:?}"),
+    }
+    // As an instance, with an overriding modifier.
+    let scene = "void metal chrome\n0\n0\n5 .6 .6 .75 1 0\n\
+                 chrome instance a\n5 frozen.octf -t 5 0 0\n0\n0\n\
+                 void instance b\n1 listed.oct\n0\n0\n";
+    std::fs::write(d.join("inst.rad"), scene).unwrap();
+    let s = super::load(&[d.join("inst.rad")]).unwrap();
+    assert_eq!(s.objects.len(), 2);
+    let crate::geometry::Shape::Instance(i) = &s.objects[0].shape else {
+        panic!()
+    };
+    assert!(i
+        .geometry
+        .objects
+        .iter()
+        .all(|o| s.material_names[o.material as usize] == "chrome"));
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn woman_mesh_loads_with_its_materials_or_an_override() {
+    let path = woman_rtm();
+    if !path.is_file() {
+        return;
+    }
+    let d = scratch("mesh");
+    let text = format!(
+        "void metal chrome\n0\n0\n5 .6 .6 .75 1 0\n\
+         void mesh own\n1 {0}\n0\n0\n\
+         chrome mesh shiny\n3 {0} -s 2\n0\n0\n",
+        path.display()
+    );
+    std::fs::write(d.join("m.rad"), text).unwrap();
+    let s = super::load(&[d.join("m.rad")]).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let geo = |k: usize| match &s.objects[k].shape {
+        crate::geometry::Shape::Instance(i) => i.clone(),
+        other => panic!("{other:?}"),
+    };
+    let own = geo(0);
+    let shiny = geo(1);
+    assert_eq!(own.geometry.objects.len(), 43_210);
+    let names: std::collections::HashSet<&str> = own
+        .geometry
+        .objects
+        .iter()
+        .map(|o| s.material_names[o.material as usize].as_str())
+        .collect();
+    assert!(
+        names.contains("skin:1") && names.contains("hair"),
+        "{names:?}"
+    );
+    // The alias `nipple:1` resolves to skin:1's material.
+    assert!(shiny
+        .geometry
+        .objects
+        .iter()
+        .all(|o| s.material_names[o.material as usize] == "chrome"));
+    let sh = own.geometry.shading.as_ref().expect("smooth shading");
+    assert!(sh.normals.is_some() && sh.uv.is_some());
+    assert_eq!(sh.triangles.len(), own.geometry.objects.len());
+    assert_eq!(shiny.transform.scale, 2.0);
+    std::fs::remove_dir_all(&d).ok();
+}
