@@ -44,10 +44,10 @@ fn suite() -> Option<PathBuf> {
 
 /// The suite's common settings (the `rad` QUAL=Med, IND=1 main pass) with
 /// the scene's `-av`.
-fn options(av: f64) -> RenderOptions {
+fn options(av: f64, extra: &str) -> RenderOptions {
     let mut o = RenderOptions::default();
     o.apply_words(&format!(
-        "-ds .2 -dj .9 -dt .1 -dc .5 -ab 1 -aa .1 -ar 49 -ad 1536 -as 392 -av {av} {av} {av} -lr 8 -lw 1e-4 -st .02 -ss 32"
+        "-ds .2 -dj .9 -dt .1 -dc .5 -ab 1 -aa .1 -ar 49 -ad 1536 -as 392 -av {av} {av} {av} -lr 8 -lw 1e-4 -st .02 -ss 32 {extra}"
     ))
     .unwrap();
     o.validate().unwrap();
@@ -58,8 +58,13 @@ struct Case<'a> {
     name: &'a str,
     files: &'a [&'a str],
     av: f64,
+    /// The scene's own settings where they differ from the common ones.
+    extra: &'a str,
     /// Render at this multiple of the reference's size, then reduce.
     scale: usize,
+    /// The one warning the scene may load with (a file the suite lacks
+    /// that no ray of the view reaches).
+    allowed_warning: Option<&'a str>,
     /// Largest |1 - mean ratio| accepted.
     mean_tol: f64,
     /// Largest smoothed nRMSE accepted.
@@ -99,13 +104,16 @@ fn run(c: &Case) {
     )
     .unwrap_or_else(|e| panic!("{}: {e}", c.name));
     assert!(
-        scene.warnings.is_empty(),
+        scene
+            .warnings
+            .iter()
+            .all(|(_, w)| c.allowed_warning.is_some_and(|a| w.contains(a))),
         "{}: loads with warnings: {:?}",
         c.name,
         scene.warnings
     );
     let (w, h) = (reference.film.width(), reference.film.height());
-    let renderer = Renderer::new(&scene, options(c.av)).unwrap();
+    let renderer = Renderer::new(&scene, options(c.av, c.extra)).unwrap();
     let start = std::time::Instant::now();
     let (film, _) = renderer.render(&view, w * c.scale, h * c.scale).unwrap();
     let secs = start.elapsed().as_secs_f64();
@@ -181,6 +189,8 @@ fn patterns_def() {
         name: "patterns_def",
         files: PATTERNS,
         av: 0.12,
+        extra: "",
+        allowed_warning: None,
         scale: 4,
         mean_tol: 0.03,
         rms_tol: 0.08,
@@ -197,6 +207,8 @@ fn patterns_plan() {
         name: "patterns_plan",
         files: PATTERNS,
         av: 0.12,
+        extra: "",
+        allowed_warning: None,
         scale: 4,
         mean_tol: 0.03,
         rms_tol: 0.08,
@@ -224,6 +236,8 @@ fn mesh_def() {
         name: "mesh_def",
         files: MESH,
         av: 0.12,
+        extra: "",
+        allowed_warning: None,
         scale: 2,
         mean_tol: 0.05,
         rms_tol: 0.4,
@@ -240,6 +254,8 @@ fn mesh_cyl() {
         name: "mesh_cyl",
         files: MESH,
         av: 0.12,
+        extra: "",
+        allowed_warning: None,
         scale: 2,
         mean_tol: 0.05,
         rms_tol: 0.7,
@@ -256,8 +272,51 @@ fn mesh_cyl2() {
         name: "mesh_cyl2",
         files: MESH,
         av: 0.12,
+        extra: "",
+        allowed_warning: None,
         scale: 2,
         mean_tol: 0.05,
         rms_tol: 0.45,
+    });
+}
+
+/// The glass scene as `oconv` reads it (the suite's `expanded/` file: its
+/// generators `genprism`, `genrev` and `pkgBSDF` already run); the sky
+/// picture is missing, and these two views never see it.
+const GLASS: &[&str] = &["expanded/glass.oconv.rad"];
+
+#[test]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "renders for a minute unoptimised: scripts/test.sh runs it with --release"
+)]
+fn glass_fish() {
+    run(&Case {
+        name: "glass_fish",
+        files: GLASS,
+        av: 0.022,
+        extra: "-ar 24",
+        allowed_warning: Some("sunset.hdr"),
+        scale: 2,
+        mean_tol: 0.05,
+        rms_tol: 0.5,
+    });
+}
+
+#[test]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "renders for a minute unoptimised: scripts/test.sh runs it with --release"
+)]
+fn glass_up() {
+    run(&Case {
+        name: "glass_up",
+        files: GLASS,
+        av: 0.022,
+        extra: "-ar 24",
+        allowed_warning: Some("sunset.hdr"),
+        scale: 2,
+        mean_tol: 0.05,
+        rms_tol: 0.5,
     });
 }

@@ -276,6 +276,17 @@ struct Builder<'a> {
     params: OctreeParams,
     margin: f64,
     tree: Octree,
+    /// Most nodes the tree may have: past it, cells stay leaves. Surfaces
+    /// whose overlap test is conservative (cones test their bounding box)
+    /// and that crowd one region would otherwise subdivide every cell to
+    /// the maximum depth (8^14 cells: Radiance's genrev torus in its glass
+    /// regression scene). Real scenes stay far below it.
+    node_budget: usize,
+}
+
+/// The node budget: generous per object, never below a few million.
+fn node_budget(objects: usize) -> usize {
+    objects.saturating_mul(256).max(1 << 20)
 }
 
 impl Builder<'_> {
@@ -292,6 +303,7 @@ impl Builder<'_> {
         if cands.len() <= self.params.max_objects
             || depth >= self.params.max_depth
             || stall >= self.params.max_stall
+            || t.nodes.len() + 8 > self.node_budget
         {
             let start = t.leaf_objects.len() as u32;
             t.leaf_objects.extend_from_slice(&cands);
@@ -374,6 +386,7 @@ impl Octree {
             ..Default::default()
         };
         let mut b = Builder {
+            node_budget: node_budget(objects.len()),
             objects,
             bounds,
             params,

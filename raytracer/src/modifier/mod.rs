@@ -68,7 +68,7 @@ pub enum Kind {
     ColorPict {
         funcs: [FuncId; 3],
         three: [bool; 3],
-        pict: Arc<PictureData>,
+        pict: Picture,
         coords: [ExprId; 2],
     },
     /// `brighttext`/`colortext`: foreground inside the glyphs, background
@@ -97,6 +97,12 @@ pub enum Kind {
     },
 }
 
+/// A picture a pattern reads, or why it could not be read. Radiance reads
+/// a picture when a ray first needs it, so a missing picture that no ray
+/// reaches does not stop a render; one that is reached counts as a failed
+/// evaluation (the pattern leaves the ray unchanged) in the report.
+pub type Picture = Result<Arc<PictureData>, Arc<str>>;
+
 /// Where a mixture's coefficient comes from.
 #[derive(Debug)]
 pub enum Mixing {
@@ -108,7 +114,7 @@ pub enum Mixing {
     },
     Pict {
         func: FuncId,
-        pict: Arc<PictureData>,
+        pict: Picture,
         coords: [ExprId; 2],
     },
     /// 1 inside the glyphs (foreground), 0 outside.
@@ -178,6 +184,12 @@ impl EvalFailures {
     fn record_error(&self, m: &Modifier, e: &cal::EvalError) {
         if self.errors.fetch_add(1, Ordering::Relaxed) == 0 {
             self.keep(format!("{}: {} '{}': {e}", m.loc, m.ptype, m.name));
+        }
+    }
+
+    fn record_missing(&self, m: &Modifier, why: &str) {
+        if self.errors.fetch_add(1, Ordering::Relaxed) == 0 {
+            self.keep(format!("{}: {} '{}': {why}", m.loc, m.ptype, m.name));
         }
     }
 
@@ -338,6 +350,17 @@ impl<'a> Eval<'a> {
         Some((self.expr(coords[0])?, self.expr(coords[1])?))
     }
 
+    /// The picture's colour at (u, v), or a counted failure if it is missing.
+    fn picture(&self, pict: &Picture, u: f64, v: f64) -> Option<[f64; 3]> {
+        match pict {
+            Ok(p) => Some(p.value(u, v)),
+            Err(why) => {
+                self.p.failures.record_missing(self.m, why);
+                None
+            }
+        }
+    }
+
     /// A displacement in pattern space back to world space (with the
     /// transform's scale, as Radiance's `multv3` with the forward matrix).
     fn to_world(&self, d: Vec3) -> Vec3 {
@@ -439,7 +462,9 @@ impl Patterns {
                 coords,
             } => {
                 let Some((u, v)) = ev.uv(coords) else { return };
-                let col = pict.value(u, v);
+                let Some(col) = ev.picture(pict, u, v) else {
+                    return;
+                };
                 let mut c = Color::ZERO;
                 for i in 0..3 {
                     let r = if three[i] {
@@ -515,7 +540,7 @@ impl Patterns {
             }
             Mixing::Pict { func, pict, coords } => {
                 let (u, v) = ev.uv(coords)?;
-                let col = pict.value(u, v);
+                let col = ev.picture(pict, u, v)?;
                 ev.call(*func, &col)?
             }
             Mixing::Text(layout) => {

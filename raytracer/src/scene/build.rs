@@ -719,7 +719,8 @@ impl Builder {
                     material,
                 });
             } else {
-                self.warn(
+                self.warn_once(
+                    "instanced emitter",
                     &p.loc,
                     format!(
                         "{t} '{}': emitting surfaces inside instanced geometry are not sampled as light sources",
@@ -763,7 +764,8 @@ impl Builder {
             ));
         }
         if !top {
-            self.warn(
+            self.warn_once(
+                "instanced source",
                 &p.loc,
                 format!("source '{}' inside instanced geometry is ignored", p.id),
             );
@@ -796,7 +798,12 @@ impl Builder {
                 ),
             ));
         };
-        let named = p.base_dir().join(file);
+        // Beside the scene file, else along the search path (Radiance's
+        // getpath with RAYPATH).
+        let named = match p.base_dir().join(file) {
+            n if n.exists() => n,
+            n => self.mods.find(file, &p.base_dir()).unwrap_or(n),
+        };
         // Radiance's own files first (a compiled mesh, an octree), then a
         // source of the same name beside it (an .obj, a .rad).
         let ext = named

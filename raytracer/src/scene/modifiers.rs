@@ -19,7 +19,7 @@ use crate::cal::{Context, ExprId, FuncId, Library};
 use crate::geometry::Vec3;
 use crate::modifier::data::{DataArray, PictureData};
 use crate::modifier::font::{Font, TextLayout};
-use crate::modifier::{Kind, Mixing, Modifier, ModifierId, Patterns, MAX_DATA_DIMS};
+use crate::modifier::{Kind, Mixing, Modifier, ModifierId, Patterns, Picture, MAX_DATA_DIMS};
 use crate::{Error, Result};
 
 /// What patterns load while a scene is read.
@@ -56,7 +56,7 @@ impl ModState {
 
     /// Finds a file the way Radiance does: as given if absolute, else
     /// beside the scene file, else along the search path.
-    fn find(&self, name: &str, base: &Path) -> Option<PathBuf> {
+    pub(super) fn find(&self, name: &str, base: &Path) -> Option<PathBuf> {
         let p = Path::new(name);
         if p.is_absolute() {
             return p.is_file().then(|| p.to_path_buf());
@@ -114,14 +114,21 @@ impl ModState {
         Ok(d)
     }
 
-    fn pict(&mut self, name: &str, p: &RawPrim) -> Result<Arc<PictureData>> {
-        let path = self.locate(name, "picture", p)?;
+    /// A picture, read once. A missing one is not an error here (Radiance
+    /// reads pictures when a ray first needs them): the pattern records
+    /// why, and a warning says so.
+    fn pict(&mut self, name: &str, p: &RawPrim) -> Result<Picture> {
+        let path = match self.locate(name, "picture", p) {
+            Ok(path) => path,
+            Err(Error::Parse { reason, .. }) => return Ok(Err(reason.into())),
+            Err(e) => return Err(e),
+        };
         if let Some(d) = self.picts.get(&path) {
-            return Ok(d.clone());
+            return Ok(Ok(d.clone()));
         }
         let d = Arc::new(PictureData::load(&path, &p.loc)?);
         self.picts.insert(path, d.clone());
-        Ok(d)
+        Ok(Ok(d))
     }
 
     fn font(&mut self, name: &str, p: &RawPrim) -> Result<Arc<Font>> {
@@ -206,6 +213,20 @@ impl Builder {
         self.scene.material_mods[id as usize] = mods;
         self.mods.derived.insert(key, id);
         id
+    }
+
+    /// A pattern's picture; a missing one is said once as a warning.
+    fn picture(&mut self, name: &str, p: &RawPrim) -> Result<Picture> {
+        let pict = self.mods.pict(name, p)?;
+        if let Err(why) = &pict {
+            self.warn(
+                &p.loc,
+                format!(
+                    "{why}; rays that reach it count as failed evaluations in the render's report"
+                ),
+            );
+        }
+        Ok(pict)
     }
 
     fn context(&mut self, file: &str, p: &RawPrim) -> Result<Context> {
@@ -416,7 +437,7 @@ impl Builder {
             }
             "colorpict" => {
                 let xf = split_xf(p, 7, "three functions, picture, function file, u, v")?;
-                let pict = self.mods.pict(&s[3], p)?;
+                let pict = self.picture(&s[3], p)?;
                 let ctx = self.context(&s[4], p)?;
                 let c = self.exprs(ctx, &s[5..7], p)?;
                 let mut funcs = Vec::with_capacity(3);
@@ -566,7 +587,7 @@ impl Builder {
                     7,
                     "foreground, background, function, picture, function file, u, v",
                 )?;
-                let pict = self.mods.pict(&s[3], p)?;
+                let pict = self.picture(&s[3], p)?;
                 let ctx = self.context(&s[4], p)?;
                 let c = self.exprs(ctx, &s[5..7], p)?;
                 let func = self.func(ctx, &s[2], 3, p)?;
