@@ -282,7 +282,9 @@ fn mesh_cyl2() {
 
 /// The glass scene as `oconv` reads it (the suite's `expanded/` file: its
 /// generators `genprism`, `genrev` and `pkgBSDF` already run); the sky
-/// picture is missing, and these two views never see it.
+/// picture is missing, and these two views never see it. It loads (the
+/// scene language is all there) but renders far too bright until the
+/// light-transport issue: run with `--ignored` to see by how much.
 const GLASS: &[&str] = &["expanded/glass.oconv.rad"];
 
 #[test]
