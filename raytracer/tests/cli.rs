@@ -612,3 +612,41 @@ fn sweep_reference_options_are_checked() {
         assert!(stderr(&o).contains("--reference"), "{bad}: {}", stderr(&o));
     }
 }
+
+/// `-` reads the scene from standard input (`xform ... | hybrid-rt render -`),
+/// and a scene file may have any name (`.mat`, none): Radiance text.
+#[test]
+fn scene_from_standard_input_and_any_file_name() {
+    use std::io::Write;
+    let d = tmpdir("stdin");
+    let mat = write(&d, "lamp.mat", "void light lamp\n0\n0\n3 10 10 10\n");
+    let mut child = exe()
+        .args([
+            "render",
+            mat.to_str().unwrap(),
+            "-",
+            "--view",
+            "-vtv -vp 0 -3 0 -vd 0 1 0 -vu 0 0 1 -vh 40 -vv 40",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "-o",
+        ])
+        .arg(d.join("out.hdr"))
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(b"lamp sphere \"ball #1\"\n0\n0\n4 0 0 0 1\n")
+        .unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(d.join("out.hdr").is_file());
+    std::fs::remove_dir_all(&d).ok();
+}
