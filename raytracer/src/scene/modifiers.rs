@@ -290,16 +290,27 @@ impl Builder {
         }
         let (kind, xf) = self.pattern_kind(p)?;
         let id = self.push_modifier(p, kind, xf);
+        self.bind_pattern(&p.id, id, tail, material);
+        Ok(())
+    }
+
+    /// Binds `name` to the pattern `id` followed by its modifier's chain.
+    fn bind_pattern(
+        &mut self,
+        name: &str,
+        id: ModifierId,
+        tail: Vec<ModifierId>,
+        material: Option<MaterialId>,
+    ) {
         let mut chain = vec![id];
         chain.extend(tail);
         self.scope_insert(
-            &p.id,
+            name,
             Mod::Pattern {
                 chain: chain.into(),
                 material,
             },
         );
-        Ok(())
     }
 
     fn scope_insert(&mut self, name: &str, m: Mod) {
@@ -660,15 +671,7 @@ impl Builder {
             },
             xf,
         );
-        let mut chain = vec![id];
-        chain.extend(tail);
-        self.scope_insert(
-            &p.id,
-            Mod::Pattern {
-                chain: chain.into(),
-                material,
-            },
-        );
+        self.bind_pattern(&p.id, id, tail, material);
         Ok(())
     }
 }

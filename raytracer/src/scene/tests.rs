@@ -1058,10 +1058,10 @@ mod fuzz {
         prop::collection::vec(record, 0..12).prop_map(|r| r.concat())
     }
 
-    fn mutated_cornell() -> impl Strategy<Value = String> {
-        let base = std::fs::read_to_string(super::radiance_cornell()).unwrap_or_default();
+    /// `base` with up to `most` random byte replacements, insertions and cuts.
+    fn mutated(base: String, most: usize) -> impl Strategy<Value = String> {
         let n = base.len().max(1);
-        (prop::collection::vec((0..n, any::<u8>(), 0u8..3), 1..8)).prop_map(move |edits| {
+        (prop::collection::vec((0..n, any::<u8>(), 0u8..3), 1..most)).prop_map(move |edits| {
             let mut b = base.clone().into_bytes();
             for (at, byte, op) in edits {
                 let at = at.min(b.len());
@@ -1073,6 +1073,13 @@ mod fuzz {
             }
             String::from_utf8_lossy(&b).into_owned()
         })
+    }
+
+    fn mutated_cornell() -> impl Strategy<Value = String> {
+        mutated(
+            std::fs::read_to_string(super::radiance_cornell()).unwrap_or_default(),
+            8,
+        )
     }
 
     /// Words of the function language, for random `.cal` files.
@@ -1092,19 +1099,7 @@ mod fuzz {
         let base = std::fs::read_to_string(dir.join("patterns.mat")).unwrap_or_default()
             + &std::fs::read_to_string(dir.join("rect_fixture.rad")).unwrap_or_default()
             + "mat1 sphere s1\n0\n0\n4 0 0 0 1\nmat7 sphere s2\n0\n0\n4 0 0 3 1\n";
-        let n = base.len().max(1);
-        (prop::collection::vec((0..n, any::<u8>(), 0u8..3), 1..6)).prop_map(move |edits| {
-            let mut b = base.clone().into_bytes();
-            for (at, byte, op) in edits {
-                let at = at.min(b.len());
-                match op {
-                    0 if at < b.len() => b[at] = byte,
-                    1 => b.insert(at, byte),
-                    _ => b.truncate(at),
-                }
-            }
-            String::from_utf8_lossy(&b).into_owned()
-        })
+        mutated(base, 6)
     }
 
     /// Loads `text` with the suite on the search path and evaluates every
