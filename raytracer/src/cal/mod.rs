@@ -283,6 +283,16 @@ impl Library {
         Ok(())
     }
 
+    /// Adds the definitions in `text` (statements such as `f(t) = 2*t;`
+    /// `k : 3`, as in a `.cal` file) to `ctx`; later definitions replace
+    /// earlier ones. `loc` is where the text came from: errors say its file
+    /// and line (plus the text's own line - 1) and the column. Nothing is
+    /// added unless the whole text parses.
+    pub fn define(&mut self, ctx: Context, text: &str, loc: &SourceLoc) -> crate::Result<()> {
+        let file = loc.file.clone();
+        self.define_text(ctx, text, &file, loc.line.saturating_sub(1))
+    }
+
     /// Loads `name` (absolute, or relative to `base_dir`, then to each
     /// search-path entry; "." → global) once, returning its context. `from`
     /// is where the scene named it, for the "cannot find" error. Parse errors

@@ -817,3 +817,25 @@ mod prop {
         }
     }
 }
+
+#[test]
+fn cal_define_from_text() {
+    let mut lib = library();
+    let g = lib.global();
+    lib.define(g, "k : 3; f(t) = k*t + 1;", &here()).unwrap();
+    // A later definition replaces an earlier one.
+    lib.define(g, "k : 4", &here()).unwrap();
+    let f = lib.function(g, "f", 1, &here()).unwrap();
+    let p = lib.finish().unwrap();
+    assert_eq!(p.call(f, &[2.0], &Inputs::new(&[])).unwrap(), 9.0);
+    // Errors name the text's place (line of `loc`, column in the text),
+    // and nothing of a text that fails to parse is added.
+    let mut lib = library();
+    let g = lib.global();
+    let e = lib
+        .define(g, "bad = 1;\n q(t) = t +* 2;", &here())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("scene.rad:8"), "{e}");
+    assert!(!lib.is_defined(g, "bad"));
+}

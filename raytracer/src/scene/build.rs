@@ -78,7 +78,7 @@ impl Builder {
             scope: HashMap::new(),
             void_id: None,
             default_id: None,
-            exp: Expander::new(),
+            exp: Expander::with_search_path(super::LoadOptions::from_env().search_path),
             inst_cache: HashMap::new(),
             inst_stack: Vec::new(),
             pending_shading: None,

@@ -13,6 +13,7 @@
 mod build;
 mod genbox;
 pub mod generate;
+mod generators;
 mod model;
 mod modifiers;
 mod obj;
@@ -63,6 +64,7 @@ impl LoadOptions {
 pub fn load_with(paths: &[impl AsRef<Path>], options: &LoadOptions) -> Result<Scene> {
     let mut b = build::Builder::new();
     b.mods.search_path = options.search_path.clone();
+    b.exp.search_path = options.search_path.clone();
     for p in paths {
         let p = p.as_ref();
         if p == Path::new("-") {

@@ -2,7 +2,8 @@
 //!
 //! This module does the text work: tokenising with line numbers, reading
 //! `modifier type identifier  nS s..  nI i..  nR r..` records, and expanding
-//! the in-line commands we implement in Rust (`!xform`, `!genbox`, and pipes
+//! the in-line commands we implement in Rust (`!xform`, `!genbox`,
+//! `!genprism`, `!genrev`, and pipes
 //! of them). Turning raw primitives into materials and shapes is
 //! [`super::build`]'s job. Scene files never run shell commands: any other
 //! `!command` is an error naming its file and line.
@@ -186,11 +187,18 @@ impl<'a> Lexer<'a> {
 pub(crate) struct Expander {
     stack: Vec<PathBuf>,
     count: usize,
+    /// Where generators' function files (`genrev -f`) are found after the
+    /// scene file's folder (Radiance's `RAYPATH`).
+    pub search_path: Vec<PathBuf>,
 }
 
 impl Expander {
-    pub fn new() -> Self {
-        Self::default()
+    /// An expander whose generators find function files along `search_path`.
+    pub fn with_search_path(search_path: Vec<PathBuf>) -> Self {
+        Self {
+            search_path,
+            ..Self::default()
+        }
     }
 
     /// Reads and expands a scene file. `from` is where it was named (for the
@@ -339,12 +347,19 @@ impl Expander {
     }
 
     /// Runs one in-line command (`cmd` without its `!`): a pipeline of
-    /// `genbox` and `xform` stages.
+    /// `genbox`, `genprism`, `genrev` and `xform` stages.
     fn command(&mut self, cmd: &str, loc: &SourceLoc, out: &mut Vec<RawPrim>) -> Result<()> {
-        let stages: Vec<Vec<String>> = cmd
-            .split('|')
-            .map(|s| s.split_whitespace().map(str::to_string).collect())
-            .collect();
+        let stages = split_command(cmd).map_err(|bad| {
+            Error::parse(
+                loc.clone(),
+                format!(
+                    "command '!{}' uses shell syntax ({bad}); scene files never run shell commands, \
+                     only the built-in genbox, genprism, genrev and xform (optionally piped into xform) \
+                     are understood",
+                    cmd.trim()
+                ),
+            )
+        })?;
         let mut piped: Option<Vec<RawPrim>> = None;
         let n = stages.len();
         for (k, words) in stages.into_iter().enumerate() {
@@ -352,19 +367,6 @@ impl Expander {
                 return Err(Error::parse(loc.clone(), "empty command in pipeline"));
             };
             let prog_name = prog.rsplit('/').next().unwrap_or(prog);
-            if let Some(bad) = words
-                .iter()
-                .find(|w| w.contains(['<', '>', ';', '&', '`', '$']))
-            {
-                return Err(Error::parse(
-                    loc.clone(),
-                    format!(
-                        "command '!{}' uses shell syntax ('{bad}'); scene files never run shell commands, \
-                         only the built-in genbox and xform (optionally piped into xform) are understood",
-                        cmd.trim()
-                    ),
-                ));
-            }
             let mut stage_out = Vec::new();
             match prog_name {
                 "xform" => {
@@ -373,10 +375,16 @@ impl Expander {
                 "genbox" if k == 0 => {
                     super::genbox::run_genbox(self, &words[1..], loc, &mut stage_out)?;
                 }
-                "genbox" => {
+                "genprism" if k == 0 => {
+                    super::generators::run_genprism(self, &words[1..], loc, &mut stage_out)?;
+                }
+                "genrev" if k == 0 => {
+                    super::generators::run_genrev(self, &words[1..], loc, &mut stage_out)?;
+                }
+                "genbox" | "genprism" | "genrev" => {
                     return Err(Error::parse(
                         loc.clone(),
-                        "genbox cannot read from a pipe; put it first",
+                        format!("{prog_name} cannot read from a pipe; put it first"),
                     ));
                 }
                 _ => {
@@ -384,7 +392,7 @@ impl Expander {
                         loc.clone(),
                         format!(
                             "refusing to run '!{}': scene files never run shell commands; only the built-in \
-                             in-line commands genbox and xform are supported (write the generated geometry \
+                             in-line commands genbox, genprism, genrev and xform are supported (write the generated geometry \
                              into a file instead)",
                             cmd.trim()
                         ),
@@ -448,4 +456,89 @@ pub(crate) fn parse_real(s: &str) -> std::result::Result<f64, String> {
         Ok(_) if ok_chars => Err(format!("real argument '{s}' is out of range")),
         _ => Err(format!("bad real argument '{s}'")),
     }
+}
+
+/// Splits an in-line command into pipeline stages of words as `sh` would
+/// for the simple commands we run: words separated by blanks, `|` between
+/// stages, `'...'` quoting everything and `"..."` everything but `$`,
+/// `` ` `` and `\\` escapes, `\\` outside quotes escaping one character.
+/// Redirections, `;`, `&`, substitutions and unterminated quotes are shell
+/// syntax we refuse: the error says which.
+pub(crate) fn split_command(cmd: &str) -> std::result::Result<Vec<Vec<String>>, String> {
+    let mut stages = vec![Vec::new()];
+    let mut word = String::new();
+    let mut in_word = false;
+    let mut chars = cmd.chars();
+    while let Some(c) = chars.next() {
+        match c {
+            '\'' => {
+                in_word = true;
+                loop {
+                    match chars.next() {
+                        Some('\'') => break,
+                        Some(q) => word.push(q),
+                        None => return Err("an unterminated ' quote".to_string()),
+                    }
+                }
+            }
+            '"' => {
+                in_word = true;
+                loop {
+                    match chars.next() {
+                        Some('"') => break,
+                        Some(q @ ('$' | '`')) => return Err(format!("'{q}' substitution")),
+                        Some('\\') => match chars.next() {
+                            Some(e @ ('$' | '`' | '"' | '\\')) => word.push(e),
+                            Some('\n') => {}
+                            Some(e) => {
+                                word.push('\\');
+                                word.push(e);
+                            }
+                            None => return Err("an unterminated \" quote".to_string()),
+                        },
+                        Some(q) => word.push(q),
+                        None => return Err("an unterminated \" quote".to_string()),
+                    }
+                }
+            }
+            '\\' => match chars.next() {
+                Some('\n') => {}
+                Some(e) => {
+                    in_word = true;
+                    word.push(e);
+                }
+                None => {}
+            },
+            '<' | '>' | ';' | '&' | '`' | '$' | '(' | ')' => {
+                return Err(format!("'{c}'"));
+            }
+            '|' => {
+                if in_word {
+                    stages
+                        .last_mut()
+                        .expect("one stage")
+                        .push(std::mem::take(&mut word));
+                    in_word = false;
+                }
+                stages.push(Vec::new());
+            }
+            c if c.is_whitespace() => {
+                if in_word {
+                    stages
+                        .last_mut()
+                        .expect("one stage")
+                        .push(std::mem::take(&mut word));
+                    in_word = false;
+                }
+            }
+            c => {
+                in_word = true;
+                word.push(c);
+            }
+        }
+    }
+    if in_word {
+        stages.last_mut().expect("one stage").push(word);
+    }
+    Ok(stages)
 }
