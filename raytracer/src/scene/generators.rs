@@ -20,12 +20,15 @@
 use std::path::{Path, PathBuf};
 
 use super::rad::{base_dir_of, parse_real, Expander, RawPrim};
+use crate::cal::{Inputs, Library};
 use crate::{Error, Result, SourceLoc};
 
 /// genprism's `FTINY`.
 const PRISM_TINY: f64 = 1e-6;
 /// genprism's `MAXVERT`: its vertex array holds no more.
 const MAX_VERTS: usize = 1024;
+/// genrev's `FTINY`.
+const REV_TINY: f64 = 1e-9;
 
 fn record(modifier: &str, ptype: &str, id: String, reals: Vec<f64>, loc: &SourceLoc) -> RawPrim {
     RawPrim {
@@ -53,29 +56,21 @@ fn find_file(name: &str, loc: &SourceLoc, search_path: &[PathBuf]) -> Option<Pat
         .find(|p| p.is_file())
 }
 
-/// Pushes generated records, refusing non-finite values (arguments so large
-/// that the arithmetic overflows, degenerate segments).
-fn emit(
-    exp: &mut Expander,
-    prog: &str,
-    prims: Vec<RawPrim>,
-    loc: &SourceLoc,
-    out: &mut Vec<RawPrim>,
-) -> Result<()> {
-    if let Some(p) = prims
-        .iter()
-        .find(|p| p.reals.iter().any(|r| !r.is_finite()))
-    {
+/// Pushes one generated record, counting it against the scene's limit and
+/// refusing non-finite values (arguments so large that the arithmetic
+/// overflows, degenerate segments).
+fn emit(exp: &mut Expander, prog: &str, p: RawPrim, out: &mut Vec<RawPrim>) -> Result<()> {
+    if p.reals.iter().any(|r| !r.is_finite()) {
         return Err(Error::parse(
-            loc.clone(),
+            p.loc.clone(),
             format!(
                 "{prog}: {} '{}' gets a non-finite coordinate (arguments too large, or a degenerate shape)",
                 p.ptype, p.id
             ),
         ));
     }
-    exp.reserve(prims.len(), loc)?;
-    out.extend(prims);
+    exp.reserve(1, &p.loc)?;
+    out.push(p);
     Ok(())
 }
 
@@ -209,7 +204,10 @@ pub(crate) fn run_genprism(
     } else {
         plain_prism(&p, &args[0], &args[1], loc)
     };
-    emit(exp, "genprism", prims, loc, out)
+    for p in prims {
+        emit(exp, "genprism", p, out)?;
+    }
+    Ok(())
 }
 
 /// The prism without rounding.
@@ -408,14 +406,197 @@ fn rounded_prism(
 // ---------------------------------------------------------------------------
 // genrev
 
+const REV_USAGE: &str = "usage: genrev material name 'z(t)' 'r(t)' nseg [-e expr] [-f file] [-s]";
+
+/// What genrev defines before reading the user's definitions.
+const REV_PRELUDE: &str = "
+    PI : 3.14159265358979323846;
+    hermite(p0, p1, r0, r1, t) = p0*((2*t-3)*t*t+1) + p1*(-2*t+3)*t*t
+        + r0*((t-2)*t+1)*t + r1*(t-1)*t*t;
+    bezier(p0, p1, p2, p3, t) = p0 * (1+t*(-3+t*(3-t))) + p1 * 3*t*(1+t*(-2+t))
+        + p2 * 3*t*t*(1-t) + p3 * t*t*t;
+    bspline(pp, p0, p1, pn, t) = pp * (1/6+t*(-1/2+t*(1/2-1/6*t)))
+        + p0 * (2/3+t*t*(-1+1/2*t)) + p1 * (1/6+t*(1/2+t*(1/2-1/2*t)))
+        + pn * (1/6*t*t*t);
+";
+
+/// genrev's `computen`: the unit normal (z and r parts) of the segment from
+/// `(z0, r0)` to `(z1, r1)`.
+fn rev_normal(z0: f64, r0: f64, z1: f64, r1: f64) -> (f64, f64) {
+    let dz = r0 - r1;
+    let dr = z1 - z0;
+    let len = (dr * dr + dz * dz).sqrt();
+    (dz / len, dr / len)
+}
+
 /// Runs `genrev args` (the words after the program name).
 pub(crate) fn run_genrev(
-    _exp: &mut Expander,
-    _args: &[String],
+    exp: &mut Expander,
+    args: &[String],
     loc: &SourceLoc,
-    _out: &mut Vec<RawPrim>,
+    out: &mut Vec<RawPrim>,
 ) -> Result<()> {
-    Err(Error::parse(loc.clone(), "genrev: not implemented yet"))
+    let err = |why: String| Error::parse(loc.clone(), format!("genrev: {why}"));
+    if args.len() < 5 {
+        return Err(err(format!("too few arguments; {REV_USAGE}")));
+    }
+    let (mat, name) = (&args[0], &args[1]);
+    let mut lib = Library::new(exp.search_path.clone())?;
+    let g = lib.global();
+    lib.define(g, REV_PRELUDE, &SourceLoc::new("<genrev>", 1))?;
+    let mut smooth = false;
+    let mut i = 5;
+    while i < args.len() {
+        match args[i].as_str() {
+            "-s" => smooth = true,
+            opt @ ("-e" | "-f") => {
+                let Some(arg) = args.get(i + 1) else {
+                    return Err(err(format!(
+                        "option {opt} is missing its argument; {REV_USAGE}"
+                    )));
+                };
+                i += 1;
+                if opt == "-e" {
+                    lib.define(g, arg, loc)
+                        .map_err(|e| err(format!("in -e '{arg}': {e}")))?;
+                } else {
+                    let path = find_file(arg, loc, &exp.search_path)
+                        .ok_or_else(|| err(format!("cannot find function file '{arg}'")))?;
+                    let text = std::fs::read(&path).map_err(|e| {
+                        err(format!(
+                            "cannot read function file '{}': {e}",
+                            path.display()
+                        ))
+                    })?;
+                    lib.define(
+                        g,
+                        &String::from_utf8_lossy(&text),
+                        &SourceLoc::new(&path, 1),
+                    )
+                    .map_err(|e| err(format!("in -f {arg}: {e}")))?;
+                }
+            }
+            other => return Err(err(format!("unexpected argument '{other}'; {REV_USAGE}"))),
+        }
+        i += 1;
+    }
+    // Like genrev, the curve is two functions of t defined after the
+    // user's definitions, under names no one else can write.
+    lib.define(g, &format!("Z`SYS`(t)={};", args[2]), loc)
+        .map_err(|e| err(format!("in z(t) '{}': {e}", args[2])))?;
+    lib.define(g, &format!("R`SYS`(t)={};", args[3]), loc)
+        .map_err(|e| err(format!("in r(t) '{}': {e}", args[3])))?;
+    let nseg: usize = match args[4].parse::<i64>() {
+        Ok(n) if n > 0 => usize::try_from(n).unwrap_or(usize::MAX),
+        _ => {
+            return Err(err(format!(
+                "the number of segments must be a positive integer, not '{}'; {REV_USAGE}",
+                args[4]
+            )))
+        }
+    };
+    if nseg > super::rad::MAX_PRIMITIVES {
+        return Err(err(format!(
+            "{nseg} segments; at most {} primitives are allowed",
+            super::rad::MAX_PRIMITIVES
+        )));
+    }
+    let zf = lib.function(g, "Z`SYS`", 1, loc)?;
+    let rf = lib.function(g, "R`SYS`", 1, loc)?;
+    let prog = lib.finish().map_err(|e| err(e.to_string()))?;
+    let no_args: [f64; 0] = [];
+    let inputs = Inputs::new(&no_args);
+    let at = |t: f64| -> Result<(f64, f64)> {
+        let z = prog
+            .call(zf, &[t], &inputs)
+            .map_err(|e| err(format!("evaluating z({t}): {e}")))?;
+        let r = prog
+            .call(rf, &[t], &inputs)
+            .map_err(|e| err(format!("evaluating r({t}): {e}")))?;
+        Ok((z, r))
+    };
+
+    const OUT: u8 = 1;
+    const IN: u8 = 2;
+    const UP: u8 = 4;
+    const DOWN: u8 = 8;
+    let modname = if smooth { "Phong" } else { mat.as_str() };
+    let mut prims = Vec::new();
+    let (mut lastnz, mut lastnr) = (0.0, 0.0);
+    let (mut lastz, mut lastr) = at(0.0)?;
+    let (mut z, mut r) = at(1.0 / nseg as f64)?;
+    let (mut nz, mut nr) = rev_normal(lastz, lastr, z, r);
+    for i in 1..=nseg {
+        let (nextz, nextr, nextnz, nextnr);
+        if i < nseg {
+            (nextz, nextr) = at((i + 1) as f64 / nseg as f64)?;
+            (nextnz, nextnr) = rev_normal(z, r, nextz, nextr);
+        } else {
+            // genrev leaves the next point as it was, unused.
+            (nextz, nextr) = (z, r);
+            (nextnz, nextnr) = (0.0, 0.0);
+        }
+        let mut orient = 0;
+        if z < lastz - REV_TINY {
+            orient |= DOWN;
+        } else if z > lastz + REV_TINY {
+            orient |= UP;
+        }
+        if r < lastr - REV_TINY {
+            orient |= IN;
+        } else if r > lastr + REV_TINY {
+            orient |= OUT;
+        }
+        if orient != 0 {
+            if smooth {
+                let mut reals = Vec::with_capacity(4);
+                if orient & (UP | DOWN) != 0 {
+                    let t = (nextnz - lastnz) / (z - lastz);
+                    reals.extend([t, lastnz - t * lastz]);
+                } else {
+                    reals.extend([0.0, if orient & IN != 0 { 1.0 } else { -1.0 }]);
+                }
+                if orient & (OUT | IN) != 0 {
+                    let t = (nextnr - lastnr) / (r - lastr);
+                    reals.extend([t, lastnr - t * lastr]);
+                } else {
+                    reals.extend([0.0, if orient & UP != 0 { 1.0 } else { -1.0 }]);
+                }
+                let mut tex = record(mat, "texfunc", "Phong".to_string(), reals, loc);
+                tex.strs = ["rev_dx", "rev_dy", "rev_dz", "rev.cal"]
+                    .map(String::from)
+                    .to_vec();
+                emit(exp, "genrev", tex, &mut prims)?;
+            }
+            let id = format!("{name}.{i}");
+            let (ptype, reals) = if orient & (IN | OUT) == 0 {
+                let ptype = if orient & DOWN != 0 {
+                    "tube"
+                } else {
+                    "cylinder"
+                };
+                (ptype, vec![0.0, 0.0, lastz, 0.0, 0.0, z, r])
+            } else if orient & (UP | DOWN) == 0 {
+                let dir = if orient & IN != 0 { 1.0 } else { -1.0 };
+                ("ring", vec![0.0, 0.0, z, 0.0, 0.0, dir, lastr, r])
+            } else {
+                let ptype = if orient & DOWN != 0 { "cup" } else { "cone" };
+                (ptype, vec![0.0, 0.0, lastz, 0.0, 0.0, z, lastr, r])
+            };
+            emit(
+                exp,
+                "genrev",
+                record(modname, ptype, id, reals, loc),
+                &mut prims,
+            )?;
+        }
+        (lastz, lastr) = (z, r);
+        (z, r) = (nextz, nextr);
+        (lastnz, lastnr) = (nz, nr);
+        (nz, nr) = (nextnz, nextnr);
+    }
+    out.append(&mut prims);
+    Ok(())
 }
 
 #[cfg(test)]

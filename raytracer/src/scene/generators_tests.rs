@@ -278,6 +278,162 @@ fn genprism_argument_errors() {
     }
 }
 
+// ---------------------------------------------------------------------------
+// genrev
+
+#[test]
+fn genrev_torus_matches_radiance() {
+    // `!genrev striped torus "sin(2*PI*t)" "2+cos(2*PI*t)" 32 -s | xform -ry 52 -s .2 -t -4 2.5 1.5`:
+    // a texfunc before each of the 32 surfaces.
+    let Some(s) = suite() else { return };
+    let file = s.join("torus.rad");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let ours = expand(&text, &file, vec![s.join("lib")]).unwrap();
+    let theirs = expanded_section(&s, "glass", "torus.rad");
+    let (n, worst) = compare(&ours, &theirs);
+    assert_eq!(n, 3 + 64);
+    assert_eq!(ours.iter().filter(|p| p.ptype == "texfunc").count(), 32);
+    eprintln!("torus.rad: {n} records match (3 materials, 32 texfunc, 32 surfaces), worst relative difference {worst:e}");
+}
+
+#[test]
+fn genrev_saucer_matches_radiance() {
+    // saucer.rad is the output of the command in its comment.
+    let Some(s) = suite() else { return };
+    let cmd = "!genrev mat seg '-.25+.9*cos(PI/6*(1-t))' '.9*sin(PI/6*(1-t))' 55\n";
+    let ours = expand(cmd, Path::new("saucer.rad"), Vec::new()).unwrap();
+    let file = s.join("saucer.rad");
+    let theirs: Vec<RawPrim> = expand(&std::fs::read_to_string(&file).unwrap(), &file, Vec::new())
+        .unwrap()
+        .into_iter()
+        .filter(|p| p.id.starts_with("seg."))
+        .collect();
+    let (n, worst) = compare(&ours, &theirs);
+    assert_eq!(n, 55);
+    eprintln!("saucer.rad: {n} records match, worst relative difference {worst:e}");
+}
+
+fn rev(cmd: &str) -> Vec<RawPrim> {
+    prism(cmd).unwrap_or_else(|e| panic!("{cmd}: {e}"))
+}
+
+#[test]
+fn genrev_surface_types() {
+    // Up the z axis at radius 1: cylinders; down: tubes.
+    let out = rev("genrev m c 't' '1' 2");
+    assert_eq!(out.len(), 2);
+    assert_eq!(
+        (out[0].ptype.as_str(), out[0].id.as_str()),
+        ("cylinder", "c.1")
+    );
+    assert_eq!(out[1].reals, [0., 0., 0.5, 0., 0., 1., 1.]);
+    assert_eq!(rev("genrev m c 1-t 1 1")[0].ptype, "tube");
+    // Flat, outward: a ring with normal -z; inward: +z.
+    let out = rev("genrev m d 0 1+t 1");
+    assert_eq!(
+        (out[0].ptype.as_str(), &out[0].reals[..]),
+        ("ring", &[0., 0., 0., 0., 0., -1., 1., 2.][..])
+    );
+    assert_eq!(rev("genrev m d 0 2-t 1")[0].reals[5], 1.0);
+    // Sloped: cones up, cups down.
+    assert_eq!(rev("genrev m k t 1+t 1")[0].ptype, "cone");
+    assert_eq!(rev("genrev m k -t 1+t 1")[0].ptype, "cup");
+    // A segment that does not move is left out, keeping its number.
+    let ids: Vec<String> = rev("genrev m p 'if(t-.6,t,.5)' 1 3")
+        .into_iter()
+        .map(|p| p.id)
+        .collect();
+    assert_eq!(ids, ["p.2", "p.3"]);
+    // -s: a Phong texfunc before each surface, which uses it.
+    let out = rev("genrev m c t 1 2 -s");
+    assert_eq!(out.len(), 4);
+    assert_eq!(
+        (
+            out[0].modifier.as_str(),
+            out[0].ptype.as_str(),
+            out[0].id.as_str()
+        ),
+        ("m", "texfunc", "Phong")
+    );
+    assert_eq!(out[0].strs, ["rev_dx", "rev_dy", "rev_dz", "rev.cal"]);
+    // Straight up: the normal's z part does not change (0, 0), the r
+    // part is constant 1 (no radius change: 0 then 1 because UP).
+    assert_eq!(out[0].reals, [0., 0., 0., 1.]);
+    assert_eq!(
+        (out[1].modifier.as_str(), out[1].ptype.as_str()),
+        ("Phong", "cylinder")
+    );
+}
+
+#[test]
+fn genrev_definitions_and_files() {
+    // -e definitions, genrev's own functions and PI.
+    let out = rev("genrev m s 'zz(t)' 'bezier(1,2,2,1,t)' 4 -e 'zz(x) = 2*x; k = PI'");
+    assert_eq!(out.len(), 4);
+    assert_eq!(out[3].reals[5], 2.0);
+    assert_eq!(out[0].reals[6], 1.0);
+    assert!(
+        (out[0].reals[7] - (1. + 0.75 * 0.75 * 0.25 * 3. + 0.25 * 0.25 * 0.75 * 3.) + 1. - 1.)
+            .abs()
+            < 1e-12
+    );
+    let h = rev("genrev m s t 'hermite(1,2,0,0,t)+0*bspline(1,1,1,1,t)' 2");
+    assert_eq!(h[0].reals[7], 1.5);
+    // -f finds its file beside the scene.
+    let d = std::env::temp_dir().join(format!("hybrid-rt-genrev-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(d.join("prof.cal"), "rad(t) = 1 + t*t;\n").unwrap();
+    let scene = d.join("s.rad");
+    let out = expand("!genrev m s t 'rad(t)' 2 -f prof.cal\n", &scene, Vec::new()).unwrap();
+    assert_eq!(out[1].reals[7], 2.0);
+    let e = expand("!genrev m s t 'rad(t)' 2 -f none.cal\n", &scene, Vec::new()).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("cannot find function file 'none.cal'"),
+        "{e}"
+    );
+    std::fs::write(d.join("bad.cal"), "\nrad(t) = 1 +;\n").unwrap();
+    let e = expand("!genrev m s t 'rad(t)' 2 -f bad.cal\n", &scene, Vec::new()).unwrap_err();
+    assert!(e.to_string().contains("bad.cal:2"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn genrev_argument_errors() {
+    for (cmd, needle) in [
+        ("genrev m s t 1", "genrev: too few arguments"),
+        ("genrev m s t 1 0", "positive integer, not '0'"),
+        ("genrev m s t 1 -3", "positive integer"),
+        ("genrev m s t 1 x", "positive integer, not 'x'"),
+        ("genrev m s t 1 99999999999", "at most"),
+        ("genrev m s t 1 4 -x", "unexpected argument '-x'"),
+        ("genrev m s t 1 4 -e", "-e is missing its argument"),
+        ("genrev m s t 1 4 -f", "-f is missing its argument"),
+        ("genrev m s 't+' 1 4", "in z(t) 't+'"),
+        ("genrev m s t 'q(t)' 4", "q"),
+        ("genrev m s t 1 4 -e 'a = = 2'", "in -e"),
+        ("genrev m s 't' 'f(t)' 4 -e 'f(x) = f(x)'", "evaluating r("),
+        ("genrev m s 0 0 4 -s", ""),
+        (
+            // A first segment that does not move has no normal (0/0),
+            // which the next one's smoothing uses.
+            "genrev m s 'if(t-.4,t,0)' 1 3 -s",
+            "non-finite",
+        ),
+        (
+            "genbox m b 1 1 1 | genrev m s t 1 2",
+            "cannot read from a pipe",
+        ),
+    ] {
+        if needle.is_empty() {
+            // Nothing moves: no records, no error (as genrev).
+            assert!(rev(cmd).is_empty());
+            continue;
+        }
+        assert_err(cmd, needle);
+    }
+}
+
 /// Words that make up random command lines: numbers, options, junk.
 fn arg_word() -> impl Strategy<Value = String> {
     prop_oneof![
@@ -311,5 +467,30 @@ proptest! {
     ) {
         let cmd = format!("!{prog} m n {}\n", words.join(" "));
         let _ = expand(&cmd, Path::new("p.rad"), Vec::new());
+    }
+}
+
+#[test]
+fn commands_split_like_sh() {
+    use super::super::rad::split_command;
+    let s = split_command(r#"genrev m n "2+cos(PI*t)" 'a b;c' x\ y '' | xform -s 2"#).unwrap();
+    assert_eq!(
+        s,
+        [
+            vec!["genrev", "m", "n", "2+cos(PI*t)", "a b;c", "x y", ""],
+            vec!["xform", "-s", "2"]
+        ]
+    );
+    assert_eq!(split_command(r#"a "\$x\"""#).unwrap(), [vec!["a", "$x\""]]);
+    for bad in [
+        "a 'b",
+        "a \"b",
+        "a \"$HOME\"",
+        "a $x",
+        "a > b",
+        "a; b",
+        "a (b)",
+    ] {
+        assert!(split_command(bad).is_err(), "{bad}");
     }
 }

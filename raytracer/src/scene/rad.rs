@@ -509,7 +509,10 @@ pub(crate) fn split_command(cmd: &str) -> std::result::Result<Vec<Vec<String>>, 
                 }
                 None => {}
             },
-            '<' | '>' | ';' | '&' | '`' | '$' | '(' | ')' => {
+            '(' | ')' => {
+                return Err(format!("'{c}'; quote expressions, as in 'sin(t)'"));
+            }
+            '<' | '>' | ';' | '&' | '`' | '$' => {
                 return Err(format!("'{c}'"));
             }
             '|' => {
