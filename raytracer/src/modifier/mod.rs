@@ -57,9 +57,12 @@ pub enum Kind {
         data: Arc<DataArray>,
         coords: Vec<ExprId>,
     },
-    /// `colordata`: one data file and function per channel.
+    /// `colordata`: one data file and function per channel; a function
+    /// of three arguments gets all three data values (`three[i]`), one of
+    /// fewer its own channel's (Radiance's `p_cdata`).
     ColorData {
         funcs: [FuncId; 3],
+        three: [bool; 3],
         data: [Arc<DataArray>; 3],
         coords: Vec<ExprId>,
     },
@@ -80,9 +83,11 @@ pub enum Kind {
     },
     /// `texfunc`: a normal perturbation from three expressions.
     TexFunc([ExprId; 3]),
-    /// `texdata`: a normal perturbation from three data files.
+    /// `texdata`: a normal perturbation from three data files (functions
+    /// called as for `colordata`).
     TexData {
         funcs: [FuncId; 3],
+        three: [bool; 3],
         data: [Arc<DataArray>; 3],
         coords: Vec<ExprId>,
     },
@@ -441,18 +446,13 @@ impl Patterns {
             }
             Kind::ColorData {
                 funcs,
+                three,
                 data,
                 coords,
             } => {
-                let Some(x) = ev.coords(coords) else { return };
-                let mut c = Color::ZERO;
-                for i in 0..3 {
-                    let v = data[i].value(x.as_slice());
-                    let Some(b) = ev.call(funcs[i], &[v]) else {
-                        return;
-                    };
-                    c[i] = b;
-                }
+                let Some(c) = Self::data_triple(&ev, funcs, three, data, coords) else {
+                    return;
+                };
                 acc.color *= c;
             }
             Kind::ColorPict {
@@ -493,18 +493,13 @@ impl Patterns {
             }
             Kind::TexData {
                 funcs,
+                three,
                 data,
                 coords,
             } => {
-                let Some(x) = ev.coords(coords) else { return };
-                let mut d = Vec3::ZERO;
-                for i in 0..3 {
-                    let v = data[i].value(x.as_slice());
-                    let Some(b) = ev.call(funcs[i], &[v]) else {
-                        return;
-                    };
-                    d[i] = b;
-                }
+                let Some(d) = Self::data_triple(&ev, funcs, three, data, coords) else {
+                    return;
+                };
                 acc.pert += ev.to_world(d);
             }
             Kind::Mix { fore, back, coef } => {
@@ -528,6 +523,32 @@ impl Patterns {
                 acc.color = f.color * c + b.color * (1.0 - c);
             }
         }
+    }
+
+    /// Three data values at the coordinates, each passed through its
+    /// channel's function.
+    fn data_triple(
+        ev: &Eval,
+        funcs: &[FuncId; 3],
+        three: &[bool; 3],
+        data: &[Arc<DataArray>; 3],
+        coords: &[ExprId],
+    ) -> Option<Vec3> {
+        let x = ev.coords(coords)?;
+        let v = [
+            data[0].value(x.as_slice()),
+            data[1].value(x.as_slice()),
+            data[2].value(x.as_slice()),
+        ];
+        let mut out = Vec3::ZERO;
+        for i in 0..3 {
+            out[i] = if three[i] {
+                ev.call(funcs[i], &v)?
+            } else {
+                ev.call(funcs[i], &v[i..i + 1])?
+            };
+        }
+        Some(out)
     }
 
     fn coefficient(&self, ev: &Eval, coef: &Mixing, r: &RayVars) -> Option<f64> {

@@ -244,6 +244,25 @@ impl Builder {
         texts.iter().map(|t| lib.expr(ctx, t, &p.loc)).collect()
     }
 
+    /// The three channel functions of `colordata`, `texdata` and
+    /// `colorpict`: Radiance calls a function of fewer than three
+    /// arguments with its own channel's value, others with all three.
+    fn channel_funcs(
+        &mut self,
+        ctx: Context,
+        names: &[String],
+        p: &RawPrim,
+    ) -> Result<([FuncId; 3], [bool; 3])> {
+        let mut funcs = Vec::with_capacity(3);
+        let mut three = [true; 3];
+        for (i, name) in names.iter().enumerate() {
+            let arity = self.mods.lib()?.arity(ctx, name).unwrap_or(3);
+            three[i] = arity >= 3;
+            funcs.push(self.func(ctx, name, if three[i] { 3 } else { 1 }, p)?);
+        }
+        Ok(([funcs[0], funcs[1], funcs[2]], three))
+    }
+
     fn func(&mut self, ctx: Context, name: &str, arity: usize, p: &RawPrim) -> Result<FuncId> {
         self.mods.lib()?.function(ctx, name, arity, &p.loc)
     }
@@ -421,15 +440,12 @@ impl Builder {
                 }
                 let ctx = self.context(&s[6], p)?;
                 let (coords, xf) = self.data_coords(p, ctx, 7, n, "three functions, three data files, function file, one coordinate per data dimension")?;
-                let funcs = [
-                    self.func(ctx, &s[0], 1, p)?,
-                    self.func(ctx, &s[1], 1, p)?,
-                    self.func(ctx, &s[2], 1, p)?,
-                ];
+                let (funcs, three) = self.channel_funcs(ctx, &s[..3], p)?;
                 if p.ptype == "colordata" {
                     (
                         Kind::ColorData {
                             funcs,
+                            three,
                             data,
                             coords,
                         },
@@ -439,6 +455,7 @@ impl Builder {
                     (
                         Kind::TexData {
                             funcs,
+                            three,
                             data,
                             coords,
                         },
@@ -451,18 +468,10 @@ impl Builder {
                 let pict = self.picture(&s[3], p)?;
                 let ctx = self.context(&s[4], p)?;
                 let c = self.exprs(ctx, &s[5..7], p)?;
-                let mut funcs = Vec::with_capacity(3);
-                let mut three = [true; 3];
-                for (i, name) in s[..3].iter().enumerate() {
-                    // Radiance calls a function of fewer than three
-                    // arguments with its own channel only.
-                    let arity = self.mods.lib()?.arity(ctx, name).unwrap_or(3);
-                    three[i] = arity >= 3;
-                    funcs.push(self.func(ctx, name, if three[i] { 3 } else { 1 }, p)?);
-                }
+                let (funcs, three) = self.channel_funcs(ctx, &s[..3], p)?;
                 (
                     Kind::ColorPict {
-                        funcs: [funcs[0], funcs[1], funcs[2]],
+                        funcs,
                         three,
                         pict,
                         coords: [c[0], c[1]],

@@ -695,6 +695,42 @@ fn patterns_attach_to_materials_in_radiance_order() {
 }
 
 #[test]
+fn colordata_calls_functions_as_radiance_does() {
+    // rayinit's red(r,g,b), green(r,g,b), blue(r,g,b): three arguments, so
+    // each gets all three data values (p_cdata); noop(v): one, its own.
+    let d = scratch("colordata");
+    std::fs::write(d.join("r.dat"), "1\n0 1 2\n0.1 0.3\n").unwrap();
+    std::fs::write(d.join("g.dat"), "1\n0 1 2\n0.2 0.4\n").unwrap();
+    std::fs::write(d.join("b.dat"), "1\n0 1 2\n0.5 0.7\n").unwrap();
+    let text = "void colordata rgb\n8 red green blue r.dat g.dat b.dat . Px\n0\n0\n\
+                void colordata own\n8 noop noop noop r.dat g.dat b.dat . Px\n0\n0\n\
+                rgb plastic m1\n0\n0\n5 1 1 1 0 0\n\
+                own plastic m2\n0\n0\n5 1 1 1 0 0\n\
+                m1 sphere a\n0\n0\n4 0 0 0 1\nm2 sphere b\n0\n0\n4 0 0 3 1\n";
+    let s = load_rad_str(text, d.join("c.rad")).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let vars = crate::modifier::RayVars {
+        dir: -Vec3::Z,
+        normal: Vec3::Z,
+        point: Vec3::new(0.5, 0.0, 0.0),
+        t: 1.0,
+        ts: 0.0,
+        uv: [0.0; 2],
+    };
+    for k in 0..2 {
+        let mut a = crate::modifier::Applied::NONE;
+        s.patterns
+            .apply(s.mods(s.objects[k].material), &vars, &mut a);
+        assert!(
+            (a.color - Vec3::new(0.2, 0.3, 0.6)).abs().max_element() < 1e-6,
+            "{k}: {:?}",
+            a.color
+        );
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
 fn aliases_copy_with_their_new_modifier() {
     // patterns.mat's forms: `inherit` keeps the pattern, `void` drops it,
     // a pattern replaces it; a later definition does not change earlier aliases.
