@@ -324,8 +324,9 @@ impl Builder {
                 },
                 Some((chain, material)),
             ) => {
-                let own = old_chain[0];
-                let mut c = vec![own];
+                // The pattern itself (none for an ignored spectral one),
+                // then the new modifier's chain.
+                let mut c: Vec<ModifierId> = old_chain.first().copied().into_iter().collect();
                 c.extend(chain);
                 Mod::Pattern {
                     chain: c.into(),

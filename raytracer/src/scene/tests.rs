@@ -798,6 +798,15 @@ fn unsupported_types_are_named_once_with_their_count() {
     }
     let s = load_rad_str(&text, "many.rad").unwrap();
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    // An ignored spectral pattern can still be aliased and used.
+    let spec = load_rad_str(
+        "void specfunc sp\n2 1 .\n0\n0\nvoid brightfunc b\n2 .5 .\n0\n0\n\
+         b alias sp2 sp\nsp2 plastic m\n0\n0\n5 .5 .5 .5 0 0\nm sphere s\n0\n0\n4 0 0 0 1\n",
+        "spec.rad",
+    )
+    .unwrap();
+    assert_eq!(spec.objects.len(), 1);
+    assert_eq!(spec.warnings.len(), 1, "{:?}", spec.warnings);
     assert!(
         s.warnings[0].1.contains("50 primitives"),
         "{}",
@@ -1051,6 +1060,7 @@ mod fuzz {
             "colorpict",
             "brighttext",
             "mixtext",
+            "specfunc",
             "plastic2",
             "BSDF",
             "antimatter",
