@@ -17,5 +17,7 @@ pub mod parallel;
 pub mod render;
 pub mod report;
 pub mod scene;
+#[cfg(test)]
+mod testdata;
 
 pub use error::{Error, Result, SourceLoc};

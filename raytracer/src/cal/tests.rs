@@ -584,20 +584,12 @@ fn cal_rayinit_definitions() {
     assert_eq!(eval_with("", "Idz", v, &up), 0.25);
 }
 
-fn radiance_tests() -> Option<PathBuf> {
-    let d = PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/scenes/radiance-tests"
-    ));
-    d.is_dir().then_some(d)
-}
-
 /// Every .cal file of the shared Radiance test scenes loads, and every
 /// definition in it compiles (with our prelude, and with the real
 /// rayinit.cal when it is there).
 #[test]
 fn cal_shared_files_load() {
-    let Some(dir) = radiance_tests() else {
+    let Some(dir) = crate::testdata::radiance_tests() else {
         eprintln!("shared Radiance scenes absent; skipped");
         return;
     };
@@ -672,7 +664,7 @@ fn cal_shared_files_load() {
 
 #[test]
 fn cal_real_rayinit_matches_prelude() {
-    let Some(dir) = radiance_tests() else {
+    let Some(dir) = crate::testdata::radiance_tests() else {
         return;
     };
     let exprs = [

@@ -4,7 +4,6 @@
 use super::*;
 use crate::image::hdr::from_rgbe;
 use proptest::prelude::*;
-use std::path::PathBuf;
 
 fn data(text: &str) -> DataArray {
     DataArray::parse(text.as_bytes(), Path::new("t.dat")).expect("parses")
@@ -20,20 +19,7 @@ fn close(a: f64, b: f64) {
     assert!((a - b).abs() <= 1e-9 * (1.0 + b.abs()), "{a} != {b}");
 }
 
-/// A file of Radiance's test scenes, or `None` (test skipped) without them.
-fn shared(name: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/scenes/radiance-tests/"
-    ))
-    .join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} not present", p.display());
-        None
-    }
-}
+use crate::testdata::radiance_test_file as shared;
 
 fn here() -> SourceLoc {
     SourceLoc::new("scene.rad", 7)

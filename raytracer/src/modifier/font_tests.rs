@@ -4,7 +4,6 @@
 
 use super::*;
 use proptest::prelude::*;
-use std::path::PathBuf;
 
 /// 'I' is the box x 100..150, y 50..200; ' ' a space. Mean width 50.
 const BOX_FONT: &str = "# test font\n32 0\n73 4  100 50 150 50 150 200 100 200\n";
@@ -34,19 +33,7 @@ fn at(t: &TextLayout, a: f64, b: f64) -> bool {
     t.inside(DVec3::new(a, -b, 0.0))
 }
 
-fn shared(name: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/scenes/radiance-tests/"
-    ))
-    .join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} not present", p.display());
-        None
-    }
-}
+use crate::testdata::radiance_test_file as shared;
 
 #[test]
 fn a_font_records_glyph_extents_from_128_and_its_mean_width() {

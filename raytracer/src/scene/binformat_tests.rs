@@ -15,10 +15,7 @@ use super::rtm::{decode_dir, encode_dir, parse_rtm, read_rtm, RtmMesh, MESH_MAGI
 use crate::{Error, SourceLoc};
 
 fn woman_rtm() -> PathBuf {
-    PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/scenes/radiance-tests/woman.rtm"
-    ))
+    crate::testdata::radiance_tests_dir().join("woman.rtm")
 }
 
 fn p() -> &'static Path {

@@ -10,18 +10,10 @@ use proptest::prelude::*;
 use super::super::rad::{Expander, RawPrim};
 use crate::SourceLoc;
 
-/// Radiance's regression-test scenes, if this checkout has them.
+/// Radiance's regression-test scenes with their `expanded/` files, if this
+/// checkout has them.
 fn suite() -> Option<PathBuf> {
-    let d = PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/scenes/radiance-tests"
-    ));
-    if d.join("expanded").is_dir() {
-        Some(d)
-    } else {
-        eprintln!("skipped: {} is absent", d.display());
-        None
-    }
+    crate::testdata::radiance_tests().filter(|d| d.join("expanded").is_dir())
 }
 
 /// The records of scene text (commands run by our built-ins).

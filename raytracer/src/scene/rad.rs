@@ -515,23 +515,10 @@ pub(crate) fn split_command(cmd: &str) -> std::result::Result<Vec<Vec<String>>, 
             '<' | '>' | ';' | '&' | '`' | '$' => {
                 return Err(format!("'{c}'"));
             }
-            '|' => {
-                if in_word {
-                    stages
-                        .last_mut()
-                        .expect("one stage")
-                        .push(std::mem::take(&mut word));
-                    in_word = false;
-                }
-                stages.push(Vec::new());
-            }
-            c if c.is_whitespace() => {
-                if in_word {
-                    stages
-                        .last_mut()
-                        .expect("one stage")
-                        .push(std::mem::take(&mut word));
-                    in_word = false;
+            c if c == '|' || c.is_whitespace() => {
+                end_word(&mut stages, &mut word, &mut in_word);
+                if c == '|' {
+                    stages.push(Vec::new());
                 }
             }
             c => {
@@ -540,8 +527,15 @@ pub(crate) fn split_command(cmd: &str) -> std::result::Result<Vec<Vec<String>>, 
             }
         }
     }
-    if in_word {
-        stages.last_mut().expect("one stage").push(word);
-    }
+    end_word(&mut stages, &mut word, &mut in_word);
     Ok(stages)
+}
+
+/// Ends the word being read, if any, as the last stage's next word.
+fn end_word(stages: &mut [Vec<String>], word: &mut String, in_word: &mut bool) {
+    if std::mem::take(in_word) {
+        if let Some(stage) = stages.last_mut() {
+            stage.push(std::mem::take(word));
+        }
+    }
 }
