@@ -171,7 +171,7 @@ impl Builder {
             post: None,
         };
         let mut objs = std::mem::take(&mut self.scene.objects);
-        let r = self.add_octree_top(&p, path, &mut objs);
+        let r = self.add_octree(&p, path, &mut objs, true);
         self.scene.objects = objs;
         r
     }
@@ -891,7 +891,7 @@ impl Builder {
         let r = match native.as_deref() {
             Some("rtm") if p.ptype == "mesh" => self.add_rtm(p, source, overriding, &mut objects),
             Some("oct" | "octf") if p.ptype == "instance" => {
-                self.add_octree(p, source, &mut objects)
+                self.add_octree(p, source, &mut objects, false)
             }
             _ if p.ptype == "mesh" => {
                 super::obj::load_obj_into(self, source, overriding, Some(&p.loc), &mut objects)
@@ -1004,23 +1004,21 @@ impl Builder {
         Ok(())
     }
 
-    /// A Radiance octree: the scene files it lists (read as text, relative
-    /// to the octree's folder) or the objects a frozen octree stores.
-    fn add_octree(&mut self, p: &RawPrim, path: &Path, objects: &mut Vec<Object>) -> Result<()> {
-        let prims = self.octree_prims(p, path)?;
-        self.add_prims(&prims, objects, false)
-    }
-
-    fn add_octree_top(
+    /// The octree's objects, at top level (its lights sampled) or as an
+    /// instance's geometry.
+    fn add_octree(
         &mut self,
         p: &RawPrim,
         path: &Path,
         objects: &mut Vec<Object>,
+        top: bool,
     ) -> Result<()> {
         let prims = self.octree_prims(p, path)?;
-        self.add_prims(&prims, objects, true)
+        self.add_prims(&prims, objects, top)
     }
 
+    /// A Radiance octree: the scene files it lists (read as text, relative
+    /// to the octree's folder) or the objects a frozen octree stores.
     fn octree_prims(&mut self, p: &RawPrim, path: &Path) -> Result<Vec<RawPrim>> {
         let prims = match super::octfile::read_octree(path, Some(&p.loc))? {
             super::octfile::OctreeContents::Frozen(prims) => prims,
