@@ -186,13 +186,8 @@ impl EvalFailures {
         }
     }
 
-    fn record_error(&self, m: &Modifier, e: &cal::EvalError) {
-        if self.errors.fetch_add(1, Ordering::Relaxed) == 0 {
-            self.keep(format!("{}: {} '{}': {e}", m.loc, m.ptype, m.name));
-        }
-    }
-
-    fn record_missing(&self, m: &Modifier, why: &str) {
+    /// An evaluation that could not finish (an error, or a missing picture).
+    fn record_error(&self, m: &Modifier, why: &dyn std::fmt::Display) {
         if self.errors.fetch_add(1, Ordering::Relaxed) == 0 {
             self.keep(format!("{}: {} '{}': {why}", m.loc, m.ptype, m.name));
         }
@@ -360,7 +355,7 @@ impl<'a> Eval<'a> {
         match pict {
             Ok(p) => Some(p.value(u, v)),
             Err(why) => {
-                self.p.failures.record_missing(self.m, why);
+                self.p.failures.record_error(self.m, why);
                 None
             }
         }
