@@ -89,7 +89,7 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
     let opts = ctx.options;
     let from = b.point;
     light.for_each_patch(ctx.scene, b.point, opts.ds, opts.dj, &mut rng, |s| {
-        let coef = b.surface.coefficient(s.dir, s.omega);
+        let coef = b.surface.coefficient(ctx.scene, s.dir, s.omega);
         let b = brightness(coef);
         if b.is_nan() || b <= 0.0 {
             return;

@@ -208,6 +208,43 @@ impl NormalBsdf {
     }
 }
 
+/// How a surface weighs light arriving from a direction: what a shadow
+/// bundle carries to evaluate its samples (Radiance's per-material
+/// `dirfunc` data). One variant per family of material routines.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Surface {
+    /// plastic, metal, trans (`normal.c`).
+    Normal(NormalBsdf),
+}
+
+impl Surface {
+    /// The coefficient for light arriving from unit direction `ldir`
+    /// within solid angle `omega` (Radiance's `dirfunc`).
+    #[inline]
+    pub fn coefficient(&self, _scene: &Scene, ldir: Vec3, omega: f64) -> Color {
+        match self {
+            Surface::Normal(b) => b.coefficient(ldir, omega),
+        }
+    }
+
+    /// True if no light direction can contribute.
+    pub fn is_black_to_lights(&self) -> bool {
+        match self {
+            Surface::Normal(b) => b.is_black_to_lights(),
+        }
+    }
+
+    /// Scales every coefficient by `f` (a side of a material mixture).
+    pub fn scale(&mut self, f: f64) {
+        match self {
+            Surface::Normal(b) => {
+                b.mcolor *= f;
+                b.scolor *= f;
+            }
+        }
+    }
+}
+
 /// Direct light from one source to one surface point: a shadow bundle.
 /// Everything needed to run it is in here (no references), so it can be
 /// shipped to another processor.
@@ -221,7 +258,7 @@ pub struct ShadowBundle {
     pub normal: Vec3,
     /// Magnitude the origin offset must cover (see [`offset_origin_scaled`]).
     pub offset_scale: f64,
-    pub surface: NormalBsdf,
+    pub surface: Surface,
     /// Brightness already known at this point (ambient term plus the rough
     /// potential of the *other* sources): the base of the `-dt` threshold.
     pub reference: f64,
@@ -378,7 +415,7 @@ impl Emitter<'_, '_> {
     }
 
     /// One shadow bundle per light that can reach this surface.
-    fn direct(&mut self, bsdf: &NormalBsdf, base: Color) {
+    fn direct(&mut self, bsdf: &Surface, base: Color) {
         let ctx = self.ctx;
         if ctx.lights.is_empty() || bsdf.is_black_to_lights() {
             return;
@@ -389,7 +426,7 @@ impl Emitter<'_, '_> {
         let point = self.hit.point;
         let potential = |l: &PreparedLight| {
             l.rough_sample(ctx.scene, point).map_or(0.0, |s| {
-                brightness(bsdf.coefficient(s.dir, s.omega) * l.emission(point, &s))
+                brightness(bsdf.coefficient(ctx.scene, s.dir, s.omega) * l.emission(point, &s))
             })
         };
         POTENTIALS.with_borrow_mut(|pot| {
@@ -400,7 +437,7 @@ impl Emitter<'_, '_> {
         });
     }
 
-    fn bundles(&mut self, bsdf: &NormalBsdf, base: Color, total: f64, potentials: &[f64]) {
+    fn bundles(&mut self, bsdf: &Surface, base: Color, total: f64, potentials: &[f64]) {
         let ctx = self.ctx;
         let point = self.hit.point;
         for (i, (l, &own)) in ctx.lights.iter().zip(potentials).enumerate() {
@@ -415,8 +452,7 @@ impl Emitter<'_, '_> {
             }
             let mut surface = *bsdf;
             if self.scale != 1.0 {
-                surface.mcolor *= self.scale;
-                surface.scolor *= self.scale;
+                surface.scale(self.scale);
             }
             self.out.push(Request::Shadow(ShadowBundle {
                 light: i as u32,
@@ -855,7 +891,7 @@ fn normal(
             base += b.mcolor * f * av;
         }
     }
-    em.direct(&b, base * em.scale);
+    em.direct(&Surface::Normal(b), base * em.scale);
     base
 }
 
