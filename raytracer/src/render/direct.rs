@@ -9,15 +9,21 @@
 //! the next `n^dc` untested patches falls below `-dt / weight` times the
 //! brightness known so far (the reference the bundle was given plus what
 //! the tested patches contributed). The untested rest is added scaled by
-//! the fraction of tested patches that were visible (0.5 if none was
-//! tested). `-dt 0` tests every patch.
+//! the fraction of tested patches that were visible; if none was tested,
+//! by half the source's hit ratio (Radiance's `0.5 * nhits / ntests`).
+//! `-dt 0` tests every patch.
 //!
-//! Difference from Radiance: Radiance sorts the patches of all sources
-//! together and keeps per-source hit statistics across pixels. Here each
-//! source is its own bundle (an independent task for the parallel
-//! renderer) and its threshold reference includes the other sources'
-//! rough potentials; the hit rate is the bundle's own, so the result
-//! depends on nothing but the bundle.
+//! Differences from Radiance: Radiance sorts the patches of all sources
+//! together and keeps per-source hit statistics as it renders (a figure
+//! that depends on the order pixels are done in). Here each source is its
+//! own bundle (an independent task for the parallel renderer) and its
+//! threshold reference includes the other sources' rough potentials; the
+//! source's hit ratio is measured once before rendering
+//! ([`estimate_hit_ratios`]), so the result depends on nothing but the
+//! bundle. Without the ratio, light that shadow testing skips (mostly at
+//! the low-weight points that ambient rays reach) counts as half visible:
+//! a sun through a window then lights the irradiance cache's records as
+//! if half the room were sunlit.
 
 use serde::{Deserialize, Serialize};
 
@@ -26,7 +32,7 @@ use super::material::{hit_object, intens, shadow_filter, ShadeContext, ShadowBun
 use super::rng::Rng;
 use crate::geometry::{offset_origin_scaled, Ray, Vec3};
 use crate::image::brightness;
-use crate::scene::{Color, ObjectId};
+use crate::scene::{Color, Material, ObjectId};
 
 /// Most surfaces a shadow ray passes through (glass, void) before it is
 /// considered blocked.
@@ -146,6 +152,10 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
             c.dir,
             c.dist,
             light.object,
+            matches!(
+                light.material,
+                Material::Illum { .. } | Material::Glow { .. }
+            ),
             counts,
         );
         counts.tested += 1;
@@ -159,7 +169,7 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
     let hit_rate = if sn > 0 {
         nhits as f64 / sn as f64
     } else {
-        0.5
+        0.5 * light.hit_ratio
     };
     for c in &scratch[sn..] {
         acc += c.val * hit_rate;
@@ -182,6 +192,7 @@ pub fn shadow_transmission<C: RayCaster + ?Sized>(
     dir: Vec3,
     dist: f64,
     target: Option<ObjectId>,
+    weak_target: bool,
     counts: &mut ShadowCounts,
 ) -> Color {
     let origin = offset_origin_scaled(p, n, dir, offset_scale);
@@ -217,6 +228,7 @@ pub fn shadow_transmission<C: RayCaster + ?Sized>(
             ctx.scene,
             ctx.scene.material(obj.material),
             -dir.dot(hit.normal),
+            weak_target,
         ) else {
             return Color::ZERO;
         };
@@ -232,4 +244,95 @@ pub fn shadow_transmission<C: RayCaster + ?Sized>(
         }
     }
     Color::ZERO
+}
+
+/// Shadow rays per light at most in [`estimate_hit_ratios`], and in all.
+const RATIO_RAYS: (usize, usize) = (1024, 1 << 16);
+
+/// Each light's hit ratio (Radiance's `nhits / ntests`): the fraction of
+/// shadow rays that reach it from surface points that face it. Radiance
+/// counts them while it renders; here a fixed set of points stands in:
+/// where rays from a grid of points inside the scene's bounds, in fixed
+/// directions, first meet a surface. The same for every renderer and every run.
+pub fn estimate_hit_ratios<C: RayCaster + ?Sized>(
+    ctx: &ShadeContext,
+    caster: &C,
+    bounds: crate::geometry::Aabb,
+) -> Vec<f64> {
+    let n = ctx.lights.len();
+    if n == 0
+        || bounds.min.cmpgt(bounds.max).any()
+        || !bounds.min.is_finite()
+        || !bounds.max.is_finite()
+    {
+        return vec![1.0; n];
+    }
+    let rays = (RATIO_RAYS.1 / n).clamp(64, RATIO_RAYS.0);
+    let size = bounds.max - bounds.min;
+    // A 4 x 4 x 4 grid of origins: enough that no one object near an
+    // origin (a torus around the centre) dominates the points.
+    let origins: Vec<Vec3> = (0..64)
+        .map(|k| {
+            let f = |i: usize| (i as f64 + 0.5) / 4.0;
+            bounds.min + size * Vec3::new(f(k % 4), f(k / 4 % 4), f(k / 16))
+        })
+        .collect();
+    let mut rng = Rng::new(0x6869_745f_7261_7469);
+    let mut points = Vec::with_capacity(rays);
+    for i in 0..rays {
+        let origin = origins[i % origins.len()];
+        let z = 1.0 - 2.0 * rng.next_f64();
+        let phi = 2.0 * std::f64::consts::PI * rng.next_f64();
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let dir = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+        if let Some(hit) = caster.intersect(&Ray { origin, dir }, 0.0, f64::INFINITY) {
+            let normal = if hit.normal.dot(dir) > 0.0 {
+                -hit.normal
+            } else {
+                hit.normal
+            };
+            let scale = hit.point.abs().max_element().max(hit.t);
+            points.push((hit.point, normal, scale));
+        }
+    }
+    let mut counts = ShadowCounts::default();
+    ctx.lights
+        .iter()
+        .map(|light| {
+            let weak = matches!(
+                light.material,
+                Material::Illum { .. } | Material::Glow { .. }
+            );
+            // Radiance starts every source at one hit in one test.
+            let (mut tests, mut hits) = (1u64, 1u64);
+            for &(p, normal, scale) in &points {
+                if !light.may_reach(p) {
+                    continue;
+                }
+                let Some(s) = light.rough_sample(ctx.scene, p) else {
+                    continue;
+                };
+                if s.dir.dot(normal) <= 0.0 {
+                    continue;
+                }
+                tests += 1;
+                let t = shadow_transmission(
+                    ctx,
+                    caster,
+                    p,
+                    normal,
+                    scale,
+                    s.dir,
+                    s.dist,
+                    light.object,
+                    weak,
+                    &mut counts,
+                );
+                if intens(t) > FTINY {
+                    hits += 1;
+                }
+            }
+            hits as f64 / tests as f64
+        })
+        .collect()
 }

@@ -86,6 +86,10 @@ pub struct PreparedLight {
     geometry: Geometry,
     /// Where its samples can lie, worked out once (see [`LightExtent`]).
     extent: Option<LightExtent>,
+    /// Fraction of shadow rays that reach it (Radiance's per-source
+    /// `nhits / ntests`); scales its untested contributions. 1 until
+    /// [`super::direct::estimate_hit_ratios`] measures it.
+    pub hit_ratio: f64,
 }
 
 /// Prepares all of the scene's lights. Lights that cannot be sampled
@@ -188,6 +192,7 @@ pub fn prepare_lights(scene: &Scene) -> (Vec<PreparedLight>, Vec<String>) {
             patterns: scene.patterns.clone(),
             geometry,
             extent,
+            hit_ratio: 1.0,
         });
     }
     (out, warnings)

@@ -354,13 +354,7 @@ impl Emitter<'_, '_> {
     /// Spawns a ray if the depth and weight limits allow it (Radiance's
     /// `rayorigin()` test).
     fn spawn(&mut self, kind: RayKind, dir: Vec3, coef: Color, extinction: Color) {
-        self.spawn_ray(
-            kind,
-            dir,
-            coef,
-            extinction,
-            kind == RayKind::PassThrough && self.task.sampled,
-        )
+        self.spawn_ray(kind, dir, coef, extinction, false)
     }
 
     fn spawn_ray(
@@ -397,6 +391,10 @@ impl Emitter<'_, '_> {
         }
         let dir = dir / len;
         let coef = coef * self.scale;
+        // Radiance's `crtype`: a ray descended from an ambient or sampled
+        // specular ray is one too (it must not count the sources that
+        // direct lighting samples).
+        let sampled = sampled || self.task.sampled;
         let origin = offset_origin_scaled(self.hit.point, self.hit.normal, dir, self.offset_scale);
         let seed = self.next_seed();
         let task = RayTask {
@@ -570,6 +568,12 @@ fn shade_material(
     let hit = em.hit;
     let mut id = id;
     let mut material = ctx.scene.material(id);
+    let rod = -task.ray.dir.dot(hit.normal);
+    // Radiance's `badcomponent()`: an illum is a source that direct
+    // lighting samples, so a sampled ray meeting its front sees nothing.
+    if matches!(material, Material::Illum { .. }) && task.sampled && rod >= 0.0 {
+        return;
+    }
     // Rays other than shadow rays see an illum as its alternate material.
     let mut hops = 0;
     while let Material::Illum {
@@ -591,7 +595,6 @@ fn shade_material(
             .apply(mods, &ray_vars(task, hit, em.uv), &mut ap);
     }
     let dir = task.ray.dir;
-    let rod = -dir.dot(hit.normal);
     let scale = em.scale;
     match material {
         Material::Void | Material::Illum { .. } => {
@@ -626,9 +629,16 @@ fn shade_material(
             em.scale = scale;
             em.salt = salt;
         }
-        // Sampled specular rays skip emitters that direct lighting samples.
+        // Radiance's `m_light()`: the back of a source is black, and
+        // sampled rays (ambient, rough specular, and all they lead to)
+        // skip the sources that direct lighting samples (`badcomponent`):
+        // all lights and spotlights, and glows within their radius; a glow
+        // with a negative radius lights nothing indirectly.
+        Material::Light { .. } | Material::Spotlight { .. } | Material::Glow { .. }
+            if rod < 0.0 => {}
         Material::Light { .. } | Material::Spotlight { .. } if task.sampled => {}
-        Material::Glow { max_radius, .. } if task.sampled && *max_radius > 0.0 => {}
+        Material::Glow { max_radius, .. }
+            if task.sampled && !(*max_radius >= -FTINY && hit.t > *max_radius) => {}
         Material::Light { radiance } | Material::Glow { radiance, .. } => {
             shaded.base += *radiance * ap.color * scale
         }
@@ -1108,8 +1118,21 @@ fn dielectric(em: &mut Emitter, transmission: Color, index: f64, hartmann: f64) 
 /// specular trans pass their specular transmission, as in Radiance's
 /// shadow-ray shading), `None` if the surface blocks it. A dielectric
 /// bends the ray away from the source, so it blocks.
-pub fn shadow_filter(scene: &Scene, material: &Material, rod: f64) -> Option<Color> {
+///
+/// `weak_target`: the ray is aimed at an `illum` or `glow` source. An
+/// illum met from the front then blocks it (Radiance's `illumblock`: an
+/// illum must not pass light from another illum, which it already
+/// accounts for, nor from a glow behind it).
+pub fn shadow_filter(
+    scene: &Scene,
+    material: &Material,
+    rod: f64,
+    weak_target: bool,
+) -> Option<Color> {
     let mut material = material;
+    if matches!(material, Material::Illum { .. }) && weak_target && rod > 0.0 {
+        return None;
+    }
     let mut hops = 0;
     while let Material::Illum {
         alternate: Some(a), ..

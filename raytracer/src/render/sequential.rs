@@ -8,17 +8,17 @@ use std::time::{Duration, Instant};
 
 use super::ambient::{AmbientRequest, AmbientSettings, AmbientStore, Hemisphere};
 use super::caster::{BvhCaster, OctreeCaster, RayCaster};
-use super::direct::{run_shadow_bundle, Contribution};
+use super::direct::{estimate_hit_ratios, run_shadow_bundle, Contribution};
 use super::effects::EffectsReport;
 use super::light::{prepare_lights, PreparedLight};
-use super::material::{shade, RayKind, RayTask, Request, ShadeContext};
+use super::material::{shade, RayKind, RayTask, Request, ShadeContext, FTINY};
 use super::options::RenderOptions;
 use super::rng::{child_seed, pixel_seed, Rng};
 use super::stats::{EffectTimes, RayCounts, RenderStats, Timings};
 use crate::accel::{Bvh, Octree, OctreeParams};
 use crate::geometry::{Ray, Vec3};
 use crate::image::Film;
-use crate::scene::{Color, LightKind, Material, Scene};
+use crate::scene::{Color, LightKind, Material, MaterialId, Scene};
 use crate::{Error, Result};
 
 /// Largest accepted image side, and pixel count.
@@ -90,15 +90,26 @@ enum Bucket {
     Ambient,
 }
 
-/// A visible distant source (for rays that leave the scene).
+/// A distant source as rays that leave the scene see it (Radiance's
+/// `sourcehit()` and `m_light()`).
 #[derive(Debug, Clone)]
 struct SkySource {
     dir: Vec3,
     cos_half: f64,
-    solid_angle: f64,
-    radiance: Color,
-    /// Sampled by direct lighting (so sampled specular rays skip it).
-    sampled: bool,
+    material: MaterialId,
+    role: SkyRole,
+}
+
+/// How `sourcehit()` chooses among distant sources containing a direction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum SkyRole {
+    /// Taken at once (the first in scene order wins).
+    Source,
+    /// A glow: used only when no other source contains the direction.
+    Glow,
+    /// An illum without alternate: never shown; it hides the glows
+    /// behind it from sampled rays.
+    TransIllum,
 }
 
 /// A scene a renderer reads: borrowed, or shared (for renderers that must
@@ -212,7 +223,7 @@ impl<'s> Renderer<'s> {
         } else {
             timed_build(|| Octree::build(objects, params))
         };
-        let (lights, mut warnings) = prepare_lights(&scene);
+        let (mut lights, mut warnings) = prepare_lights(&scene);
         if scene.lights.is_empty() && options.av == Color::ZERO {
             warnings.push(
                 "no light sources and no ambient value (-av): only emitting surfaces will be visible"
@@ -220,35 +231,50 @@ impl<'s> Renderer<'s> {
             );
         }
         let effects = EffectsReport::analyse(&scene, &options, &lights);
+        if effects.adaptive_shadow_testing.enabled {
+            let ratios = estimate_hit_ratios(
+                &ShadeContext {
+                    scene: &scene,
+                    options: &options,
+                    lights: &lights,
+                    effects: &effects,
+                },
+                &OctreeCaster {
+                    octree: &octree,
+                    objects: &scene.objects,
+                },
+                octree.root_bounds(),
+            );
+            for (l, r) in lights.iter_mut().zip(ratios) {
+                l.hit_ratio = r;
+            }
+        }
         let ext = octree.root_bounds();
         let ambient = AmbientSettings::new(&options, (ext.max - ext.min).max_element());
         let sky = scene
             .lights
             .iter()
-            .filter_map(
-                |l| match (&l.kind, scene.materials.get(l.material as usize)?) {
-                    (LightKind::Distant { dir, solid_angle }, m) => {
-                        let (radiance, sampled) = match m {
-                            Material::Light { radiance } => (*radiance, true),
-                            Material::Glow { radiance, .. } => (*radiance, false),
-                            _ => return None, // illum/spot seen directly: nothing to show
-                        };
-                        let len = dir.length();
-                        (len > 0.0 && solid_angle.is_finite() && *solid_angle > 0.0).then(|| {
-                            SkySource {
-                                dir: *dir / len,
-                                cos_half: 1.0
-                                    - solid_angle.min(4.0 * std::f64::consts::PI)
-                                        / (2.0 * std::f64::consts::PI),
-                                solid_angle: *solid_angle,
-                                radiance,
-                                sampled,
-                            }
-                        })
-                    }
-                    _ => None,
-                },
-            )
+            .filter_map(|l| {
+                let LightKind::Distant { dir, solid_angle } = &l.kind else {
+                    return None;
+                };
+                let role = match scene.materials.get(l.material as usize)? {
+                    Material::Glow { .. } => SkyRole::Glow,
+                    Material::Illum {
+                        alternate: None, ..
+                    } => SkyRole::TransIllum,
+                    _ => SkyRole::Source,
+                };
+                let len = dir.length();
+                (len > 0.0 && solid_angle.is_finite() && *solid_angle > 0.0).then(|| SkySource {
+                    dir: *dir / len,
+                    cos_half: 1.0
+                        - solid_angle.min(4.0 * std::f64::consts::PI)
+                            / (2.0 * std::f64::consts::PI),
+                    material: l.material,
+                    role,
+                })
+            })
             .collect();
         Ok(Self {
             scene,
@@ -449,19 +475,77 @@ impl<'s> Renderer<'s> {
         rec.value
     }
 
-    /// What a ray that leaves the scene sees: the smallest distant source
-    /// containing its direction, else black.
+    /// What a ray that leaves the scene sees (Radiance's `sourcehit()`
+    /// then `m_light()`): the first distant source in scene order that
+    /// contains its direction, else a glow that does; black for rays that
+    /// direct lighting already accounts for.
     pub fn sky(&self, task: &RayTask) -> Color {
-        let mut best: Option<&SkySource> = None;
+        let dir = task.ray.dir;
+        let mut glow = None;
+        let mut trans = false;
+        let mut found = None;
         for s in &self.sky {
-            if (task.sampled && s.sampled) || task.ray.dir.dot(s.dir) < s.cos_half {
+            if dir.dot(s.dir) < s.cos_half {
                 continue;
             }
-            if best.is_none_or(|b| s.solid_angle < b.solid_angle) {
-                best = Some(s);
+            match s.role {
+                SkyRole::Source => {
+                    found = Some(s);
+                    break;
+                }
+                SkyRole::Glow => glow = Some(s),
+                SkyRole::TransIllum => trans = true,
             }
         }
-        best.map_or(Color::ZERO, |s| s.radiance)
+        let s = match found {
+            Some(s) => s,
+            // Avoid counting what an illum passes on twice.
+            None if trans && task.sampled => return Color::ZERO,
+            None => match glow {
+                Some(s) => s,
+                None => return Color::ZERO,
+            },
+        };
+        let material = self.scene.material(s.material);
+        // At infinity: a glow of any radius >= 0 is too far to be a
+        // source, so sampled rays see it; other sources they must not.
+        let radiance = match material {
+            Material::Glow {
+                radiance,
+                max_radius,
+            } if !task.sampled || *max_radius >= -FTINY => *radiance,
+            Material::Light { radiance } if !task.sampled => *radiance,
+            Material::Spotlight {
+                radiance,
+                angle_deg,
+                direction,
+            } if !task.sampled => {
+                let aim = direction.normalize_or_zero();
+                if aim == Vec3::ZERO || super::light::spot_admits(aim, *angle_deg, -dir) {
+                    *radiance
+                } else {
+                    Color::ZERO
+                }
+            }
+            _ => Color::ZERO,
+        };
+        let mods = self.scene.mods(s.material);
+        if mods.is_empty() || radiance == Color::ZERO {
+            return radiance;
+        }
+        // Radiance's rays that miss end at FHUGE, facing the source.
+        const FHUGE: f64 = 1e10;
+        let vars = crate::modifier::RayVars {
+            dir,
+            normal: -dir,
+            point: task.ray.origin + dir * FHUGE,
+            t: FHUGE,
+            ts: FHUGE,
+            uv: [0.0; 2],
+        };
+        let mut a = crate::modifier::Applied::NONE;
+        self.scene.patterns.apply(mods, &vars, &mut a);
+        radiance * a.color
     }
 
     /// Radiance of pixel (`x`, `y`) of a `width` x `height` image (row 0 at
