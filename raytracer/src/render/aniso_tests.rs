@@ -539,6 +539,18 @@ fn orientation_functions_use_the_function_language_and_transform() {
 
 /// A lit floor of `mat` seen from above; renders `w` x `w`.
 fn render(mat: &str, w: usize) -> (crate::scene::Scene, Vec<Color>, u64) {
+    let options = crate::render::RenderOptions {
+        av: Color::splat(0.05),
+        ..Default::default()
+    };
+    render_with(mat, w, options)
+}
+
+fn render_with(
+    mat: &str,
+    w: usize,
+    options: crate::render::RenderOptions,
+) -> (crate::scene::Scene, Vec<Color>, u64) {
     let text = format!(
         "{mat}\n\
          void light bright\n0\n0\n3 100 100 100\n\
@@ -547,10 +559,6 @@ fn render(mat: &str, w: usize) -> (crate::scene::Scene, Vec<Color>, u64) {
          m sphere ball\n0\n0\n4 0.5 0.5 0.5 0.5\n"
     );
     let scene = load_rad_str(&text, "aniso_scene.rad").unwrap();
-    let options = crate::render::RenderOptions {
-        av: Color::splat(0.05),
-        ..Default::default()
-    };
     let view =
         crate::scene::View::from_options("-vp 0 -3 3 -vd 0 1 -1 -vu 0 0 1 -vh 50 -vv 50").unwrap();
     let r = crate::render::Renderer::new(&scene, options).unwrap();
@@ -749,4 +757,41 @@ fn bundles_stay_small_and_mixture_scaling_is_linear() {
             assert!((part - full * 0.25).length() < 1e-12, "{kind:?} {l}");
         }
     }
+}
+
+#[test]
+fn diffuse_interreflection_reaches_the_anisotropic_materials() {
+    // With -ab 1 (and no -av) the floor and ball gather light from each
+    // other: the gain over direct light alone is that of the isotropic
+    // material with the same parameters (ashik2 has none: it must gain).
+    let direct = crate::render::RenderOptions::default();
+    let ambient = crate::render::RenderOptions {
+        ab: 1,
+        ad: 128,
+        as_: 0,
+        aa: 0.0,
+        ..Default::default()
+    };
+    let gain = |mat: &str| {
+        let sum = |px: &[Color]| px.iter().map(|c| c.y).sum::<f64>();
+        let (_, a, _) = render_with(mat, 8, direct.clone());
+        let (_, b, _) = render_with(mat, 8, ambient.clone());
+        assert!(b.iter().all(|c| c.is_finite()));
+        sum(&b) - sum(&a)
+    };
+    for (aniso, iso) in [
+        (
+            "void plastic2 m\n4 1 0 0 .\n0\n6 .6 .5 .4 .06 .1 .1",
+            "void plastic m\n0\n0\n5 .6 .5 .4 .06 .1",
+        ),
+        (
+            "void trans2 m\n4 1 0 0 .\n0\n8 .6 .5 .4 .05 .1 .1 .5 .5",
+            "void trans m\n0\n0\n7 .6 .5 .4 .05 .1 .5 .5",
+        ),
+    ] {
+        let (x, y) = (gain(aniso), gain(iso));
+        assert!(y > 0.0 && (x / y - 1.0).abs() < 0.3, "{aniso}: {x} vs {y}");
+    }
+    let g = gain("void ashik2 m\n4 0 1 0 .\n0\n8 .5 .5 .5 .2 .2 .2 50 500");
+    assert!(g > 0.0, "{g}");
 }
