@@ -100,6 +100,11 @@ pub enum Kind {
         back: Vec<ModifierId>,
         coef: Mixing,
     },
+    /// The orientation vector of an anisotropic material (`plastic2`,
+    /// `metal2`, `trans2`, `ashik2`): three expressions `ux uy uz`. Not
+    /// in any chain: the material evaluates it per ray through
+    /// [`Patterns::direction`].
+    Direction([ExprId; 3]),
 }
 
 /// A picture a pattern reads, or why it could not be read. Radiance reads
@@ -517,6 +522,8 @@ impl Patterns {
                 acc.pert = f.pert * c + b.pert * (1.0 - c);
                 acc.color = f.color * c + b.color * (1.0 - c);
             }
+            // A material's orientation vector changes nothing here.
+            Kind::Direction(_) => {}
         }
     }
 
@@ -585,5 +592,38 @@ impl Patterns {
         };
         let ev = Eval::new(self, m, r, &Applied::NONE);
         self.coefficient(&ev, coef, r)
+    }
+
+    /// The orientation vector of an anisotropic material for one ray
+    /// (Radiance's `getacoords()`): the modifier `id`'s three expressions
+    /// in its space, turned to world space by its transform (with the
+    /// transform's scale, as `multv3`). `acc` is what the material's
+    /// patterns did (`NxP`, `CrP`...). `None` when an expression failed
+    /// or gave NaN (counted, as Radiance's "compute error"): the caller
+    /// falls back as for a zero vector.
+    pub fn direction(&self, id: ModifierId, r: &RayVars, acc: &Applied) -> Option<Vec3> {
+        let m = self.modifiers.get(id as usize)?;
+        let Kind::Direction(es) = &m.kind else {
+            return None;
+        };
+        let ev = Eval::new(self, m, r, acc);
+        let d = Vec3::new(ev.expr(es[0])?, ev.expr(es[1])?, ev.expr(es[2])?);
+        if !d.is_finite() {
+            return None;
+        }
+        Some(ev.to_world(d))
+    }
+
+    /// Records (once, counted with the failed evaluations) that the
+    /// orientation vector of modifier `id` gave no direction in the
+    /// surface for a ray: Radiance's "illegal orientation vector"
+    /// warning; the material fell back to an isotropic mean roughness.
+    pub fn report_bad_direction(&self, id: ModifierId) {
+        if let Some(m) = self.modifiers.get(id as usize) {
+            self.failures.record_error(
+                m,
+                &"illegal orientation vector (zero, or along the surface normal); rendered with the mean roughness",
+            );
+        }
     }
 }

@@ -199,6 +199,30 @@ impl EffectsReport {
                         see_through.push(id);
                     }
                 }
+                Material::Aniso {
+                    specularity,
+                    transmissivity,
+                    transmitted_specular,
+                    ..
+                } => {
+                    diffuse = true;
+                    // Roughness is never 0: sampled only above -st.
+                    if *specularity > FTINY && *specularity > options.st {
+                        reflective.push(id);
+                    }
+                    let tspec = transmissivity * (1.0 - specularity) * transmitted_specular;
+                    if tspec > FTINY && tspec > options.st {
+                        refractive.push(id);
+                    }
+                }
+                Material::Ashik { specular, .. } => {
+                    diffuse = true;
+                    if specular.max_element() > FTINY
+                        && crate::image::brightness(*specular) > options.st
+                    {
+                        reflective.push(id);
+                    }
+                }
                 Material::Void
                 | Material::Illum {
                     alternate: None, ..

@@ -38,11 +38,11 @@ pub const FTINY: f64 = 1e-6;
 /// Radiance's `FRESTHRESH`: minimum specularity for the Fresnel estimate.
 const FRESTHRESH: f64 = 0.017999;
 /// Radiance's `MAXITER`: attempts to sample a rough specular direction.
-const MAXITER: usize = 10;
+pub(crate) const MAXITER: usize = 10;
 /// Radiance's `MLAMBDA`: mean wavelength (nm) for Hartmann's formula.
 const MLAMBDA: f64 = 500.0;
 /// Most rays one rough specular sample sends (`-ss` above 1.5).
-const MAX_SPECULAR_RAYS: usize = 1024;
+pub(crate) const MAX_SPECULAR_RAYS: usize = 1024;
 /// Longest chain of `illum` alternates followed before giving up.
 const MAX_ALTERNATES: usize = 8;
 
@@ -215,6 +215,10 @@ impl NormalBsdf {
 pub enum Surface {
     /// plastic, metal, trans (`normal.c`).
     Normal(NormalBsdf),
+    /// plastic2, metal2, trans2 (`aniso.c`).
+    Aniso(super::aniso::AnisoBsdf),
+    /// ashik2 (`ashikhmin.c`).
+    Ashik(super::ashik::AshikBsdf),
 }
 
 impl Surface {
@@ -224,6 +228,8 @@ impl Surface {
     pub fn coefficient(&self, _scene: &Scene, ldir: Vec3, omega: f64) -> Color {
         match self {
             Surface::Normal(b) => b.coefficient(ldir, omega),
+            Surface::Aniso(b) => b.coefficient(ldir, omega),
+            Surface::Ashik(b) => b.coefficient(ldir, omega),
         }
     }
 
@@ -231,6 +237,8 @@ impl Surface {
     pub fn is_black_to_lights(&self) -> bool {
         match self {
             Surface::Normal(b) => b.is_black_to_lights(),
+            Surface::Aniso(b) => b.is_black_to_lights(),
+            Surface::Ashik(b) => b.is_black_to_lights(),
         }
     }
 
@@ -238,6 +246,11 @@ impl Surface {
     pub fn scale(&mut self, f: f64) {
         match self {
             Surface::Normal(b) => {
+                b.mcolor *= f;
+                b.scolor *= f;
+            }
+            Surface::Aniso(b) => b.scale(f),
+            Surface::Ashik(b) => {
                 b.mcolor *= f;
                 b.scolor *= f;
             }
@@ -315,27 +328,27 @@ thread_local! {
 }
 
 /// Writes requests for one hit point; see the module documentation.
-struct Emitter<'c, 'o> {
-    ctx: &'c ShadeContext<'c>,
-    task: &'c RayTask,
-    hit: &'c Hit,
+pub(crate) struct Emitter<'c, 'o> {
+    pub(crate) ctx: &'c ShadeContext<'c>,
+    pub(crate) task: &'c RayTask,
+    pub(crate) hit: &'c Hit,
     out: &'o mut Vec<Request>,
     start: usize,
-    offset_scale: f64,
+    pub(crate) offset_scale: f64,
     ambient: [Option<AmbientRequest>; 2],
     /// Share of the current material in a mixture (1 outside mixtures):
     /// every coefficient this point asks for is scaled by it.
-    scale: f64,
+    pub(crate) scale: f64,
     /// Distinguishes the two sides of a mixture in shadow-bundle seeds.
     salt: u32,
     /// Local surface coordinates of a mesh hit (`Lu`, `Lv`).
-    uv: [f64; 2],
+    pub(crate) uv: [f64; 2],
 }
 
 impl Emitter<'_, '_> {
     /// Records a request for diffuse inter-reflection on `side`; the two
     /// sides of a mixture add their coefficients.
-    fn want_ambient(&mut self, req: AmbientRequest) {
+    pub(crate) fn want_ambient(&mut self, req: AmbientRequest) {
         let k = req.side as usize;
         let req = AmbientRequest {
             coef: req.coef * self.scale,
@@ -357,7 +370,7 @@ impl Emitter<'_, '_> {
         self.spawn_ray(kind, dir, coef, extinction, false)
     }
 
-    fn spawn_ray(
+    pub(crate) fn spawn_ray(
         &mut self,
         kind: RayKind,
         dir: Vec3,
@@ -413,7 +426,7 @@ impl Emitter<'_, '_> {
     }
 
     /// One shadow bundle per light that can reach this surface.
-    fn direct(&mut self, bsdf: &Surface, base: Color) {
+    pub(crate) fn direct(&mut self, bsdf: &Surface, base: Color) {
         let ctx = self.ctx;
         if ctx.lights.is_empty() || bsdf.is_black_to_lights() {
             return;
@@ -524,7 +537,7 @@ fn mesh_shading(scene: &Scene, hit: &Hit) -> (Applied, [f64; 2]) {
 const MAX_MIX_DEPTH: usize = 16;
 
 /// The ray variables of the ray being shaded, for patterns.
-fn ray_vars(task: &RayTask, hit: &Hit, uv: [f64; 2]) -> RayVars {
+pub(crate) fn ray_vars(task: &RayTask, hit: &Hit, uv: [f64; 2]) -> RayVars {
     RayVars {
         dir: task.ray.dir,
         normal: hit.normal,
@@ -538,7 +551,7 @@ fn ray_vars(task: &RayTask, hit: &Hit, uv: [f64; 2]) -> RayVars {
 /// Radiance's `raynormal()`: the normal `n` (facing the ray, cosine `rod`
 /// with the reversed ray) perturbed by `pert`, turned back if the
 /// perturbation would flip the surface's orientation towards the ray.
-fn perturbed_normal(n: Vec3, rod: f64, dir: Vec3, pert: Vec3) -> (Vec3, f64) {
+pub(crate) fn perturbed_normal(n: Vec3, rod: f64, dir: Vec3, pert: Vec3) -> (Vec3, f64) {
     let p = n + pert;
     let len = p.length();
     if !(len > 0.0 && len.is_finite()) {
@@ -724,6 +737,42 @@ fn shade_material(
                 flat,
                 &ap,
             ) * scale
+        }
+        Material::Aniso {
+            kind,
+            color,
+            specularity,
+            u_rough,
+            v_rough,
+            transmissivity,
+            transmitted_specular,
+            direction,
+        } => {
+            let p = super::aniso::AnisoParams {
+                kind: *kind,
+                color: *color,
+                specularity: *specularity,
+                u_rough: *u_rough,
+                v_rough: *v_rough,
+                transmissivity: *transmissivity,
+                transmitted_specular: *transmitted_specular,
+            };
+            shaded.base += super::aniso::shade_aniso(em, &p, *direction, flat, &ap) * scale
+        }
+        Material::Ashik {
+            diffuse,
+            specular,
+            u_power,
+            v_power,
+            direction,
+        } => {
+            let p = super::ashik::AshikParams {
+                diffuse: *diffuse,
+                specular: *specular,
+                u_power: *u_power,
+                v_power: *v_power,
+            };
+            shaded.base += super::ashik::shade_ashik(em, &p, *direction, flat, &ap) * scale
         }
         Material::Glass {
             transmission,
@@ -1175,6 +1224,10 @@ pub fn shadow_filter(
             let tspec = transmissivity * (1.0 - rspec) * transmitted_specular;
             (tspec > FTINY).then(|| *color * tspec)
         }
+        // m_aniso() and m_ashikhmin() return at once for shadow rays (the
+        // roughness of trans2 is never 0): they block, even trans2 with
+        // specular transmission, whose light comes through sampled rays.
+        Material::Aniso { .. } | Material::Ashik { .. } => None,
         _ => None,
     }
 }

@@ -14,6 +14,8 @@
 //! - [`rng`]: per-pixel random streams (tile order never changes a pixel).
 
 pub mod ambient;
+pub mod aniso;
+pub mod ashik;
 pub mod caster;
 pub mod direct;
 pub mod effects;
@@ -23,6 +25,9 @@ pub mod options;
 pub mod rng;
 pub mod sequential;
 pub mod stats;
+
+#[cfg(test)]
+mod aniso_tests;
 
 pub use caster::{BruteForceCaster, BvhCaster, OctreeCaster, RayCaster};
 pub use effects::{Effect, EffectsReport};

@@ -516,6 +516,69 @@ impl Builder {
                     direction: Vec3::new(r[4], r[5], r[6]),
                 }
             }
+            "plastic2" | "metal2" | "trans2" => {
+                Self::no_ints(p)?;
+                let (kind, n, meaning) = match p.ptype.as_str() {
+                    "plastic2" => (AnisoKind::Plastic2, 6, "red green blue specularity u_roughness v_roughness"),
+                    "metal2" => (AnisoKind::Metal2, 6, "red green blue specularity u_roughness v_roughness"),
+                    _ => (AnisoKind::Trans2, 8, "red green blue specularity u_roughness v_roughness transmissivity transmitted_specular"),
+                };
+                Self::reals(p, &[n], meaning)?;
+                // aniso.c refuses these ("roughness too small"): the
+                // Gaussian has no specular limit.
+                if !(r[4] > crate::render::material::FTINY && r[5] > crate::render::material::FTINY)
+                {
+                    return Err(Error::parse(
+                        p.loc.clone(),
+                        format!(
+                            "{} '{}': roughness too small (u {} and v {} must both exceed 1e-6; use {} for a perfectly smooth surface)",
+                            p.ptype,
+                            p.id,
+                            r[4],
+                            r[5],
+                            if kind == AnisoKind::Trans2 { "trans" } else { "plastic or metal with roughness 0" }
+                        ),
+                    ));
+                }
+                let direction = self.aniso_direction(p)?;
+                let r = &p.reals;
+                Material::Aniso {
+                    kind,
+                    color: Color::new(r[0], r[1], r[2]),
+                    specularity: r[3],
+                    u_rough: r[4],
+                    v_rough: r[5],
+                    transmissivity: r.get(6).copied().unwrap_or(0.0),
+                    transmitted_specular: r.get(7).copied().unwrap_or(0.0),
+                    direction,
+                }
+            }
+            "ashik2" => {
+                Self::no_ints(p)?;
+                Self::reals(
+                    p,
+                    &[8],
+                    "diffuse red green blue, specular red green blue, u_power v_power",
+                )?;
+                if !(r[6] >= 0.0 && r[7] >= 0.0 && r[6].is_finite() && r[7].is_finite()) {
+                    return Err(Error::parse(
+                        p.loc.clone(),
+                        format!(
+                            "ashik2 '{}': specular powers {} and {} must be finite and not negative",
+                            p.id, r[6], r[7]
+                        ),
+                    ));
+                }
+                let direction = self.aniso_direction(p)?;
+                let r = &p.reals;
+                Material::Ashik {
+                    diffuse: Color::new(r[0], r[1], r[2]),
+                    specular: Color::new(r[3], r[4], r[5]),
+                    u_power: r[6],
+                    v_power: r[7],
+                    direction,
+                }
+            }
             other => return self.substitute(p, other),
         };
         Ok(Some(m))
@@ -548,28 +611,6 @@ impl Builder {
                     )
                 }
             }
-            "plastic2" | "metal2" if r.len() == 6 => {
-                let (color, specularity, roughness) = (rgb(0), r[3], (r[4] * r[5]).abs().sqrt());
-                if t == "plastic2" {
-                    (
-                        Material::Plastic {
-                            color,
-                            specularity,
-                            roughness,
-                        },
-                        "isotropic plastic (mean roughness)",
-                    )
-                } else {
-                    (
-                        Material::Metal {
-                            color,
-                            specularity,
-                            roughness,
-                        },
-                        "isotropic metal (mean roughness)",
-                    )
-                }
-            }
             "transfunc" | "transdata" if r.len() == 7 => (
                 Material::Trans {
                     color: rgb(0),
@@ -579,16 +620,6 @@ impl Builder {
                     transmitted_specular: r[6],
                 },
                 "plain trans with the same reals",
-            ),
-            "trans2" if r.len() == 8 => (
-                Material::Trans {
-                    color: rgb(0),
-                    specularity: r[3],
-                    roughness: (r[4] * r[5]).abs().sqrt(),
-                    transmissivity: r[6],
-                    transmitted_specular: r[7],
-                },
-                "isotropic trans (mean roughness)",
             ),
             "interface" if r.len() == 8 => (
                 Material::Dielectric {
@@ -601,9 +632,8 @@ impl Builder {
             "antimatter" | "mist" | "prism1" | "prism2" => {
                 (Material::Void, "void (its surfaces are invisible)")
             }
-            "plasfunc" | "plasdata" | "metfunc" | "metdata" | "plastic2" | "metal2"
-            | "transfunc" | "transdata" | "trans2" | "interface" | "BRTDfunc" | "BSDF"
-            | "aBSDF" | "ashik2" | "WGMDfunc" => (
+            "plasfunc" | "plasdata" | "metfunc" | "metdata" | "transfunc" | "transdata"
+            | "interface" | "BRTDfunc" | "BSDF" | "aBSDF" | "WGMDfunc" => (
                 Material::Plastic {
                     color: Color::splat(0.5),
                     specularity: 0.0,

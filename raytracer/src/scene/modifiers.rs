@@ -267,6 +267,22 @@ impl Builder {
         self.mods.lib()?.function(ctx, name, arity, &p.loc)
     }
 
+    /// The orientation vector of an anisotropic material (`plastic2`,
+    /// `metal2`, `trans2`, `ashik2`): string arguments `ux uy uz funcfile
+    /// [transform]`, compiled like a `texfunc` (the expressions may use
+    /// the material's real arguments). Returns the modifier that
+    /// evaluates it ([`crate::modifier::Patterns::direction`]).
+    pub(super) fn aniso_direction(&mut self, p: &RawPrim) -> Result<ModifierId> {
+        let xf = split_xf(
+            p,
+            4,
+            "ux, uy and uz of the orientation vector, function file",
+        )?;
+        let ctx = self.context(&p.strs[3], p)?;
+        let e = self.exprs(ctx, &p.strs[..3], p)?;
+        Ok(self.push_modifier(p, Kind::Direction([e[0], e[1], e[2]]), xf))
+    }
+
     /// Reads one pattern, texture or mixture and binds its name.
     pub(super) fn add_modifier(&mut self, p: &RawPrim) -> Result<()> {
         let t = p.ptype.as_str();

@@ -794,7 +794,7 @@ fn file_forms_radiance_reads() {
 fn unsupported_types_are_named_once_with_their_count() {
     let mut text = String::new();
     for k in 0..50 {
-        text += &format!("void plastic2 aniso{k}\n4 0 0 1 .\n0\n6 .5 .5 .5 .05 .04 .09\n");
+        text += &format!("void BRTDfunc brtd{k}\n4 0 0 1 .\n0\n6 .5 .5 .5 .05 .04 .09\n");
     }
     let s = load_rad_str(&text, "many.rad").unwrap();
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
@@ -817,12 +817,13 @@ fn unsupported_types_are_named_once_with_their_count() {
 #[test]
 fn unsupported_materials_are_substituted_with_a_warning() {
     let s = load_rad_str("void plastic2 aniso\n4 0 0 1 .\n0\n6 .5 .5 .5 .05 .04 .09\nvoid BSDF b\n6 0 f.xml 0 0 1 .\n0\n0\n", "m.rad").unwrap();
-    assert_eq!(s.warnings.len(), 2);
-    assert!(s.warnings[0].1.contains("plastic2") && s.warnings[0].1.contains("aniso"));
+    // plastic2 is simulated now: only BSDF is substituted.
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(s.warnings[0].1.contains("BSDF"));
     assert!(
-        matches!(s.materials[0], Material::Plastic { roughness, .. } if (roughness - 0.06).abs() < 1e-12)
+        matches!(s.materials[0], Material::Aniso { u_rough, v_rough, .. } if u_rough == 0.04 && v_rough == 0.09)
     );
-    assert_eq!(s.warnings[1].0.line, 5);
+    assert_eq!(s.warnings[0].0.line, 5);
 }
 
 #[test]
