@@ -635,7 +635,7 @@ fn trans2_blocks_shadow_rays() {
     .unwrap();
     for m in &s.materials {
         for rod in [1.0, 0.3, -0.5] {
-            assert_eq!(super::material::shadow_filter(&s, m, rod), None);
+            assert_eq!(super::material::shadow_filter(&s, m, rod, false), None);
         }
     }
 }
