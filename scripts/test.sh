@@ -17,6 +17,8 @@ echo "== tests (workspace: unit, integration, doctests incl. the book)"
 cargo test --workspace --locked
 echo "== Radiance's regression scenes against its reference images (release build)"
 cargo test --release --locked -p hybrid-rt --test radiance_suite
+echo "== concave seams at scene scales 1e-5..1e5 (release build)"
+cargo test --release --locked -p hybrid-rt --test seams
 
 if [ "${SKIP_MPI:-0}" = 1 ]; then
     echo "== MPI checks skipped (SKIP_MPI=1)"

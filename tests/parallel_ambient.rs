@@ -89,9 +89,18 @@ fn both_modes_agree_with_the_sequential_render() {
 
 #[test]
 fn without_a_cache_parallel_equals_sequential() {
+    // Also with adaptive pixel sampling (-ps 3, whose grid the tiles of 4
+    // do not follow: every pixel is traced, the adaptive picture kept).
+    for ps in [1, 3] {
+        without_a_cache(ps);
+    }
+}
+
+fn without_a_cache(ps: u32) {
     let (scene, view, w, h) = cornell(10);
     let o = RenderOptions {
         aa: 0.0,
+        ps,
         ..options()
     };
     let r = Renderer::new(&scene, o.clone()).unwrap();
@@ -110,7 +119,7 @@ fn without_a_cache_parallel_equals_sequential() {
             },
         )
         .unwrap();
-        assert_eq!(out.film.pixels(), seq.pixels(), "{mode}");
+        assert_eq!(out.film.pixels(), seq.pixels(), "{mode} -ps {ps}");
         assert_eq!(out.redundant, 0);
     }
 }

@@ -447,3 +447,75 @@ fn asking_for_work_ahead_keeps_every_distribution_exact() {
         }
     }
 }
+
+#[test]
+fn adaptive_pixel_sampling_equals_sequential_for_every_tiling_and_distribution() {
+    // -ps 4: the sequential renderer samples a grid and refines where
+    // neighbours differ by more than -pt. Replicated tiles sample the same
+    // way with their grid cells as apron (tiles of 5 are not aligned to the
+    // grid, tiles of 8 are); the other distributions trace every pixel and
+    // keep the adaptive picture of them. Either way: the sequential picture.
+    let options = RenderOptions {
+        ps: 4,
+        pt: 0.05,
+        pj: 0.67,
+        seed: 5,
+        ..RenderOptions::default()
+    };
+    let c = case("studio", 40, 30, options.clone());
+    let full = case(
+        "studio",
+        40,
+        30,
+        RenderOptions {
+            ps: 1,
+            ..options.clone()
+        },
+    );
+    let w = c.width * c.height;
+    assert!(
+        (c.counts.primary as usize) < w,
+        "-ps 4 traced {} of {w} pixels",
+        c.counts.primary
+    );
+    assert_ne!(c.pixels, full.pixels, "-ps 4 interpolated nothing");
+    for distribution in [
+        Distribution::Replicated,
+        Distribution::Octree,
+        Distribution::Worst,
+    ] {
+        for runtime in [RuntimeKind::Threads, RuntimeKind::Sim] {
+            for tile in [5, 8] {
+                let mut p = ParallelOptions::new(3);
+                p.runtime = runtime;
+                p.workload.distribution = distribution;
+                p.workload.tile = tile;
+                let out = run(&c, &p);
+                let what = format!("{distribution} {runtime:?} tile {tile}");
+                let got = bits(&out.film);
+                let differ = got.iter().zip(&c.pixels).filter(|(a, b)| a != b).count();
+                assert_eq!(differ, 0, "{what}: {differ} pixels differ");
+                assert_eq!(
+                    out.work(work::RAYS_SPAWNED),
+                    out.work(work::RAYS_RETIRED),
+                    "{what}: rays lost"
+                );
+                let primary = out.work(work::RAYS_PRIMARY) as usize;
+                if distribution == Distribution::Replicated {
+                    // Sampled adaptively too, tiles rounded up to the grid:
+                    // the sequential samples, plus at most a tile's shared
+                    // border grid row and column traced again per tile.
+                    let t = tile.div_ceil(4) * 4;
+                    let tiles = c.width.div_ceil(t) * c.height.div_ceil(t);
+                    let seq = c.counts.primary as usize;
+                    assert!(
+                        primary >= seq && primary <= seq + tiles * 2 * (t + 1),
+                        "{what}: {primary} primary rays, sequential {seq}"
+                    );
+                } else {
+                    assert_eq!(primary, w, "{what}: every pixel traced");
+                }
+            }
+        }
+    }
+}

@@ -220,9 +220,9 @@ fn bad_inputs_exit_with_code_and_location() {
             "-pn".into(),
         ),
         (
-            vec![&rad, "--view-file", &vf, "-o", &out, "-ps", "4"],
+            vec![&rad, "--view-file", &vf, "-o", &out, "-pt", "-0.1"],
             2,
-            "not yet supported".into(),
+            "-pt".into(),
         ),
         (
             vec![&rad, "--view-file", &vf, "-o", &out, "--width", "0"],

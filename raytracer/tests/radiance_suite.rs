@@ -25,8 +25,9 @@
 //! here.
 //!
 //! Rendering settings: the suite's own (from the references' headers)
-//! where this renderer has the option; `-ps`/`-pt` (adaptive pixel
-//! sampling) is replaced by rendering at a finer grid, and `-dp`, `-ms`,
+//! where this renderer has the option, `-ps`/`-pt` (adaptive pixel
+//! sampling) included, as written (the patterns' `-ps 3 -pt .08 -ps 1`
+//! ends at `-ps 1`; the mesh views sample with `-ps 3 -pt .08`); `-dp`, `-ms`,
 //! `-dr` (options of features this renderer does not have: secondary
 //! source pretests, mist sampling, virtual-source relays) are left out.
 
@@ -190,7 +191,7 @@ fn patterns_def() {
         name: "patterns_def",
         files: PATTERNS,
         av: 0.12,
-        extra: "",
+        extra: "-ps 3 -pt .08 -ps 1",
         allowed_warning: None,
         scale: 4,
         mean_tol: 0.03,
@@ -208,7 +209,7 @@ fn patterns_plan() {
         name: "patterns_plan",
         files: PATTERNS,
         av: 0.12,
-        extra: "",
+        extra: "-ps 3 -pt .08 -ps 1",
         allowed_warning: None,
         scale: 4,
         mean_tol: 0.03,
@@ -237,7 +238,7 @@ fn mesh_def() {
         name: "mesh_def",
         files: MESH,
         av: 0.12,
-        extra: "",
+        extra: "-ps 3 -pt .08",
         allowed_warning: None,
         scale: 2,
         mean_tol: 0.05,
@@ -255,7 +256,7 @@ fn mesh_cyl() {
         name: "mesh_cyl",
         files: MESH,
         av: 0.12,
-        extra: "",
+        extra: "-ps 3 -pt .08",
         allowed_warning: None,
         scale: 2,
         mean_tol: 0.05,
@@ -273,7 +274,7 @@ fn mesh_cyl2() {
         name: "mesh_cyl2",
         files: MESH,
         av: 0.12,
-        extra: "",
+        extra: "-ps 3 -pt .08",
         allowed_warning: None,
         scale: 2,
         mean_tol: 0.05,

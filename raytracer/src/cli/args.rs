@@ -80,9 +80,12 @@ pub struct RadianceArgs {
     /// -ss: specular sampling jitter [default: 1]
     #[arg(long = "ss", value_name = "FRAC", allow_hyphen_values = true)]
     pub ss: Option<String>,
-    /// -ps: pixel sample spacing (only 1 is supported yet)
+    /// -ps: pixel sample spacing: trace every N-th pixel, refine where neighbours differ by more than -pt [default: 1]
     #[arg(long = "ps", value_name = "N", allow_hyphen_values = true)]
     pub ps: Option<String>,
+    /// -pt: pixel sampling threshold (relative difference) [default: 0.05]
+    #[arg(long = "pt", value_name = "FRAC", allow_hyphen_values = true)]
+    pub pt: Option<String>,
     /// -pj: pixel jitter 0..1 [default: 0]
     #[arg(long = "pj", value_name = "FRAC", allow_hyphen_values = true)]
     pub pj: Option<String>,
@@ -119,6 +122,7 @@ impl RadianceArgs {
             ("st", one(&self.st)),
             ("ss", one(&self.ss)),
             ("ps", one(&self.ps)),
+            ("pt", one(&self.pt)),
             ("pj", one(&self.pj)),
             ("pn", one(&self.pn)),
         ] {

@@ -88,7 +88,20 @@ pub fn offset_origin_scaled(p: Vec3, n: Vec3, dir: Vec3, scale: f64) -> Vec3 {
         .max(scale.abs())
         .max(f64::MIN_POSITIVE * 1.0e12);
     let d = mag * OFFSET_RELATIVE;
-    p + n * d
+    // Also a step of `d` along the ray: a hit point is off its surface by
+    // rounding, and at a concave seam (a floor meeting a wall) it may lie
+    // just behind the *other* surface, which the new ray would then hit at
+    // once, from behind (a seam shadowing itself). Stepping along the ray
+    // moves the origin past any surface within `d`, whatever its
+    // orientation; Radiance's absolute `FTINY` minimum distance does the
+    // same, at one scale.
+    let dl = dir.length();
+    let along = if dl.is_finite() && dl > 0.0 {
+        dir * (d / dl)
+    } else {
+        Vec3::ZERO
+    };
+    p + n * d + along
 }
 
 #[cfg(test)]
@@ -132,6 +145,31 @@ mod tests {
             assert!((b.length() - 1.0).abs() < 1e-12);
             assert!(t.dot(b).abs() < 1e-12 && t.dot(n).abs() < 1e-12 && b.dot(n).abs() < 1e-12);
             assert!((t.cross(b) - n).length() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn offset_clears_the_other_surface_of_a_concave_seam() {
+        // A floor point (normal +z) computed a few ulps behind the wall
+        // x = s that meets the floor, and below the floor: the ray into the
+        // room (towards -x, up) must start in front of both surfaces, at
+        // every scale.
+        for s in [1e-5, 1e-3, 1.0, 1e3, 1e5] {
+            let p = Vec3::new(
+                s * (1.0 + 4.0 * f64::EPSILON),
+                0.3 * s,
+                -4.0 * f64::EPSILON * s,
+            );
+            for dir in [
+                Vec3::new(-0.3, 0.1, 0.9),
+                Vec3::new(-0.01, 0.5, 0.2),
+                Vec3::new(-1.0, 0.0, 1e-3),
+            ] {
+                let o = offset_origin(p, Vec3::Z, dir);
+                assert!(o.x < s && o.z > 0.0, "scale {s} dir {dir}: {o}");
+                // Still within a relative 1e-9 of the point.
+                assert!((o - p).length() < 1e-9 * s);
+            }
         }
     }
 

@@ -483,6 +483,11 @@ pub fn render_ambient_parallel(
     if let Some(i) = seen.iter().position(|s| !s) {
         return Err(Error::Other(format!("pixel {i} was never rendered")));
     }
+    // -ps > 1: every pixel was traced; keep the adaptive sampler's picture.
+    let o = renderer.options();
+    if o.ps > 1 {
+        film = crate::render::adaptive::resample(&film, o.ps, o.pt);
+    }
     let records = cache.read().unwrap_or_else(|e| e.into_inner()).len();
     Ok(AmbientParallelReport {
         film,

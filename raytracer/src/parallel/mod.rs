@@ -342,6 +342,13 @@ pub fn render_parallel_ranked(
             peak_tree_nodes: acc.peak_pending,
         });
     }
+    // -ps > 1: replicated tiles sample adaptively; the other distributions
+    // traced every pixel (a tile's pixels finish out of order), and keep
+    // the adaptive sampler's picture of them, equal to the sequential one.
+    let o = wl.renderer().options();
+    if o.ps > 1 && !replicated {
+        film = crate::render::adaptive::resample(&film, o.ps, o.pt);
+    }
     if report.master.pending() != 0 || !report.master.pixels.is_empty() {
         return Err(Error::Other(
             "parallel render sent pixel results to the master".into(),

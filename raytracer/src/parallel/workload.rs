@@ -730,6 +730,32 @@ impl RtWorkload {
     fn trace_tile_whole(&self, t: &Tile, ctx: &mut Ctx<Self>) {
         let origin = Addr::Proc(ctx.proc_id());
         let mut st = crate::render::TraceState::default();
+        if self.renderer.options().ps > 1 {
+            // Adaptive sampling: the tile with its grid cells as apron, so
+            // its pixels equal the sequential picture's.
+            let grid = self.renderer.grid(self.width, self.height);
+            let width = self.width as u32;
+            grid.fill_region(
+                t.x0 as usize..t.x1 as usize,
+                t.y0 as usize..t.y1 as usize,
+                &mut None,
+                &mut |x, y| {
+                    self.renderer
+                        .pixel(&self.view, self.width, self.height, x, y, &mut st)
+                },
+                &mut |x, y, value| {
+                    ctx.emit_result(
+                        origin,
+                        RtResult {
+                            key: NodeKey::root(y as u32 * width + x as u32),
+                            record: Record::Value(value),
+                        },
+                    )
+                },
+            );
+            self.charge_counts(&st, ctx);
+            return;
+        }
         for y in t.y0..t.y1 {
             for x in t.x0..t.x1 {
                 let Some(task) = self.primary(x, y) else {
@@ -745,6 +771,11 @@ impl RtWorkload {
                 );
             }
         }
+        self.charge_counts(&st, ctx);
+    }
+
+    /// Charges the rays and shadow work tallied in `st`.
+    fn charge_counts(&self, st: &crate::render::TraceState, ctx: &mut Ctx<Self>) {
         let c = &st.counts;
         for (kind, n) in [
             (work::RAYS_PRIMARY, c.primary),
@@ -988,7 +1019,13 @@ impl Workload for RtWorkload {
     }
 
     fn root_tasks(&self, _procs: usize) -> Vec<DdTask> {
-        let t = self.opts.tile;
+        let mut t = self.opts.tile;
+        let ps = self.renderer.options().ps as usize;
+        if ps > 1 && self.replicated() {
+            // Tiles aligned to the adaptive sampling grid: a tile then
+            // shares only its border grid rows and columns with others.
+            t = t.div_ceil(ps) * ps;
+        }
         let mut out = Vec::new();
         for y0 in (0..self.height).step_by(t) {
             for x0 in (0..self.width).step_by(t) {

@@ -13,6 +13,7 @@
 //! - [`stats`]: rays by kind, time per effect, `--stats` JSON;
 //! - [`rng`]: per-pixel random streams (tile order never changes a pixel).
 
+pub mod adaptive;
 pub mod ambient;
 pub mod aniso;
 pub mod ashik;

@@ -62,9 +62,14 @@ pub struct RenderOptions {
     /// Pixel samples (not an `rpict` option; `-pn` here): primary rays per
     /// pixel, averaged, each with its own jitter (`-pj`) and random stream.
     pub pn: u32,
-    /// `-ps`: pixel sample spacing. Only 1 (every pixel sampled once, no
-    /// super-sampling, as in the paper) is supported.
+    /// `-ps`: pixel sample spacing: above 1, pixels are traced on a grid of
+    /// this spacing and in between only where neighbours differ by more
+    /// than `-pt`, interpolated elsewhere (see [`super::adaptive`]).
+    /// Default 1 here (every pixel traced; rpict's is 4).
     pub ps: u32,
+    /// `-pt`: pixel sampling threshold: the relative difference between
+    /// two samples above which the pixels between them are traced.
+    pub pt: f64,
     /// `-pj`: pixel jitter in [0, 1]. Default 0 here (rpict uses 0.67) so a
     /// reference image samples pixel centres.
     pub pj: f64,
@@ -91,6 +96,7 @@ impl Default for RenderOptions {
             st: 0.15,
             ss: 1.0,
             ps: 1,
+            pt: 0.05,
             pj: 0.0,
             seed: 0,
         }
@@ -235,7 +241,12 @@ pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
     RadianceOption {
         name: "ps",
         arity: 1,
-        help: "pixel sample spacing (only 1 supported)",
+        help: "pixel sample spacing: trace a grid this far apart, refine where samples differ (default 1)",
+    },
+    RadianceOption {
+        name: "pt",
+        arity: 1,
+        help: "pixel sampling threshold: relative difference that refines (default 0.05)",
     },
     RadianceOption {
         name: "pj",
@@ -323,7 +334,9 @@ impl RenderOptions {
             "pn" => self.pn = integer(name, v0)?,
             "st" => self.st = in_range(name, number(name, v0)?, 0.0, 1.0)?,
             "ss" => self.ss = in_range(name, number(name, v0)?, 0.0, MAX_SPECULAR_SAMPLES)?,
-            "ps" => self.ps = integer(name, v0)?,
+            // rpict reads -ps 0 as 1.
+            "ps" => self.ps = integer(name, v0)?.max(1),
+            "pt" => self.pt = non_negative(name, number(name, v0)?)?,
             "pj" => self.pj = in_range(name, number(name, v0)?, 0.0, 1.0)?,
             _ => unreachable!("option table and match disagree"),
         }
@@ -353,6 +366,7 @@ impl RenderOptions {
     pub fn validate(&self) -> Result<()> {
         let finite = [
             self.ds, self.dj, self.dt, self.dc, self.lw, self.st, self.ss, self.pj, self.aa,
+            self.pt,
         ];
         if finite.iter().any(|v| !v.is_finite()) || !self.av.is_finite() {
             return Err(Error::Usage(
@@ -396,12 +410,14 @@ impl RenderOptions {
                 self.pn
             )));
         }
-        if self.ps != 1 {
+        if self.ps == 0 || self.ps as usize > super::sequential::MAX_SIDE {
             return Err(Error::Usage(format!(
-                "-ps {}: adaptive pixel sampling is not yet supported; only -ps 1 (every pixel traced once) is",
-                self.ps
+                "-ps {}: pixel sample spacing must be between 1 and {}",
+                self.ps,
+                super::sequential::MAX_SIDE
             )));
         }
+        non_negative("pt", self.pt)?;
         Ok(())
     }
 }
@@ -433,7 +449,7 @@ mod tests {
             ("aa", "2"),
             ("ad", "-1"),
             ("pn", "0"),
-            ("ps", "4"),
+            ("pt", "-1"),
             ("zz", "1"),
         ] {
             let e = o.clone().set(n, &[v]).unwrap_err();

@@ -6,6 +6,7 @@ use std::ops::{Deref, Range};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
+use super::adaptive::Grid;
 use super::ambient::{AmbientRequest, AmbientSettings, AmbientStore, Hemisphere};
 use super::caster::{BvhCaster, OctreeCaster, RayCaster};
 use super::direct::{estimate_hit_ratios, run_shadow_bundle, Contribution};
@@ -642,12 +643,28 @@ impl<'s> Renderer<'s> {
         film: &mut Film,
         st: &mut TraceState,
     ) {
+        if self.options.ps > 1 {
+            self.grid(width, height).fill_region(
+                region.x.clone(),
+                region.y.clone(),
+                &mut None,
+                &mut |x, y| self.pixel(camera, width, height, x, y, st),
+                &mut |x, y, c| film.set(x, y, c),
+            );
+            return;
+        }
         for y in region.y.clone() {
             for x in region.x.clone() {
                 let c = self.pixel(camera, width, height, x, y, st);
                 film.set(x, y, c);
             }
         }
+    }
+
+    /// The adaptive sampling grid (`-ps`, `-pt`) of a `width` x `height`
+    /// picture.
+    pub fn grid(&self, width: usize, height: usize) -> Grid {
+        Grid::new(width, height, self.options.ps, self.options.pt)
     }
 
     /// Renders the whole image row by row, calling `progress(rows_done)`
@@ -663,6 +680,24 @@ impl<'s> Renderer<'s> {
         let mut film = Film::new(width, height);
         let mut st = TraceState::default();
         let t0 = Instant::now();
+        if self.options.ps > 1 {
+            // Band by band, each grid row filled once.
+            let grid = self.grid(width, height);
+            let mut carry = None;
+            for band in grid.bands() {
+                let done = band.end;
+                grid.fill_region(
+                    0..width,
+                    band,
+                    &mut carry,
+                    &mut |x, y| self.pixel(camera, width, height, x, y, &mut st),
+                    &mut |x, y, c| film.set(x, y, c),
+                );
+                progress(done);
+            }
+            let render_s = t0.elapsed().as_secs_f64();
+            return Ok((film, self.stats(width, height, &st, render_s)));
+        }
         for y in 0..height {
             self.render_region(
                 camera,
