@@ -215,15 +215,18 @@ impl NormalBsdf {
 pub enum Surface {
     /// plastic, metal, trans (`normal.c`).
     Normal(NormalBsdf),
+    /// BRTDfunc and the function- and data-defined BRDFs (`m_brdf.c`).
+    Func(super::brdf::FuncBsdf),
 }
 
 impl Surface {
     /// The coefficient for light arriving from unit direction `ldir`
     /// within solid angle `omega` (Radiance's `dirfunc`).
     #[inline]
-    pub fn coefficient(&self, _scene: &Scene, ldir: Vec3, omega: f64) -> Color {
+    pub fn coefficient(&self, scene: &Scene, ldir: Vec3, omega: f64) -> Color {
         match self {
             Surface::Normal(b) => b.coefficient(ldir, omega),
+            Surface::Func(b) => b.coefficient(scene, ldir, omega),
         }
     }
 
@@ -231,6 +234,7 @@ impl Surface {
     pub fn is_black_to_lights(&self) -> bool {
         match self {
             Surface::Normal(b) => b.is_black_to_lights(),
+            Surface::Func(_) => false,
         }
     }
 
@@ -241,6 +245,7 @@ impl Surface {
                 b.mcolor *= f;
                 b.scolor *= f;
             }
+            Surface::Func(b) => b.scale *= f,
         }
     }
 }
@@ -315,27 +320,27 @@ thread_local! {
 }
 
 /// Writes requests for one hit point; see the module documentation.
-struct Emitter<'c, 'o> {
-    ctx: &'c ShadeContext<'c>,
-    task: &'c RayTask,
-    hit: &'c Hit,
+pub(super) struct Emitter<'c, 'o> {
+    pub(super) ctx: &'c ShadeContext<'c>,
+    pub(super) task: &'c RayTask,
+    pub(super) hit: &'c Hit,
     out: &'o mut Vec<Request>,
     start: usize,
-    offset_scale: f64,
+    pub(super) offset_scale: f64,
     ambient: [Option<AmbientRequest>; 2],
     /// Share of the current material in a mixture (1 outside mixtures):
     /// every coefficient this point asks for is scaled by it.
-    scale: f64,
+    pub(super) scale: f64,
     /// Distinguishes the two sides of a mixture in shadow-bundle seeds.
     salt: u32,
     /// Local surface coordinates of a mesh hit (`Lu`, `Lv`).
-    uv: [f64; 2],
+    pub(super) uv: [f64; 2],
 }
 
 impl Emitter<'_, '_> {
     /// Records a request for diffuse inter-reflection on `side`; the two
     /// sides of a mixture add their coefficients.
-    fn want_ambient(&mut self, req: AmbientRequest) {
+    pub(super) fn want_ambient(&mut self, req: AmbientRequest) {
         let k = req.side as usize;
         let req = AmbientRequest {
             coef: req.coef * self.scale,
@@ -353,7 +358,7 @@ impl Emitter<'_, '_> {
 
     /// Spawns a ray if the depth and weight limits allow it (Radiance's
     /// `rayorigin()` test).
-    fn spawn(&mut self, kind: RayKind, dir: Vec3, coef: Color, extinction: Color) {
+    pub(super) fn spawn(&mut self, kind: RayKind, dir: Vec3, coef: Color, extinction: Color) {
         self.spawn_ray(
             kind,
             dir,
@@ -415,7 +420,7 @@ impl Emitter<'_, '_> {
     }
 
     /// One shadow bundle per light that can reach this surface.
-    fn direct(&mut self, bsdf: &Surface, base: Color) {
+    pub(super) fn direct(&mut self, bsdf: &Surface, base: Color) {
         let ctx = self.ctx;
         if ctx.lights.is_empty() || bsdf.is_black_to_lights() {
             return;
@@ -526,7 +531,7 @@ fn mesh_shading(scene: &Scene, hit: &Hit) -> (Applied, [f64; 2]) {
 const MAX_MIX_DEPTH: usize = 16;
 
 /// The ray variables of the ray being shaded, for patterns.
-fn ray_vars(task: &RayTask, hit: &Hit, uv: [f64; 2]) -> RayVars {
+pub(super) fn ray_vars(task: &RayTask, hit: &Hit, uv: [f64; 2]) -> RayVars {
     RayVars {
         dir: task.ray.dir,
         normal: hit.normal,
@@ -540,7 +545,7 @@ fn ray_vars(task: &RayTask, hit: &Hit, uv: [f64; 2]) -> RayVars {
 /// Radiance's `raynormal()`: the normal `n` (facing the ray, cosine `rod`
 /// with the reversed ray) perturbed by `pert`, turned back if the
 /// perturbation would flip the surface's orientation towards the ray.
-fn perturbed_normal(n: Vec3, rod: f64, dir: Vec3, pert: Vec3) -> (Vec3, f64) {
+pub(super) fn perturbed_normal(n: Vec3, rod: f64, dir: Vec3, pert: Vec3) -> (Vec3, f64) {
     let p = n + pert;
     let len = p.length();
     if !(len > 0.0 && len.is_finite()) {
@@ -727,6 +732,12 @@ fn shade_material(
             if let Some(ext) = dielectric(em, *transmission, *index, *hartmann) {
                 shaded.extinction = ext;
             }
+        }
+        Material::Brtd { .. } => {
+            shaded.base += super::brdf::shade_brtd(em, id, material, &ap) * scale
+        }
+        Material::BrdfFunc { .. } => {
+            shaded.base += super::brdf::shade_brdf_func(em, id, material, &ap) * scale
         }
     }
 }

@@ -14,6 +14,7 @@
 //! - [`rng`]: per-pixel random streams (tile order never changes a pixel).
 
 pub mod ambient;
+pub mod brdf;
 pub mod caster;
 pub mod direct;
 pub mod effects;

@@ -516,6 +516,10 @@ impl Builder {
                     direction: Vec3::new(r[4], r[5], r[6]),
                 }
             }
+            "BRTDfunc" => self.brtd_material(p)?,
+            "plasfunc" | "metfunc" | "transfunc" | "plasdata" | "metdata" | "transdata" => {
+                self.brdf_func_material(p)?
+            }
             other => return self.substitute(p, other),
         };
         Ok(Some(m))
@@ -526,28 +530,6 @@ impl Builder {
         let r = &p.reals;
         let rgb = |k: usize| Color::new(r[k], r[k + 1], r[k + 2]);
         let (m, what) = match t {
-            "plasfunc" | "plasdata" | "metfunc" | "metdata" if r.len() == 5 => {
-                let (color, specularity, roughness) = (rgb(0), r[3], r[4]);
-                if t.starts_with("plas") {
-                    (
-                        Material::Plastic {
-                            color,
-                            specularity,
-                            roughness,
-                        },
-                        "plain plastic with the same reals",
-                    )
-                } else {
-                    (
-                        Material::Metal {
-                            color,
-                            specularity,
-                            roughness,
-                        },
-                        "plain metal with the same reals",
-                    )
-                }
-            }
             "plastic2" | "metal2" if r.len() == 6 => {
                 let (color, specularity, roughness) = (rgb(0), r[3], (r[4] * r[5]).abs().sqrt());
                 if t == "plastic2" {
@@ -570,16 +552,6 @@ impl Builder {
                     )
                 }
             }
-            "transfunc" | "transdata" if r.len() == 7 => (
-                Material::Trans {
-                    color: rgb(0),
-                    specularity: r[3],
-                    roughness: r[4],
-                    transmissivity: r[5],
-                    transmitted_specular: r[6],
-                },
-                "plain trans with the same reals",
-            ),
             "trans2" if r.len() == 8 => (
                 Material::Trans {
                     color: rgb(0),
@@ -601,9 +573,8 @@ impl Builder {
             "antimatter" | "mist" | "prism1" | "prism2" => {
                 (Material::Void, "void (its surfaces are invisible)")
             }
-            "plasfunc" | "plasdata" | "metfunc" | "metdata" | "plastic2" | "metal2"
-            | "transfunc" | "transdata" | "trans2" | "interface" | "BRTDfunc" | "BSDF"
-            | "aBSDF" | "ashik2" | "WGMDfunc" => (
+            "plastic2" | "metal2" | "trans2" | "interface" | "BSDF" | "aBSDF" | "ashik2"
+            | "WGMDfunc" => (
                 Material::Plastic {
                     color: Color::splat(0.5),
                     specularity: 0.0,
