@@ -60,6 +60,11 @@ pub struct FuncBsdf {
     pub scale: f64,
 }
 
+// Shadow bundles of other materials do not grow: the largest variant of
+// `Surface` stays `normal.c`'s.
+const _: () =
+    assert!(std::mem::size_of::<FuncBsdf>() <= std::mem::size_of::<super::material::NormalBsdf>());
+
 /// The reflectances of `BRDFDAT` as a material defines them.
 struct Params {
     rdiff: Color,
@@ -157,7 +162,7 @@ impl FuncBsdf {
             return Color::ZERO;
         };
         let ldot = self.pnorm.dot(ldir);
-        if !(ldot.abs() > FTINY) {
+        if ldot.is_nan() || ldot.abs() <= FTINY {
             return Color::ZERO; // too close to grazing (or NaN)
         }
         if if ldot < 0.0 {
@@ -188,7 +193,7 @@ impl FuncBsdf {
         let Some((mut ctmp, dtmp)) = directional(&ev, ldir, omega) else {
             return cval; // a compute error (counted)
         };
-        if !(dtmp > FTINY) {
+        if dtmp.is_nan() || dtmp <= FTINY {
             return cval;
         }
         if ldot > 0.0 {
