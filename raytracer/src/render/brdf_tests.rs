@@ -507,3 +507,66 @@ fn degenerate_inputs_give_finite_values_and_counted_failures() {
     let z = FuncBsdf { scale: 0.0, ..b };
     assert_eq!(z.coefficient(&s, l, omega), Color::ZERO);
 }
+
+#[test]
+fn a_plasfunc_of_normal_c_highlight_matches_plastic() {
+    // normal.c's isotropic highlight written in the function language:
+    // the frames, the light-direction arguments, Dx and NxP/RdotP must
+    // all agree for the two to match.
+    let dir = temp_dir("ward");
+    let cal = "a2 = arg(5)*arg(5);\n\
+               hn(lx,ly,lz) = (lx-Dx)*NxP + (ly-Dy)*NyP + (lz-Dz)*NzP;\n\
+               hh(lx,ly,lz) = (lx-Dx)^2 + (ly-Dy)^2 + (lz-Dz)^2;\n\
+               ward(lx,ly,lz,o) = exp(-(hh(lx,ly,lz) - hn(lx,ly,lz)^2)/hn(lx,ly,lz)^2/a2) /\n\
+                   (4*PI*a2*RdotP*(lx*NxP+ly*NyP+lz*NzP));\n";
+    let func = load(
+        &dir,
+        &with_plane("void plasfunc p\n2 ward w.cal\n0\n5 .6 .5 .4 .05 .2\n", "p"),
+        &[("w.cal", cal)],
+    )
+    .unwrap();
+    let plain = load(
+        &dir,
+        &with_plane("void plastic p\n0\n0\n5 .6 .5 .4 .05 .2\n", "p"),
+        &[],
+    )
+    .unwrap();
+    let omega = 1e-7;
+    let mut compared = 0;
+    for d in incidences() {
+        let (_, f) = shaded(&func, d);
+        let (out, _) = shaded(&plain, d);
+        let f = f.unwrap();
+        let n = out
+            .iter()
+            .find_map(|r| match r {
+                Request::Shadow(b) => Some(b.surface),
+                _ => None,
+            })
+            .unwrap();
+        let mirror = d - Vec3::Z * (2.0 * d.z);
+        for l in [
+            mirror,
+            (mirror + Vec3::new(0.05, -0.03, 0.0)).normalize(),
+            (mirror + Vec3::new(-0.2, 0.1, 0.1)).normalize(),
+            Vec3::new(0.1, 0.2, 0.97).normalize(),
+        ] {
+            if l.z <= 0.05 {
+                continue;
+            }
+            let a = f.coefficient(&func, l, omega);
+            let b = n.coefficient(&plain, l, omega);
+            let diffuse = Color::new(0.6, 0.5, 0.4) * (0.95 * l.z * omega / PI);
+            // Only where both highlights are well above the cut-offs.
+            if (b - diffuse).min_element() < 1e-3 * omega {
+                continue;
+            }
+            assert!(
+                (a - b).abs().max_element() <= 1e-4 * b.max_element(),
+                "incident {d:?}, light {l:?}: plasfunc {a:?}, plastic {b:?}"
+            );
+            compared += 1;
+        }
+    }
+    assert!(compared >= 6, "{compared}");
+}
