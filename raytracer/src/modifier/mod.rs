@@ -111,8 +111,8 @@ pub enum Kind {
 pub enum MaterialFuncs {
     /// `BRTDfunc`: the six specular expressions (reflected red, green,
     /// blue, transmitted red, green, blue), evaluated per ray, and the
-    /// three directional functions of the light direction (`None` for a
-    /// name starting with `0`: zero).
+    /// three directional functions of the light direction (`None` for
+    /// `0`: zero; a channel named like an earlier one has its id).
     Brtd {
         specular: [ExprId; 6],
         directional: [Option<FuncId>; 3],

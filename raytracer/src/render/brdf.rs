@@ -329,7 +329,7 @@ pub(super) fn shade_brtd(em: &mut Emitter, id: MaterialId, m: &Material, ap: &Ap
             // Straight through, bent by a texture (not for shadow rays).
             let mut tdir = dir;
             if hastexture {
-                let d = dir - pert * 0.75;
+                let d = dir - pert;
                 if d.length() > 0.0 {
                     tdir = d;
                 }

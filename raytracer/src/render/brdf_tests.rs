@@ -351,6 +351,18 @@ fn directional_brtd_functions_see_the_light_direction() {
     let want = 0.8 / PI * 0.8 * omega;
     assert!((below.x - want).abs() < 1e-12 && (below.y - want).abs() < 1e-12);
     assert_eq!(below.z, 0.0);
+    // Radiance's gate: without diffuse parts, the direct component is
+    // computed only when the red function's name does not start with 0.
+    let s = load(
+        &dir,
+        &with_plane(
+            "void BRTDfunc m\n10 0 0 0 0 0 0 0 lz 0 l.cal\n0\n9 0 0 0 0 0 0 0 0 0\n",
+            "m",
+        ),
+        &[("l.cal", "lz(x,y,z,o) = if(z, z, 0) / PI;\n")],
+    )
+    .unwrap();
+    assert!(shaded(&s, Vec3::new(0.0, 0.0, -1.0)).1.is_none());
 }
 
 #[test]

@@ -83,8 +83,9 @@ pub enum Material {
     /// front and of the back, diffuse transmittance; the specular
     /// reflection and transmission expressions and the directional
     /// functions are the modifier `funcs`
-    /// ([`crate::modifier::MaterialFuncs::Brtd`]). `directional`: a
-    /// directional function is not `0`.
+    /// ([`crate::modifier::MaterialFuncs::Brtd`]). `directional`: the
+    /// red directional function's name does not start with `0` (Radiance
+    /// then computes the direct component even without diffuse parts).
     Brtd {
         front: Color,
         back: Color,

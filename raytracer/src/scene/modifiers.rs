@@ -709,12 +709,18 @@ impl Builder {
         let xf = split_xf(p, 10, meaning)?;
         let ctx = self.context(&p.strs[9], p)?;
         let e = self.exprs(ctx, &p.strs[..6], p)?;
-        let mut directional = [None; 3];
-        for (k, name) in p.strs[6..9].iter().enumerate() {
-            // m_brdf.c: a name starting with '0' is the zero function.
-            if !name.starts_with('0') {
-                directional[k] = Some(self.func(ctx, name, 4, p)?);
+        let mut directional: [Option<FuncId>; 3] = [None; 3];
+        for k in 0..3 {
+            let name = &p.strs[6 + k];
+            // m_brdf.c: "0" is the zero function; a channel named like an
+            // earlier one takes its value.
+            if name == "0" {
+                continue;
             }
+            directional[k] = match (0..k).find(|&j| p.strs[6 + j] == *name) {
+                Some(j) => directional[j],
+                None => Some(self.func(ctx, name, 4, p)?),
+            };
         }
         let kind = Kind::MaterialFuncs(MaterialFuncs::Brtd {
             specular: [e[0], e[1], e[2], e[3], e[4], e[5]],
@@ -728,7 +734,9 @@ impl Builder {
             back: rgb(3),
             tdiff: rgb(6),
             funcs,
-            directional: directional.iter().any(Option::is_some),
+            // m_brdf.c computes the direct component for a red function
+            // whose name does not start with '0' (or for diffuse parts).
+            directional: !p.strs[6].starts_with('0'),
         })
     }
 
