@@ -582,3 +582,62 @@ fn a_plasfunc_of_normal_c_highlight_matches_plastic() {
     }
     assert!(compared >= 6, "{compared}");
 }
+
+mod fuzz {
+    use super::*;
+    use proptest::prelude::*;
+
+    const TEMPLATES: [&str; 5] = [
+        MIST_BRTD,
+        "void plasfunc m\n2 absdf aniso.cal\n0\n9 .7 .2 .8 .08 .2 .08 0 0 1\n",
+        "void metdata m\n7 noop sawtooth.dat diskcoords.cal sqx_in sqy_in sqx_out sqy_out\n0\n7 .9 .5 .8 .95 -1 0 0\n",
+        "void transdata m\n4 noop tcutoff.dat maxang.cal maxang\n0\n6 .9 .9 .9 .07 .9 1\n",
+        "void BRTDfunc m\n10 0 0 0 Rdot .1 0 quarter quarter 0 c.cal\n0\n9 .2 .2 .2 .1 .1 .1 .2 .2 .2\n",
+    ];
+    const WORDS: [&str; 12] = [
+        "0", "-1", "1e308", "-rx", "9", "2", "10", ".", "noop", "quarter", "forever", "Rdot/0",
+    ];
+
+    fn mutated() -> impl Strategy<Value = String> {
+        (
+            0..TEMPLATES.len(),
+            proptest::collection::vec((0usize..64, 0usize..3, 0..WORDS.len()), 0..4),
+        )
+            .prop_map(|(t, edits)| {
+                let mut words: Vec<String> =
+                    TEMPLATES[t].split_whitespace().map(String::from).collect();
+                for (at, op, w) in edits {
+                    let at = at % words.len().max(1);
+                    match op {
+                        0 if !words.is_empty() => {
+                            words.remove(at);
+                        }
+                        1 => words.insert(at, WORDS[w].to_string()),
+                        _ if !words.is_empty() => words[at] = WORDS[w].to_string(),
+                        _ => {}
+                    }
+                }
+                let mut text = words.join(" ");
+                text.push('\n');
+                text
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 96, rng_seed: proptest::test_runner::RngSeed::Fixed(0xb7d), failure_persistence: None, ..ProptestConfig::default() })]
+
+        #[test]
+        fn mutated_brdf_records_never_panic(text in mutated()) {
+            let dir = temp_dir("fuzz");
+            if let Ok(s) = load(&dir, &with_plane(&text, "m"), &[("c.cal", CONST_CAL)]) {
+                for d in [Vec3::new(0.2, 0.1, -1.0), Vec3::new(0.3, 0.0, 1.0)] {
+                    if let (_, Some(b)) = shaded(&s, d) {
+                        for l in [Vec3::Z, Vec3::new(0.6, 0.0, -0.8), Vec3::X] {
+                            let _ = b.coefficient(&s, l, 1e-3);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
