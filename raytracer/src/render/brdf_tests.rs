@@ -413,6 +413,32 @@ fn suite_materials_load_without_stand_ins() {
         "{:?}",
         s.warnings
     );
+    // The whole scenes as oconv reads them: no warning about these types.
+    let ours = [
+        "BRTDfunc",
+        "plasfunc",
+        "metfunc",
+        "transfunc",
+        "plasdata",
+        "metdata",
+        "transdata",
+    ];
+    for scene in ["mist", "trans", "mixtex"] {
+        let s = load_with(&[suite.join(format!("expanded/{scene}.oconv.rad"))], &opts).unwrap();
+        let n = s
+            .materials
+            .iter()
+            .filter(|m| matches!(m, Material::Brtd { .. } | Material::BrdfFunc { .. }))
+            .count();
+        assert!(n >= 1, "{scene}: no function-defined material");
+        assert!(
+            !s.warnings
+                .iter()
+                .any(|(_, w)| ours.iter().any(|t| w.contains(t))),
+            "{scene}: {:?}",
+            s.warnings
+        );
+    }
 }
 
 #[test]
