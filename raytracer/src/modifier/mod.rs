@@ -105,6 +105,34 @@ pub enum Kind {
     /// in any chain: the material evaluates it per ray through
     /// [`Patterns::direction`].
     Direction([ExprId; 3]),
+    /// The functions of a function-defined material (`BRTDfunc`,
+    /// `plasfunc`, ..., `transdata`): never applied as a pattern; the
+    /// material evaluates them through [`Patterns::material_eval`].
+    MaterialFuncs(MaterialFuncs),
+}
+
+/// What a function-defined material evaluates (Radiance's `m_brdf.c`).
+#[derive(Debug)]
+pub enum MaterialFuncs {
+    /// `BRTDfunc`: the six specular expressions (reflected red, green,
+    /// blue, transmitted red, green, blue), evaluated per ray, and the
+    /// three directional functions of the light direction (`None` for
+    /// `0`: zero; a channel named like an earlier one has its id).
+    Brtd {
+        specular: [ExprId; 6],
+        directional: [Option<FuncId>; 3],
+    },
+    /// `plasfunc`, `metfunc`, `transfunc`: the BRDF as a function of the
+    /// light direction and solid angle.
+    Func(FuncId),
+    /// `plasdata`, `metdata`, `transdata`: the data file's value at the
+    /// coordinates the coordinate functions give for the light direction,
+    /// passed through `func` (with the direction and solid angle after it).
+    Data {
+        func: FuncId,
+        data: Arc<DataArray>,
+        coords: Vec<FuncId>,
+    },
 }
 
 /// A picture a pattern reads, or why it could not be read. Radiance reads
@@ -366,6 +394,15 @@ impl<'a> Eval<'a> {
         }
     }
 
+    /// A world direction in pattern space, unit length (Radiance's
+    /// `multv3(v, w, funcxf.xfm)` divided by `funcxf.sca`).
+    fn dir(&self, w: Vec3) -> Vec3 {
+        match &self.m.xf {
+            None => w,
+            Some(xf) => xf.inv_vector(w) * xf.scale,
+        }
+    }
+
     /// A displacement in pattern space back to world space (with the
     /// transform's scale, as Radiance's `multv3` with the forward matrix).
     fn to_world(&self, d: Vec3) -> Vec3 {
@@ -524,6 +561,7 @@ impl Patterns {
             }
             // A material's orientation vector changes nothing here.
             Kind::Direction(_) => {}
+            Kind::MaterialFuncs(_) => {}
         }
     }
 
@@ -625,5 +663,68 @@ impl Patterns {
                 &"illegal orientation vector (zero, or along the surface normal); rendered with the mean roughness",
             );
         }
+    }
+}
+
+/// What a function-defined material sets besides the ray's variables
+/// (Radiance's `setbrdfunc`): the perturbed normal turned towards the ray
+/// (`NxP`...), its cosine with the reversed ray (`RdotP`) and the
+/// material colour with its patterns (`CrP`...).
+#[derive(Debug, Clone, Copy)]
+pub struct MaterialVars {
+    pub pnorm: Vec3,
+    pub pdot: f64,
+    pub color: Color,
+}
+
+/// A function-defined material's view of one ray: evaluations that fail
+/// or give NaN count as the pattern failures do, and read as `None`.
+pub struct MaterialEval<'a>(Eval<'a>);
+
+impl MaterialEval<'_> {
+    /// The material's functions.
+    pub fn funcs(&self) -> Option<&MaterialFuncs> {
+        match &self.0.m.kind {
+            Kind::MaterialFuncs(f) => Some(f),
+            _ => None,
+        }
+    }
+
+    pub fn expr(&self, e: ExprId) -> Option<f64> {
+        self.0.expr(e)
+    }
+
+    pub fn call(&self, f: FuncId, args: &[f64]) -> Option<f64> {
+        self.0.call(f, args)
+    }
+
+    /// A world direction in the material's function space (unit length).
+    pub fn dir(&self, w: Vec3) -> Vec3 {
+        self.0.dir(w)
+    }
+}
+
+impl Patterns {
+    /// The evaluation context of the function-defined material whose
+    /// functions are modifier `id`, for the ray `r` (its normal as the
+    /// material presents it to the functions) with the material's own
+    /// variables `v`.
+    pub fn material_eval(
+        &self,
+        id: ModifierId,
+        r: &RayVars,
+        v: &MaterialVars,
+    ) -> Option<MaterialEval<'_>> {
+        let m = self.modifiers.get(id as usize)?;
+        let mut ev = Eval::new(self, m, r, &Applied::NONE);
+        let pn = ev.dir(v.pnorm);
+        ev.inputs.values[chan::NXP] = pn.x;
+        ev.inputs.values[chan::NYP] = pn.y;
+        ev.inputs.values[chan::NZP] = pn.z;
+        ev.inputs.values[chan::RDOTP] = v.pdot.clamp(-1.0, 1.0);
+        ev.inputs.values[chan::CRP] = v.color.x;
+        ev.inputs.values[chan::CGP] = v.color.y;
+        ev.inputs.values[chan::CBP] = v.color.z;
+        Some(MaterialEval(ev))
     }
 }

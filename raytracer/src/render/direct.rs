@@ -224,12 +224,13 @@ pub fn shadow_transmission<C: RayCaster + ?Sized>(
             return trans;
         }
         let obj = hit_object(ctx.scene, &hit);
-        let Some(filter) = shadow_filter(
-            ctx.scene,
-            ctx.scene.material(obj.material),
-            -dir.dot(hit.normal),
-            weak_target,
-        ) else {
+        let material = ctx.scene.material(obj.material);
+        let filter = if let Material::Brtd { .. } = material {
+            super::brdf::shadow_filter(ctx.scene, obj.material, &hit, dir)
+        } else {
+            shadow_filter(ctx.scene, material, -dir.dot(hit.normal), weak_target)
+        };
+        let Some(filter) = filter else {
             return Color::ZERO;
         };
         trans *= filter;

@@ -227,6 +227,16 @@ impl EffectsReport {
                 | Material::Illum {
                     alternate: None, ..
                 } => see_through.push(id),
+                // m_brdf: diffuse, a mirror ray, a straight-through ray
+                // (which shadow rays take too).
+                Material::Brtd { .. } => {
+                    diffuse = true;
+                    reflective.push(id);
+                    refractive.push(id);
+                    see_through.push(id);
+                }
+                // m_brdf2: diffuse and towards light sources only.
+                Material::BrdfFunc { .. } => diffuse = true,
                 _ => {}
             }
         }

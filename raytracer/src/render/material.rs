@@ -219,17 +219,20 @@ pub enum Surface {
     Aniso(super::aniso::AnisoBsdf),
     /// ashik2 (`ashikhmin.c`).
     Ashik(super::ashik::AshikBsdf),
+    /// BRTDfunc and the function- and data-defined BRDFs (`m_brdf.c`).
+    Func(super::brdf::FuncBsdf),
 }
 
 impl Surface {
     /// The coefficient for light arriving from unit direction `ldir`
     /// within solid angle `omega` (Radiance's `dirfunc`).
     #[inline]
-    pub fn coefficient(&self, _scene: &Scene, ldir: Vec3, omega: f64) -> Color {
+    pub fn coefficient(&self, scene: &Scene, ldir: Vec3, omega: f64) -> Color {
         match self {
             Surface::Normal(b) => b.coefficient(ldir, omega),
             Surface::Aniso(b) => b.coefficient(ldir, omega),
             Surface::Ashik(b) => b.coefficient(ldir, omega),
+            Surface::Func(b) => b.coefficient(scene, ldir, omega),
         }
     }
 
@@ -239,6 +242,7 @@ impl Surface {
             Surface::Normal(b) => b.is_black_to_lights(),
             Surface::Aniso(b) => b.is_black_to_lights(),
             Surface::Ashik(b) => b.is_black_to_lights(),
+            Surface::Func(_) => false,
         }
     }
 
@@ -254,6 +258,7 @@ impl Surface {
                 b.mcolor *= f;
                 b.scolor *= f;
             }
+            Surface::Func(b) => b.scale *= f,
         }
     }
 }
@@ -366,7 +371,7 @@ impl Emitter<'_, '_> {
 
     /// Spawns a ray if the depth and weight limits allow it (Radiance's
     /// `rayorigin()` test).
-    fn spawn(&mut self, kind: RayKind, dir: Vec3, coef: Color, extinction: Color) {
+    pub(super) fn spawn(&mut self, kind: RayKind, dir: Vec3, coef: Color, extinction: Color) {
         self.spawn_ray(kind, dir, coef, extinction, false)
     }
 
@@ -786,6 +791,12 @@ fn shade_material(
             if let Some(ext) = dielectric(em, *transmission, *index, *hartmann) {
                 shaded.extinction = ext;
             }
+        }
+        Material::Brtd { .. } => {
+            shaded.base += super::brdf::shade_brtd(em, id, material, &ap) * scale
+        }
+        Material::BrdfFunc { .. } => {
+            shaded.base += super::brdf::shade_brdf_func(em, id, material, &ap) * scale
         }
     }
 }

@@ -17,6 +17,7 @@ pub mod adaptive;
 pub mod ambient;
 pub mod aniso;
 pub mod ashik;
+pub mod brdf;
 pub mod caster;
 pub mod direct;
 pub mod effects;

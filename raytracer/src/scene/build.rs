@@ -579,6 +579,10 @@ impl Builder {
                     direction,
                 }
             }
+            "BRTDfunc" => self.brtd_material(p)?,
+            "plasfunc" | "metfunc" | "transfunc" | "plasdata" | "metdata" | "transdata" => {
+                self.brdf_func_material(p)?
+            }
             other => return self.substitute(p, other),
         };
         Ok(Some(m))
@@ -589,38 +593,6 @@ impl Builder {
         let r = &p.reals;
         let rgb = |k: usize| Color::new(r[k], r[k + 1], r[k + 2]);
         let (m, what) = match t {
-            "plasfunc" | "plasdata" | "metfunc" | "metdata" if r.len() == 5 => {
-                let (color, specularity, roughness) = (rgb(0), r[3], r[4]);
-                if t.starts_with("plas") {
-                    (
-                        Material::Plastic {
-                            color,
-                            specularity,
-                            roughness,
-                        },
-                        "plain plastic with the same reals",
-                    )
-                } else {
-                    (
-                        Material::Metal {
-                            color,
-                            specularity,
-                            roughness,
-                        },
-                        "plain metal with the same reals",
-                    )
-                }
-            }
-            "transfunc" | "transdata" if r.len() == 7 => (
-                Material::Trans {
-                    color: rgb(0),
-                    specularity: r[3],
-                    roughness: r[4],
-                    transmissivity: r[5],
-                    transmitted_specular: r[6],
-                },
-                "plain trans with the same reals",
-            ),
             "interface" if r.len() == 8 => (
                 Material::Dielectric {
                     transmission: rgb(4),
@@ -632,8 +604,7 @@ impl Builder {
             "antimatter" | "mist" | "prism1" | "prism2" => {
                 (Material::Void, "void (its surfaces are invisible)")
             }
-            "plasfunc" | "plasdata" | "metfunc" | "metdata" | "transfunc" | "transdata"
-            | "interface" | "BRTDfunc" | "BSDF" | "aBSDF" | "WGMDfunc" => (
+            "interface" | "BSDF" | "aBSDF" | "WGMDfunc" => (
                 Material::Plastic {
                     color: Color::splat(0.5),
                     specularity: 0.0,

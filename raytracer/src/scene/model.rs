@@ -105,6 +105,41 @@ pub enum Material {
         back: Option<MaterialId>,
         modifier: crate::modifier::ModifierId,
     },
+    /// `BRTDfunc` (Radiance's `m_brdf.c`): diffuse reflectance of the
+    /// front and of the back, diffuse transmittance; the specular
+    /// reflection and transmission expressions and the directional
+    /// functions are the modifier `funcs`
+    /// ([`crate::modifier::MaterialFuncs::Brtd`]). `directional`: the
+    /// red directional function's name does not start with `0` (Radiance
+    /// then computes the direct component even without diffuse parts).
+    Brtd {
+        front: Color,
+        back: Color,
+        tdiff: Color,
+        funcs: crate::modifier::ModifierId,
+        directional: bool,
+    },
+    /// `plasfunc`, `metfunc`, `transfunc`, `plasdata`, `metdata`,
+    /// `transdata` (Radiance's `m_brdf2`): plastic, metal or trans whose
+    /// non-diffuse part towards light sources is a function or data file
+    /// of the light direction (the modifier `funcs`). `transmissivity`
+    /// and `transmitted_specular` are 0 except for the trans family.
+    BrdfFunc {
+        family: BrdfFamily,
+        color: Color,
+        specularity: f64,
+        transmissivity: f64,
+        transmitted_specular: f64,
+        funcs: crate::modifier::ModifierId,
+    },
+}
+
+/// Which of `normal.c`'s materials a function-defined BRDF extends.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum BrdfFamily {
+    Plastic,
+    Metal,
+    Trans,
 }
 
 /// Which of Radiance's anisotropic Gaussian materials.

@@ -12,14 +12,16 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::build::{Builder, Mod};
-use super::model::{Color, Material, MaterialId};
+use super::model::{BrdfFamily, Color, Material, MaterialId};
 use super::rad::RawPrim;
 use super::xform::{parse_instance_xf, Xf};
 use crate::cal::{Context, ExprId, FuncId, Library};
 use crate::geometry::Vec3;
 use crate::modifier::data::{DataArray, PictureData};
 use crate::modifier::font::{Font, TextLayout};
-use crate::modifier::{Kind, Mixing, Modifier, ModifierId, Patterns, Picture, MAX_DATA_DIMS};
+use crate::modifier::{
+    Kind, MaterialFuncs, Mixing, Modifier, ModifierId, Patterns, Picture, MAX_DATA_DIMS,
+};
 use crate::{Error, Result};
 
 /// What patterns load while a scene is read.
@@ -698,6 +700,135 @@ impl Builder {
         );
         self.bind_pattern(&p.id, id, tail, material);
         Ok(())
+    }
+}
+
+impl Builder {
+    /// `BRTDfunc` (Radiance's `m_brdf.c`): 10 strings (six specular
+    /// expressions, three directional functions, the function file) and
+    /// a transform; at least 9 reals (front and back diffuse reflectance,
+    /// diffuse transmittance), more for `arg(n)`.
+    pub(super) fn brtd_material(&mut self, p: &RawPrim) -> Result<Material> {
+        let meaning = "rrefl grefl brefl rtrns gtrns btrns rbrtd gbrtd bbrtd funcfile";
+        if !p.ints.is_empty() || p.reals.len() < 9 {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "BRTDfunc '{}': expected 10 or more strings ({meaning} [transform]), 0 integers and 9 or more reals \
+                     (front, back diffuse reflectance, diffuse transmittance, [A10 ..]), got {} reals and {} integers",
+                    p.id,
+                    p.reals.len(),
+                    p.ints.len()
+                ),
+            ));
+        }
+        let xf = split_xf(p, 10, meaning)?;
+        let ctx = self.context(&p.strs[9], p)?;
+        let e = self.exprs(ctx, &p.strs[..6], p)?;
+        let mut directional: [Option<FuncId>; 3] = [None; 3];
+        for k in 0..3 {
+            let name = &p.strs[6 + k];
+            // m_brdf.c: "0" is the zero function; a channel named like an
+            // earlier one takes its value.
+            if name == "0" {
+                continue;
+            }
+            directional[k] = match (0..k).find(|&j| p.strs[6 + j] == *name) {
+                Some(j) => directional[j],
+                None => Some(self.func(ctx, name, 4, p)?),
+            };
+        }
+        let kind = Kind::MaterialFuncs(MaterialFuncs::Brtd {
+            specular: [e[0], e[1], e[2], e[3], e[4], e[5]],
+            directional,
+        });
+        let funcs = self.push_modifier(p, kind, xf);
+        let r = &p.reals;
+        let rgb = |k: usize| Color::new(r[k], r[k + 1], r[k + 2]);
+        Ok(Material::Brtd {
+            front: rgb(0),
+            back: rgb(3),
+            tdiff: rgb(6),
+            funcs,
+            // m_brdf.c computes the direct component for a red function
+            // whose name does not start with '0' (or for diffuse parts).
+            directional: !p.strs[6].starts_with('0'),
+        })
+    }
+
+    /// `plasfunc`, `metfunc`, `transfunc` (function, function file,
+    /// transform) and `plasdata`, `metdata`, `transdata` (function, data
+    /// file, function file, one coordinate function per data dimension,
+    /// transform): Radiance's `m_brdf2`.
+    pub(super) fn brdf_func_material(&mut self, p: &RawPrim) -> Result<Material> {
+        let t = p.ptype.as_str();
+        let family = if t.starts_with("plas") {
+            BrdfFamily::Plastic
+        } else if t.starts_with("met") {
+            BrdfFamily::Metal
+        } else {
+            BrdfFamily::Trans
+        };
+        let data = t.ends_with("data");
+        let (nreals, reals) = if family == BrdfFamily::Trans {
+            (6, "red green blue rspec trans tspec [A7 ..]")
+        } else {
+            (4, "red green blue specularity [A5 ..]")
+        };
+        let strs = if data {
+            "function, data file, function file, one coordinate function per data dimension [transform]"
+        } else {
+            "function, function file [transform]"
+        };
+        let nstrs = if data { 4 } else { 2 };
+        if !p.ints.is_empty() || p.reals.len() < nreals || p.strs.len() < nstrs {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{t} '{}': expected {nstrs} or more strings ({strs}), 0 integers and {nreals} or more reals ({reals}), \
+                     got {} strings, {} integers and {} reals",
+                    p.id,
+                    p.strs.len(),
+                    p.ints.len(),
+                    p.reals.len()
+                ),
+            ));
+        }
+        let s = &p.strs;
+        let kind = if data {
+            let d = self.mods.data(&s[1], p)?;
+            let ctx = self.context(&s[2], p)?;
+            let n = d.dims();
+            let xf = split_xf(p, 3 + n, strs)?;
+            let mut coords = Vec::with_capacity(n);
+            for name in &s[3..3 + n] {
+                coords.push(self.func(ctx, name, 4, p)?);
+            }
+            let func = self.func(ctx, &s[0], 5, p)?;
+            (
+                MaterialFuncs::Data {
+                    func,
+                    data: d,
+                    coords,
+                },
+                xf,
+            )
+        } else {
+            let xf = split_xf(p, 2, strs)?;
+            let ctx = self.context(&s[1], p)?;
+            (MaterialFuncs::Func(self.func(ctx, &s[0], 4, p)?), xf)
+        };
+        let funcs = self.push_modifier(p, Kind::MaterialFuncs(kind.0), kind.1);
+        let r = &p.reals;
+        let trans = family == BrdfFamily::Trans;
+        Ok(Material::BrdfFunc {
+            family,
+            color: Color::new(r[0], r[1], r[2]),
+            specularity: r[3],
+            transmissivity: if trans { r[4] } else { 0.0 },
+            transmitted_specular: if trans { r[5] } else { 0.0 },
+            funcs,
+        })
     }
 }
 

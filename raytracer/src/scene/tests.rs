@@ -794,7 +794,7 @@ fn file_forms_radiance_reads() {
 fn unsupported_types_are_named_once_with_their_count() {
     let mut text = String::new();
     for k in 0..50 {
-        text += &format!("void BRTDfunc brtd{k}\n4 0 0 1 .\n0\n6 .5 .5 .5 .05 .04 .09\n");
+        text += &format!("void WGMDfunc w{k}\n13 .1 .1 .1 . 0 .1 .1 .1 . 0 .1 .1 .1\n0\n0\n");
     }
     let s = load_rad_str(&text, "many.rad").unwrap();
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
