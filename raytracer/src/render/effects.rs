@@ -145,7 +145,27 @@ impl EffectsReport {
                 patterned.push(id);
             }
             match m {
-                Material::Mirror { .. } => reflective.push(id),
+                Material::Mirror { alternate, .. } => {
+                    reflective.push(id);
+                    if *alternate == Some(crate::scene::Alternate::Void) {
+                        see_through.push(id);
+                    }
+                }
+                Material::Interface {
+                    inside_transmission,
+                    outside_transmission,
+                    ..
+                } => {
+                    reflective.push(id);
+                    refractive.push(id);
+                    see_through.push(id);
+                    if inside_transmission.min_element() < 1.0
+                        || outside_transmission.min_element() < 1.0
+                    {
+                        absorbing.push(id);
+                    }
+                }
+                Material::Antimatter { .. } => see_through.push(id),
                 Material::Glass { transmission, .. } => {
                     reflective.push(id);
                     if transmission.max_element() > 1e-15 {
@@ -156,6 +176,8 @@ impl EffectsReport {
                 Material::Dielectric { transmission, .. } => {
                     reflective.push(id);
                     refractive.push(id);
+                    // Shadow rays are refracted through it.
+                    see_through.push(id);
                     if transmission.min_element() < 1.0 {
                         absorbing.push(id);
                     }
@@ -234,7 +256,7 @@ impl EffectsReport {
             Effect::off("-dt 0: every patch gets a shadow ray")
         };
         let transparent_shadows = if see_through.is_empty() {
-            Effect::off("no glass, clear trans or invisible surfaces: shadow rays need only an any-hit test")
+            Effect::off("no glass, dielectric, clear trans, antimatter or invisible surfaces: shadow rays need only an any-hit test")
         } else {
             Effect::on(format!(
                 "shadow rays pass through {}",

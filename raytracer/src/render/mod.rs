@@ -15,6 +15,7 @@
 
 pub mod ambient;
 pub mod caster;
+pub mod clip;
 pub mod direct;
 pub mod effects;
 pub mod light;
@@ -23,6 +24,7 @@ pub mod options;
 pub mod rng;
 pub mod sequential;
 pub mod stats;
+pub mod virtual_source;
 
 pub use caster::{BruteForceCaster, BvhCaster, OctreeCaster, RayCaster};
 pub use effects::{Effect, EffectsReport};
