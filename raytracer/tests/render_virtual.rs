@@ -615,6 +615,40 @@ fn suite_scenes_load_without_stand_ins() {
         .filter(|l| l.virt.is_some())
         .count();
     assert!(virtuals >= 1, "no virtual source");
+    // The prism windows (without the vase, whose mesh the suite lacks).
+    for (prism, projections) in [("prism1.rad", 1), ("prism2.rad", 2)] {
+        let s = load(&[
+            "basic.mat",
+            "gold.mat",
+            "diorama_walls.rad",
+            "rect_opening.rad",
+            "front_cap.rad",
+            "sunset_sky.rad",
+            prism,
+        ]);
+        for (_, w) in &s.warnings {
+            assert!(
+                !w.contains("not supported") && !w.contains("prism"),
+                "{prism}: {w}"
+            );
+        }
+        assert!(s
+            .materials
+            .iter()
+            .any(|m| matches!(m, Material::Prism { projections: n, .. } if *n == projections)));
+        let r = Renderer::new(&s, opts(1)).unwrap();
+        let n = r
+            .context()
+            .lights
+            .iter()
+            .filter(|l| l.virt.is_some())
+            .count();
+        eprintln!("{prism}: {n} virtual source(s)");
+        assert!(
+            n >= 1 && n <= usize::from(projections),
+            "{prism}: {n} virtual sources"
+        );
+    }
 }
 
 /// Bad records name file and line.
@@ -636,4 +670,85 @@ fn parse_errors_name_file_and_line() {
         assert!(err.contains("bad.rad") && err.contains(":3"), "{err}");
         assert!(err.contains(what), "{err}");
     }
+}
+
+/// A floor under a horizontal window lit by a distant source straight
+/// above; the window is `window` (a material named `win`).
+fn window_scene(window: &str) -> (hybrid_rt::scene::Scene, hybrid_rt::scene::View) {
+    let text = format!(
+        "void light sun 0 0 3 1000 1000 1000\n\
+         sun source sol 0 0 4 0.3 0 1 0.5\n\
+         void plastic floor_mat 0 0 5 {RHO} {RHO} {RHO} 0 0\n\
+         floor_mat polygon floor 0 0 12 -100 -100 0  100 -100 0  100 100 0  -100 100 0\n\
+         {window}\n\
+         win polygon pane 0 0 12 -5 -5 2  -5 5 2  5 5 2  5 -5 2\n"
+    );
+    (
+        scene(&text),
+        view("-vtl -vp 0 0 0.05 -vd 0 0 -1 -vu 0 1 0 -vh 0.001 -vv 0.001"),
+    )
+}
+
+/// `prism1` whose functions pass rays straight on with coefficient 0.4:
+/// the distant source reaches the floor only as its virtual source
+/// through the prism, with 0.4 of its direct light; `prism2` with two
+/// such projections (0.4 and 0.25) adds both; the prism's own surface
+/// sends redirected rays for camera rays.
+#[test]
+fn prism_relays_a_distant_source() {
+    // An invisible window (a mirror whose alternate is void) for reference.
+    let open = {
+        let (s, v) = window_scene("void mirror win 1 void 0 3 1 1 1");
+        spot_radiance(&s, &v, opts(0))
+    };
+    assert!(open > 0.0);
+    let (s, v) = window_scene("void prism1 win 5 .4 Dx Dy Dz . 0 0");
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // The real source is blocked by the prism, as in Radiance.
+    let blocked = spot_radiance(&s, &v, opts(0));
+    assert_eq!(blocked, 0.0);
+    let r = Renderer::new(&s, opts(1)).unwrap();
+    assert_eq!(
+        r.context()
+            .lights
+            .iter()
+            .filter(|l| l.virt.is_some())
+            .count(),
+        1
+    );
+    let through = spot_radiance(&s, &v, opts(1));
+    assert!(
+        (through / open - 0.4).abs() < 1e-3,
+        "{through} vs 0.4 x {open}"
+    );
+    let (s, v) = window_scene("void prism2 win 9 .4 Dx Dy Dz .25 Dx Dy Dz . 0 0");
+    let both = spot_radiance(&s, &v, opts(1));
+    assert!((both / open - 0.65).abs() < 1e-3, "{both} vs 0.65 x {open}");
+    // A prism whose coefficient is 0 relays nothing.
+    let (s, v) = window_scene("void prism1 win 5 0 Dx Dy Dz . 0 0");
+    assert_eq!(spot_radiance(&s, &v, opts(1)), 0.0);
+    // Camera rays through the prism: one redirected ray per projection.
+    let (s, _) = window_scene("void prism2 win 9 .4 Dx Dy Dz .25 Dx Dy Dz . 0 0");
+    let up = view("-vtl -vp 0 0 1 -vd 0 0 1 -vu 0 1 0 -vh 0.001 -vv 0.001");
+    let (_, stats) = render(&s, &up, 2, 2, opts(1));
+    assert_eq!(stats.rays.refraction, 8);
+}
+
+/// A prism that bends light: a source off to the side lights the floor
+/// below the window as if it stood overhead (coefficient 1, the source's
+/// solid angle kept, as Radiance's projection keeps it).
+#[test]
+fn prism_bends_a_distant_source() {
+    // Rays arriving from above (Dz < 0) leave straight down; rays from
+    // below (shadow rays, Dz > 0) leave towards the source at (0.3, 0, 1).
+    let (s, v) = window_scene("void prism1 win 5 1 if(Dz,.3,0) 0 if(Dz,1,-1) . 0 0");
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let bent = spot_radiance(&s, &v, opts(1));
+    let (s, v) = window_scene("void mirror win 1 void 0 3 1 1 1");
+    let open = spot_radiance(&s, &v, opts(1));
+    let want = 1.09f64.sqrt();
+    assert!(
+        (bent / open - want).abs() < 1e-3,
+        "{bent} / {open} vs {want}"
+    );
 }

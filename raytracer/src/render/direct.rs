@@ -312,7 +312,32 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
                 if ray.dir.dot(r.normal) >= 0.0 {
                     return Color::ZERO; // back is black
                 }
-                ray.dir = r.dir(ray.dir);
+                if let Some(rd) = &r.redirect {
+                    // A prism: its projection's functions bend the ray.
+                    let vars = crate::modifier::RayVars {
+                        dir: ray.dir,
+                        normal: hit.normal,
+                        point: hit.point,
+                        t: hit.t,
+                        ts: hit.t,
+                        uv: [0.0; 2],
+                    };
+                    let Some((coef, d)) =
+                        ctx.scene
+                            .patterns
+                            .redirect(rd.modifier, rd.projection as usize, &vars)
+                    else {
+                        return Color::ZERO;
+                    };
+                    if coef <= FTINY {
+                        return Color::ZERO;
+                    }
+                    trans *= coef;
+                    ray.dir = d;
+                    bent = true;
+                } else {
+                    ray.dir = r.dir(ray.dir);
+                }
                 trans *= r.color;
                 relayed += 1;
                 ray.origin =

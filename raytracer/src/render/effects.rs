@@ -166,6 +166,7 @@ impl EffectsReport {
                     }
                 }
                 Material::Antimatter { .. } => see_through.push(id),
+                Material::Prism { .. } => refractive.push(id),
                 Material::Glass { transmission, .. } => {
                     reflective.push(id);
                     if transmission.max_element() > 1e-15 {

@@ -693,6 +693,20 @@ fn shade_material(
                 crate::scene::Alternate::Material(_) => {}
             }
         }
+        Material::Prism {
+            modifier,
+            projections,
+        } => {
+            // m_direct.c: each projection sends one redirected ray.
+            let vars = ray_vars(task, hit, em.uv);
+            for k in 0..*projections as usize {
+                if let Some((coef, d)) = ctx.scene.patterns.redirect(*modifier, k, &vars) {
+                    if coef > FTINY {
+                        em.spawn(RayKind::Refraction, d, Color::splat(coef), task.extinction);
+                    }
+                }
+            }
+        }
         Material::Antimatter { .. } => {
             // Reached only inside a mixture: invisible there.
             em.spawn(RayKind::PassThrough, dir, Color::ONE, task.extinction);

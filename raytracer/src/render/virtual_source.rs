@@ -44,19 +44,54 @@ pub struct Relay {
     pub offset: f64,
     /// The mirror's reflectance per channel.
     pub color: Color,
+    /// For a prism (`prism1`/`prism2`) instead of a mirror: which
+    /// projection of which redirecting functions relays the source.
+    pub redirect: Option<Redirect>,
+}
+
+/// A prism's relay of a distant source: projection `projection` of the
+/// functions `modifier` bends the source's direction by Radiance's shear
+/// `x -> x + (x . plane) shear` (`dir_proj`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Redirect {
+    pub modifier: crate::modifier::ModifierId,
+    pub projection: u8,
+    pub plane: Vec3,
+    pub shear: Vec3,
 }
 
 impl Relay {
-    /// Mirror image of the point `p`.
+    /// Mirror image of the point `p` (a prism relays distant sources only:
+    /// points stay).
     #[inline]
     pub fn point(&self, p: Vec3) -> Vec3 {
+        if self.redirect.is_some() {
+            return p;
+        }
         p - self.normal * (2.0 * (self.normal.dot(p) - self.offset))
     }
 
-    /// Mirror image of the direction `d`.
+    /// Mirror image of the direction `d` (a mirror is its own inverse).
     #[inline]
     pub fn dir(&self, d: Vec3) -> Vec3 {
         d - self.normal * (2.0 * self.normal.dot(d))
+    }
+
+    /// A direction towards the real source seen as towards its image.
+    fn image_dir(&self, d: Vec3) -> Vec3 {
+        match &self.redirect {
+            None => self.dir(d),
+            Some(r) => (d + r.shear * d.dot(r.plane)).normalize_or_zero(),
+        }
+    }
+
+    /// The inverse of [`Self::image_dir`] (the shear's inverse is
+    /// `y -> y - (y . plane) shear`, as `shear . plane` is 0).
+    fn real_dir(&self, d: Vec3) -> Vec3 {
+        match &self.redirect {
+            None => self.dir(d),
+            Some(r) => (d - r.shear * d.dot(r.plane)).normalize_or_zero(),
+        }
     }
 }
 
@@ -77,17 +112,17 @@ impl Virtual {
     }
 
     fn dir_to_real(&self, d: Vec3) -> Vec3 {
-        self.relays.iter().fold(d, |d, r| r.dir(d))
+        self.relays.iter().fold(d, |d, r| r.real_dir(d))
     }
 
-    fn dir_sample_from_real(&self, d: Vec3) -> Vec3 {
-        self.relays.iter().rev().fold(d, |d, r| r.dir(d))
+    fn dir_from_real(&self, d: Vec3) -> Vec3 {
+        self.relays.iter().rev().fold(d, |d, r| r.image_dir(d))
     }
 
     fn sample_from_real(&self, s: PatchSample) -> PatchSample {
         PatchSample {
-            dir: self.dir_sample_from_real(s.dir),
-            normal: self.dir_sample_from_real(s.normal),
+            dir: self.dir_from_real(s.dir),
+            normal: self.dir_from_real(s.normal),
             ..s
         }
     }
@@ -235,6 +270,7 @@ fn mirrors(scene: &Scene, warnings: &mut Vec<String>) -> Vec<Mirror> {
                 normal,
                 offset: normal.dot(point),
                 color: *color,
+                redirect: None,
             },
             center,
             radius2,
@@ -265,11 +301,12 @@ pub fn add_virtual_lights(
     if depth == 0 {
         return;
     }
+    let reals = lights.len();
+    add_prism_relays(scene, lights, reals, warnings);
     let mirrors = mirrors(scene, warnings);
     if mirrors.is_empty() {
         return;
     }
-    let reals = lights.len();
     let mut capped = false;
     for i in 0..reals {
         let real = lights[i].clone();
@@ -384,8 +421,122 @@ fn reflect_extent(e: Option<LightExtent>, chain: &[Relay]) -> Option<LightExtent
             LightExtent::Finite(out)
         }
         LightExtent::Distant { dir, cos_half } => LightExtent::Distant {
-            dir: chain.iter().rev().fold(dir, |d, r| r.dir(d)),
+            dir: chain.iter().rev().fold(dir, |d, r| r.image_dir(d)),
             cos_half,
         },
     })
+}
+
+/// A plane's unit normal, offset and disk centre for a polygon or ring;
+/// `None` for other shapes.
+fn plane_of(shape: &Shape) -> Option<(Vec3, f64, Vec3)> {
+    let (normal, point, center) = match shape {
+        Shape::Polygon(p) => {
+            let c =
+                p.vertices.iter().fold(Vec3::ZERO, |a, v| a + *v) / p.vertices.len().max(1) as f64;
+            (p.normal, *p.vertices.first()?, c)
+        }
+        Shape::Ring { center, normal, .. } => (*normal, *center, *center),
+        _ => return None,
+    };
+    let len = normal.length();
+    if !(len > 0.0 && len.is_finite()) {
+        return None;
+    }
+    let n = normal / len;
+    Some((n, n.dot(point), center))
+}
+
+/// `dir_proj()` of `m_direct.c` for the scene's planar `prism1`/`prism2`
+/// surfaces and the distant ones among the first `reals` lights: the
+/// direction of the source's centre redirected at the surface's centre
+/// gives the shear that maps the source onto its image. Not done: local
+/// sources through prisms, redirections back to the source's side (a
+/// mirroring projection), and relays of relays through prisms.
+fn add_prism_relays(
+    scene: &Scene,
+    lights: &mut Vec<PreparedLight>,
+    reals: usize,
+    warnings: &mut Vec<String>,
+) {
+    let mut skipped_local = false;
+    for (i, o) in scene.objects.iter().enumerate() {
+        let Material::Prism {
+            modifier,
+            projections,
+        } = scene.material(o.material)
+        else {
+            continue;
+        };
+        let Some((nv, od, center)) = plane_of(&o.shape) else {
+            warnings.push(format!(
+                "{:?}: a prism that is not a polygon or ring relays no light sources",
+                o.name
+            ));
+            continue;
+        };
+        for l in 0..reals {
+            let (sdir, cos_half) = match lights[l].extent() {
+                Some(LightExtent::Distant { dir, cos_half }) => (dir, cos_half),
+                _ => {
+                    skipped_local = true;
+                    continue;
+                }
+            };
+            let olddir = -sdir;
+            let olddot = olddir.dot(nv);
+            if olddot.abs() <= FTINY {
+                continue;
+            }
+            let vars = crate::modifier::RayVars {
+                dir: olddir,
+                normal: nv,
+                point: center,
+                t: 1.0,
+                ts: 1.0,
+                uv: [0.0; 2],
+            };
+            for k in 0..*projections {
+                let Some((coef, newdir)) = scene.patterns.redirect(*modifier, k as usize, &vars)
+                else {
+                    continue;
+                };
+                let newdot = newdir.dot(nv);
+                if coef <= FTINY || newdot.abs() <= FTINY || (newdot > 0.0) != (olddot > 0.0) {
+                    continue;
+                }
+                if lights.len() >= MAX_VIRTUAL_SOURCES {
+                    return;
+                }
+                let shear = newdir / newdot - olddir / olddot;
+                // Points the redirected light reaches lie on this side.
+                let side = newdot.signum();
+                let relay = Relay {
+                    object: i as ObjectId,
+                    normal: nv * side,
+                    offset: od * side,
+                    color: Color::ONE,
+                    redirect: Some(Redirect {
+                        modifier: *modifier,
+                        projection: k,
+                        plane: nv,
+                        shear,
+                    }),
+                };
+                let real = lights[l].clone();
+                let dir = relay.image_dir(sdir);
+                let virt = Virtual {
+                    relays: vec![relay],
+                    real: Box::new(real.clone()),
+                };
+                lights.push(real.relayed(virt, Some(LightExtent::Distant { dir, cos_half })));
+            }
+        }
+    }
+    if skipped_local {
+        warnings.push(
+            "prism1/prism2: local light sources are not relayed through prisms (distant ones are)"
+                .into(),
+        );
+    }
 }

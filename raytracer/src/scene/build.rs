@@ -473,6 +473,15 @@ impl Builder {
                 }
             }
             "antimatter" => return self.antimatter(p).map(Some),
+            "prism1" | "prism2" => {
+                Self::no_ints(p)?;
+                let projections = if p.ptype == "prism1" { 1 } else { 2 };
+                let modifier = self.redirect_modifier(p, projections)?;
+                Material::Prism {
+                    modifier,
+                    projections: projections as u8,
+                }
+            }
             "light" => {
                 Self::counts(p, 0..=0)?;
                 Self::reals(p, &[3], "red green blue radiance")?;
@@ -662,7 +671,7 @@ impl Builder {
                 },
                 "isotropic trans (mean roughness)",
             ),
-            "mist" | "prism1" | "prism2" => (Material::Void, "void (its surfaces are invisible)"),
+            "mist" => (Material::Void, "void (its surfaces are invisible)"),
             "plasfunc" | "plasdata" | "metfunc" | "metdata" | "plastic2" | "metal2"
             | "transfunc" | "transdata" | "trans2" | "BRTDfunc" | "BSDF" | "aBSDF" | "ashik2"
             | "WGMDfunc" => (

@@ -69,6 +69,13 @@ pub enum Material {
         outside_transmission: Color,
         outside_index: f64,
     },
+    /// Radiance `prism1` (one projection) and `prism2` (two): rays are
+    /// redirected by functions ([`crate::modifier::Patterns::redirect`]),
+    /// and distant sources are relayed as virtual sources.
+    Prism {
+        modifier: crate::modifier::ModifierId,
+        projections: u8,
+    },
     /// Radiance `antimatter`: a ray inside it does not see surfaces of the
     /// materials in `clips` (a bit mask over [`Scene::clip_bits`]); leaving
     /// it into such a material's volume it sees `shade` (the first named
