@@ -141,6 +141,18 @@ fn virtual_source_energy_is_bounded_by_the_mirror() {
         added.abs() < 1e-12,
         "a black mirror relays nothing: {added}"
     );
+    // A pattern halving the mirror's colour halves what it relays.
+    let patterned = mirror(rm, -3.0, 3.0, 0.01, 3.0, "").replace(
+        "void mirror",
+        "void brightfunc half 2 0.5 . 0 0\nhalf mirror",
+    );
+    let (s, v) = mirror_scene(&patterned);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let added = spot_radiance(&s, &v, opts(1)) - base;
+    assert!(
+        (added / bound - 0.5).abs() < 0.01,
+        "patterned: {added} vs {bound} / 2"
+    );
     // A mirror behind the light (facing away from it) relays nothing.
     let (s, v) = mirror_scene(
         "void mirror m 0 0 3 1 1 1\n\

@@ -336,6 +336,22 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
                     ray.dir = d;
                     bent = true;
                 } else {
+                    // Patterns on the mirror colour the relayed light
+                    // (m_mirror.c multiplies by the ray's pattern colour).
+                    let mods = ctx.scene.mods(hit_object(ctx.scene, &hit).material);
+                    if !mods.is_empty() {
+                        let vars = crate::modifier::RayVars {
+                            dir: ray.dir,
+                            normal: hit.normal,
+                            point: hit.point,
+                            t: hit.t,
+                            ts: hit.t,
+                            uv: [0.0; 2],
+                        };
+                        let mut ap = crate::modifier::Applied::NONE;
+                        ctx.scene.patterns.apply(mods, &vars, &mut ap);
+                        trans *= ap.color;
+                    }
                     ray.dir = r.dir(ray.dir);
                 }
                 trans *= r.color;

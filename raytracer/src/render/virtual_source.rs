@@ -18,8 +18,8 @@
 //! visibility pretest (`-dp`), which drops relays it finds completely
 //! obstructed (an optimisation: an obstructed relay contributes nothing
 //! here either), and its spot cones that bound a relay's reach (the shadow
-//! ray's mirror test bounds it exactly). Patterns on the mirror do not
-//! colour relayed light.
+//! ray's mirror test bounds it exactly). Patterns on the mirror colour
+//! the relayed light (evaluated where the shadow ray meets it).
 
 use super::light::{LightExtent, PatchSample, PreparedLight};
 use crate::geometry::{Aabb, Shape, Vec3};
