@@ -663,13 +663,27 @@ fn suite_scenes_load_without_stand_ins() {
     }
 }
 
+/// Antimatter naming an unknown modifier: a warning (as Radiance), and the
+/// name is skipped.
+#[test]
+fn antimatter_unknown_modifier_is_a_warning() {
+    let s = scene(
+        "void plastic red 0 0 5 .8 .1 .1 0 0\n\
+         void antimatter a 2 nosuch red 0 0\n",
+    );
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(s.warnings[0].1.contains("nosuch"));
+    assert!(s.materials.iter().any(
+        |m| matches!(m, Material::Antimatter { clips, shade: None } if clips.count_ones() == 1)
+    ));
+}
+
 /// Bad records name file and line.
 #[test]
 fn parse_errors_name_file_and_line() {
     for (text, what) in [
         ("void interface i 0 0 7 1 1 1 1.5 1 1 1\n", "real arguments"),
         ("void antimatter a 0 0 0\n", "string arguments"),
-        ("void antimatter a 1 nosuch 0 0\n", "nosuch"),
         ("void mirror m 1 nosuch 0 3 1 1 1\n", "nosuch"),
         ("void mirror m 2 a b 0 3 1 1 1\n", "string arguments"),
         ("void antimatter a 1 void 0 1 2\n", "real arguments"),

@@ -575,6 +575,14 @@ impl Builder {
             if name == "void" {
                 continue;
             }
+            if !self.scope.contains_key(name.as_str()) {
+                // m_clip.c: an unknown modifier is a warning and skipped.
+                self.warn(
+                    &p.loc,
+                    format!("antimatter '{}': unknown modifier '{name}' ignored", p.id),
+                );
+                continue;
+            }
             let id = self.named_material(name, p)?;
             if k == 0 {
                 shade = Some(id);
