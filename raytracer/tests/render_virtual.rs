@@ -778,3 +778,50 @@ fn prism_bends_a_distant_source() {
         "{bent} / {open} vs {want}"
     );
 }
+
+/// A ray descended from a sampled (ambient or rough specular) ray stays
+/// sampled after a mirror, so it sees the lamp as black: the lamp's light
+/// by way of the mirror is the virtual source's (Radiance's
+/// `badcomponent()`), not counted twice.
+#[test]
+fn sampled_rays_stay_sampled_after_mirrors() {
+    let (s, _) = mirror_scene(&mirror(0.8, -3.0, 3.0, 0.01, 3.0, ""));
+    let r = Renderer::new(&s, opts(1)).unwrap();
+    let ctx = r.context();
+    let mirror_obj = s
+        .objects
+        .iter()
+        .position(|o| o.name == "wall_mirror")
+        .unwrap() as u32;
+    for sampled in [false, true] {
+        let dir = Vec3::new(1.0, 0.0, 0.0);
+        let p = Vec3::new(1.0, 0.0, 0.5);
+        let mut task = RayTask::primary(
+            Ray {
+                origin: p - dir,
+                dir,
+            },
+            0.0,
+            f64::INFINITY,
+            5,
+        );
+        task.sampled = sampled;
+        let hit = Hit {
+            t: 1.0,
+            point: p,
+            normal: Vec3::new(-1.0, 0.0, 0.0),
+            object: mirror_obj,
+            inner: None,
+        };
+        let mut out = Vec::new();
+        shade(&ctx, &task, &hit, &mut out);
+        let kids: Vec<bool> = out
+            .iter()
+            .filter_map(|q| match q {
+                Request::Trace { task, .. } => Some(task.sampled),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(kids, vec![sampled]);
+    }
+}

@@ -88,7 +88,8 @@ pub struct RayTask {
     pub extinction: Color,
     /// A sampled rough-specular ray: it sees sampled light sources as black,
     /// because direct lighting already includes their specular highlight.
-    /// Hemisphere rays are sampled too.
+    /// Hemisphere rays are sampled too, and so is every ray descended from
+    /// a sampled one.
     pub sampled: bool,
     /// Ambient bounces taken on the way to this ray (0 for primary rays).
     #[serde(default)]
@@ -362,13 +363,12 @@ impl Emitter<'_, '_> {
     /// Spawns a ray if the depth and weight limits allow it (Radiance's
     /// `rayorigin()` test).
     fn spawn(&mut self, kind: RayKind, dir: Vec3, coef: Color, extinction: Color) {
-        self.spawn_ray(
-            kind,
-            dir,
-            coef,
-            extinction,
-            kind == RayKind::PassThrough && self.task.sampled,
-        )
+        // Radiance's `badcomponent()`: a ray descended from a sampled
+        // specular or ambient ray (its `crtype` holds SPECULAR or AMBIENT)
+        // sees sampled sources as black, also after mirrors and glass
+        // (their light reaches diffuse surfaces as virtual sources and
+        // through shadow rays instead).
+        self.spawn_ray(kind, dir, coef, extinction, self.task.sampled)
     }
 
     fn spawn_ray(
