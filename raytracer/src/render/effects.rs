@@ -231,9 +231,25 @@ impl EffectsReport {
         }
         let area = lights.iter().filter(|l| !l.is_distant()).count();
         let distant = lights.len() - area;
+        // Virtual sources (mirror and prism relays) among them.
+        let relayed = |want_distant: bool| {
+            let n = lights
+                .iter()
+                .filter(|l| l.virt.is_some() && l.is_distant() == want_distant)
+                .count();
+            if n > 0 {
+                format!(
+                    " ({n} of them virtual: relayed by mirrors or prisms, -dr {})",
+                    options.dr
+                )
+            } else {
+                String::new()
+            }
+        };
         let area_shadows = if area > 0 && diffuse {
             Effect::on(format!(
-                "{area} area source(s): shadow bundles over patches with size/distance below -ds {}",
+                "{area} area source(s){}: shadow bundles over patches with size/distance below -ds {}",
+                relayed(false),
                 options.ds
             ))
         } else if area > 0 {
@@ -242,7 +258,10 @@ impl EffectsReport {
             Effect::off("no area light sources in the scene")
         };
         let distant_shadows = if distant > 0 && diffuse {
-            Effect::on(format!("{distant} distant source(s): one shadow ray each"))
+            Effect::on(format!(
+                "{distant} distant source(s){}: one shadow ray each",
+                relayed(true)
+            ))
         } else if distant > 0 {
             Effect::off("no diffuse or rough surface to light (only specular materials)")
         } else {

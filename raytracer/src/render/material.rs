@@ -508,20 +508,18 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
         if let Some(clip) =
             super::clip::pass_through(ctx.scene, task.clip, task.ray.dir, hit, obj.material)
         {
-            {
-                em.spawn(
-                    RayKind::PassThrough,
-                    task.ray.dir,
-                    Color::ONE,
-                    task.extinction,
-                );
-                for r in &mut em.out[em.start..] {
-                    if let Request::Trace { task, .. } = r {
-                        task.clip = clip;
-                    }
+            em.spawn(
+                RayKind::PassThrough,
+                task.ray.dir,
+                Color::ONE,
+                task.extinction,
+            );
+            for r in &mut em.out[em.start..] {
+                if let Request::Trace { task, .. } = r {
+                    task.clip = clip;
                 }
-                return shaded;
             }
+            return shaded;
         }
     }
     let (start, uv) = mesh_shading(ctx.scene, hit);
@@ -687,8 +685,10 @@ fn shade_material(
                 crate::scene::Alternate::Void => {
                     em.spawn(RayKind::PassThrough, dir, Color::ONE, task.extinction)
                 }
+                // The alternate is shaded as if hit directly (m_mirror.c
+                // switches before applying the mirror's own patterns).
                 crate::scene::Alternate::Material(m) if depth < MAX_MIX_DEPTH => {
-                    shade_material(em, shaded, *m, flat, ap, depth + 1)
+                    shade_material(em, shaded, *m, flat, applied, depth + 1)
                 }
                 crate::scene::Alternate::Material(_) => {}
             }
