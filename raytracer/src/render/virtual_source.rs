@@ -20,6 +20,13 @@
 //! here either), and its spot cones that bound a relay's reach (the shadow
 //! ray's mirror test bounds it exactly). Patterns on the mirror colour
 //! the relayed light (evaluated where the shadow ray meets it).
+//!
+//! `prism1`/`prism2` surfaces (`m_direct.c`) relay distant sources: each
+//! projection of their functions that sends the source's central direction
+//! on through the surface makes one virtual distant source, its direction
+//! bent by Radiance's shear (`dir_proj`) and its solid angle kept; its
+//! shadow rays are redirected by the same functions where they meet the
+//! surface, scaled by their coefficient.
 
 use super::light::{LightExtent, PatchSample, PreparedLight};
 use crate::geometry::{Aabb, Shape, Vec3};
