@@ -50,6 +50,9 @@ pub struct RadianceArgs {
     /// -dc: direct certainty 0..1 [default: 0.5]
     #[arg(long = "dc", value_name = "FRAC", allow_hyphen_values = true)]
     pub dc: Option<String>,
+    /// -dr: source relays through mirrors and prisms (virtual light sources) [default: 1]
+    #[arg(long = "dr", value_name = "N", allow_hyphen_values = true)]
+    pub dr: Option<String>,
     /// -lr: reflection depth limit [default: 7]
     #[arg(long = "lr", value_name = "N", allow_hyphen_values = true)]
     pub lr: Option<String>,
@@ -106,6 +109,7 @@ impl RadianceArgs {
             ("dj", one(&self.dj)),
             ("dt", one(&self.dt)),
             ("dc", one(&self.dc)),
+            ("dr", one(&self.dr)),
             ("lr", one(&self.lr)),
             ("lw", one(&self.lw)),
             (

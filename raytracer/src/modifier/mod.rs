@@ -91,6 +91,9 @@ pub enum Kind {
         data: [Arc<DataArray>; 3],
         coords: Vec<ExprId>,
     },
+    /// `prism1`/`prism2` (Radiance's `m_direct.c`): per projection, the
+    /// expressions of a coefficient and of a direction (pattern space).
+    Redirect(Vec<[ExprId; 4]>),
     /// A mixture of two pattern chains (`mixfunc`, `mixdata`, `mixpict`,
     /// `mixtext` whose sides are not materials). A mixture of materials
     /// is a material ([`crate::scene::Material::Mix`]) whose coefficient
@@ -539,6 +542,7 @@ impl Patterns {
                 };
                 acc.pert += ev.to_world(d);
             }
+            Kind::Redirect(_) => {}
             Kind::Mix { fore, back, coef } => {
                 if depth >= MAX_MIX_DEPTH {
                     return;
@@ -617,6 +621,23 @@ impl Patterns {
             }
         };
         Some(c.clamp(0.0, 1.0))
+    }
+
+    /// Projection `k` of the redirecting modifier `id` (`prism1`,
+    /// `prism2`) for one ray: its coefficient and unit world direction;
+    /// `None` when it could not be computed (counted as a failure).
+    pub fn redirect(&self, id: ModifierId, k: usize, r: &RayVars) -> Option<(f64, Vec3)> {
+        let m = self.modifiers.get(id as usize)?;
+        let Kind::Redirect(projections) = &m.kind else {
+            return None;
+        };
+        let e = projections.get(k)?;
+        let ev = Eval::new(self, m, r, &Applied::NONE);
+        let coef = ev.expr(e[0])?;
+        let d = Vec3::new(ev.expr(e[1])?, ev.expr(e[2])?, ev.expr(e[3])?);
+        let w = ev.to_world(d);
+        let len = w.length();
+        (len > 0.0 && len.is_finite() && coef.is_finite()).then(|| (coef, w / len))
     }
 
     /// The foreground fraction of the mixture modifier `id` for one ray (a

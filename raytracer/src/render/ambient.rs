@@ -447,6 +447,7 @@ impl Hemisphere {
             // Sources that direct lighting samples are already counted.
             sampled: true,
             ambient: self.level + 1,
+            clip: 0,
         }
     }
 

@@ -28,8 +28,12 @@
 use serde::{Deserialize, Serialize};
 
 use super::caster::RayCaster;
-use super::material::{hit_object, intens, shadow_filter, ShadeContext, ShadowBundle, FTINY};
+use super::light::{LightExtent, PreparedLight};
+use super::material::{
+    hit_object, intens, shadow_filter, shadow_refraction, ShadeContext, ShadowBundle, FTINY,
+};
 use super::rng::Rng;
+use super::virtual_source::Relay;
 use crate::geometry::{offset_origin_scaled, Ray, Vec3};
 use crate::image::brightness;
 use crate::scene::{Color, Material, ObjectId};
@@ -143,21 +147,7 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
             break;
         }
         let c = scratch[sn];
-        let t = shadow_transmission(
-            ctx,
-            caster,
-            b.point,
-            b.normal,
-            b.offset_scale,
-            c.dir,
-            c.dist,
-            light.object,
-            matches!(
-                light.material,
-                Material::Illum { .. } | Material::Glow { .. }
-            ),
-            counts,
-        );
+        let t = shadow_to_light(ctx, caster, b, light, c.dir, c.dist, counts);
         counts.tested += 1;
         if intens(t) > FTINY {
             acc += c.val * t;
@@ -178,6 +168,71 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
     acc
 }
 
+/// What a shadow ray must reach: the source object (none for distant
+/// sources), a distant source's cone (for a ray bent on the way), and the
+/// mirrors relaying a virtual source, in order.
+#[derive(Debug, Clone, Copy)]
+pub struct ShadowAim<'a> {
+    pub target: Option<ObjectId>,
+    pub cone: Option<(Vec3, f64)>,
+    pub relays: &'a [Relay],
+    /// A real `illum` or `glow` source: an illum met from the front
+    /// blocks the ray (Radiance's `illumblock`, see [`shadow_filter`]).
+    pub weak: bool,
+}
+
+impl<'a> ShadowAim<'a> {
+    /// Where a shadow ray to `light` must go.
+    pub fn of(light: &'a PreparedLight) -> Self {
+        let (real, relays): (&PreparedLight, &[Relay]) = match &light.virt {
+            Some(v) => (&v.real, &v.relays),
+            None => (light, &[]),
+        };
+        let cone = match real.extent() {
+            Some(LightExtent::Distant { dir, cos_half }) => Some((dir, cos_half)),
+            _ => None,
+        };
+        ShadowAim {
+            target: real.object,
+            cone,
+            relays,
+            weak: light.virt.is_none()
+                && matches!(
+                    real.material,
+                    Material::Illum { .. } | Material::Glow { .. }
+                ),
+        }
+    }
+}
+
+/// Transmission of the shadow ray of bundle `b` towards a sample of
+/// `light` in unit direction `dir` at distance `dist` (see
+/// [`shadow_transmission`]; a virtual source's ray must be relayed by its
+/// mirrors).
+pub fn shadow_to_light<C: RayCaster + ?Sized>(
+    ctx: &ShadeContext,
+    caster: &C,
+    b: &ShadowBundle,
+    light: &PreparedLight,
+    dir: Vec3,
+    dist: f64,
+    counts: &mut ShadowCounts,
+) -> Color {
+    let aim = ShadowAim::of(light);
+    shadow_transmission_aimed(
+        ctx,
+        caster,
+        b.point,
+        b.normal,
+        b.offset_scale,
+        dir,
+        dist,
+        &aim,
+        b.clip,
+        counts,
+    )
+}
+
 /// Transmission along a shadow ray from the surface point `p` (normal `n`)
 /// in unit direction `dir` over `dist` (infinite for distant sources), with
 /// the source object `target` itself not counting as an occluder. 1 if
@@ -195,6 +250,34 @@ pub fn shadow_transmission<C: RayCaster + ?Sized>(
     weak_target: bool,
     counts: &mut ShadowCounts,
 ) -> Color {
+    let aim = ShadowAim {
+        target,
+        cone: None,
+        relays: &[],
+        weak: weak_target,
+    };
+    shadow_transmission_aimed(ctx, caster, p, n, offset_scale, dir, dist, &aim, 0, counts)
+}
+
+/// [`shadow_transmission`] towards `aim`, for a ray with antimatter clip
+/// set `clip`. As Radiance's shadow rays: glass and clear trans filter the
+/// ray, a dielectric or interface refracts it (with its Fresnel
+/// transmission and absorption; a refracted ray counts only if it still
+/// reaches the source), antimatter and clipped surfaces let it pass, and a
+/// virtual source's mirrors reflect it in turn.
+#[allow(clippy::too_many_arguments)]
+pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
+    ctx: &ShadeContext,
+    caster: &C,
+    p: Vec3,
+    n: Vec3,
+    offset_scale: f64,
+    dir: Vec3,
+    dist: f64,
+    aim: &ShadowAim,
+    clip: u64,
+    counts: &mut ShadowCounts,
+) -> Color {
     let origin = offset_origin_scaled(p, n, dir, offset_scale);
     // Stop just short of the sample point so a surface coplanar with the
     // source (a ceiling around a luminaire) does not shadow it.
@@ -204,44 +287,153 @@ pub fn shadow_transmission<C: RayCaster + ?Sized>(
         f64::INFINITY
     };
     let mut ray = Ray { origin, dir };
-    // Nothing but the source on the way: what the segment loop below would
-    // also find (its first nearest hit is none or the source), for one
-    // any-hit query.
-    let blocked = caster.occluded(&ray, 0.0, tmax, target);
-    if !blocked {
-        return Color::ONE;
+    if aim.relays.is_empty() {
+        // Nothing but the source on the way: what the segment loop below
+        // would also find (its first nearest hit is none or the source),
+        // for one any-hit query.
+        let blocked = caster.occluded(&ray, 0.0, tmax, aim.target);
+        if !blocked {
+            return Color::ONE;
+        }
+        if !ctx.effects.transparent_shadows.enabled {
+            return Color::ZERO;
+        }
     }
-    if !ctx.effects.transparent_shadows.enabled {
-        return Color::ZERO;
-    }
+    let mut clip = clip;
     let mut trans = Color::ONE;
     let mut remaining = tmax;
+    // Mirrors passed so far.
+    let mut relayed = 0;
+    // Extinction of the medium the ray travels in (after a dielectric).
+    let mut ext = Color::ZERO;
+    let mut bent = false;
+    let absorb = |ext: Color, t: f64| {
+        if ext == Color::ZERO {
+            Color::ONE
+        } else {
+            (-ext * t.min(1e30)).exp()
+        }
+    };
     for _ in 0..MAX_SHADOW_SEGMENTS {
         let Some(hit) = caster.intersect(&ray, 0.0, remaining) else {
-            return trans;
+            if relayed < aim.relays.len() {
+                return Color::ZERO; // missed the mirror
+            }
+            if bent {
+                // A refracted ray must still find the source.
+                match (aim.target, aim.cone) {
+                    (Some(_), _) => return Color::ZERO,
+                    (None, Some((d, cos_half))) if ray.dir.dot(d) < cos_half => return Color::ZERO,
+                    _ => {}
+                }
+            }
+            return trans * absorb(ext, remaining);
         };
-        if Some(hit.object) == target {
-            return trans;
+        trans *= absorb(ext, hit.t);
+        if let Some(r) = aim.relays.get(relayed) {
+            if hit.object == r.object && hit.inner.is_none() {
+                if ray.dir.dot(r.normal) >= 0.0 {
+                    return Color::ZERO; // back is black
+                }
+                if let Some(rd) = &r.redirect {
+                    // A prism: its projection's functions bend the ray.
+                    let vars = crate::modifier::RayVars {
+                        dir: ray.dir,
+                        normal: hit.normal,
+                        point: hit.point,
+                        t: hit.t,
+                        ts: hit.t,
+                        uv: [0.0; 2],
+                    };
+                    let Some((coef, d)) =
+                        ctx.scene
+                            .patterns
+                            .redirect(rd.modifier, rd.projection as usize, &vars)
+                    else {
+                        return Color::ZERO;
+                    };
+                    if coef <= FTINY {
+                        return Color::ZERO;
+                    }
+                    trans *= coef;
+                    ray.dir = d;
+                    bent = true;
+                } else {
+                    // Patterns on the mirror colour the relayed light
+                    // (m_mirror.c multiplies by the ray's pattern colour).
+                    let mods = ctx.scene.mods(hit_object(ctx.scene, &hit).material);
+                    if !mods.is_empty() {
+                        let vars = crate::modifier::RayVars {
+                            dir: ray.dir,
+                            normal: hit.normal,
+                            point: hit.point,
+                            t: hit.t,
+                            ts: hit.t,
+                            uv: [0.0; 2],
+                        };
+                        let mut ap = crate::modifier::Applied::NONE;
+                        ctx.scene.patterns.apply(mods, &vars, &mut ap);
+                        trans *= ap.color;
+                    }
+                    ray.dir = r.dir(ray.dir);
+                }
+                trans *= r.color;
+                relayed += 1;
+                ray.origin =
+                    offset_origin_scaled(hit.point, hit.normal, ray.dir, offset_scale.max(hit.t));
+                remaining -= hit.t;
+                if intens(trans) <= FTINY || remaining.is_nan() || remaining <= 0.0 {
+                    return Color::ZERO;
+                }
+                continue;
+            }
+        }
+        if Some(hit.object) == aim.target {
+            return if relayed == aim.relays.len() {
+                trans
+            } else {
+                Color::ZERO
+            };
         }
         let obj = hit_object(ctx.scene, &hit);
         let material = ctx.scene.material(obj.material);
-        let filter = if let Material::Brtd { .. } = material {
-            super::brdf::shadow_filter(ctx.scene, obj.material, &hit, dir)
+        let mut next_dir = ray.dir;
+        if let Some(c) = super::clip::pass_through(ctx.scene, clip, ray.dir, &hit, obj.material) {
+            clip = c;
+        } else if let Some(r) = shadow_refraction(material, ray.dir, hit.normal) {
+            trans *= r.coef;
+            ext = r.enters;
+            next_dir = r.dir;
+            bent = true;
         } else {
-            shadow_filter(ctx.scene, material, -dir.dot(hit.normal), weak_target)
-        };
-        let Some(filter) = filter else {
-            return Color::ZERO;
-        };
-        trans *= filter;
+            let rod = -ray.dir.dot(hit.normal);
+            let filter = if let Material::Brtd { .. } = material {
+                super::brdf::shadow_filter(ctx.scene, obj.material, &hit, ray.dir)
+            } else {
+                shadow_filter(ctx.scene, material, rod, aim.weak)
+            };
+            let Some(filter) = filter else {
+                return Color::ZERO;
+            };
+            trans *= filter;
+        }
         if intens(trans) <= FTINY {
             return Color::ZERO;
         }
         counts.transparent_segments += 1;
-        ray.origin = offset_origin_scaled(hit.point, hit.normal, dir, offset_scale.max(hit.t));
-        remaining -= hit.t;
+        ray.origin = offset_origin_scaled(hit.point, hit.normal, next_dir, offset_scale.max(hit.t));
+        ray.dir = next_dir;
+        remaining = if bent {
+            f64::INFINITY
+        } else {
+            remaining - hit.t
+        };
         if remaining.is_nan() || remaining <= 0.0 {
-            return trans;
+            return if relayed == aim.relays.len() {
+                trans
+            } else {
+                Color::ZERO
+            };
         }
     }
     Color::ZERO
@@ -300,10 +492,7 @@ pub fn estimate_hit_ratios<C: RayCaster + ?Sized>(
     ctx.lights
         .iter()
         .map(|light| {
-            let weak = matches!(
-                light.material,
-                Material::Illum { .. } | Material::Glow { .. }
-            );
+            let aim = ShadowAim::of(light);
             // Radiance starts every source at one hit in one test.
             let (mut tests, mut hits) = (1u64, 1u64);
             for &(p, normal, scale) in &points {
@@ -317,7 +506,7 @@ pub fn estimate_hit_ratios<C: RayCaster + ?Sized>(
                     continue;
                 }
                 tests += 1;
-                let t = shadow_transmission(
+                let t = shadow_transmission_aimed(
                     ctx,
                     caster,
                     p,
@@ -325,8 +514,8 @@ pub fn estimate_hit_ratios<C: RayCaster + ?Sized>(
                     scale,
                     s.dir,
                     s.dist,
-                    light.object,
-                    weak,
+                    &aim,
+                    0,
                     &mut counts,
                 );
                 if intens(t) > FTINY {

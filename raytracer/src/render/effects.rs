@@ -145,7 +145,28 @@ impl EffectsReport {
                 patterned.push(id);
             }
             match m {
-                Material::Mirror { .. } => reflective.push(id),
+                Material::Mirror { alternate, .. } => {
+                    reflective.push(id);
+                    if *alternate == Some(crate::scene::Alternate::Void) {
+                        see_through.push(id);
+                    }
+                }
+                Material::Interface {
+                    inside_transmission,
+                    outside_transmission,
+                    ..
+                } => {
+                    reflective.push(id);
+                    refractive.push(id);
+                    see_through.push(id);
+                    if inside_transmission.min_element() < 1.0
+                        || outside_transmission.min_element() < 1.0
+                    {
+                        absorbing.push(id);
+                    }
+                }
+                Material::Antimatter { .. } => see_through.push(id),
+                Material::Prism { .. } => refractive.push(id),
                 Material::Glass { transmission, .. } => {
                     reflective.push(id);
                     if transmission.max_element() > 1e-15 {
@@ -156,6 +177,8 @@ impl EffectsReport {
                 Material::Dielectric { transmission, .. } => {
                     reflective.push(id);
                     refractive.push(id);
+                    // Shadow rays are refracted through it.
+                    see_through.push(id);
                     if transmission.min_element() < 1.0 {
                         absorbing.push(id);
                     }
@@ -242,9 +265,25 @@ impl EffectsReport {
         }
         let area = lights.iter().filter(|l| !l.is_distant()).count();
         let distant = lights.len() - area;
+        // Virtual sources (mirror and prism relays) among them.
+        let relayed = |want_distant: bool| {
+            let n = lights
+                .iter()
+                .filter(|l| l.virt.is_some() && l.is_distant() == want_distant)
+                .count();
+            if n > 0 {
+                format!(
+                    " ({n} of them virtual: relayed by mirrors or prisms, -dr {})",
+                    options.dr
+                )
+            } else {
+                String::new()
+            }
+        };
         let area_shadows = if area > 0 && diffuse {
             Effect::on(format!(
-                "{area} area source(s): shadow bundles over patches with size/distance below -ds {}",
+                "{area} area source(s){}: shadow bundles over patches with size/distance below -ds {}",
+                relayed(false),
                 options.ds
             ))
         } else if area > 0 {
@@ -253,7 +292,10 @@ impl EffectsReport {
             Effect::off("no area light sources in the scene")
         };
         let distant_shadows = if distant > 0 && diffuse {
-            Effect::on(format!("{distant} distant source(s): one shadow ray each"))
+            Effect::on(format!(
+                "{distant} distant source(s){}: one shadow ray each",
+                relayed(true)
+            ))
         } else if distant > 0 {
             Effect::off("no diffuse or rough surface to light (only specular materials)")
         } else {
@@ -268,7 +310,7 @@ impl EffectsReport {
             Effect::off("-dt 0: every patch gets a shadow ray")
         };
         let transparent_shadows = if see_through.is_empty() {
-            Effect::off("no glass, clear trans or invisible surfaces: shadow rays need only an any-hit test")
+            Effect::off("no glass, dielectric, clear trans, antimatter or invisible surfaces: shadow rays need only an any-hit test")
         } else {
             Effect::on(format!(
                 "shadow rays pass through {}",

@@ -90,6 +90,9 @@ pub struct PreparedLight {
     /// `nhits / ntests`); scales its untested contributions. 1 until
     /// [`super::direct::estimate_hit_ratios`] measures it.
     pub hit_ratio: f64,
+    /// A virtual source: the mirrors relaying a real one
+    /// (see [`super::virtual_source`]); `None` for real sources.
+    pub virt: Option<Box<super::virtual_source::Virtual>>,
 }
 
 /// Prepares all of the scene's lights. Lights that cannot be sampled
@@ -193,9 +196,18 @@ pub fn prepare_lights(scene: &Scene) -> (Vec<PreparedLight>, Vec<String>) {
             geometry,
             extent,
             hit_ratio: 1.0,
+            virt: None,
         });
     }
     (out, warnings)
+}
+
+/// [`prepare_lights`] plus the virtual sources planar mirrors make of
+/// them, up to `relays` reflections (`-dr`; see [`super::virtual_source`]).
+pub fn prepare_lights_relayed(scene: &Scene, relays: u32) -> (Vec<PreparedLight>, Vec<String>) {
+    let (mut lights, mut warnings) = prepare_lights(scene);
+    super::virtual_source::add_virtual_lights(scene, &mut lights, relays, &mut warnings);
+    (lights, warnings)
 }
 
 fn polygon_geometry(vertices: &[Vec3], triangles: &[[u32; 3]], normal: Vec3) -> Geometry {
@@ -361,6 +373,21 @@ impl PreparedLight {
         self.extent
     }
 
+    /// A virtual copy of this (real) light relayed by `virt`, its samples
+    /// lying within `extent`.
+    pub fn relayed(
+        &self,
+        virt: super::virtual_source::Virtual,
+        extent: Option<LightExtent>,
+    ) -> Self {
+        Self {
+            object: None,
+            extent,
+            virt: Some(Box::new(virt)),
+            ..self.clone()
+        }
+    }
+
     /// A cheap estimate of the number of shadow rays a bundle from `p` to
     /// this source traces at source subdivision `ds`: 1 for distant sources
     /// or `ds == 0`, otherwise (size / (ds x distance))^2 clamped to
@@ -390,6 +417,9 @@ impl PreparedLight {
     /// behind a one-sided flat source, or inside a spherical one): a cheap
     /// test that saves running an empty shadow bundle.
     pub fn may_reach(&self, p: Vec3) -> bool {
+        if let Some(v) = &self.virt {
+            return v.may_reach(p);
+        }
         match &self.geometry {
             Geometry::Polygon { origin, normal, .. } => (p - *origin).dot(*normal) > 0.0,
             Geometry::Ring { center, normal, .. } => (p - *center).dot(*normal) > 0.0,
@@ -402,6 +432,9 @@ impl PreparedLight {
     /// after the light material (glow's radius of influence, spotlight's
     /// cone) and its patterns (evaluated for the shadow ray from `from`).
     pub fn emission(&self, from: Vec3, s: &PatchSample) -> Color {
+        if let Some(v) = &self.virt {
+            return v.emission(from, s);
+        }
         let c = self.bare_emission(s);
         if self.mods.is_empty() || c == Color::ZERO {
             return c;
@@ -467,6 +500,9 @@ impl PreparedLight {
     /// `p` (one sample at its centre, no subdivision): used only to weigh
     /// the threshold of adaptive shadow testing across lights.
     pub fn rough_sample(&self, scene: &Scene, p: Vec3) -> Option<PatchSample> {
+        if let Some(v) = &self.virt {
+            return v.rough_sample(scene, p);
+        }
         match &self.geometry {
             Geometry::Distant {
                 dir, solid_angle, ..
@@ -535,6 +571,9 @@ impl PreparedLight {
         rng: &mut Rng,
         mut f: F,
     ) {
+        if let Some(v) = &self.virt {
+            return v.for_each_patch(scene, p, ds, dj, rng, &mut f);
+        }
         match &self.geometry {
             Geometry::Distant {
                 dir,

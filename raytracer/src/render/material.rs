@@ -88,11 +88,16 @@ pub struct RayTask {
     pub extinction: Color,
     /// A sampled rough-specular ray: it sees sampled light sources as black,
     /// because direct lighting already includes their specular highlight.
-    /// Hemisphere rays are sampled too.
+    /// Hemisphere rays are sampled too, and so is every ray descended from
+    /// a sampled one.
     pub sampled: bool,
     /// Ambient bounces taken on the way to this ray (0 for primary rays).
     #[serde(default)]
     pub ambient: u32,
+    /// Antimatter clip set: the ray passes through surfaces of materials
+    /// whose [`Scene::clip_bit`] it shares (see [`super::clip`]).
+    #[serde(default)]
+    pub clip: u64,
 }
 
 impl RayTask {
@@ -109,6 +114,7 @@ impl RayTask {
             extinction: Color::ZERO,
             sampled: false,
             ambient: 0,
+            clip: 0,
         }
     }
 }
@@ -283,6 +289,9 @@ pub struct ShadowBundle {
     /// Weight of the ray that hit the point (the threshold is `-dt / weight`).
     pub weight: f64,
     pub seed: u64,
+    /// The antimatter clip set of the ray that hit the point.
+    #[serde(default)]
+    pub clip: u64,
 }
 
 /// Secondary work a shaded point asks for.
@@ -426,6 +435,7 @@ impl Emitter<'_, '_> {
             extinction,
             sampled,
             ambient: self.task.ambient,
+            clip: self.task.clip,
         };
         self.out.push(Request::Trace { task, coef });
     }
@@ -479,6 +489,7 @@ impl Emitter<'_, '_> {
                 reference: brightness(base) + others,
                 weight: self.task.weight,
                 seed,
+                clip: self.task.clip,
             }));
         }
     }
@@ -508,6 +519,26 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
         extinction: task.extinction,
         ambient: [None; 2],
     };
+    if !ctx.scene.clip_bits.is_empty() {
+        // Antimatter (m_clip.c): clipped surfaces are not there for this
+        // ray; an antimatter surface changes the clip set.
+        if let Some(clip) =
+            super::clip::pass_through(ctx.scene, task.clip, task.ray.dir, hit, obj.material)
+        {
+            em.spawn(
+                RayKind::PassThrough,
+                task.ray.dir,
+                Color::ONE,
+                task.extinction,
+            );
+            for r in &mut em.out[em.start..] {
+                if let Request::Trace { task, .. } = r {
+                    task.clip = clip;
+                }
+            }
+            return shaded;
+        }
+    }
     let (start, uv) = mesh_shading(ctx.scene, hit);
     em.uv = uv;
     shade_material(&mut em, &mut shaded, obj.material, flat, start, 0);
@@ -674,7 +705,42 @@ fn shade_material(
                 shaded.base += *radiance * ap.color * scale;
             }
         }
-        Material::Mirror { color } => {
+        Material::Mirror {
+            alternate: Some(alt),
+            ..
+        } => {
+            // Only shadow rays relaying a source see the mirror itself.
+            match alt {
+                crate::scene::Alternate::Void => {
+                    em.spawn(RayKind::PassThrough, dir, Color::ONE, task.extinction)
+                }
+                // The alternate is shaded as if hit directly (m_mirror.c
+                // switches before applying the mirror's own patterns).
+                crate::scene::Alternate::Material(m) if depth < MAX_MIX_DEPTH => {
+                    shade_material(em, shaded, *m, flat, applied, depth + 1)
+                }
+                crate::scene::Alternate::Material(_) => {}
+            }
+        }
+        Material::Prism {
+            modifier,
+            projections,
+        } => {
+            // m_direct.c: each projection sends one redirected ray.
+            let vars = ray_vars(task, hit, em.uv);
+            for k in 0..*projections as usize {
+                if let Some((coef, d)) = ctx.scene.patterns.redirect(*modifier, k, &vars) {
+                    if coef > FTINY {
+                        em.spawn(RayKind::Refraction, d, Color::splat(coef), task.extinction);
+                    }
+                }
+            }
+        }
+        Material::Antimatter { .. } => {
+            // Reached only inside a mixture: invisible there.
+            em.spawn(RayKind::PassThrough, dir, Color::ONE, task.extinction);
+        }
+        Material::Mirror { color, .. } => {
             // Back is black (m_mirror.c).
             if rod >= 0.0 {
                 let (n, pdot) = if ap.perturbs() {
@@ -788,7 +854,25 @@ fn shade_material(
             index,
             hartmann,
         } => {
-            if let Some(ext) = dielectric(em, *transmission, *index, *hartmann) {
+            let mut nratio = index + hartmann / MLAMBDA;
+            if !(nratio.is_finite() && nratio > 0.0) {
+                nratio = 1.0;
+            }
+            let inside = extinction_of(*transmission);
+            if let Some(ext) = dielectric(em, nratio, inside, None) {
+                shaded.extinction = ext;
+            }
+        }
+        Material::Interface {
+            inside_transmission,
+            inside_index,
+            outside_transmission,
+            outside_index,
+        } => {
+            let nratio = interface_ratio(*inside_index, *outside_index);
+            let inside = extinction_of(*inside_transmission);
+            let outside = extinction_of(*outside_transmission);
+            if let Some(ext) = dielectric(em, nratio, inside, Some(outside)) {
                 shaded.extinction = ext;
             }
         }
@@ -1127,35 +1211,51 @@ pub fn fresnel_dielectric(nratio: f64, cos1: f64) -> (f64, Option<f64>) {
     (0.5 * (a * a + b * b), Some(cos2))
 }
 
-/// `m_dielectric()`. Returns the extinction of the ray being shaded when
-/// it reached the surface from inside the medium.
-fn dielectric(em: &mut Emitter, transmission: Color, index: f64, hartmann: f64) -> Option<Color> {
+/// Extinction per unit length of a medium with transmission `t` per unit
+/// length (Radiance's `-mylog(t)` per channel).
+pub fn extinction_of(t: Color) -> Color {
+    Color::new(-mylog(t.x), -mylog(t.y), -mylog(t.z))
+}
+
+/// The relative index inside / outside of an `interface` (1 where it is
+/// not a positive finite number).
+pub fn interface_ratio(inside_index: f64, outside_index: f64) -> f64 {
+    let r = inside_index / outside_index;
+    if r.is_finite() && r > 0.0 {
+        r
+    } else {
+        1.0
+    }
+}
+
+/// `m_dielectric()` for `dielectric` (`outside` is `None`: the ray's own
+/// medium outside) and `interface`. `nratio` is n(inside) / n(outside).
+/// Returns the extinction of the ray being shaded when the surface fixes
+/// it (the ray reached it from inside, or an interface's outside medium).
+fn dielectric(
+    em: &mut Emitter,
+    nratio: f64,
+    inside: Color,
+    outside: Option<Color>,
+) -> Option<Color> {
     let dir = em.task.ray.dir;
     let mut dnorm = em.hit.normal;
     let mut cos1 = -dir.dot(dnorm);
-    let mut nratio = index + hartmann / MLAMBDA;
-    if !(nratio.is_finite() && nratio > 0.0) {
-        nratio = 1.0;
-    }
-    let medium = Color::new(
-        -mylog(transmission.x),
-        -mylog(transmission.y),
-        -mylog(transmission.z),
-    );
-    let (inside_ext, ctrans);
+    let mut nratio = nratio;
+    let (own, ctrans);
     if cos1 < 0.0 {
         // Inside, leaving the medium: this ray travelled through it.
         cos1 = -cos1;
         dnorm = -dnorm;
-        inside_ext = Some(medium);
-        ctrans = Color::ZERO;
+        own = Some(inside);
+        ctrans = outside.unwrap_or(Color::ZERO);
     } else {
         nratio = 1.0 / nratio;
-        inside_ext = None;
-        ctrans = medium;
+        own = outside;
+        ctrans = inside;
     }
     let cos1 = cos1.max(1e-12);
-    let own_ext = inside_ext.unwrap_or(em.task.extinction);
+    let own_ext = own.unwrap_or(em.task.extinction);
     let (refl, cos2) = fresnel_dielectric(nratio, cos1);
     if let Some(cos2) = cos2 {
         let trans = (1.0 - refl) * nratio * nratio; // solid angle ratio
@@ -1169,7 +1269,76 @@ fn dielectric(em: &mut Emitter, transmission: Color, index: f64, hartmann: f64) 
         Color::splat(refl),
         own_ext,
     );
-    inside_ext
+    own
+}
+
+/// A shadow ray meeting a `dielectric` or `interface` surface with unit
+/// normal `normal` (as the shape orients it): Radiance traces the refracted
+/// ray only. Returns the refracted unit direction, its coefficient
+/// (Fresnel transmission times the solid-angle ratio), the extinction of
+/// the medium it enters and of the medium it left; `None` for total
+/// internal reflection or another material.
+pub fn shadow_refraction(material: &Material, dir: Vec3, normal: Vec3) -> Option<ShadowRefraction> {
+    let (nratio, inside, outside) = match material {
+        Material::Dielectric {
+            transmission,
+            index,
+            hartmann,
+        } => {
+            let mut n = index + hartmann / MLAMBDA;
+            if !(n.is_finite() && n > 0.0) {
+                n = 1.0;
+            }
+            (n, extinction_of(*transmission), Color::ZERO)
+        }
+        Material::Interface {
+            inside_transmission,
+            inside_index,
+            outside_transmission,
+            outside_index,
+        } => (
+            interface_ratio(*inside_index, *outside_index),
+            extinction_of(*inside_transmission),
+            extinction_of(*outside_transmission),
+        ),
+        _ => return None,
+    };
+    let mut cos1 = -dir.dot(normal);
+    let mut dnorm = normal;
+    let (mut nratio, enters, left) = (nratio, inside, outside);
+    let (enters, left) = if cos1 < 0.0 {
+        cos1 = -cos1;
+        dnorm = -dnorm;
+        (left, enters)
+    } else {
+        nratio = 1.0 / nratio;
+        (enters, left)
+    };
+    let cos1 = cos1.max(1e-12);
+    let (refl, cos2) = fresnel_dielectric(nratio, cos1);
+    let cos2 = cos2?;
+    let d1 = nratio * cos1 - cos2;
+    let rdir = (dir * nratio + dnorm * d1).normalize_or_zero();
+    if rdir == Vec3::ZERO {
+        return None;
+    }
+    Some(ShadowRefraction {
+        dir: rdir,
+        coef: (1.0 - refl) * nratio * nratio,
+        enters,
+        left,
+    })
+}
+
+/// See [`shadow_refraction`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShadowRefraction {
+    pub dir: Vec3,
+    pub coef: f64,
+    /// Extinction per unit length of the medium the ray now travels in.
+    pub enters: Color,
+    /// Extinction per unit length of the medium it came through.
+    pub left: Color,
 }
 
 /// How a shadow ray fares at a surface of `material` it meets at cosine
@@ -1194,23 +1363,34 @@ pub fn shadow_filter(
         return None;
     }
     let mut hops = 0;
+    // For rays aimed at *another* source an illum is its alternate; a
+    // mirror with an alternate is it for shadow rays it does not relay.
     while let Material::Illum {
-        alternate: Some(a), ..
+        alternate: Some(next),
+        ..
+    }
+    | Material::Mirror {
+        alternate: Some(crate::scene::Alternate::Material(next)),
+        ..
     } = material
     {
-        // For rays aimed at *another* source an illum is its alternate.
         hops += 1;
         if hops > MAX_ALTERNATES {
             return None;
         }
-        material = scene.material(*a);
+        material = scene.material(*next);
     }
     let pdot = rod.abs();
     match material {
         Material::Void
         | Material::Illum {
             alternate: None, ..
-        } => Some(Color::ONE),
+        }
+        | Material::Mirror {
+            alternate: Some(crate::scene::Alternate::Void),
+            ..
+        }
+        | Material::Antimatter { .. } => Some(Color::ONE),
         Material::Glass {
             transmission,
             index,

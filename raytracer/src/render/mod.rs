@@ -19,6 +19,7 @@ pub mod aniso;
 pub mod ashik;
 pub mod brdf;
 pub mod caster;
+pub mod clip;
 pub mod direct;
 pub mod effects;
 pub mod light;
@@ -27,6 +28,7 @@ pub mod options;
 pub mod rng;
 pub mod sequential;
 pub mod stats;
+pub mod virtual_source;
 
 #[cfg(test)]
 mod aniso_tests;

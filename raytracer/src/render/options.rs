@@ -75,6 +75,9 @@ pub struct RenderOptions {
     pub pj: f64,
     /// Seed of all random streams (per pixel, derived from seed, x, y).
     pub seed: u64,
+    /// `-dr`: source relays: how many mirror reflections a virtual light
+    /// source may take (rpict's default 1; 0 = no virtual sources).
+    pub dr: u32,
 }
 
 impl Default for RenderOptions {
@@ -99,6 +102,7 @@ impl Default for RenderOptions {
             pt: 0.05,
             pj: 0.0,
             seed: 0,
+            dr: 1,
         }
     }
 }
@@ -187,6 +191,11 @@ pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
         name: "dc",
         arity: 1,
         help: "direct certainty 0..1 (default 0.5)",
+    },
+    RadianceOption {
+        name: "dr",
+        arity: 1,
+        help: "source relays through mirrors: virtual light sources (default 1)",
     },
     RadianceOption {
         name: "lr",
@@ -318,6 +327,7 @@ impl RenderOptions {
             "dt" => self.dt = non_negative(name, number(name, v0)?)?,
             "dc" => self.dc = in_range(name, number(name, v0)?, 0.0, 1.0)?,
             "lr" => self.lr = integer(name, v0)?,
+            "dr" => self.dr = integer(name, v0)?,
             "lw" => self.lw = in_range(name, number(name, v0)?, 0.0, 1.0)?,
             "av" => {
                 let mut c = [0.0; 3];

@@ -11,7 +11,7 @@ use super::ambient::{AmbientRequest, AmbientSettings, AmbientStore, Hemisphere};
 use super::caster::{BvhCaster, OctreeCaster, RayCaster};
 use super::direct::{estimate_hit_ratios, run_shadow_bundle, Contribution};
 use super::effects::EffectsReport;
-use super::light::{prepare_lights, PreparedLight};
+use super::light::{prepare_lights_relayed, PreparedLight};
 use super::material::{shade, RayKind, RayTask, Request, ShadeContext, FTINY};
 use super::options::RenderOptions;
 use super::rng::{child_seed, pixel_seed, Rng};
@@ -224,7 +224,7 @@ impl<'s> Renderer<'s> {
         } else {
             timed_build(|| Octree::build(objects, params))
         };
-        let (mut lights, mut warnings) = prepare_lights(&scene);
+        let (mut lights, mut warnings) = prepare_lights_relayed(&scene, options.dr);
         if scene.lights.is_empty() && options.av == Color::ZERO {
             warnings.push(
                 "no light sources and no ambient value (-av): only emitting surfaces will be visible"

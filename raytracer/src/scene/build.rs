@@ -450,13 +450,37 @@ impl Builder {
             "mirror" => {
                 Self::counts(p, 0..=1)?;
                 Self::reals(p, &[3], "red green blue")?;
-                if let Some(alt) = p.strs.first() {
-                    self.warn(
-                        &p.loc,
-                        format!("mirror '{}': alternate material '{alt}' is ignored (the mirror is not a virtual source)", p.id),
-                    );
+                let alternate = match p.strs.first().map(String::as_str) {
+                    None => None,
+                    Some("void") => Some(crate::scene::Alternate::Void),
+                    Some(name) => Some(crate::scene::Alternate::Material(
+                        self.named_material(name, p)?,
+                    )),
+                };
+                Material::Mirror {
+                    color: rgb(0),
+                    alternate,
                 }
-                Material::Mirror { color: rgb(0) }
+            }
+            "interface" => {
+                Self::counts(p, 0..=0)?;
+                Self::reals(p, &[8], "red1 green1 blue1 index1 red2 green2 blue2 index2")?;
+                Material::Interface {
+                    inside_transmission: rgb(0),
+                    inside_index: r[3],
+                    outside_transmission: rgb(4),
+                    outside_index: r[7],
+                }
+            }
+            "antimatter" => return self.antimatter(p).map(Some),
+            "prism1" | "prism2" => {
+                Self::no_ints(p)?;
+                let projections = if p.ptype == "prism1" { 1 } else { 2 };
+                let modifier = self.redirect_modifier(p, projections)?;
+                Material::Prism {
+                    modifier,
+                    projections: projections as u8,
+                }
             }
             "light" => {
                 Self::counts(p, 0..=0)?;
@@ -588,23 +612,76 @@ impl Builder {
         Ok(Some(m))
     }
 
+    /// The material named `name` in a material's string arguments (a
+    /// pattern chain leading to a material gives that patterned material).
+    fn named_material(&mut self, name: &str, p: &RawPrim) -> Result<MaterialId> {
+        match self.lookup(name, &p.loc, p)? {
+            Mod::Material(id) => Ok(id),
+            Mod::Pattern {
+                chain,
+                material: Some(id),
+            } => Ok(self.patterned_material(&chain, id)),
+            Mod::Pattern { material: None, .. } => Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{} '{}': modifier '{name}' leads to no material",
+                    p.ptype, p.id
+                ),
+            )),
+        }
+    }
+
+    /// `antimatter`: one or more modifiers whose surfaces it clips; the
+    /// first (unless `void`) shades where a ray leaves it into their volume.
+    fn antimatter(&mut self, p: &RawPrim) -> Result<Material> {
+        Self::counts(p, 1..=64)?;
+        Self::reals(p, &[0], "none")?;
+        let mut clips = 0u64;
+        let mut shade = None;
+        for (k, name) in p.strs.iter().enumerate() {
+            if name == "void" {
+                continue;
+            }
+            if !self.scope.contains_key(name.as_str()) {
+                // m_clip.c: an unknown modifier is a warning and skipped.
+                self.warn(
+                    &p.loc,
+                    format!("antimatter '{}': unknown modifier '{name}' ignored", p.id),
+                );
+                continue;
+            }
+            let id = self.named_material(name, p)?;
+            if k == 0 {
+                shade = Some(id);
+            }
+            if self.scene.clip_bits.len() <= id as usize {
+                self.scene.clip_bits.resize(id as usize + 1, 0);
+            }
+            let mut bit = self.scene.clip_bits[id as usize];
+            if bit == 0 {
+                let used = self.scene.clip_bits.iter().fold(0u64, |a, b| a | b);
+                if used == u64::MAX {
+                    return Err(Error::parse(
+                        p.loc.clone(),
+                        format!(
+                            "antimatter '{}': more than 64 materials clipped in one scene",
+                            p.id
+                        ),
+                    ));
+                }
+                bit = 1u64 << used.count_ones();
+                self.scene.clip_bits[id as usize] = bit;
+            }
+            clips |= bit;
+        }
+        Ok(Material::Antimatter { clips, shade })
+    }
+
     /// Materials we do not simulate: a stand-in and a warning saying which.
     fn substitute(&mut self, p: &RawPrim, t: &str) -> Result<Option<Material>> {
-        let r = &p.reals;
-        let rgb = |k: usize| Color::new(r[k], r[k + 1], r[k + 2]);
         let (m, what) = match t {
-            "interface" if r.len() == 8 => (
-                Material::Dielectric {
-                    transmission: rgb(4),
-                    index: if r[3] != 0.0 { r[7] / r[3] } else { r[7] },
-                    hartmann: 0.0,
-                },
-                "a dielectric with the relative index",
-            ),
-            "antimatter" | "mist" | "prism1" | "prism2" => {
-                (Material::Void, "void (its surfaces are invisible)")
-            }
-            "interface" | "BSDF" | "aBSDF" | "WGMDfunc" => (
+            "mist" => (Material::Void, "void (its surfaces are invisible)"),
+            "BSDF" | "aBSDF" | "WGMDfunc" => (
                 Material::Plastic {
                     color: Color::splat(0.5),
                     specularity: 0.0,

@@ -53,8 +53,37 @@ pub enum Material {
         index: f64,
         hartmann: f64,
     },
-    /// Perfect specular reflector.
-    Mirror { color: Color },
+    /// Perfect specular reflector; a planar one also relays light sources
+    /// (virtual sources, see `render::virtual_source`). With an
+    /// `alternate`, every ray but a shadow ray relaying a source through
+    /// this very surface sees the alternate instead (Radiance's `m_mirror`).
+    Mirror {
+        color: Color,
+        alternate: Option<Alternate>,
+    },
+    /// Boundary between two dielectric media (Radiance `interface`): the
+    /// surface normal points to the outside.
+    Interface {
+        inside_transmission: Color,
+        inside_index: f64,
+        outside_transmission: Color,
+        outside_index: f64,
+    },
+    /// Radiance `prism1` (one projection) and `prism2` (two): rays are
+    /// redirected by functions ([`crate::modifier::Patterns::redirect`]),
+    /// and distant sources are relayed as virtual sources.
+    Prism {
+        modifier: crate::modifier::ModifierId,
+        projections: u8,
+    },
+    /// Radiance `antimatter`: a ray inside it does not see surfaces of the
+    /// materials in `clips` (a bit mask over [`Scene::clip_bits`]); leaving
+    /// it into such a material's volume it sees `shade` (the first named
+    /// modifier, `None` for `void`). See `render::clip`.
+    Antimatter {
+        clips: u64,
+        shade: Option<MaterialId>,
+    },
     /// Emitter (light source when on a surface sampled as area light).
     Light { radiance: Color },
     /// Emitter that is not sampled as a light beyond `max_radius` (0 = never a source).
@@ -166,6 +195,14 @@ impl Material {
     }
 }
 
+/// The alternate material of a `mirror`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Alternate {
+    /// `void`: the surface is invisible to those rays.
+    Void,
+    Material(MaterialId),
+}
+
 /// How a light source is sampled for direct lighting.
 #[derive(Debug, Clone, PartialEq)]
 pub enum LightKind {
@@ -213,6 +250,10 @@ pub struct Scene {
     /// Warnings produced while loading (unsupported patterns, ignored options), with locations.
     pub warnings: Vec<(SourceLoc, String)>,
     pub stats: SceneStats,
+    /// Per material, the antimatter clip bit(s) it belongs to (empty when
+    /// the scene has no antimatter): a ray whose clip set shares a bit
+    /// passes through the material's surfaces.
+    pub clip_bits: Vec<u64>,
 }
 
 impl Scene {
@@ -226,6 +267,12 @@ impl Scene {
         self.material_mods
             .get(id as usize)
             .map_or(&[], |v| v.as_slice())
+    }
+
+    /// The antimatter clip bits of material `id` (0 for most).
+    #[inline]
+    pub fn clip_bit(&self, id: MaterialId) -> u64 {
+        self.clip_bits.get(id as usize).copied().unwrap_or(0)
     }
 
     /// World bounds of all objects.

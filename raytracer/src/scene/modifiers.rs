@@ -285,6 +285,27 @@ impl Builder {
         Ok(self.push_modifier(p, Kind::Direction([e[0], e[1], e[2]]), xf))
     }
 
+    /// The redirecting functions of `prism1` (`projections` 1) or `prism2`
+    /// (2): coefficient and direction per projection, function file,
+    /// transform; the reals are `A1`...
+    pub(super) fn redirect_modifier(
+        &mut self,
+        p: &RawPrim,
+        projections: usize,
+    ) -> Result<ModifierId> {
+        let ff = 4 * projections + 1;
+        let meaning = if projections == 1 {
+            "coef dx dy dz, function file"
+        } else {
+            "coef1 dx1 dy1 dz1 coef2 dx2 dy2 dz2, function file"
+        };
+        let xf = split_xf(p, ff, meaning)?;
+        let ctx = self.context(&p.strs[ff - 1], p)?;
+        let e = self.exprs(ctx, &p.strs[..ff - 1], p)?;
+        let kind = Kind::Redirect(e.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect());
+        Ok(self.push_modifier(p, kind, xf))
+    }
+
     /// Reads one pattern, texture or mixture and binds its name.
     pub(super) fn add_modifier(&mut self, p: &RawPrim) -> Result<()> {
         let t = p.ptype.as_str();
