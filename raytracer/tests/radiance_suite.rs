@@ -324,3 +324,39 @@ fn glass_up() {
         rms_tol: 0.5,
     });
 }
+
+/// Mist (a participating medium) lit by two spotlights whose beams are mist
+/// cones naming them (spotlights.rad, spotcones.rad), in a bluish mist box
+/// filling the diorama; the camera looks through the front cap's back
+/// (`-bv-`). The reference's own settings: `-ar 25 -ds .3` (no `-dj`),
+/// `-ms 0.27`, `-av .011`. Radiance repeats itself to 0.02 % in mean and
+/// 0.7 % nRMSE at 512; we sample the in-scattering and the ambient with
+/// other random numbers at 256 (scale 2).
+///
+/// The cylinder's `BRTDfunc` is a grey stand-in until that material lands
+/// (the allowed warning).
+const MIST: &[&str] = &[
+    "basic.mat",
+    "diorama_walls.rad",
+    "closed_end.rad",
+    "front_cap.rad",
+    "gymbal.rad",
+    "mist.rad",
+    "spotlights.rad",
+    "spotcones.rad",
+];
+
+#[test]
+#[ignore = "waits for BRTDfunc: the gymbal's stand-in (grey plastic) is up to 11x too bright and opaque where BRTDfunc transmits; today 1.134 mean, 1.07 nRMSE over the picture, 0.985 and 5.7 % away from the gymbal (rows 32-80, columns 40-88 left out); 250 s"]
+fn mist_def() {
+    run(&Case {
+        name: "mist_def",
+        files: MIST,
+        av: 0.011,
+        extra: "-ar 25 -ds .3 -dj 0 -bv- -ms 0.27",
+        allowed_warning: Some("BRTDfunc"),
+        scale: 2,
+        mean_tol: 0.03,
+        rms_tol: 0.1,
+    });
+}

@@ -22,10 +22,14 @@
 use serde::{Deserialize, Serialize};
 
 use super::caster::RayCaster;
-use super::material::{hit_object, intens, shadow_filter, ShadeContext, ShadowBundle, FTINY};
+use super::material::{
+    hit_object, intens, shadow_filter, ShadeContext, ShadowBundle, Surface, FTINY,
+};
+use super::medium::{self, Medium};
 use super::rng::Rng;
 use crate::geometry::{offset_origin_scaled, Ray, Vec3};
 use crate::image::brightness;
+use crate::scene::Material;
 use crate::scene::{Color, ObjectId};
 
 /// Most surfaces a shadow ray passes through (glass, void) before it is
@@ -88,7 +92,14 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
     let mut rng = Rng::new(b.seed);
     let opts = ctx.options;
     let from = b.point;
-    light.for_each_patch(ctx.scene, b.point, opts.ds, opts.dj, &mut rng, |s| {
+    // In-scattering samples the whole source at once (srcscatter's nopart).
+    let ds = match b.surface {
+        Surface::Scatter(_) => 0.0,
+        _ => opts.ds,
+    };
+    let medium =
+        (ctx.media.active || b.extinction != Color::ZERO).then_some((b.extinction, b.medium));
+    light.for_each_patch(ctx.scene, b.point, ds, opts.dj, &mut rng, |s| {
         let coef = b.surface.coefficient(ctx.scene, s.dir, s.omega);
         let b = brightness(coef);
         if b.is_nan() || b <= 0.0 {
@@ -146,6 +157,7 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
             c.dir,
             c.dist,
             light.object,
+            medium,
             counts,
         );
         counts.tested += 1;
@@ -171,7 +183,10 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
 /// Transmission along a shadow ray from the surface point `p` (normal `n`)
 /// in unit direction `dir` over `dist` (infinite for distant sources), with
 /// the source object `target` itself not counting as an occluder. 1 if
-/// unoccluded, 0 if blocked, between for glass on the way.
+/// unoccluded, 0 if blocked, between for glass on the way. `medium` is the
+/// extinction and medium the ray starts in (`None` outside media): the ray
+/// loses the absorbed part over every segment, and mists it crosses change
+/// the medium.
 #[allow(clippy::too_many_arguments)]
 pub fn shadow_transmission<C: RayCaster + ?Sized>(
     ctx: &ShadeContext,
@@ -182,6 +197,7 @@ pub fn shadow_transmission<C: RayCaster + ?Sized>(
     dir: Vec3,
     dist: f64,
     target: Option<ObjectId>,
+    medium: Option<(Color, Medium)>,
     counts: &mut ShadowCounts,
 ) -> Color {
     let origin = offset_origin_scaled(p, n, dir, offset_scale);
@@ -198,26 +214,50 @@ pub fn shadow_transmission<C: RayCaster + ?Sized>(
     // any-hit query.
     let blocked = caster.occluded(&ray, 0.0, tmax, target);
     if !blocked {
-        return Color::ONE;
+        return match medium {
+            None => Color::ONE,
+            Some((ext, m)) => medium::shadow_attenuation(ext, m.albedo, tmax),
+        };
     }
     if !ctx.effects.transparent_shadows.enabled {
         return Color::ZERO;
     }
     let mut trans = Color::ONE;
     let mut remaining = tmax;
+    let mut medium = medium;
     for _ in 0..MAX_SHADOW_SEGMENTS {
         let Some(hit) = caster.intersect(&ray, 0.0, remaining) else {
+            if let Some((ext, m)) = medium {
+                trans *= medium::shadow_attenuation(ext, m.albedo, remaining);
+            }
             return trans;
         };
+        let material = ctx.scene.material(hit_object(ctx.scene, &hit).material);
+        if let Material::Mist {
+            extinction,
+            albedo,
+            gecc,
+            ..
+        } = material
+        {
+            let (ext, m) = medium.unwrap_or((ctx.options.me, Medium::default()));
+            let mist = medium::Mist {
+                extinction: *extinction,
+                albedo: *albedo,
+                gecc: *gecc,
+                slot: ctx.media.slot(hit_object(ctx.scene, &hit).material),
+            };
+            let c = medium::cross_mist(ctx.options, &mist, -dir.dot(hit.normal) > 0.0, ext, m);
+            let (ext, m) = c.before.unwrap_or((ext, m));
+            trans *= medium::shadow_attenuation(ext, m.albedo, hit.t);
+            medium = Some((c.extinction, c.medium));
+        } else if let Some((ext, m)) = medium {
+            trans *= medium::shadow_attenuation(ext, m.albedo, hit.t);
+        }
         if Some(hit.object) == target {
             return trans;
         }
-        let obj = hit_object(ctx.scene, &hit);
-        let Some(filter) = shadow_filter(
-            ctx.scene,
-            ctx.scene.material(obj.material),
-            -dir.dot(hit.normal),
-        ) else {
+        let Some(filter) = shadow_filter(ctx.scene, material, -dir.dot(hit.normal)) else {
             return Color::ZERO;
         };
         trans *= filter;

@@ -24,6 +24,7 @@ use serde::{Deserialize, Serialize};
 use super::ambient::AmbientRequest;
 use super::effects::EffectsReport;
 use super::light::PreparedLight;
+use super::medium::{Media, Medium, ScatterSurface};
 use super::options::RenderOptions;
 use super::rng::{child_seed, Rng};
 use crate::accel::Hit;
@@ -93,6 +94,10 @@ pub struct RayTask {
     /// Ambient bounces taken on the way to this ray (0 for primary rays).
     #[serde(default)]
     pub ambient: u32,
+    /// Albedo, eccentricity and scattering sources of the medium the ray
+    /// travels through (see [`super::medium`]).
+    #[serde(default)]
+    pub medium: Medium,
 }
 
 impl RayTask {
@@ -109,6 +114,7 @@ impl RayTask {
             extinction: Color::ZERO,
             sampled: false,
             ambient: 0,
+            medium: Medium::default(),
         }
     }
 }
@@ -215,6 +221,9 @@ impl NormalBsdf {
 pub enum Surface {
     /// plastic, metal, trans (`normal.c`).
     Normal(NormalBsdf),
+    /// A point of a ray's segment in a medium scattering light towards
+    /// the ray (`srcscatter()`; see [`super::medium`]).
+    Scatter(ScatterSurface),
 }
 
 impl Surface {
@@ -224,6 +233,7 @@ impl Surface {
     pub fn coefficient(&self, _scene: &Scene, ldir: Vec3, omega: f64) -> Color {
         match self {
             Surface::Normal(b) => b.coefficient(ldir, omega),
+            Surface::Scatter(s) => s.coefficient(ldir, omega),
         }
     }
 
@@ -231,6 +241,7 @@ impl Surface {
     pub fn is_black_to_lights(&self) -> bool {
         match self {
             Surface::Normal(b) => b.is_black_to_lights(),
+            Surface::Scatter(s) => s.factor.max_element() <= 0.0,
         }
     }
 
@@ -241,6 +252,7 @@ impl Surface {
                 b.mcolor *= f;
                 b.scolor *= f;
             }
+            Surface::Scatter(s) => s.factor *= f,
         }
     }
 }
@@ -265,6 +277,12 @@ pub struct ShadowBundle {
     /// Weight of the ray that hit the point (the threshold is `-dt / weight`).
     pub weight: f64,
     pub seed: u64,
+    /// The medium the shadow rays start in (zero extinction outside
+    /// media): they lose `exp(-ext * (1 - albedo) * length)`.
+    #[serde(default)]
+    pub extinction: Color,
+    #[serde(default)]
+    pub medium: Medium,
 }
 
 /// Secondary work a shaded point asks for.
@@ -274,6 +292,10 @@ pub enum Request {
     Trace { task: RayTask, coef: Color },
     /// Run the shadow bundle and add its (already weighted) result.
     Shadow(ShadowBundle),
+    /// Light scattered into the ray by its medium: run the shadow bundle
+    /// and add its result *after* the medium's attenuation of the ray
+    /// (these come last, after every other request of the hit).
+    Scatter(ShadowBundle),
 }
 
 /// The locally computed part of a shaded point.
@@ -284,6 +306,9 @@ pub struct Shaded {
     /// Extinction to apply over the ray's length `t` (Radiance sets it when
     /// a ray reaches a dielectric from inside).
     pub extinction: Color,
+    /// The rest of the medium of the ray's length (a mist corrects it for
+    /// a ray that started inside).
+    pub medium: Medium,
     /// Diffuse inter-reflection wanted here (`-ab` > bounces so far): the
     /// reflected and transmitted sides. Their value replaces the `-av`
     /// term; see [`super::ambient`].
@@ -297,6 +322,8 @@ pub struct ShadeContext<'a> {
     pub options: &'a RenderOptions,
     pub lights: &'a [PreparedLight],
     pub effects: &'a EffectsReport,
+    /// The mists' scattering sources.
+    pub media: &'a Media,
 }
 
 /// The object a hit landed on and the material shading it (instances
@@ -410,6 +437,7 @@ impl Emitter<'_, '_> {
             extinction,
             sampled,
             ambient: self.task.ambient,
+            medium: self.task.medium,
         };
         self.out.push(Request::Trace { task, coef });
     }
@@ -463,6 +491,8 @@ impl Emitter<'_, '_> {
                 reference: brightness(base) + others,
                 weight: self.task.weight,
                 seed,
+                extinction: self.task.extinction,
+                medium: self.task.medium,
             }));
         }
     }
@@ -490,12 +520,23 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
     let mut shaded = Shaded {
         base: Color::ZERO,
         extinction: task.extinction,
+        medium: task.medium,
         ambient: [None; 2],
     };
     let (start, uv) = mesh_shading(ctx.scene, hit);
     em.uv = uv;
     shade_material(&mut em, &mut shaded, obj.material, flat, start, 0);
     shaded.ambient = em.ambient;
+    if shaded.medium.scatter != 0 {
+        super::medium::scatter_requests(
+            ctx,
+            task,
+            shaded.extinction,
+            &shaded.medium,
+            hit.t,
+            em.out,
+        );
+    }
     shaded
 }
 
@@ -728,6 +769,35 @@ fn shade_material(
                 shaded.extinction = ext;
             }
         }
+        Material::Mist {
+            extinction,
+            albedo,
+            gecc,
+            ..
+        } => {
+            let mist = super::medium::Mist {
+                extinction: *extinction * ap.color,
+                albedo: *albedo,
+                gecc: *gecc,
+                slot: ctx.media.slot(id),
+            };
+            let c = super::medium::cross_mist(
+                ctx.options,
+                &mist,
+                rod > 0.0,
+                shaded.extinction,
+                shaded.medium,
+            );
+            if let Some((ext, med)) = c.before {
+                shaded.extinction = ext;
+                shaded.medium = med;
+            }
+            let n = em.out.len();
+            em.spawn(RayKind::PassThrough, dir, Color::ONE, c.extinction);
+            if let Some(Request::Trace { task, .. }) = em.out.get_mut(n) {
+                task.medium = c.medium;
+            }
+        }
     }
 }
 
@@ -757,6 +827,11 @@ fn normal(
     let mut n = em.hit.normal;
     let mut rod = -dir.dot(n);
     let mut pert = ap.pert;
+    if rod < 0.0 && !opts.bv && kind != Kind::Trans {
+        // -bv-: plastic and metal back faces let rays through (m_normal's raytrans).
+        em.spawn(RayKind::PassThrough, dir, Color::ONE, task.extinction);
+        return Color::ZERO;
+    }
     if rod < 0.0 {
         // Back faces are visible (Radiance's -bv default): turn the surface.
         n = -n;
@@ -1125,6 +1200,7 @@ pub fn shadow_filter(scene: &Scene, material: &Material, rod: f64) -> Option<Col
     let pdot = rod.abs();
     match material {
         Material::Void
+        | Material::Mist { .. }
         | Material::Illum {
             alternate: None, ..
         } => Some(Color::ONE),

@@ -973,6 +973,7 @@ mod fuzz {
         "brightfunc",
         "BSDF",
         "antimatter",
+        "mist",
         "m",
         "p",
         "0",
@@ -1064,6 +1065,7 @@ mod fuzz {
             "plastic2",
             "BSDF",
             "antimatter",
+            "mist",
             "interface",
         ];
         const NAMES: &[&str] = &["void", "a", "b", "c", "inherit"];
