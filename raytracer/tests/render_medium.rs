@@ -280,3 +280,33 @@ fn parallel_renders_equal_the_sequential_one_with_media() {
         }
     }
 }
+
+#[test]
+fn xform_scales_mist_extinction_and_prefixes_its_sources() {
+    // Radiance's xform (m_mist): extinction per unit length divides by the
+    // scale; with -n the source names get the prefix.
+    let dir = std::env::temp_dir().join(format!("hybrid-rt-mist-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("fog.rad");
+    std::fs::write(&file, "void mist fog 2 lamp a>b 0 6 .2 .4 .8 .5 .5 .5\n").unwrap();
+    let s = load_rad_str(
+        &format!("!xform -n pre -s 2 {}\n", file.display()),
+        dir.join("main.rad"),
+    )
+    .unwrap();
+    let m = s
+        .materials
+        .iter()
+        .find(|m| matches!(m, hybrid_rt::scene::Material::Mist { .. }))
+        .unwrap();
+    assert_eq!(
+        *m,
+        hybrid_rt::scene::Material::Mist {
+            extinction: Color::new(0.1, 0.2, 0.4),
+            albedo: Some(Color::splat(0.5)),
+            gecc: None,
+            sources: vec!["pre.lamp".into(), "pre.a>pre.b".into()],
+        }
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
