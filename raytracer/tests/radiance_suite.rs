@@ -19,16 +19,16 @@
 //! 27-46% on the mesh views, and our renders at 512 and 256 are held to
 //! 8% and 40-70%.
 //!
-//! Scenes that wait for the light-transport issue (mist, spotlights,
-//! prisms, mirrors as virtual sources, illum windows, BSDFs) or for files
+//! Scenes that wait for the light-transport issue (prisms, mirrors as
+//! virtual sources, illum windows, BSDFs; mist waits for BRTDfunc) or for files
 //! the suite lacks (`sunset.hdr`, `vase.rtm`, `blinds20c.xml`) are not
 //! here.
 //!
 //! Rendering settings: the suite's own (from the references' headers)
 //! where this renderer has the option; `-ps`/`-pt` (adaptive pixel
-//! sampling) is replaced by rendering at a finer grid, and `-dp`, `-ms`,
-//! `-dr` (options of features this renderer does not have: secondary
-//! source pretests, mist sampling, virtual-source relays) are left out.
+//! sampling) is replaced by rendering at a finer grid, and `-dp`, `-dr`
+//! (options of features this renderer does not have: secondary source
+//! pretests, virtual-source relays) are left out.
 
 use std::path::{Path, PathBuf};
 
