@@ -310,3 +310,37 @@ fn xform_scales_mist_extinction_and_prefixes_its_sources() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn back_faces_are_invisible_with_bv_off() {
+    // A plastic wall seen from behind in front of an emitter: -bv (the
+    // default) shows the wall (black here: nothing lights it), -bv- lets
+    // the ray through to the emitter; trans keeps its back face (m_normal).
+    for (mat, through) in [("plastic", true), ("trans", false)] {
+        let reals = if mat == "plastic" {
+            "5 .5 .5 .5 0 0"
+        } else {
+            "7 .5 .5 .5 0 0 .5 0"
+        };
+        let text = format!(
+            "void light lit 0 0 3 3 3 3\n\
+             lit polygon back 0 0 12 -50 -50 -5  50 -50 -5  50 50 -5  -50 50 -5\n\
+             void {mat} wall_mat 0 0 {reals}\n\
+             wall_mat polygon wall 0 0 12 -9 -9 0  -9 9 0  9 9 0  9 -9 0\n"
+        );
+        let v = axis_view(0.0, 5.0);
+        let shown = mean_channel(&text, &v, 4, RenderOptions::default(), 0);
+        let mut o = RenderOptions::default();
+        o.apply_words("-bv-").unwrap();
+        let hidden = mean_channel(&text, &v, 4, o, 0);
+        assert!(
+            shown < 3.0,
+            "{mat}: the back face hides the emitter: {shown}"
+        );
+        if through {
+            assert_eq!(hidden, 3.0, "{mat} -bv-");
+        } else {
+            assert_eq!(hidden, shown, "{mat}: -bv- does not apply");
+        }
+    }
+}
