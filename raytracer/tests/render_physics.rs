@@ -128,8 +128,10 @@ fn lambertian_under_disk_light_matches_form_factor() {
     // (radius, height, tolerance of centre-aimed patches). A disk six times
     // wider than its height needs more than the 64 patches Radiance allows
     // (MAXSPART), so the midpoint rule is coarse there; jittered patches
-    // are unbiased and stay within 1% everywhere.
-    for &(r, h, tol) in &[(1.0, 1.0, 0.01), (0.2, 1.0, 0.01), (3.0, 0.5, 0.1)] {
+    // are unbiased and stay within 1% everywhere. The small disk splits
+    // into four quarter sectors aimed at their area centroids, where
+    // cos^2/d^2 is 1.1% above its mean over the sector.
+    for &(r, h, tol) in &[(1.0, 1.0, 0.01), (0.2, 1.0, 0.015), (3.0, 0.5, 0.1)] {
         let light = format!("glow_mat ring lamp 0 0 8 0 0 {h}  0 0 -1  0 {r}");
         let (s, v) = scene_with_light(&light, h);
         // E = pi L R^2 / (h^2 + R^2) for a point on the axis of a disk.

@@ -95,6 +95,21 @@ pub struct RadianceArgs {
     /// -pn: primary rays per pixel, averaged (not an rpict option) [default: 1]
     #[arg(long = "pn", value_name = "N", allow_hyphen_values = true)]
     pub pn: Option<String>,
+    /// -bv+ / -bv-: back faces visible, or rays pass through them [default: +]
+    #[arg(long = "bv", value_name = "+|-", value_parser = ["+", "-"])]
+    pub bv: Option<String>,
+    /// -me: global medium extinction per unit length [default: 0 0 0]
+    #[arg(long = "me", num_args = 3, value_names = ["R", "G", "B"], allow_hyphen_values = true)]
+    pub me: Option<Vec<String>>,
+    /// -ma: global medium scattering albedo [default: 0 0 0]
+    #[arg(long = "ma", num_args = 3, value_names = ["R", "G", "B"], allow_hyphen_values = true)]
+    pub ma: Option<Vec<String>>,
+    /// -mg: global medium scattering eccentricity [default: 0]
+    #[arg(long = "mg", value_name = "G", allow_hyphen_values = true)]
+    pub mg: Option<String>,
+    /// -ms: medium in-scattering sample spacing [default: 0]
+    #[arg(long = "ms", value_name = "DIST", allow_hyphen_values = true)]
+    pub ms: Option<String>,
 }
 
 impl RadianceArgs {
@@ -102,6 +117,9 @@ impl RadianceArgs {
     pub fn given(&self) -> Vec<(&'static str, Vec<&str>)> {
         fn one(o: &Option<String>) -> Option<Vec<&str>> {
             o.as_deref().map(|s| vec![s])
+        }
+        fn three(o: &Option<Vec<String>>) -> Option<Vec<&str>> {
+            o.as_ref().map(|a| a.iter().map(String::as_str).collect())
         }
         let mut v = Vec::new();
         for (name, vals) in [
@@ -129,6 +147,17 @@ impl RadianceArgs {
             ("pt", one(&self.pt)),
             ("pj", one(&self.pj)),
             ("pn", one(&self.pn)),
+            (
+                match self.bv.as_deref() {
+                    Some("-") => "bv-",
+                    _ => "bv+",
+                },
+                self.bv.as_ref().map(|_| Vec::new()),
+            ),
+            ("me", three(&self.me)),
+            ("ma", three(&self.ma)),
+            ("mg", one(&self.mg)),
+            ("ms", one(&self.ms)),
         ] {
             if let Some(vals) = vals {
                 v.push((name, vals));
@@ -463,7 +492,23 @@ pub fn translate(args: Vec<String>) -> Vec<String> {
             continue;
         }
         let name = a.strip_prefix('-').filter(|n| !n.starts_with('-'));
+        // A switch with its state (`-bv-`): `--bv=-`.
+        if let Some((base, state)) = name.and_then(|n| {
+            let (base, last) = n.split_at(n.len().saturating_sub(1));
+            let switch = RADIANCE_OPTIONS
+                .iter()
+                .any(|o| o.name == base && o.arity == 0);
+            (switch && (last == "+" || last == "-")).then_some((base, last))
+        }) {
+            out.push(format!("--{base}={state}"));
+            continue;
+        }
         if let Some(opt) = name.and_then(|n| RADIANCE_OPTIONS.iter().find(|o| o.name == n)) {
+            if opt.arity == 0 {
+                // A bare switch toggles rpict's default (on).
+                out.push(format!("--{}=-", opt.name));
+                continue;
+            }
             out.push(format!("--{}", opt.name));
             for _ in 0..opt.arity {
                 if let Some(v) = it.next() {
@@ -496,6 +541,39 @@ mod tests {
 
     fn s(v: &[&str]) -> Vec<String> {
         v.iter().map(|x| x.to_string()).collect()
+    }
+
+    #[test]
+    fn translates_switches_and_medium_options() {
+        let t = translate(s(&[
+            "hybrid-rt",
+            "render",
+            "a.rad",
+            "-bv-",
+            "-ms",
+            "0.27",
+            "-me",
+            "1",
+            "2",
+            "3",
+            "-bv+",
+        ]));
+        assert_eq!(
+            t,
+            s(&[
+                "hybrid-rt",
+                "render",
+                "a.rad",
+                "--bv=-",
+                "--ms",
+                "0.27",
+                "--me",
+                "1",
+                "2",
+                "3",
+                "--bv=+",
+            ])
+        );
     }
 
     #[test]

@@ -63,18 +63,26 @@ pub enum Child {
     Trace(Color),
     /// A shadow bundle: its (already weighted) result.
     Shadow,
+    /// An in-scattering shadow bundle: its result, added after the
+    /// attenuation (these come last).
+    Scatter,
 }
+
+/// A medium's effect on a ray's value: the factor it is multiplied by,
+/// then the ambient in-scattering added.
+pub type Attenuation = (Color, Color);
 
 /// What one node contributes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(crate = "hybrid_sched::serde")]
 pub enum Record {
     /// A ray that hit a surface: the local part, the requests in order, and
-    /// the medium's attenuation over the ray's length (if any).
+    /// the medium's attenuation over the ray's length (if any): the factor
+    /// and the ambient in-scattering then added.
     Shaded {
         base: Color,
         children: Vec<Child>,
-        attenuation: Option<Color>,
+        attenuation: Option<Attenuation>,
     },
     /// A final value: a ray that left the scene, or a shadow bundle's result.
     Value(Color),
@@ -102,7 +110,7 @@ impl ByteSize for RtResult {
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 #[serde(crate = "hybrid_sched::serde")]
 struct Pending {
-    record: Option<(Color, Vec<Child>, Option<Color>)>,
+    record: Option<(Color, Vec<Child>, Option<Attenuation>)>,
     /// Child values by request index (may arrive before the record).
     values: Vec<(u16, Color)>,
 }
@@ -225,17 +233,24 @@ fn evaluate(
     base: Color,
     children: &[Child],
     values: &[Color],
-    attenuation: Option<Color>,
+    attenuation: Option<Attenuation>,
 ) -> Color {
     let mut sum = base;
     for (child, &v) in children.iter().zip(values) {
         match child {
             Child::Trace(coef) => sum += *coef * v,
             Child::Shadow => sum += v,
+            Child::Scatter => {}
         }
     }
-    if let Some(a) = attenuation {
-        sum *= a;
+    if let Some((factor, add)) = attenuation {
+        sum *= factor;
+        sum += add;
+    }
+    for (child, &v) in children.iter().zip(values) {
+        if let Child::Scatter = child {
+            sum += v;
+        }
     }
     sum
 }
@@ -265,7 +280,7 @@ mod tests {
             record: Record::Shaded {
                 base: c(0.1),
                 children: vec![Child::Trace(c(0.5)), Child::Shadow],
-                attenuation: Some(c(0.9)),
+                attenuation: Some((c(0.9), Color::ZERO)),
             },
         };
         let k0 = NodeKey::root(7).child(0);

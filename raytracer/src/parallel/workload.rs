@@ -40,7 +40,7 @@ use crate::render::direct::{run_shadow_bundle, ShadowCounts};
 use crate::render::light::LightExtent;
 use crate::render::material::shade;
 use crate::render::{RayKind, RayTask, Renderer, Request, ShadowBundle};
-use crate::scene::{Color, View, ViewType};
+use crate::scene::{View, ViewType};
 
 thread_local! {
     /// The patch list of [`run_shadow_bundle`], reused by every bundle a
@@ -179,6 +179,9 @@ pub struct ShadowDp {
 }
 
 /// Data-parallel tasks.
+// Both variants travel by value between processors; a shadow bundle carries
+// its medium, and boxing it would cost an allocation per task.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(crate = "hybrid_sched::serde")]
 pub enum DpTask {
@@ -816,7 +819,7 @@ impl RtWorkload {
         ctx.charge(work::RAYS_RETIRED, 1);
         let dest = Addr::Proc(origin as usize);
         let Some(hit) = hit else {
-            let sky = self.renderer.sky(task);
+            let sky = self.renderer.sky_seen(task);
             ctx.emit_result(
                 dest,
                 RtResult {
@@ -844,8 +847,12 @@ impl RtWorkload {
                         next: None,
                     }));
                 }
-                Request::Shadow(bundle) => {
-                    children.push(Child::Shadow);
+                Request::Shadow(bundle) | Request::Scatter(bundle) => {
+                    children.push(if matches!(r, Request::Scatter(_)) {
+                        Child::Scatter
+                    } else {
+                        Child::Shadow
+                    });
                     ctx.charge(work::SHADOW_SPAWNED, 1);
                     let key = key.child(i);
                     if self.shadow_goes_dp(&bundle) {
@@ -867,10 +874,12 @@ impl RtWorkload {
                 }
             }
         }
-        let attenuation = (shaded.extinction != Color::ZERO).then(|| {
-            let e = shaded.extinction * hit.t;
-            Color::new((-e.x).exp(), (-e.y).exp(), (-e.z).exp())
-        });
+        let attenuation = crate::render::medium::participate(
+            self.renderer.options(),
+            shaded.extinction,
+            &shaded.medium,
+            hit.t,
+        );
         ctx.emit_result(
             dest,
             RtResult {

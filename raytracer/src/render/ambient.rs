@@ -372,6 +372,8 @@ pub struct Hemisphere {
     weight: f64,
     seed: u64,
     extinction: Color,
+    #[serde(default)]
+    medium: crate::render::medium::Medium,
     offset_scale: f64,
     nt: u32,
     np: u32,
@@ -412,6 +414,7 @@ impl Hemisphere {
             weight,
             seed: child_seed(task.seed, 0x616d_0000 + req.side),
             extinction: task.extinction,
+            medium: task.medium,
             offset_scale: req.offset_scale,
             nt,
             np,
@@ -448,6 +451,7 @@ impl Hemisphere {
             sampled: true,
             ambient: self.level + 1,
             clip: 0,
+            medium: self.medium,
         }
     }
 

@@ -49,11 +49,13 @@ fn shaded(s: &Scene, dir: Vec3) -> (Vec<Request>, Option<FuncBsdf>) {
     // One distant source so that shade() asks for direct light.
     let lights = crate::render::light::prepare_lights(s).0;
     let effects = EffectsReport::analyse(s, &options, &lights);
+    let media = crate::render::medium::Media::default();
     let ctx = ShadeContext {
         scene: s,
         options: &options,
         lights: &lights,
         effects: &effects,
+        media: &media,
     };
     let dir = dir.normalize();
     let task = RayTask::primary(Ray { origin: -dir, dir }, 0.0, f64::INFINITY, 7);

@@ -30,8 +30,10 @@ use serde::{Deserialize, Serialize};
 use super::caster::RayCaster;
 use super::light::{LightExtent, PreparedLight};
 use super::material::{
-    hit_object, intens, shadow_filter, shadow_refraction, ShadeContext, ShadowBundle, FTINY,
+    hit_object, intens, shadow_filter, shadow_refraction, ShadeContext, ShadowBundle, Surface,
+    FTINY,
 };
+use super::medium::{self, Medium};
 use super::rng::Rng;
 use super::virtual_source::Relay;
 use crate::geometry::{offset_origin_scaled, Ray, Vec3};
@@ -98,7 +100,12 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
     let mut rng = Rng::new(b.seed);
     let opts = ctx.options;
     let from = b.point;
-    light.for_each_patch(ctx.scene, b.point, opts.ds, opts.dj, &mut rng, |s| {
+    // In-scattering samples the whole source at once (srcscatter's nopart).
+    let ds = match b.surface {
+        Surface::Scatter(_) => 0.0,
+        _ => opts.ds,
+    };
+    light.for_each_patch(ctx.scene, b.point, ds, opts.dj, &mut rng, |s| {
         let coef = b.surface.coefficient(ctx.scene, s.dir, s.omega);
         let b = brightness(coef);
         if b.is_nan() || b <= 0.0 {
@@ -219,6 +226,8 @@ pub fn shadow_to_light<C: RayCaster + ?Sized>(
     counts: &mut ShadowCounts,
 ) -> Color {
     let aim = ShadowAim::of(light);
+    let medium =
+        (ctx.media.active || b.extinction != Color::ZERO).then_some((b.extinction, b.medium));
     shadow_transmission_aimed(
         ctx,
         caster,
@@ -229,6 +238,7 @@ pub fn shadow_to_light<C: RayCaster + ?Sized>(
         dist,
         &aim,
         b.clip,
+        medium,
         counts,
     )
 }
@@ -236,7 +246,10 @@ pub fn shadow_to_light<C: RayCaster + ?Sized>(
 /// Transmission along a shadow ray from the surface point `p` (normal `n`)
 /// in unit direction `dir` over `dist` (infinite for distant sources), with
 /// the source object `target` itself not counting as an occluder. 1 if
-/// unoccluded, 0 if blocked, between for glass on the way.
+/// unoccluded, 0 if blocked, between for glass on the way. `medium` is the
+/// extinction and medium the ray starts in (`None` outside media): the ray
+/// loses the absorbed part over every segment, and mists it crosses change
+/// the medium.
 #[allow(clippy::too_many_arguments)]
 pub fn shadow_transmission<C: RayCaster + ?Sized>(
     ctx: &ShadeContext,
@@ -256,7 +269,19 @@ pub fn shadow_transmission<C: RayCaster + ?Sized>(
         relays: &[],
         weak: weak_target,
     };
-    shadow_transmission_aimed(ctx, caster, p, n, offset_scale, dir, dist, &aim, 0, counts)
+    shadow_transmission_aimed(
+        ctx,
+        caster,
+        p,
+        n,
+        offset_scale,
+        dir,
+        dist,
+        &aim,
+        0,
+        None,
+        counts,
+    )
 }
 
 /// [`shadow_transmission`] towards `aim`, for a ray with antimatter clip
@@ -276,6 +301,7 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
     dist: f64,
     aim: &ShadowAim,
     clip: u64,
+    medium: Option<(Color, Medium)>,
     counts: &mut ShadowCounts,
 ) -> Color {
     let origin = offset_origin_scaled(p, n, dir, offset_scale);
@@ -293,7 +319,10 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
         // for one any-hit query.
         let blocked = caster.occluded(&ray, 0.0, tmax, aim.target);
         if !blocked {
-            return Color::ONE;
+            return match medium {
+                None => Color::ONE,
+                Some((ext, m)) => medium::shadow_attenuation(ext, m.albedo, tmax),
+            };
         }
         if !ctx.effects.transparent_shadows.enabled {
             return Color::ZERO;
@@ -304,16 +333,14 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
     let mut remaining = tmax;
     // Mirrors passed so far.
     let mut relayed = 0;
-    // Extinction of the medium the ray travels in (after a dielectric).
-    let mut ext = Color::ZERO;
-    let mut bent = false;
-    let absorb = |ext: Color, t: f64| {
-        if ext == Color::ZERO {
-            Color::ONE
-        } else {
-            (-ext * t.min(1e30)).exp()
-        }
+    // The medium the ray travels in: where it starts, then what mists
+    // and dielectric boundaries on the way make it.
+    let mut medium = medium;
+    let attenuation = |medium: Option<(Color, Medium)>, t: f64| match medium {
+        Some((ext, m)) => medium::shadow_attenuation(ext, m.albedo, t),
+        None => Color::ONE,
     };
+    let mut bent = false;
     for _ in 0..MAX_SHADOW_SEGMENTS {
         let Some(hit) = caster.intersect(&ray, 0.0, remaining) else {
             if relayed < aim.relays.len() {
@@ -327,9 +354,30 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
                     _ => {}
                 }
             }
-            return trans * absorb(ext, remaining);
+            return trans * attenuation(medium, remaining);
         };
-        trans *= absorb(ext, hit.t);
+        let material_id = hit_object(ctx.scene, &hit).material;
+        if let Material::Mist {
+            extinction,
+            albedo,
+            gecc,
+            ..
+        } = ctx.scene.material(material_id)
+        {
+            let (ext, m) = medium.unwrap_or((ctx.options.me, Medium::default()));
+            let mist = medium::Mist {
+                extinction: *extinction,
+                albedo: *albedo,
+                gecc: *gecc,
+                slot: ctx.media.slot(material_id),
+            };
+            let c = medium::cross_mist(ctx.options, &mist, -ray.dir.dot(hit.normal) > 0.0, ext, m);
+            let (ext, m) = c.before.unwrap_or((ext, m));
+            trans *= medium::shadow_attenuation(ext, m.albedo, hit.t);
+            medium = Some((c.extinction, c.medium));
+        } else {
+            trans *= attenuation(medium, hit.t);
+        }
         if let Some(r) = aim.relays.get(relayed) {
             if hit.object == r.object && hit.inner.is_none() {
                 if ray.dir.dot(r.normal) >= 0.0 {
@@ -402,7 +450,7 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
             clip = c;
         } else if let Some(r) = shadow_refraction(material, ray.dir, hit.normal) {
             trans *= r.coef;
-            ext = r.enters;
+            medium = Some((r.enters, medium.map_or(Medium::default(), |(_, m)| m)));
             next_dir = r.dir;
             bent = true;
         } else {
@@ -516,6 +564,7 @@ pub fn estimate_hit_ratios<C: RayCaster + ?Sized>(
                     s.dist,
                     &aim,
                     0,
+                    None,
                     &mut counts,
                 );
                 if intens(t) > FTINY {

@@ -30,6 +30,9 @@ impl Effect {
             reason: reason.into(),
         }
     }
+    fn no_media() -> Self {
+        Self::off("no mist and no global medium (-me 0 0 0)")
+    }
     fn no_patterns() -> Self {
         Self::off("no pattern, texture or mixture modifies a material the scene uses")
     }
@@ -60,6 +63,10 @@ pub struct EffectsReport {
     /// function language, data files, pictures, text).
     #[serde(default = "Effect::no_patterns")]
     pub patterns: Effect,
+    /// Participating media: extinction along rays, ambient and light-source
+    /// in-scattering (`mist`, `-me`).
+    #[serde(default = "Effect::no_media")]
+    pub media: Effect,
 }
 
 /// Materials some surface actually uses (instances included; an `illum`'s
@@ -136,6 +143,7 @@ impl EffectsReport {
         let mut see_through = Vec::new();
         let mut diffuse = false;
         let mut patterned = Vec::new();
+        let mut mists = Vec::new();
         for (i, m) in scene.materials.iter().enumerate() {
             if !used[i] {
                 continue;
@@ -260,6 +268,10 @@ impl EffectsReport {
                 }
                 // m_brdf2: diffuse and towards light sources only.
                 Material::BrdfFunc { .. } => diffuse = true,
+                Material::Mist { .. } => {
+                    see_through.push(id);
+                    mists.push(id);
+                }
                 _ => {}
             }
         }
@@ -387,7 +399,34 @@ impl EffectsReport {
                 names(scene, &patterned)
             ))
         };
+        let global = options.me.max_element() > 0.0;
+        let media = if mists.is_empty() && !global {
+            Effect::no_media()
+        } else {
+            let mut what = Vec::new();
+            if global {
+                what.push(format!(
+                    "global medium -me {} {} {} -ma {} {} {} -mg {}",
+                    options.me.x,
+                    options.me.y,
+                    options.me.z,
+                    options.ma.x,
+                    options.ma.y,
+                    options.ma.z,
+                    options.mg
+                ));
+            }
+            if !mists.is_empty() {
+                what.push(format!("mists {}", names(scene, &mists)));
+            }
+            Effect::on(format!(
+                "{}: extinction along rays, in-scattering every -ms {}",
+                what.join("; "),
+                options.ms
+            ))
+        };
         Self {
+            media,
             patterns,
             area_shadows,
             distant_shadows,

@@ -93,6 +93,10 @@ pub struct PreparedLight {
     /// A virtual source: the mirrors relaying a real one
     /// (see [`super::virtual_source`]); `None` for real sources.
     pub virt: Option<Box<super::virtual_source::Virtual>>,
+    /// A spotlight's focal length: the length of its direction vector
+    /// (Radiance's `flen`, 0 for other sources). Samples' solid angles are
+    /// those of the source seen from `flen` further away.
+    flen: f64,
 }
 
 /// Prepares all of the scene's lights. Lights that cannot be sampled
@@ -187,9 +191,14 @@ pub fn prepare_lights(scene: &Scene) -> (Vec<PreparedLight>, Vec<String>) {
                 .and_then(|o| scene.objects.get(o as usize))
                 .map(|o| LightExtent::Finite(o.shape.bounds())),
         };
+        let flen = match &material {
+            Material::Spotlight { direction, .. } if object.is_some() => direction.length(),
+            _ => 0.0,
+        };
         out.push(PreparedLight {
             index,
             object,
+            flen,
             material,
             mods: scene.mods(light.material).to_vec(),
             patterns: scene.patterns.clone(),
@@ -503,6 +512,11 @@ impl PreparedLight {
         if let Some(v) = &self.virt {
             return v.rough_sample(scene, p);
         }
+        self.rough_sample_unfocused(scene, p)
+            .map(|s| spot_focus(s, self.flen))
+    }
+
+    fn rough_sample_unfocused(&self, scene: &Scene, p: Vec3) -> Option<PatchSample> {
         match &self.geometry {
             Geometry::Distant {
                 dir, solid_angle, ..
@@ -569,11 +583,13 @@ impl PreparedLight {
         ds: f64,
         dj: f64,
         rng: &mut Rng,
-        mut f: F,
+        mut f0: F,
     ) {
         if let Some(v) = &self.virt {
-            return v.for_each_patch(scene, p, ds, dj, rng, &mut f);
+            return v.for_each_patch(scene, p, ds, dj, rng, &mut f0);
         }
+        let flen = self.flen;
+        let mut f = |s: PatchSample| f0(spot_focus(s, flen));
         match &self.geometry {
             Geometry::Distant {
                 dir,
@@ -771,8 +787,12 @@ fn polar_patches<F: FnMut(PatchSample)>(
         if area <= 0.0 {
             return;
         }
-        // Area centroid radius of the cell, and a uniform-by-area random one.
-        let rc = 2.0 / 3.0 * (r1 * r1 * r1 - r0 * r0 * r0) / ((r1 - r0) * (r1 + r0));
+        // Area centroid of the cell (on its middle angle, at the centroid
+        // radius of the annulus times sinc of the half span: the centre of
+        // an unsplit disk), and a uniform-by-area random point.
+        let half = 0.5 * (c[3] - c[2]);
+        let sinc = if half > 1e-9 { half.sin() / half } else { 1.0 };
+        let rc = 2.0 / 3.0 * (r1 * r1 * r1 - r0 * r0 * r0) / ((r1 - r0) * (r1 + r0)) * sinc;
         let pc = 0.5 * (c[2] + c[3]);
         let (mut r, mut phi) = (rc, pc);
         if dj > 0.0 {
@@ -870,6 +890,18 @@ where
     n1 + split_rect(b, mp - n1, dims, p, ds, rng, leaf)
 }
 
+/// Radiance's spotlight focus (`srcray()` in source.c): a spotlight's
+/// sample subtends the solid angle its patch would have at the sample's
+/// distance plus the focal length `flen`, `omega * d^2 / (d + flen)^2`.
+#[inline]
+pub fn spot_focus(mut s: PatchSample, flen: f64) -> PatchSample {
+    if flen > 0.0 && s.dist.is_finite() {
+        let r = s.dist / (s.dist + flen);
+        s.omega *= r * r;
+    }
+    s
+}
+
 /// Radiance's spotlight test: `to_point` (unit, from the light towards the
 /// lit point) lies within the cone of full angle `angle_deg` about `aim`.
 pub fn spot_admits(aim: Vec3, angle_deg: f64, to_point: Vec3) -> bool {
@@ -957,6 +989,63 @@ mod tests {
             &mut |_, _| one += 1,
         );
         assert_eq!(one, 1, "-ds 0 means no subdivision");
+    }
+
+    fn one_light(text: &str) -> (Scene, PreparedLight) {
+        let scene = crate::scene::load_rad_str(text, "l.rad").unwrap();
+        let (mut lights, w) = prepare_lights(&scene);
+        assert!(w.is_empty(), "{w:?}");
+        assert_eq!(lights.len(), 1);
+        (scene, lights.remove(0))
+    }
+
+    #[test]
+    fn unsplit_disk_and_sphere_are_sampled_at_their_centre() {
+        // Radiance aims an unsubdivided source at its centre (sloc); a
+        // polar cell spanning the whole disk has its centroid there.
+        for text in [
+            "void light l 0 0 3 1 1 1\nl ring r 0 0 8 0 0 2 0 0 -1 0 0.3\n",
+            "void light l 0 0 3 1 1 1\nl sphere s 0 0 4 0 0 2 0.3\n",
+        ] {
+            let (scene, light) = one_light(text);
+            let mut n = 0;
+            light.for_each_patch(&scene, Vec3::ZERO, 0.0, 0.0, &mut Rng::new(1), |s| {
+                n += 1;
+                assert!((s.dir - Vec3::Z).length() < 1e-12, "{:?}", s.dir);
+                assert!((s.dist - 2.0).abs() < 1e-12);
+            });
+            assert_eq!(n, 1);
+        }
+    }
+
+    #[test]
+    fn spotlight_focus_divides_the_solid_angle() {
+        // A spotlight's samples subtend omega * d^2 / (d + flen)^2 (srcray).
+        for (flen, d) in [(1.0, 2.0), (3.5, 2.0), (0.25, 7.0)] {
+            let text = format!(
+                "void spotlight s 0 0 7 1 1 1 90 0 0 {}\ns ring r 0 0 8 0 0 {d} 0 0 -1 0 0.1\n",
+                -flen
+            );
+            let (scene, light) = one_light(&text);
+            let area = PI * 0.01;
+            let mut omega = 0.0;
+            light.for_each_patch(&scene, Vec3::ZERO, 0.0, 0.0, &mut Rng::new(1), |s| {
+                omega += s.omega;
+                assert_eq!(light.emission(Vec3::ZERO, &s), Color::ONE);
+            });
+            let want = area / ((d + flen) * (d + flen));
+            assert!((omega - want).abs() < 1e-12 * want, "{omega} vs {want}");
+            let rough = light.rough_sample(&scene, Vec3::ZERO).unwrap();
+            assert!((rough.omega - want).abs() < 1e-12 * want);
+        }
+        // Other sources are not focused.
+        let (scene, light) =
+            one_light("void light l 0 0 3 1 1 1\nl ring r 0 0 8 0 0 2 0 0 -1 0 0.1\n");
+        let mut omega = 0.0;
+        light.for_each_patch(&scene, Vec3::ZERO, 0.0, 0.0, &mut Rng::new(1), |s| {
+            omega += s.omega
+        });
+        assert!((omega - PI * 0.01 / 4.0).abs() < 1e-15);
     }
 
     #[test]

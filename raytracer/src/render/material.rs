@@ -24,6 +24,7 @@ use serde::{Deserialize, Serialize};
 use super::ambient::AmbientRequest;
 use super::effects::EffectsReport;
 use super::light::PreparedLight;
+use super::medium::{Media, Medium, ScatterSurface};
 use super::options::RenderOptions;
 use super::rng::{child_seed, Rng};
 use crate::accel::Hit;
@@ -98,6 +99,10 @@ pub struct RayTask {
     /// whose [`Scene::clip_bit`] it shares (see [`super::clip`]).
     #[serde(default)]
     pub clip: u64,
+    /// Albedo, eccentricity and scattering sources of the medium the ray
+    /// travels through (see [`super::medium`]).
+    #[serde(default)]
+    pub medium: Medium,
 }
 
 impl RayTask {
@@ -115,6 +120,7 @@ impl RayTask {
             sampled: false,
             ambient: 0,
             clip: 0,
+            medium: Medium::default(),
         }
     }
 }
@@ -227,6 +233,9 @@ pub enum Surface {
     Ashik(super::ashik::AshikBsdf),
     /// BRTDfunc and the function- and data-defined BRDFs (`m_brdf.c`).
     Func(super::brdf::FuncBsdf),
+    /// A point of a ray's segment in a medium scattering light towards
+    /// the ray (`srcscatter()`; see [`super::medium`]).
+    Scatter(ScatterSurface),
 }
 
 impl Surface {
@@ -239,6 +248,7 @@ impl Surface {
             Surface::Aniso(b) => b.coefficient(ldir, omega),
             Surface::Ashik(b) => b.coefficient(ldir, omega),
             Surface::Func(b) => b.coefficient(scene, ldir, omega),
+            Surface::Scatter(s) => s.coefficient(ldir, omega),
         }
     }
 
@@ -249,6 +259,7 @@ impl Surface {
             Surface::Aniso(b) => b.is_black_to_lights(),
             Surface::Ashik(b) => b.is_black_to_lights(),
             Surface::Func(_) => false,
+            Surface::Scatter(s) => s.factor.max_element() <= 0.0,
         }
     }
 
@@ -265,6 +276,7 @@ impl Surface {
                 b.scolor *= f;
             }
             Surface::Func(b) => b.scale *= f,
+            Surface::Scatter(s) => s.factor *= f,
         }
     }
 }
@@ -292,6 +304,12 @@ pub struct ShadowBundle {
     /// The antimatter clip set of the ray that hit the point.
     #[serde(default)]
     pub clip: u64,
+    /// The medium the shadow rays start in (zero extinction outside
+    /// media): they lose `exp(-ext * (1 - albedo) * length)`.
+    #[serde(default)]
+    pub extinction: Color,
+    #[serde(default)]
+    pub medium: Medium,
 }
 
 /// Secondary work a shaded point asks for.
@@ -301,6 +319,10 @@ pub enum Request {
     Trace { task: RayTask, coef: Color },
     /// Run the shadow bundle and add its (already weighted) result.
     Shadow(ShadowBundle),
+    /// Light scattered into the ray by its medium: run the shadow bundle
+    /// and add its result *after* the medium's attenuation of the ray
+    /// (these come last, after every other request of the hit).
+    Scatter(ShadowBundle),
 }
 
 /// The locally computed part of a shaded point.
@@ -311,6 +333,9 @@ pub struct Shaded {
     /// Extinction to apply over the ray's length `t` (Radiance sets it when
     /// a ray reaches a dielectric from inside).
     pub extinction: Color,
+    /// The rest of the medium of the ray's length (a mist corrects it for
+    /// a ray that started inside).
+    pub medium: Medium,
     /// Diffuse inter-reflection wanted here (`-ab` > bounces so far): the
     /// reflected and transmitted sides. Their value replaces the `-av`
     /// term; see [`super::ambient`].
@@ -324,6 +349,8 @@ pub struct ShadeContext<'a> {
     pub options: &'a RenderOptions,
     pub lights: &'a [PreparedLight],
     pub effects: &'a EffectsReport,
+    /// The mists' scattering sources.
+    pub media: &'a Media,
 }
 
 /// The object a hit landed on and the material shading it (instances
@@ -436,6 +463,7 @@ impl Emitter<'_, '_> {
             sampled,
             ambient: self.task.ambient,
             clip: self.task.clip,
+            medium: self.task.medium,
         };
         self.out.push(Request::Trace { task, coef });
     }
@@ -490,6 +518,8 @@ impl Emitter<'_, '_> {
                 weight: self.task.weight,
                 seed,
                 clip: self.task.clip,
+                extinction: self.task.extinction,
+                medium: self.task.medium,
             }));
         }
     }
@@ -517,6 +547,7 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
     let mut shaded = Shaded {
         base: Color::ZERO,
         extinction: task.extinction,
+        medium: task.medium,
         ambient: [None; 2],
     };
     if !ctx.scene.clip_bits.is_empty() {
@@ -543,6 +574,16 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
     em.uv = uv;
     shade_material(&mut em, &mut shaded, obj.material, flat, start, 0);
     shaded.ambient = em.ambient;
+    if shaded.medium.scatter != 0 {
+        super::medium::scatter_requests(
+            ctx,
+            task,
+            shaded.extinction,
+            &shaded.medium,
+            hit.t,
+            em.out,
+        );
+    }
     shaded
 }
 
@@ -882,6 +923,35 @@ fn shade_material(
         Material::BrdfFunc { .. } => {
             shaded.base += super::brdf::shade_brdf_func(em, id, material, &ap) * scale
         }
+        Material::Mist {
+            extinction,
+            albedo,
+            gecc,
+            ..
+        } => {
+            let mist = super::medium::Mist {
+                extinction: *extinction * ap.color,
+                albedo: *albedo,
+                gecc: *gecc,
+                slot: ctx.media.slot(id),
+            };
+            let c = super::medium::cross_mist(
+                ctx.options,
+                &mist,
+                rod > 0.0,
+                shaded.extinction,
+                shaded.medium,
+            );
+            if let Some((ext, med)) = c.before {
+                shaded.extinction = ext;
+                shaded.medium = med;
+            }
+            let n = em.out.len();
+            em.spawn(RayKind::PassThrough, dir, Color::ONE, c.extinction);
+            if let Some(Request::Trace { task, .. }) = em.out.get_mut(n) {
+                task.medium = c.medium;
+            }
+        }
     }
 }
 
@@ -911,6 +981,11 @@ fn normal(
     let mut n = em.hit.normal;
     let mut rod = -dir.dot(n);
     let mut pert = ap.pert;
+    if rod < 0.0 && !opts.bv && kind != Kind::Trans {
+        // -bv-: plastic and metal back faces let rays through (m_normal's raytrans).
+        em.spawn(RayKind::PassThrough, dir, Color::ONE, task.extinction);
+        return Color::ZERO;
+    }
     if rod < 0.0 {
         // Back faces are visible (Radiance's -bv default): turn the surface.
         n = -n;
@@ -1383,6 +1458,7 @@ pub fn shadow_filter(
     let pdot = rod.abs();
     match material {
         Material::Void
+        | Material::Mist { .. }
         | Material::Illum {
             alternate: None, ..
         }

@@ -8,6 +8,7 @@
 //!   parallel renderer schedules;
 //! - [`ambient`]: diffuse inter-reflection with an irradiance cache (`-ab`);
 //! - [`light`] and [`direct`]: source subdivision and adaptive shadow testing;
+//! - [`medium`]: participating media (`mist`, `-me -ma -mg -ms`);
 //! - [`effects`]: which effects a scene calls for, and why;
 //! - [`sequential`]: the [`Renderer`] that evaluates it all in process;
 //! - [`stats`]: rays by kind, time per effect, `--stats` JSON;
@@ -24,6 +25,7 @@ pub mod direct;
 pub mod effects;
 pub mod light;
 pub mod material;
+pub mod medium;
 pub mod options;
 pub mod rng;
 pub mod sequential;

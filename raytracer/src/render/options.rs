@@ -78,6 +78,18 @@ pub struct RenderOptions {
     /// `-dr`: source relays: how many mirror reflections a virtual light
     /// source may take (rpict's default 1; 0 = no virtual sources).
     pub dr: u32,
+    /// `-bv`: back faces of plastic, metal and trans are visible (turned
+    /// towards the ray); `-bv-` makes rays pass through them.
+    pub bv: bool,
+    /// `-me`: extinction coefficient (per unit length) of the global medium.
+    pub me: Color,
+    /// `-ma`: scattering albedo of the global medium.
+    pub ma: Color,
+    /// `-mg`: Henyey-Greenstein eccentricity of the global medium.
+    pub mg: f64,
+    /// `-ms`: sample spacing of light-source in-scattering in a medium
+    /// (0: one sample per ray segment).
+    pub ms: f64,
 }
 
 impl Default for RenderOptions {
@@ -103,6 +115,11 @@ impl Default for RenderOptions {
             pj: 0.0,
             seed: 0,
             dr: 1,
+            bv: true,
+            me: Color::ZERO,
+            ma: Color::ZERO,
+            mg: 0.0,
+            ms: 0.0,
         }
     }
 }
@@ -263,11 +280,49 @@ pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
         help: "pixel jitter 0..1 (default 0)",
     },
     RadianceOption {
+        name: "bv",
+        arity: 0,
+        help: "back faces visible: -bv+ (default) or -bv- (rays pass through back faces)",
+    },
+    RadianceOption {
+        name: "me",
+        arity: 3,
+        help: "global medium extinction per unit length r g b (default 0 0 0)",
+    },
+    RadianceOption {
+        name: "ma",
+        arity: 3,
+        help: "global medium scattering albedo r g b (default 0 0 0)",
+    },
+    RadianceOption {
+        name: "mg",
+        arity: 1,
+        help: "global medium scattering eccentricity -1..1 (default 0)",
+    },
+    RadianceOption {
+        name: "ms",
+        arity: 1,
+        help: "medium in-scattering sample spacing (default 0: one sample per segment)",
+    },
+    RadianceOption {
         name: "pn",
         arity: 1,
         help: "pixel samples: primary rays per pixel, averaged (not in rpict; default 1)",
     },
 ];
+
+/// A switch written with its state (`bv-`, `bv+`): the name and the state.
+fn split_switch(name: &str) -> (&str, Option<bool>) {
+    let is_switch = |n: &str| RADIANCE_OPTIONS.iter().any(|o| o.name == n && o.arity == 0);
+    for (suffix, on) in [('+', true), ('-', false)] {
+        if let Some(base) = name.strip_suffix(suffix) {
+            if is_switch(base) {
+                return (base, Some(on));
+            }
+        }
+    }
+    (name, None)
+}
 
 fn number(name: &str, s: &str) -> Result<f64> {
     match s.trim().parse::<f64>() {
@@ -310,6 +365,7 @@ impl RenderOptions {
     /// features that are not implemented yet are usage errors.
     pub fn set(&mut self, name: &str, values: &[&str]) -> Result<()> {
         let name = name.trim_start_matches('-');
+        let (name, switch) = split_switch(name);
         let Some(opt) = RADIANCE_OPTIONS.iter().find(|o| o.name == name) else {
             return Err(Error::Usage(format!("-{name}: unknown rendering option")));
         };
@@ -318,6 +374,18 @@ impl RenderOptions {
                 "-{name} takes {} value(s), got {}",
                 opt.arity,
                 values.len()
+            )));
+        }
+        if opt.arity == 0 {
+            match name {
+                "bv" => self.bv = switch.unwrap_or(!self.bv),
+                _ => unreachable!("option table and match disagree"),
+            }
+            return self.validate();
+        }
+        if switch.is_some() {
+            return Err(Error::Usage(format!(
+                "-{name}: takes values, not a + or - suffix"
             )));
         }
         let v0 = values[0];
@@ -348,6 +416,19 @@ impl RenderOptions {
             "ps" => self.ps = integer(name, v0)?.max(1),
             "pt" => self.pt = non_negative(name, number(name, v0)?)?,
             "pj" => self.pj = in_range(name, number(name, v0)?, 0.0, 1.0)?,
+            "me" | "ma" => {
+                let mut c = [0.0; 3];
+                for (i, s) in values.iter().enumerate() {
+                    c[i] = non_negative(name, number(name, s)?)?;
+                }
+                if name == "me" {
+                    self.me = Color::from_array(c);
+                } else {
+                    self.ma = Color::from_array(c);
+                }
+            }
+            "mg" => self.mg = in_range(name, number(name, v0)?, -1.0, 1.0)?,
+            "ms" => self.ms = non_negative(name, number(name, v0)?)?,
             _ => unreachable!("option table and match disagree"),
         }
         self.validate()
@@ -363,7 +444,7 @@ impl RenderOptions {
             })?;
             let arity = RADIANCE_OPTIONS
                 .iter()
-                .find(|o| o.name == name)
+                .find(|o| o.name == split_switch(name).0)
                 .map_or(1, |o| o.arity);
             let values: Vec<&str> = (0..arity).filter_map(|_| it.next()).collect();
             self.set(name, &values)?;
@@ -376,9 +457,13 @@ impl RenderOptions {
     pub fn validate(&self) -> Result<()> {
         let finite = [
             self.ds, self.dj, self.dt, self.dc, self.lw, self.st, self.ss, self.pj, self.aa,
-            self.pt,
+            self.pt, self.mg, self.ms,
         ];
-        if finite.iter().any(|v| !v.is_finite()) || !self.av.is_finite() {
+        if finite.iter().any(|v| !v.is_finite())
+            || !self.av.is_finite()
+            || !self.me.is_finite()
+            || !self.ma.is_finite()
+        {
             return Err(Error::Usage(
                 "rendering options must be finite numbers".into(),
             ));
@@ -397,6 +482,13 @@ impl RenderOptions {
             ));
         }
         in_range("aa", self.aa, 0.0, 1.0)?;
+        in_range("mg", self.mg, -1.0, 1.0)?;
+        non_negative("ms", self.ms)?;
+        if self.me.min_element() < 0.0 || self.ma.min_element() < 0.0 {
+            return Err(Error::Usage(
+                "-me, -ma: medium extinction and albedo must not be negative".into(),
+            ));
+        }
         if self.ab > MAX_AMBIENT_BOUNCES {
             return Err(Error::Usage(format!(
                 "-ab {}: at most {MAX_AMBIENT_BOUNCES} ambient bounces are supported (each one multiplies the work)",
@@ -488,6 +580,26 @@ mod tests {
             assert_eq!(e.exit_code(), 2, "{bad}: {e}");
         }
         o.apply_words("").unwrap();
+    }
+
+    #[test]
+    fn switches_and_medium_options() {
+        let mut o = RenderOptions::default();
+        assert!(o.bv);
+        o.apply_words("-bv- -ms 0.27 -me .1 .2 .3 -ma .9 .9 .9 -mg .3 -ab 1")
+            .unwrap();
+        assert!(!o.bv);
+        assert_eq!((o.ms, o.mg, o.ab), (0.27, 0.3, 1));
+        assert_eq!(o.me, Color::new(0.1, 0.2, 0.3));
+        assert_eq!(o.ma, Color::splat(0.9));
+        o.apply_words("-bv+").unwrap();
+        assert!(o.bv);
+        o.apply_words("-bv").unwrap();
+        assert!(!o.bv, "a bare switch toggles, as in rpict");
+        for bad in ["-ms -1", "-mg 2", "-me 1 2", "-ds- 1", "-me -1 0 0"] {
+            let e = o.clone().apply_words(bad).unwrap_err();
+            assert_eq!(e.exit_code(), 2, "{bad}: {e}");
+        }
     }
 
     #[test]

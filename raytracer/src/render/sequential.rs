@@ -13,6 +13,7 @@ use super::direct::{estimate_hit_ratios, run_shadow_bundle, Contribution};
 use super::effects::EffectsReport;
 use super::light::{prepare_lights_relayed, PreparedLight};
 use super::material::{shade, RayKind, RayTask, Request, ShadeContext, FTINY};
+use super::medium::{self, Media};
 use super::options::RenderOptions;
 use super::rng::{child_seed, pixel_seed, Rng};
 use super::stats::{EffectTimes, RayCounts, RenderStats, Timings};
@@ -155,6 +156,7 @@ pub struct Renderer<'s> {
     warnings: Vec<String>,
     build_s: f64,
     ambient: AmbientSettings,
+    media: Media,
 }
 
 impl<'s> Renderer<'s> {
@@ -232,6 +234,8 @@ impl<'s> Renderer<'s> {
             );
         }
         let effects = EffectsReport::analyse(&scene, &options, &lights);
+        let (media, media_warnings) = Media::new(&scene, &options, &lights);
+        warnings.extend(media_warnings);
         if effects.adaptive_shadow_testing.enabled {
             let ratios = estimate_hit_ratios(
                 &ShadeContext {
@@ -239,6 +243,7 @@ impl<'s> Renderer<'s> {
                     options: &options,
                     lights: &lights,
                     effects: &effects,
+                    media: &media,
                 },
                 &OctreeCaster {
                     octree: &octree,
@@ -288,6 +293,7 @@ impl<'s> Renderer<'s> {
             warnings,
             build_s,
             ambient,
+            media,
         })
     }
 
@@ -322,6 +328,7 @@ impl<'s> Renderer<'s> {
             options: &self.options,
             lights: &self.lights,
             effects: &self.effects,
+            media: &self.media,
         }
     }
 
@@ -398,7 +405,7 @@ impl<'s> Renderer<'s> {
         }
         let caster = self.caster();
         let Some(hit) = caster.intersect(&task.ray, task.tmin, task.tmax) else {
-            return (self.sky(task), f64::INFINITY);
+            return (self.sky_seen(task), f64::INFINITY);
         };
         let ctx = self.context();
         let start = st.requests.len();
@@ -416,6 +423,8 @@ impl<'s> Renderer<'s> {
                     sum += coef * c;
                     i += 1;
                 }
+                // In-scattering comes last and is added after attenuation.
+                Request::Scatter(_) => break,
                 Request::Shadow(_) => {
                     // A run of shadow bundles (one per source) is timed as
                     // one: reading the clock per bundle cost as much as a
@@ -435,11 +444,27 @@ impl<'s> Renderer<'s> {
                 }
             }
         }
-        st.requests.truncate(start);
-        if shaded.extinction != Color::ZERO {
-            let e = shaded.extinction * hit.t;
-            sum *= Color::new((-e.x).exp(), (-e.y).exp(), (-e.z).exp());
+        if let Some((factor, add)) =
+            medium::participate(&self.options, shaded.extinction, &shaded.medium, hit.t)
+        {
+            sum *= factor;
+            sum += add;
         }
+        if i < end {
+            Self::timed(st, Bucket::Direct, |st| {
+                while let Some(&Request::Scatter(bundle)) = st.requests[..end].get(i) {
+                    sum += run_shadow_bundle(
+                        &ctx,
+                        &caster,
+                        &bundle,
+                        &mut st.patches,
+                        &mut st.counts.shadow,
+                    );
+                    i += 1;
+                }
+            });
+        }
+        st.requests.truncate(start);
         (sum, hit.t)
     }
 
@@ -474,6 +499,17 @@ impl<'s> Renderer<'s> {
         let rec = h.finish(s);
         st.ambient.insert(s, rec);
         rec.value
+    }
+
+    /// What a ray that leaves the scene brings back: [`Self::sky`] through
+    /// the medium the ray travels in (extinguished over its infinite
+    /// length, plus the medium's ambient in-scattering).
+    pub fn sky_seen(&self, task: &RayTask) -> Color {
+        let sky = self.sky(task);
+        match medium::participate(&self.options, task.extinction, &task.medium, f64::INFINITY) {
+            Some((factor, add)) => sky * factor + add,
+            None => sky,
+        }
     }
 
     /// What a ray that leaves the scene sees (Radiance's `sourcehit()`
@@ -630,7 +666,12 @@ impl<'s> Renderer<'s> {
         if !(ray.origin.is_finite() && ray.dir.is_finite()) {
             return None;
         }
-        Some(RayTask::primary(ray, tmin, tmax, seed))
+        let task = RayTask::primary(ray, tmin, tmax, seed);
+        Some(if self.media.active {
+            medium::start_in_global(task, &self.options)
+        } else {
+            task
+        })
     }
 
     /// Renders `region` of a `width` x `height` image into `film`.

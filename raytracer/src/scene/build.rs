@@ -534,10 +534,44 @@ impl Builder {
                         ),
                     ));
                 }
+                let direction = Vec3::new(r[4], r[5], r[6]);
+                // makespot(): the vector's length is the focal length.
+                if !(direction.length() > 0.0 && direction.is_finite()) {
+                    return Err(Error::parse(
+                        p.loc.clone(),
+                        format!("spotlight '{}': zero focus vector", p.id),
+                    ));
+                }
                 Material::Spotlight {
                     radiance: rgb(0),
                     angle_deg: r[3],
-                    direction: Vec3::new(r[4], r[5], r[6]),
+                    direction,
+                }
+            }
+            "mist" => {
+                Self::counts(p, 0..=crate::render::medium::MAX_MIST_SOURCES)?;
+                Self::reals(
+                    p,
+                    &[0, 3, 6, 7],
+                    "[ext_r ext_g ext_b [albedo_r albedo_g albedo_b [eccentricity]]]",
+                )?;
+                if r.iter().any(|v| !v.is_finite())
+                    || r.iter().take(6).any(|&v| v < 0.0)
+                    || r.get(6).is_some_and(|g| !(-1.0..=1.0).contains(g))
+                {
+                    return Err(Error::parse(
+                        p.loc.clone(),
+                        format!(
+                            "mist '{}': extinction and albedo must be finite and not negative, the eccentricity in [-1, 1]",
+                            p.id
+                        ),
+                    ));
+                }
+                Material::Mist {
+                    extinction: if r.len() >= 3 { rgb(0) } else { Color::ZERO },
+                    albedo: (r.len() >= 6).then(|| rgb(3)),
+                    gecc: r.get(6).copied(),
+                    sources: p.strs.clone(),
                 }
             }
             "plastic2" | "metal2" | "trans2" => {
@@ -680,7 +714,6 @@ impl Builder {
     /// Materials we do not simulate: a stand-in and a warning saying which.
     fn substitute(&mut self, p: &RawPrim, t: &str) -> Result<Option<Material>> {
         let (m, what) = match t {
-            "mist" => (Material::Void, "void (its surfaces are invisible)"),
             "BSDF" | "aBSDF" | "WGMDfunc" => (
                 Material::Plastic {
                     color: Color::splat(0.5),

@@ -125,6 +125,16 @@ pub enum Material {
         v_power: f64,
         direction: crate::modifier::ModifierId,
     },
+    /// Radiance `mist`: the invisible boundary of a participating medium.
+    /// Inside, rays gain `extinction` per unit length, take `albedo` and
+    /// `gecc` (Henyey-Greenstein eccentricity) where given, and scatter the
+    /// light of the sources whose object names are in `sources`.
+    Mist {
+        extinction: Color,
+        albedo: Option<Color>,
+        gecc: Option<f64>,
+        sources: Vec<String>,
+    },
     /// A mixture of two materials (`mixfunc`, `mixdata`, `mixpict`,
     /// `mixtext` whose sides are materials): `modifier` computes the
     /// foreground fraction per ray ([`crate::modifier::Patterns::mix_coefficient`]);

@@ -974,6 +974,7 @@ mod fuzz {
         "brightfunc",
         "BSDF",
         "antimatter",
+        "mist",
         "m",
         "p",
         "0",
@@ -1065,6 +1066,7 @@ mod fuzz {
             "plastic2",
             "BSDF",
             "antimatter",
+            "mist",
             "interface",
         ];
         const NAMES: &[&str] = &["void", "a", "b", "c", "inherit"];

@@ -286,6 +286,12 @@ pub(crate) fn transform_prim(p: &RawPrim, xf: &Xf, invert: bool) -> Result<RawPr
             }
             put(&mut q.reals, 0, dir(xf, v3(&p.reals, 0)));
         }
+        "mist" if p.reals.len() > 2 => {
+            // xform's m_mist: extinction is per unit length.
+            for r in &mut q.reals[..3] {
+                *r /= xf.scale;
+            }
+        }
         "spotlight" if p.reals.len() == 7 => {
             put(&mut q.reals, 4, dir(xf, v3(&p.reals, 4)));
         }
@@ -417,6 +423,18 @@ pub(crate) fn run_xform(
                     q.id = format!("{pre}.{}", q.id);
                 }
                 q.id.push_str(&suffix);
+            } else if q.ptype == "mist" {
+                // xform's m_mist: the sources' names get the prefix (each
+                // part of a relay `a>b`).
+                if let Some(pre) = &prefix {
+                    for name in &mut q.strs {
+                        *name = name
+                            .split('>')
+                            .map(|part| format!("{pre}.{part}"))
+                            .collect::<Vec<_>>()
+                            .join(">");
+                    }
+                }
             }
             out.push(q);
         }
