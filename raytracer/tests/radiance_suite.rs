@@ -356,8 +356,8 @@ fn mist_def() {
         av: 0.011,
         extra: "-ar 25 -ds .3 -dj 0 -bv- -ms 0.27",
         allowed_warning: None,
-        scale: 2,
-        mean_tol: 0.03,
-        rms_tol: 0.1,
+        scale: 1,
+        mean_tol: 0.02,
+        rms_tol: 0.06,
     });
 }
