@@ -2,27 +2,30 @@
 //! copied unchanged from Radiance 5.4a) rendered from their files as they
 //! are, and compared with Radiance's reference pictures.
 //!
-//! The references were rendered at 2048 pixels and reduced to 128; we
-//! render at a multiple of the reference's size (4 for patterns, 2 for the
-//! mesh scene) and reduce the same way (box filter). The figures are those of the folder's README: the ratio
-//! of mean luminances, and the RMS of the per-pixel luminance difference
-//! over the reference's mean after both pictures are smoothed with a
-//! 3x3 box (different sampling noise, same structure). Each test writes
-//! the render and a difference picture to `target/radiance-suite/` when
-//! it fails (also when `RADIANCE_SUITE_KEEP` is set), and prints its
-//! figures either way (`--nocapture`).
+//! The references were rendered at 2048 pixels and reduced to 128, last
+//! by `pfilt -1 -r 1` (a Gaussian); we render at a multiple of the
+//! reference's size (4 for patterns and `glass_up`, 2 for mesh and
+//! `glass_fish`, 1 for mist) and reduce the same way ([`pfilt_reduce`]).
+//! The figures are those of the folder's README: the ratio of mean
+//! luminances, and the RMS of the per-pixel luminance difference over the
+//! reference's mean after both pictures are smoothed with a 3x3 box
+//! (different sampling noise, same structure). Each test writes the
+//! render and a difference picture to `target/tmp/radiance-suite/` when it
+//! fails (also when `RADIANCE_SUITE_KEEP` is set), and prints its figures
+//! either way (`--nocapture`).
 //!
-//! Tolerances, against the README's measurements between two Radiance
-//! runs: mean luminance within 3% (patterns) and 5% (mesh: 18 chrome and
-//! clothed figures whose highlights are smaller than a pixel); per pixel,
-//! Radiance repeats itself at 512 pixels to 2.3-3.5% nRMSE on patterns and
-//! 27-46% on the mesh views, and our renders at 512 and 256 are held to
-//! 8% and 40-70%.
+//! Tolerances, against the README's measurements between Radiance's own
+//! runs: mean luminance within 3% (patterns), 2% (mist) and 5% (mesh: 18
+//! chrome and clothed figures whose highlights are smaller than a pixel);
+//! per pixel, Radiance's renders at 512 differ from the references by
+//! 1.8-3.0% nRMSE on patterns, 1.5% on mist and 19-35% on the mesh views;
+//! ours are held to 5%, 6% and 35-50%.
 //!
-//! Scenes that wait for the light-transport issue (prisms, mirrors as
-//! virtual sources, illum windows, BSDFs; mist waits for BRTDfunc) or for files
-//! the suite lacks (`sunset.hdr`, `vase.rtm`, `blinds20c.xml`) are not
-//! here.
+//! The glass views wait (`--ignored`): their means are 0.96 and 0.91, and
+//! 98% of `glass_up`'s per-pixel error lies in the 50 pixels of the sun's
+//! highlight on the torus, 20-30% brighter here than in the reference.
+//! Scenes that need files the suite lacks (`sunset.hdr`, `vase.rtm`,
+//! `blinds20c.xml`) are loaded by unit tests, not compared.
 //!
 //! Rendering settings: the suite's own (from the references' headers)
 //! where this renderer has the option, `-ps`/`-pt` (adaptive pixel
@@ -195,7 +198,7 @@ fn patterns_def() {
         allowed_warning: None,
         scale: 4,
         mean_tol: 0.03,
-        rms_tol: 0.08,
+        rms_tol: 0.05,
     });
 }
 
@@ -213,7 +216,7 @@ fn patterns_plan() {
         allowed_warning: None,
         scale: 4,
         mean_tol: 0.03,
-        rms_tol: 0.08,
+        rms_tol: 0.05,
     });
 }
 
@@ -242,7 +245,7 @@ fn mesh_def() {
         allowed_warning: None,
         scale: 2,
         mean_tol: 0.05,
-        rms_tol: 0.4,
+        rms_tol: 0.35,
     });
 }
 
@@ -260,7 +263,7 @@ fn mesh_cyl() {
         allowed_warning: None,
         scale: 2,
         mean_tol: 0.05,
-        rms_tol: 0.7,
+        rms_tol: 0.5,
     });
 }
 
@@ -278,15 +281,15 @@ fn mesh_cyl2() {
         allowed_warning: None,
         scale: 2,
         mean_tol: 0.05,
-        rms_tol: 0.45,
+        rms_tol: 0.35,
     });
 }
 
 /// The glass scene from its rif's files (its generators `genprism` and
 /// `genrev` run built in); the sky picture is missing, and these two views
-/// never see it. It loads (the scene language is all there) but renders
-/// far too bright until the light-transport issue: run with `--ignored`
-/// to see by how much.
+/// never see it. The window is an illum with a measured distribution
+/// (`glass_ill.rad`, mkillum's output), the sun shines through it, and
+/// the torus is a mixture of metal and glowing stripes.
 const GLASS: &[&str] = &[
     "basic.mat",
     "diorama_walls.rad",
@@ -298,7 +301,7 @@ const GLASS: &[&str] = &[
 ];
 
 #[test]
-#[ignore = "waits for the light-transport issue: the mkillum window (illum with data), the sun through glass; today 4.0x (up) and 8.0x (fish) too bright"]
+#[ignore = "mean 0.911 (floor 15-35% darker: irradiance-cache records; red blotches from the glowing stripes), nRMSE 0.19"]
 fn glass_fish() {
     run(&Case {
         name: "glass_fish",
@@ -313,7 +316,7 @@ fn glass_fish() {
 }
 
 #[test]
-#[ignore = "waits for the light-transport issue: the mkillum window (illum with data), the sun through glass; today 4.0x (up) and 8.0x (fish) too bright"]
+#[ignore = "mean 0.955, nRMSE 0.82: 98% of it in the sun highlight on the torus (its 50 brightest pixels), 20-30% brighter than the reference"]
 fn glass_up() {
     run(&Case {
         name: "glass_up",
@@ -349,6 +352,10 @@ const MIST: &[&str] = &[
 ];
 
 #[test]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "renders for minutes unoptimised: scripts/test.sh runs it with --release"
+)]
 fn mist_def() {
     run(&Case {
         name: "mist_def",
