@@ -41,3 +41,7 @@ pub struct Benchmarks;
 #[cfg(doctest)]
 #[doc = include_str!("src/scenes.md")]
 pub struct Scenes;
+
+#[cfg(doctest)]
+#[doc = include_str!("src/radiance.md")]
+pub struct RadianceCompatibility;

@@ -280,6 +280,16 @@ pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
         help: "pixel jitter 0..1 (default 0)",
     },
     RadianceOption {
+        name: "dp",
+        arity: 1,
+        help: "virtual source pretest density: accepted, no effect (the pretest only drops relays that shadow rays find blocked anyway)",
+    },
+    RadianceOption {
+        name: "u",
+        arity: 0,
+        help: "uncorrelated sampling -u+/-u-: accepted, no effect (renders stay reproducible from --seed)",
+    },
+    RadianceOption {
         name: "bv",
         arity: 0,
         help: "back faces visible: -bv+ (default) or -bv- (rays pass through back faces)",
@@ -379,6 +389,7 @@ impl RenderOptions {
         if opt.arity == 0 {
             match name {
                 "bv" => self.bv = switch.unwrap_or(!self.bv),
+                "u" => {}
                 _ => unreachable!("option table and match disagree"),
             }
             return self.validate();
@@ -396,6 +407,9 @@ impl RenderOptions {
             "dc" => self.dc = in_range(name, number(name, v0)?, 0.0, 1.0)?,
             "lr" => self.lr = integer(name, v0)?,
             "dr" => self.dr = integer(name, v0)?,
+            "dp" => {
+                integer(name, v0)?;
+            }
             "lw" => self.lw = in_range(name, number(name, v0)?, 0.0, 1.0)?,
             "av" => {
                 let mut c = [0.0; 3];
@@ -580,6 +594,21 @@ mod tests {
             assert_eq!(e.exit_code(), 2, "{bad}: {e}");
         }
         o.apply_words("").unwrap();
+    }
+
+    /// The suite's settings as rad writes them: `-dp` and `-u+` are
+    /// accepted (and change nothing), a bad `-dp` is still an error.
+    #[test]
+    fn rpict_options_without_effect_are_accepted() {
+        let mut o = RenderOptions::default();
+        o.apply_words("-dp 512 -u+ -dr 1 -ms 0.13 -u- -ps 6 -pt .08")
+            .unwrap();
+        let mut plain = RenderOptions::default();
+        plain.apply_words("-dr 1 -ms 0.13 -ps 6 -pt .08").unwrap();
+        assert_eq!(o, plain);
+        for bad in ["-dp x", "-dp -1", "-u 1"] {
+            assert!(o.clone().apply_words(bad).is_err(), "{bad}");
+        }
     }
 
     #[test]
