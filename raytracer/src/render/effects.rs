@@ -246,6 +246,13 @@ impl EffectsReport {
                         refractive.push(id);
                     }
                 }
+                // m_bsdf: diffuse parts, one sampled ray each for the
+                // non-diffuse reflection and transmission.
+                Material::Bsdf { .. } => {
+                    diffuse = true;
+                    reflective.push(id);
+                    refractive.push(id);
+                }
                 Material::Ashik { specular, .. } => {
                     diffuse = true;
                     if specular.max_element() > FTINY
