@@ -311,7 +311,9 @@ impl KlemsData {
             let num = |tag: &str, n: Option<roxmltree::Node>| -> Result<f64, String> {
                 text(n.and_then(|n| child(n, tag)))
                     .parse::<f64>()
-                    .map_err(|_| format!("angle basis '{name}' block {}: bad {tag}", i + 1))
+                    .ok()
+                    .filter(|t| t.is_finite())
+                    .ok_or_else(|| format!("angle basis '{name}' block {}: bad {tag}", i + 1))
             };
             let upper = num("UpperTheta", tb)?;
             let lower = num("LowerTheta", tb)?;
@@ -340,7 +342,7 @@ impl KlemsData {
         }
         // Contiguous bands.
         for w in lats.windows(2).skip(1) {
-            if !(w[0].0 < w[1].0) {
+            if w[0].0 >= w[1].0 {
                 return Err(format!("angle basis '{name}': theta bounds out of order"));
             }
         }
@@ -599,7 +601,7 @@ pub(crate) fn shade_bsdf(
         .direction(direction, &vars, ap)
         .unwrap_or(Vec3::ZERO);
     let x = up.cross(znorm);
-    if !(x.length_squared() > 1e-20) || !x.is_finite() {
+    if !x.is_finite() || x.length_squared() <= 1e-20 {
         // "Illegal orientation vector": Radiance leaves the ray black.
         patterns.report_bad_direction(direction);
         return Color::ZERO;
