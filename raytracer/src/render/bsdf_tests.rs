@@ -364,3 +364,71 @@ fn a_sawtooth_floor_renders_without_warnings() {
     assert!(lit > px.len() / 2, "only {lit} lit pixels (max {max})");
     assert_eq!(s.patterns.failures.errors(), 0);
 }
+
+/// A small file: a 5-patch basis (a cap and 4 azimuths), one block.
+fn small_xml(structure: &str, direction: &str, data: &str) -> String {
+    format!(
+        "<WindowElement><Optical><Layer><DataDefinition>\
+         <IncidentDataStructure>{structure}</IncidentDataStructure>\
+         <AngleBasis><AngleBasisName>Five</AngleBasisName>\
+         <AngleBasisBlock><nPhis>1</nPhis><ThetaBounds><LowerTheta>0</LowerTheta><UpperTheta>30</UpperTheta></ThetaBounds></AngleBasisBlock>\
+         <AngleBasisBlock><nPhis>4</nPhis><ThetaBounds><LowerTheta>30</LowerTheta><UpperTheta>90</UpperTheta></ThetaBounds></AngleBasisBlock>\
+         </AngleBasis></DataDefinition>\
+         <WavelengthData><Wavelength>Solar</Wavelength><WavelengthDataBlock><WavelengthDataDirection>Reflection Back</WavelengthDataDirection>\
+         <ColumnAngleBasis>Five</ColumnAngleBasis><RowAngleBasis>Five</RowAngleBasis><ScatteringData>9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9</ScatteringData></WavelengthDataBlock></WavelengthData>\
+         <WavelengthData><Wavelength>Visible</Wavelength><WavelengthDataBlock><WavelengthDataDirection>{direction}</WavelengthDataDirection>\
+         <ColumnAngleBasis>Five</ColumnAngleBasis><RowAngleBasis>Five</RowAngleBasis><ScatteringData>{data}</ScatteringData></WavelengthDataBlock></WavelengthData>\
+         </Layer></Optical></WindowElement>"
+    )
+}
+
+#[test]
+fn rows_are_the_transpose_of_columns_and_only_visible_data_counts() {
+    let data: String = (0..25).map(|k| format!("{} ", 0.01 * k as f64)).collect();
+    let c = KlemsData::parse(&small_xml("Columns", "Reflection Back", &data), "c.xml").unwrap();
+    let r = KlemsData::parse(&small_xml("Rows", "Reflection Back", &data), "r.xml").unwrap();
+    assert_eq!(c.basis.n, 5);
+    let total: f64 = (0..5).map(|i| c.basis.ohm(i)).sum();
+    assert!((total - PI).abs() < 1e-12);
+    let (mc, mr) = (c.parts[0].as_ref().unwrap(), r.parts[0].as_ref().unwrap());
+    for i in 0..5 {
+        for o in 0..5 {
+            assert_eq!(mc.values[o * 5 + i], mr.values[i * 5 + o]);
+        }
+    }
+    // The solar block's 9s are ignored: the minimum is the visible 0.
+    assert_eq!(c.lamb(Part::ReflFront), 0.0);
+    assert!((mc.values[24] - 0.24).abs() < 1e-6);
+    // Transmission Front: light from +z seen from -z.
+    let t = KlemsData::parse(&small_xml("Columns", "Transmission Front", &data), "t.xml").unwrap();
+    assert_eq!(t.part_for(Vec3::Z, -Vec3::Z), Some(Part::TransFront));
+    // Reversed outgoing: out -z indexes as +z (patch 0), incident patch 0.
+    assert!((t.value(Part::TransFront, Vec3::Z, -Vec3::Z) - 0.0).abs() < 1e-9);
+    let side = t.basis.vec(1, 0.5, 0.5);
+    assert!((t.value(Part::TransFront, Vec3::Z, -side) - 0.05).abs() < 1e-6);
+    // Reciprocity fallback: the reverse query finds the same entry.
+    assert!((t.value(Part::TransFront, -side, Vec3::Z) - 0.05).abs() < 1e-6);
+}
+
+#[test]
+fn absdf_shares_the_material_and_warns_about_its_through_component() {
+    let dir = temp_dir("absdf");
+    let data: String = (0..25).map(|_| "0.02 ").collect();
+    let t = small_xml("Columns", "Transmission Front", &data);
+    let s = load(
+        &dir,
+        "void aBSDF a\n5 t.xml 0 1 0 .\n0\n3 .1 .1 .1\n",
+        &[("t.xml", &t)],
+    )
+    .unwrap();
+    assert!(matches!(
+        s.materials[0],
+        crate::scene::Material::Bsdf { .. }
+    ));
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(s.warnings[0].1.contains("through"));
+    if crate::testdata::radiance_test_file("sawtooth.xml").is_some() {
+        let s = load(&dir, "void aBSDF a\n5 sawtooth.xml 0 1 0 .\n0\n0\n", &[]).unwrap();
+        assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    }
+}

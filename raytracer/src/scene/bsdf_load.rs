@@ -63,6 +63,18 @@ impl Builder {
                 self.scene.bsdfs.len() - 1
             }
         };
+        let transmits = self.scene.bsdfs[data].parts[2..]
+            .iter()
+            .any(Option::is_some);
+        if !thick && transmits {
+            self.warn(
+                &p.loc,
+                format!(
+                    "aBSDF '{}': the unscattered 'through' component of '{name}' (view and shadow rays passing straight) is not simulated; its transmission is sampled like BSDF's",
+                    p.id
+                ),
+            );
+        }
         // The up vector: the strings after the file, as an orientation.
         let mut q = p.clone();
         q.strs.drain(..lead);
