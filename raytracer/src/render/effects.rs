@@ -248,10 +248,18 @@ impl EffectsReport {
                 }
                 // m_bsdf: diffuse parts, one sampled ray each for the
                 // non-diffuse reflection and transmission.
-                Material::Bsdf { .. } => {
+                Material::Bsdf { data, .. } => {
                     diffuse = true;
-                    reflective.push(id);
-                    refractive.push(id);
+                    let d = scene.bsdfs.get(*data as usize);
+                    let has = |k: usize| {
+                        d.is_some_and(|d| d.parts[k].as_ref().is_some_and(|m| m.max_hemi > FTINY))
+                    };
+                    if has(0) || has(1) {
+                        reflective.push(id);
+                    }
+                    if has(2) || has(3) {
+                        refractive.push(id);
+                    }
                 }
                 Material::Ashik { specular, .. } => {
                     diffuse = true;
