@@ -246,6 +246,21 @@ impl EffectsReport {
                         refractive.push(id);
                     }
                 }
+                // m_bsdf: diffuse parts, one sampled ray each for the
+                // non-diffuse reflection and transmission.
+                Material::Bsdf { data, .. } => {
+                    diffuse = true;
+                    let d = scene.bsdfs.get(*data as usize);
+                    let has = |k: usize| {
+                        d.is_some_and(|d| d.parts[k].as_ref().is_some_and(|m| m.max_hemi > FTINY))
+                    };
+                    if has(0) || has(1) {
+                        reflective.push(id);
+                    }
+                    if has(2) || has(3) {
+                        refractive.push(id);
+                    }
+                }
                 Material::Ashik { specular, .. } => {
                     diffuse = true;
                     if specular.max_element() > FTINY

@@ -229,6 +229,8 @@ pub enum Surface {
     Normal(NormalBsdf),
     /// plastic2, metal2, trans2 (`aniso.c`).
     Aniso(super::aniso::AnisoBsdf),
+    /// BSDF, aBSDF (`m_bsdf.c`).
+    Klems(super::bsdf::KlemsSurface),
     /// ashik2 (`ashikhmin.c`).
     Ashik(super::ashik::AshikBsdf),
     /// BRTDfunc and the function- and data-defined BRDFs (`m_brdf.c`).
@@ -248,6 +250,7 @@ impl Surface {
             Surface::Aniso(b) => b.coefficient(ldir, omega),
             Surface::Ashik(b) => b.coefficient(ldir, omega),
             Surface::Func(b) => b.coefficient(scene, ldir, omega),
+            Surface::Klems(b) => b.coefficient(scene, ldir, omega),
             Surface::Scatter(s) => s.coefficient(ldir, omega),
         }
     }
@@ -259,6 +262,7 @@ impl Surface {
             Surface::Aniso(b) => b.is_black_to_lights(),
             Surface::Ashik(b) => b.is_black_to_lights(),
             Surface::Func(_) => false,
+            Surface::Klems(_) => false,
             Surface::Scatter(s) => s.factor.max_element() <= 0.0,
         }
     }
@@ -276,6 +280,7 @@ impl Surface {
                 b.scolor *= f;
             }
             Surface::Func(b) => b.scale *= f,
+            Surface::Klems(b) => b.scale *= f,
             Surface::Scatter(s) => s.factor *= f,
         }
     }
@@ -885,6 +890,21 @@ fn shade_material(
                 v_power: *v_power,
             };
             shaded.base += super::ashik::shade_ashik(em, &p, *direction, flat, &ap) * scale
+        }
+        Material::Bsdf {
+            data,
+            rdiff_front,
+            rdiff_back,
+            tdiff,
+            direction,
+        } => {
+            let p = super::bsdf::BsdfParams {
+                data: *data,
+                rdiff_front: *rdiff_front,
+                rdiff_back: *rdiff_back,
+                tdiff: *tdiff,
+            };
+            shaded.base += super::bsdf::shade_bsdf(em, &p, *direction, &ap) * scale
         }
         Material::Glass {
             transmission,

@@ -19,6 +19,7 @@ pub mod ambient;
 pub mod aniso;
 pub mod ashik;
 pub mod brdf;
+pub mod bsdf;
 pub mod caster;
 pub mod clip;
 pub mod direct;
@@ -34,6 +35,8 @@ pub mod virtual_source;
 
 #[cfg(test)]
 mod aniso_tests;
+#[cfg(test)]
+mod bsdf_tests;
 
 pub use caster::{BruteForceCaster, BvhCaster, OctreeCaster, RayCaster};
 pub use effects::{Effect, EffectsReport};

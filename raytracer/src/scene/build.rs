@@ -360,7 +360,7 @@ impl Builder {
     }
 
     /// No Radiance primitive or material we read takes integer arguments.
-    fn no_ints(p: &RawPrim) -> Result<()> {
+    pub(super) fn no_ints(p: &RawPrim) -> Result<()> {
         if !p.ints.is_empty() {
             return Err(Error::parse(
                 p.loc.clone(),
@@ -375,7 +375,7 @@ impl Builder {
         Ok(())
     }
 
-    fn reals(p: &RawPrim, allowed: &[usize], meaning: &str) -> Result<()> {
+    pub(super) fn reals(p: &RawPrim, allowed: &[usize], meaning: &str) -> Result<()> {
         if allowed.contains(&p.reals.len()) {
             return Ok(());
         }
@@ -638,6 +638,7 @@ impl Builder {
                 }
             }
             "BRTDfunc" => self.brtd_material(p)?,
+            "BSDF" | "aBSDF" => self.bsdf_material(p)?,
             "plasfunc" | "metfunc" | "transfunc" | "plasdata" | "metdata" | "transdata" => {
                 self.brdf_func_material(p)?
             }
@@ -714,7 +715,7 @@ impl Builder {
     /// Materials we do not simulate: a stand-in and a warning saying which.
     fn substitute(&mut self, p: &RawPrim, t: &str) -> Result<Option<Material>> {
         let (m, what) = match t {
-            "BSDF" | "aBSDF" | "WGMDfunc" => (
+            "WGMDfunc" => (
                 Material::Plastic {
                     color: Color::splat(0.5),
                     specularity: 0.0,

@@ -10,6 +10,7 @@
 //! Every input error names file, line and reason; no input makes a loader
 //! panic, and scene files never run shell commands.
 
+mod bsdf_load;
 mod build;
 mod genbox;
 pub mod generate;

@@ -115,6 +115,17 @@ pub enum Material {
         transmitted_specular: f64,
         direction: crate::modifier::ModifierId,
     },
+    /// Tabulated BSDF from an XML file (`BSDF` with zero thickness,
+    /// `aBSDF`; Radiance's `m_bsdf.c`): the loaded file is
+    /// `Scene::bsdfs[data]`; the diffuse reals are added to the file's
+    /// Lambertian parts; `direction` evaluates the up vector.
+    Bsdf {
+        data: u32,
+        rdiff_front: Color,
+        rdiff_back: Color,
+        tdiff: Color,
+        direction: crate::modifier::ModifierId,
+    },
     /// Ashikhmin-Shirley (`ashik2`; Radiance's `ashikhmin.c`): diffuse
     /// and specular colours, Phong-like exponents along (`u_power`) and
     /// across (`v_power`) the orientation vector `direction`.
@@ -264,6 +275,9 @@ pub struct Scene {
     /// the scene has no antimatter): a ray whose clip set shares a bit
     /// passes through the material's surfaces.
     pub clip_bits: Vec<u64>,
+    /// Loaded BSDF files (`BSDF`, `aBSDF`), shared by the materials that
+    /// name them (empty for most scenes).
+    pub bsdfs: Vec<std::sync::Arc<crate::render::bsdf::KlemsData>>,
 }
 
 impl Scene {

@@ -69,7 +69,7 @@ impl ModState {
             .find(|c| c.is_file())
     }
 
-    fn locate(&self, name: &str, what: &str, p: &RawPrim) -> Result<PathBuf> {
+    pub(super) fn locate(&self, name: &str, what: &str, p: &RawPrim) -> Result<PathBuf> {
         self.find(name, &p.base_dir()).ok_or_else(|| {
             Error::parse(
                 p.loc.clone(),

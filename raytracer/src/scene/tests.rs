@@ -816,10 +816,10 @@ fn unsupported_types_are_named_once_with_their_count() {
 
 #[test]
 fn unsupported_materials_are_substituted_with_a_warning() {
-    let s = load_rad_str("void plastic2 aniso\n4 0 0 1 .\n0\n6 .5 .5 .5 .05 .04 .09\nvoid BSDF b\n6 0 f.xml 0 0 1 .\n0\n0\n", "m.rad").unwrap();
-    // plastic2 is simulated now: only BSDF is substituted.
+    let s = load_rad_str("void plastic2 aniso\n4 0 0 1 .\n0\n6 .5 .5 .5 .05 .04 .09\nvoid WGMDfunc b\n6 0 f.xml 0 0 1 .\n0\n0\n", "m.rad").unwrap();
+    // plastic2 and BSDF are simulated now: only WGMDfunc is substituted.
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
-    assert!(s.warnings[0].1.contains("BSDF"));
+    assert!(s.warnings[0].1.contains("WGMDfunc"));
     assert!(
         matches!(s.materials[0], Material::Aniso { u_rough, v_rough, .. } if u_rough == 0.04 && v_rough == 0.09)
     );
