@@ -21,9 +21,17 @@
 //! 1.8-3.0% nRMSE on patterns, 1.5% on mist and 19-35% on the mesh views;
 //! ours are held to 5%, 6% and 35-50%.
 //!
-//! The glass views wait (`--ignored`): their means are 0.96 and 0.91, and
-//! 98% of `glass_up`'s per-pixel error lies in the 50 pixels of the sun's
-//! highlight on the torus, 20-30% brighter here than in the reference.
+//! `glass_up` (the torus from below, its sun highlight) gives 0.956 mean
+//! and 17.5% nRMSE (Radiance's own 512-pixel runs: 16-18%; the mean moves
+//! by a few % with the irradiance cache's records, 0.994 before normal.c's
+//! W-G-M-D sampling weights); it is held to 5% and 35%. `glass_fish` waits (`--ignored`): mean 0.91, its floor 15-35%
+//! darker than the reference where the irradiance cache interpolates
+//! (at 128 pixels the floor's lower 3/8 gives 0.78 with the cache, 0.86
+//! with brute force `-aa 0 -ad 256`, whose whole-picture mean is still
+//! 0.92: a deficit of 5-8% remains outside the cache), with red and green blotches
+//! (records whose samples met the glowing stripes or the sun highlight on
+//! the torus); the reference's ambient file (`-af glass.amb`) was shared
+//! with the other views' renders.
 //! Scenes that need files the suite lacks (`sunset.hdr`, `vase.rtm`,
 //! `blinds20c.xml`) are loaded by unit tests, not compared.
 //!
@@ -301,7 +309,7 @@ const GLASS: &[&str] = &[
 ];
 
 #[test]
-#[ignore = "mean 0.911 (floor 15-35% darker: irradiance-cache records; red blotches from the glowing stripes), nRMSE 0.19"]
+#[ignore = "mean 0.913 (floor 15-35% darker where the irradiance cache interpolates, 0.9-1.0 with -aa 0; red and green blotches from records near the torus), nRMSE 0.19"]
 fn glass_fish() {
     run(&Case {
         name: "glass_fish",
@@ -316,7 +324,6 @@ fn glass_fish() {
 }
 
 #[test]
-#[ignore = "mean 0.955, nRMSE 0.82: 98% of it in the sun highlight on the torus (its 50 brightest pixels), 20-30% brighter than the reference"]
 fn glass_up() {
     run(&Case {
         name: "glass_up",
@@ -326,7 +333,7 @@ fn glass_up() {
         allowed_warning: Some("sunset.hdr"),
         scale: 4,
         mean_tol: 0.05,
-        rms_tol: 0.5,
+        rms_tol: 0.35,
     });
 }
 

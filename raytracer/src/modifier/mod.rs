@@ -414,6 +414,17 @@ impl<'a> Eval<'a> {
             Some(xf) => xf.vector(d),
         }
     }
+
+    /// A normal perturbation in pattern space to world space: turned by
+    /// the transform but not scaled (Radiance's `t_func()` and `t_data()`
+    /// divide `multv3`'s result by the transform's scale), so a scaled
+    /// object keeps its normals' perturbation.
+    fn pert_to_world(&self, d: Vec3) -> Vec3 {
+        match &self.m.xf {
+            None => d,
+            Some(xf) => xf.vector(d) / xf.scale,
+        }
+    }
 }
 
 /// A few data coordinates without allocating.
@@ -528,7 +539,7 @@ impl Patterns {
                 if let (Some(x), Some(y), Some(z)) =
                     (ev.expr(es[0]), ev.expr(es[1]), ev.expr(es[2]))
                 {
-                    acc.pert += ev.to_world(Vec3::new(x, y, z));
+                    acc.pert += ev.pert_to_world(Vec3::new(x, y, z));
                 }
             }
             Kind::TexData {
@@ -540,7 +551,7 @@ impl Patterns {
                 let Some(d) = Self::data_triple(&ev, funcs, three, data, coords) else {
                     return;
                 };
-                acc.pert += ev.to_world(d);
+                acc.pert += ev.pert_to_world(d);
             }
             Kind::Redirect(_) => {}
             Kind::Mix { fore, back, coef } => {

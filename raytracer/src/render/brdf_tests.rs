@@ -565,15 +565,16 @@ fn degenerate_inputs_give_finite_values_and_counted_failures() {
 
 #[test]
 fn a_plasfunc_of_normal_c_highlight_matches_plastic() {
-    // normal.c's isotropic highlight written in the function language:
+    // normal.c's isotropic highlight (Radiance 5's W-G-M-D form) written
+    // in the function language:
     // the frames, the light-direction arguments, Dx and NxP/RdotP must
     // all agree for the two to match.
     let dir = temp_dir("ward");
     let cal = "a2 = arg(5)*arg(5);\n\
                hn(lx,ly,lz) = (lx-Dx)*NxP + (ly-Dy)*NyP + (lz-Dz)*NzP;\n\
                hh(lx,ly,lz) = (lx-Dx)^2 + (ly-Dy)^2 + (lz-Dz)^2;\n\
-               ward(lx,ly,lz,o) = exp(-(hh(lx,ly,lz) - hn(lx,ly,lz)^2)/hn(lx,ly,lz)^2/a2) /\n\
-                   (4*PI*a2*RdotP*(lx*NxP+ly*NyP+lz*NzP));\n";
+               ward(lx,ly,lz,o) = exp(-(hh(lx,ly,lz) - hn(lx,ly,lz)^2)/hn(lx,ly,lz)^2/a2) *\n\
+                   hh(lx,ly,lz) / (PI*a2*hn(lx,ly,lz)^4);\n";
     let func = load(
         &dir,
         &with_plane("void plasfunc p\n2 ward w.cal\n0\n5 .6 .5 .4 .05 .2\n", "p"),

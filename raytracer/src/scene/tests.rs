@@ -695,6 +695,43 @@ fn patterns_attach_to_materials_in_radiance_order() {
 }
 
 #[test]
+fn texfunc_perturbation_is_turned_but_not_scaled_by_its_transform() {
+    // t_func()/t_data(): the displacement goes through the transform's
+    // matrix and is divided by its scale, so a scaled object (genrev's
+    // smoothed torus scaled by .2) keeps its normals' perturbation.
+    let d = scratch("texfunc-xf");
+    std::fs::write(d.join("b.cal"), "bx = .1;\nby = 0;\nbz = .05;\n").unwrap();
+    let vars = crate::modifier::RayVars {
+        dir: -Vec3::Z,
+        normal: Vec3::Z,
+        point: Vec3::ZERO,
+        t: 1.0,
+        ts: 0.0,
+        uv: [0.0; 2],
+    };
+    let mut perts = Vec::new();
+    for xf in ["", " -s 5", " -rz 90 -s .2", " -rz 90 -s .2 -t 1 2 3"] {
+        let n = 4 + xf.split_whitespace().count();
+        let text = format!(
+            "void texfunc bump\n{n} bx by bz b.cal{xf}\n0\n0\n\
+             bump plastic wall\n0\n0\n5 .5 .5 .5 0 0\n\
+             wall polygon g\n0\n0\n9 0 0 1 1 0 1 0 1 1\n"
+        );
+        let s = load_rad_str(&text, d.join("t.rad")).unwrap();
+        assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+        let mut a = crate::modifier::Applied::NONE;
+        s.patterns
+            .apply(s.mods(s.objects[0].material), &vars, &mut a);
+        perts.push(a.pert);
+    }
+    let close = |a: Vec3, b: Vec3| (a - b).length() < 1e-12;
+    assert!(close(perts[0], Vec3::new(0.1, 0.0, 0.05)), "{:?}", perts[0]);
+    assert!(close(perts[1], perts[0]), "scaled by 5: {:?}", perts[1]);
+    assert!(close(perts[2], Vec3::new(0.0, 0.1, 0.05)), "{:?}", perts[2]);
+    assert!(close(perts[3], perts[2]), "translated: {:?}", perts[3]);
+}
+
+#[test]
 fn colordata_calls_functions_as_radiance_does() {
     // rayinit's red(r,g,b), green(r,g,b), blue(r,g,b): three arguments, so
     // each gets all three data values (p_cdata); noop(v): one, its own.
