@@ -285,6 +285,11 @@ pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
         help: "virtual source pretest density: accepted, no effect (the pretest only drops relays that shadow rays find blocked anyway)",
     },
     RadianceOption {
+        name: "af",
+        arity: 1,
+        help: "ambient file: accepted, no effect (each render computes its own irradiance cache; nothing is read or written)",
+    },
+    RadianceOption {
         name: "u",
         arity: 0,
         help: "uncorrelated sampling -u+/-u-: accepted, no effect (renders stay reproducible from --seed)",
@@ -410,6 +415,8 @@ impl RenderOptions {
             "dp" => {
                 integer(name, v0)?;
             }
+            // The file name is not opened: no file access from options.
+            "af" => {}
             "lw" => self.lw = in_range(name, number(name, v0)?, 0.0, 1.0)?,
             "av" => {
                 let mut c = [0.0; 3];
@@ -596,17 +603,17 @@ mod tests {
         o.apply_words("").unwrap();
     }
 
-    /// The suite's settings as rad writes them: `-dp` and `-u+` are
+    /// The suite's settings as rad writes them: `-dp`, `-af` and `-u+` are
     /// accepted (and change nothing), a bad `-dp` is still an error.
     #[test]
     fn rpict_options_without_effect_are_accepted() {
         let mut o = RenderOptions::default();
-        o.apply_words("-dp 512 -u+ -dr 1 -ms 0.13 -u- -ps 6 -pt .08")
+        o.apply_words("-dp 512 -u+ -dr 1 -ms 0.13 -af glass.amb -u- -ps 6 -pt .08")
             .unwrap();
         let mut plain = RenderOptions::default();
         plain.apply_words("-dr 1 -ms 0.13 -ps 6 -pt .08").unwrap();
         assert_eq!(o, plain);
-        for bad in ["-dp x", "-dp -1", "-u 1"] {
+        for bad in ["-dp x", "-dp -1", "-u 1", "-af"] {
             assert!(o.clone().apply_words(bad).is_err(), "{bad}");
         }
     }
