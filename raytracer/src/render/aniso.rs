@@ -15,8 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use super::ambient::AmbientRequest;
 use super::material::{
-    intens, perturbed_normal, ray_vars, Emitter, RayKind, Surface, FTINY, MAXITER,
-    MAX_SPECULAR_RAYS,
+    intens, ray_vars, Emitter, Facing, RayKind, Surface, FTINY, MAXITER, MAX_SPECULAR_RAYS,
 };
 use super::rng::{child_seed, Rng};
 use crate::geometry::robust::orthonormal_basis;
@@ -307,20 +306,13 @@ pub(crate) fn shade_aniso(
     let ctx = em.ctx;
     let task = em.task;
     let dir = task.ray.dir;
-    let mut ron = em.hit.normal;
-    let mut rod = -dir.dot(ron);
-    let mut pert = ap.pert;
-    if rod < 0.0 {
-        // Back faces are visible (Radiance's -bv default): turn the surface.
-        ron = -ron;
-        rod = -rod;
-        pert = -pert;
-    }
-    let (pnorm, pdot) = if ap.perturbs() {
-        perturbed_normal(ron, rod, dir, pert)
-    } else {
-        (ron, rod)
-    };
+    let Facing {
+        ron,
+        rod,
+        pert,
+        pnorm,
+        pdot,
+    } = Facing::of(em.hit.normal, dir, ap);
     let hit = AnisoHit {
         dir,
         ron,

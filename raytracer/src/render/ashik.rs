@@ -14,9 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::ambient::AmbientRequest;
 use super::aniso::sample_count;
-use super::material::{
-    intens, perturbed_normal, ray_vars, Emitter, RayKind, Surface, FTINY, MAXITER,
-};
+use super::material::{intens, ray_vars, Emitter, Facing, RayKind, Surface, FTINY, MAXITER};
 use super::rng::{child_seed, Rng};
 use crate::geometry::robust::orthonormal_basis;
 use crate::geometry::Vec3;
@@ -173,20 +171,9 @@ pub(crate) fn shade_ashik(
     let ctx = em.ctx;
     let task = em.task;
     let dir = task.ray.dir;
-    let mut ron = em.hit.normal;
-    let mut rod = -dir.dot(ron);
-    let mut pert = ap.pert;
-    if rod < 0.0 {
-        // Back faces are visible (Radiance's -bv default): turn the surface.
-        ron = -ron;
-        rod = -rod;
-        pert = -pert;
-    }
-    let (pnorm, pdot) = if ap.perturbs() {
-        perturbed_normal(ron, rod, dir, pert)
-    } else {
-        (ron, rod)
-    };
+    let Facing {
+        ron, pnorm, pdot, ..
+    } = Facing::of(em.hit.normal, dir, ap);
     let mut vars = ray_vars(task, em.hit, em.uv);
     vars.normal = ron;
     let patterns = &ctx.scene.patterns;

@@ -28,7 +28,7 @@ use std::f64::consts::PI;
 use serde::{Deserialize, Serialize};
 
 use super::ambient::AmbientRequest;
-use super::material::{perturbed_normal, ray_vars, Emitter, RayKind, Surface, FTINY};
+use super::material::{perturbed_normal, ray_vars, Emitter, Facing, RayKind, Surface, FTINY};
 use crate::accel::Hit;
 use crate::geometry::Vec3;
 use crate::image::brightness;
@@ -381,20 +381,13 @@ pub(super) fn shade_brdf_func(
     let task = em.task;
     let hit = em.hit;
     let dir = task.ray.dir;
-    let mut normal = hit.normal;
-    let mut rod = -dir.dot(normal);
-    let mut pert = ap.pert;
-    if rod < 0.0 {
-        // flipsurface(): the functions see the turned surface too.
-        normal = -normal;
-        rod = -rod;
-        pert = -pert;
-    }
-    let (pnorm, pdot) = if ap.perturbs() {
-        perturbed_normal(normal, rod, dir, pert)
-    } else {
-        (normal, rod)
-    };
+    // flipsurface(): the functions see the turned surface too.
+    let Facing {
+        ron: normal,
+        pnorm,
+        pdot,
+        ..
+    } = Facing::of(hit.normal, dir, ap);
     let mcolor = *color * ap.color;
     let Some(p) = Params::of(m, mcolor, true) else {
         return Color::ZERO;

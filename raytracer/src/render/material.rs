@@ -652,6 +652,45 @@ pub(crate) fn perturbed_normal(n: Vec3, rod: f64, dir: Vec3, pert: Vec3) -> (Vec
     (p, newdot)
 }
 
+/// The surface as a ray sees it: Radiance's `flipsurface()` (back faces
+/// are visible, the normal and its perturbation turned towards the ray)
+/// then `raynormal()` (the perturbed normal).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Facing {
+    /// The geometric normal facing the ray, and its cosine with the
+    /// reversed ray (at least 0).
+    pub(crate) ron: Vec3,
+    pub(crate) rod: f64,
+    /// The perturbation, turned with the surface.
+    pub(crate) pert: Vec3,
+    /// The perturbed normal and its cosine with the reversed ray.
+    pub(crate) pnorm: Vec3,
+    pub(crate) pdot: f64,
+}
+
+impl Facing {
+    pub(crate) fn of(normal: Vec3, dir: Vec3, ap: &Applied) -> Self {
+        let (mut ron, mut rod, mut pert) = (normal, -dir.dot(normal), ap.pert);
+        if rod < 0.0 {
+            ron = -ron;
+            rod = -rod;
+            pert = -pert;
+        }
+        let (pnorm, pdot) = if ap.perturbs() {
+            perturbed_normal(ron, rod, dir, pert)
+        } else {
+            (ron, rod)
+        };
+        Facing {
+            ron,
+            rod,
+            pert,
+            pnorm,
+            pdot,
+        }
+    }
+}
+
 /// Shades material `id` with the patterns applied so far (`applied`) and
 /// its own; a mixture shades both sides with their shares.
 fn shade_material(
@@ -1002,23 +1041,13 @@ fn normal(
     let opts = em.ctx.options;
     let task = em.task;
     let dir = task.ray.dir;
-    let mut n = em.hit.normal;
-    let mut rod = -dir.dot(n);
-    let mut pert = ap.pert;
-    if rod < 0.0 && !opts.bv && kind != Kind::Trans {
+    if -dir.dot(em.hit.normal) < 0.0 && !opts.bv && kind != Kind::Trans {
         // -bv-: plastic and metal back faces let rays through (m_normal's raytrans).
         em.spawn(RayKind::PassThrough, dir, Color::ONE, task.extinction);
         return Color::ZERO;
     }
-    if rod < 0.0 {
-        // Back faces are visible (Radiance's -bv default): turn the surface.
-        n = -n;
-        rod = -rod;
-        pert = -pert;
-    }
-    if ap.perturbs() {
-        (n, rod) = perturbed_normal(n, rod, dir, pert);
-    }
+    let facing = Facing::of(em.hit.normal, dir, ap);
+    let (n, rod) = (facing.pnorm, facing.pdot);
     let mut b = NormalBsdf {
         mcolor: color * ap.color,
         scolor: Color::ZERO,
@@ -1093,12 +1122,7 @@ fn normal(
     }
     if !pure {
         // The sampled rays are kept above the unperturbed surface.
-        let (ron, rod) = if -dir.dot(em.hit.normal) < 0.0 {
-            (-em.hit.normal, dir.dot(em.hit.normal))
-        } else {
-            (em.hit.normal, -dir.dot(em.hit.normal))
-        };
-        gaussamp(em, &b, ron, rod);
+        gaussamp(em, &b, facing.ron, facing.rod);
     }
     let mut base = Color::ZERO;
     let av = opts.av;
@@ -1274,16 +1298,10 @@ pub fn glass_coefficients(transmission: Color, index: f64, pdot: f64) -> (Color,
 
 fn glass(em: &mut Emitter, transmission: Color, index: f64, ap: &Applied) {
     let dir = em.task.ray.dir;
-    let mut n = em.hit.normal;
-    let mut pdot = -dir.dot(n);
-    let mut pert = ap.pert;
-    if pdot < 0.0 {
-        n = -n;
-        pdot = -pdot;
-        pert = -pert;
-    }
+    let Facing {
+        pnorm: n, mut pdot, ..
+    } = Facing::of(em.hit.normal, dir, ap);
     if ap.perturbs() {
-        (n, pdot) = perturbed_normal(n, pdot, dir, pert);
         pdot = pdot.max(1e-6);
     }
     let (trans, refl) = glass_coefficients(transmission, index, pdot);
