@@ -214,8 +214,8 @@ impl<'a> ShadowAim<'a> {
 
 /// Transmission of the shadow ray of bundle `b` towards a sample of
 /// `light` in unit direction `dir` at distance `dist` (see
-/// [`shadow_transmission`]; a virtual source's ray must be relayed by its
-/// mirrors).
+/// [`shadow_transmission_aimed`]; a virtual source's ray must be relayed
+/// by its mirrors).
 pub fn shadow_to_light<C: RayCaster + ?Sized>(
     ctx: &ShadeContext,
     caster: &C,
@@ -244,52 +244,17 @@ pub fn shadow_to_light<C: RayCaster + ?Sized>(
 }
 
 /// Transmission along a shadow ray from the surface point `p` (normal `n`)
-/// in unit direction `dir` over `dist` (infinite for distant sources), with
-/// the source object `target` itself not counting as an occluder. 1 if
-/// unoccluded, 0 if blocked, between for glass on the way. `medium` is the
-/// extinction and medium the ray starts in (`None` outside media): the ray
-/// loses the absorbed part over every segment, and mists it crosses change
-/// the medium.
-#[allow(clippy::too_many_arguments)]
-pub fn shadow_transmission<C: RayCaster + ?Sized>(
-    ctx: &ShadeContext,
-    caster: &C,
-    p: Vec3,
-    n: Vec3,
-    offset_scale: f64,
-    dir: Vec3,
-    dist: f64,
-    target: Option<ObjectId>,
-    weak_target: bool,
-    counts: &mut ShadowCounts,
-) -> Color {
-    let aim = ShadowAim {
-        target,
-        cone: None,
-        relays: &[],
-        weak: weak_target,
-    };
-    shadow_transmission_aimed(
-        ctx,
-        caster,
-        p,
-        n,
-        offset_scale,
-        dir,
-        dist,
-        &aim,
-        0,
-        None,
-        counts,
-    )
-}
-
-/// [`shadow_transmission`] towards `aim`, for a ray with antimatter clip
-/// set `clip`. As Radiance's shadow rays: glass and clear trans filter the
-/// ray, a dielectric or interface refracts it (with its Fresnel
-/// transmission and absorption; a refracted ray counts only if it still
-/// reaches the source), antimatter and clipped surfaces let it pass, and a
-/// virtual source's mirrors reflect it in turn.
+/// in unit direction `dir` over `dist` (infinite for distant sources)
+/// towards `aim` (its source object does not count as an occluder), for a
+/// ray with antimatter clip set `clip`: 1 if unoccluded, 0 if blocked,
+/// between for glass on the way. `medium` is the extinction and medium the
+/// ray starts in (`None` outside media): the ray loses the absorbed part
+/// over every segment, and mists it crosses change the medium. As
+/// Radiance's shadow rays: glass and clear trans filter the ray, a
+/// dielectric or interface refracts it (with its Fresnel transmission and
+/// absorption; a refracted ray counts only if it still reaches the
+/// source), antimatter and clipped surfaces let it pass, and a virtual
+/// source's mirrors reflect it in turn.
 #[allow(clippy::too_many_arguments)]
 pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
     ctx: &ShadeContext,
