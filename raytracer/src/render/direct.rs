@@ -28,7 +28,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::caster::RayCaster;
-use super::light::{LightExtent, PreparedLight};
+use super::light::{LightExtent, PatchSample, PreparedLight};
 use super::material::{
     hit_object, intens, shadow_filter, shadow_refraction, ShadeContext, ShadowBundle, Surface,
     FTINY,
@@ -105,13 +105,12 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
         Surface::Scatter(_) => 0.0,
         _ => opts.ds,
     };
-    light.for_each_patch(ctx.scene, b.point, ds, opts.dj, &mut rng, |s| {
-        let coef = b.surface.coefficient(ctx.scene, s.dir, s.omega);
+    let mut add = |coef: Color, s: &PatchSample| {
         let b = brightness(coef);
         if b.is_nan() || b <= 0.0 {
             return;
         }
-        let val = coef * light.emission(from, &s);
+        let val = coef * light.emission(from, s);
         let brt = brightness(val);
         if brt > 0.0 && brt.is_finite() {
             scratch.push(Contribution {
@@ -122,7 +121,18 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
                 tail: 0.0,
             });
         }
-    });
+    };
+    // The common surface gets a loop of its own: no dispatch per sample.
+    match &b.surface {
+        Surface::Normal(nb) => {
+            light.for_each_patch(ctx.scene, b.point, ds, opts.dj, &mut rng, |s| {
+                add(nb.coefficient(s.dir, s.omega), &s)
+            })
+        }
+        surface => light.for_each_patch(ctx.scene, b.point, ds, opts.dj, &mut rng, |s| {
+            add(surface.coefficient(ctx.scene, s.dir, s.omega), &s)
+        }),
+    }
     let n = scratch.len();
     counts.patches += n as u64;
     if n == 0 {
@@ -141,6 +151,9 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
     } else {
         opts.dt
     };
+    // What every shadow ray of the bundle aims at and starts in.
+    let aim = ShadowAim::of(light);
+    let medium = bundle_medium(ctx, b);
     let mut acc = Color::ZERO;
     let mut nhits = 0u64;
     let mut sn = 0;
@@ -154,7 +167,19 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
             break;
         }
         let c = scratch[sn];
-        let t = shadow_to_light(ctx, caster, b, light, c.dir, c.dist, counts);
+        let t = shadow_transmission_aimed(
+            ctx,
+            caster,
+            b.point,
+            b.normal,
+            b.offset_scale,
+            c.dir,
+            c.dist,
+            &aim,
+            b.clip,
+            medium,
+            counts,
+        );
         counts.tested += 1;
         if intens(t) > FTINY {
             acc += c.val * t;
@@ -212,35 +237,10 @@ impl<'a> ShadowAim<'a> {
     }
 }
 
-/// Transmission of the shadow ray of bundle `b` towards a sample of
-/// `light` in unit direction `dir` at distance `dist` (see
-/// [`shadow_transmission_aimed`]; a virtual source's ray must be relayed
-/// by its mirrors).
-pub fn shadow_to_light<C: RayCaster + ?Sized>(
-    ctx: &ShadeContext,
-    caster: &C,
-    b: &ShadowBundle,
-    light: &PreparedLight,
-    dir: Vec3,
-    dist: f64,
-    counts: &mut ShadowCounts,
-) -> Color {
-    let aim = ShadowAim::of(light);
-    let medium =
-        (ctx.media.active || b.extinction != Color::ZERO).then_some((b.extinction, b.medium));
-    shadow_transmission_aimed(
-        ctx,
-        caster,
-        b.point,
-        b.normal,
-        b.offset_scale,
-        dir,
-        dist,
-        &aim,
-        b.clip,
-        medium,
-        counts,
-    )
+/// The medium bundle `b`'s shadow rays start in (`None` outside media).
+#[inline]
+fn bundle_medium(ctx: &ShadeContext, b: &ShadowBundle) -> Option<(Color, Medium)> {
+    (ctx.media.active || b.extinction != Color::ZERO).then_some((b.extinction, b.medium))
 }
 
 /// Transmission along a shadow ray from the surface point `p` (normal `n`)

@@ -588,8 +588,24 @@ impl PreparedLight {
         if let Some(v) = &self.virt {
             return v.for_each_patch(scene, p, ds, dj, rng, &mut f0);
         }
-        let flen = self.flen;
-        let mut f = |s: PatchSample| f0(spot_focus(s, flen));
+        if self.flen > 0.0 {
+            let flen = self.flen;
+            self.for_each_unfocused(scene, p, ds, dj, rng, |s| f0(spot_focus(s, flen)));
+        } else {
+            self.for_each_unfocused(scene, p, ds, dj, rng, f0);
+        }
+    }
+
+    /// [`PreparedLight::for_each_patch`] without a spotlight's focus.
+    fn for_each_unfocused<F: FnMut(PatchSample)>(
+        &self,
+        scene: &Scene,
+        p: Vec3,
+        ds: f64,
+        dj: f64,
+        rng: &mut Rng,
+        mut f: F,
+    ) {
         match &self.geometry {
             Geometry::Distant {
                 dir,
