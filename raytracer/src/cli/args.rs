@@ -405,10 +405,15 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 512, value_name = "H")]
     pub height: u32,
     /// Output picture: .png (tone mapped) or .hdr (Radiance RGBE). Without -o, or with -o -, a Radiance picture goes to standard output, as rpict writes it.
-    #[arg(short = 'o', long = "output", value_name = "FILE")]
+    #[arg(
+        short = 'o',
+        long = "output",
+        value_name = "FILE",
+        allow_hyphen_values = true
+    )]
     pub output: Option<PathBuf>,
     /// Diagnostics (warnings, errors, log output) appended to this file instead of standard error (also rpict's -e FILE).
-    #[arg(long = "error-file", value_name = "FILE")]
+    #[arg(long = "error-file", value_name = "FILE", allow_hyphen_values = true)]
     pub error_file: Option<PathBuf>,
     /// Write render statistics as JSON to this file.
     #[arg(long, value_name = "FILE")]
@@ -894,5 +899,180 @@ mod tests {
         assert_eq!(r.radiance.ds.as_deref(), Some("0.1"));
         assert_eq!(r.radiance.lr.as_deref(), Some("-3"));
         assert_eq!(r.view_words, s(&["-vtv", "-vp -1 0 2"]));
+    }
+
+    fn render_args(v: &[&str]) -> RenderArgs {
+        let cli = Cli::try_parse_from(translate(s(v))).unwrap();
+        let Command::Render(r) = cli.command else {
+            panic!()
+        };
+        *r
+    }
+
+    #[test]
+    fn rpict_size_error_file_and_irradiance() {
+        let t = translate(s(&[
+            "hybrid-rt",
+            "render",
+            "a.rad",
+            "-x",
+            "64",
+            "-y",
+            "32",
+            "-e",
+            "-log",
+            "-i",
+            "-o",
+            "-",
+        ]));
+        assert_eq!(
+            t,
+            s(&[
+                "hybrid-rt",
+                "render",
+                "a.rad",
+                "--width",
+                "64",
+                "--height",
+                "32",
+                "--error-file",
+                "-log",
+                "--i=+",
+                "-o",
+                "-"
+            ])
+        );
+        let r = render_args(&t.iter().map(String::as_str).collect::<Vec<_>>());
+        assert_eq!((r.width, r.height), (64, 32));
+        assert_eq!(r.error_file, Some(PathBuf::from("-log")));
+        assert_eq!(r.output, Some(PathBuf::from("-")));
+        assert_eq!(r.radiance.i, Some(Switch::On));
+        assert!(r.radiance.given().contains(&("i+", vec![])));
+        // -i- and -i+ as written; no -o at all.
+        let r = render_args(&["hybrid-rt", "render", "a.rad", "-i-", "-bv-"]);
+        assert_eq!(r.radiance.i, Some(Switch::Off));
+        assert_eq!(r.output, None);
+        let given = r.radiance.given();
+        assert!(given.contains(&("i-", vec![])) && given.contains(&("bv-", vec![])));
+        let mut o = crate::render::RenderOptions::default();
+        for (name, values) in render_args(&["hybrid-rt", "render", "a.rad", "-i"])
+            .radiance
+            .given()
+        {
+            o.set(name, &values).unwrap();
+        }
+        assert!(o.irradiance);
+    }
+
+    #[test]
+    fn enums_map_onto_the_internal_types() {
+        let r = render_args(&[
+            "hybrid-rt",
+            "render",
+            "a.rad",
+            "--runtime",
+            "simulated",
+            "--policy",
+            "Load_Aware",
+            "--distribution",
+            "replicated",
+            "--network",
+            "parsytec",
+            "--hemispheres",
+            "extra",
+            "--quality",
+            "HIGH",
+            "--up",
+            "-z",
+        ]);
+        let p = &r.parallel;
+        assert_eq!(
+            crate::parallel::RuntimeKind::from(p.runtime),
+            crate::parallel::RuntimeKind::Sim
+        );
+        assert_eq!(
+            hybrid_sched::Policy::from(p.policy),
+            hybrid_sched::Policy::LoadAware
+        );
+        assert_eq!(
+            crate::parallel::Distribution::from(p.distribution),
+            crate::parallel::Distribution::Replicated
+        );
+        assert_eq!(
+            hybrid_sched::Network::from(p.network).name,
+            hybrid_sched::Network::parsytec_cc().name
+        );
+        assert_eq!(
+            crate::parallel::ambient::HemisphereMode::from(p.hemispheres),
+            crate::parallel::ambient::HemisphereMode::Extra
+        );
+        assert_eq!(r.radiance.quality, Some(Quality::High));
+        assert_eq!(r.up.vector(), -crate::geometry::Vec3::Z);
+        // Every canonical spelling parses as the internal type does, and
+        // means the same.
+        for p in PolicyArg::value_variants() {
+            let internal: hybrid_sched::Policy = value_name(p).parse().unwrap();
+            assert_eq!(internal, hybrid_sched::Policy::from(*p));
+        }
+        for d in DistributionArg::value_variants() {
+            let internal: crate::parallel::Distribution = value_name(d).parse().unwrap();
+            assert_eq!(internal, crate::parallel::Distribution::from(*d));
+        }
+        for h in HemispheresArg::value_variants() {
+            let internal: crate::parallel::ambient::HemisphereMode = value_name(h).parse().unwrap();
+            assert_eq!(internal, crate::parallel::ambient::HemisphereMode::from(*h));
+        }
+        for n in NetworkArg::value_variants() {
+            let name = value_name(n);
+            assert_eq!(
+                hybrid_sched::Network::preset(&name).map(|x| x.name),
+                Some(hybrid_sched::Network::from(*n).name)
+            );
+        }
+        let names: Vec<String> = NetworkArg::value_variants()
+            .iter()
+            .map(value_name)
+            .collect();
+        assert_eq!(names, hybrid_sched::Network::PRESETS);
+        for q in Quality::value_variants() {
+            crate::render::RenderOptions::preset(&value_name(q)).unwrap();
+        }
+        let quality: Vec<String> = Quality::value_variants().iter().map(value_name).collect();
+        assert_eq!(quality, crate::render::QUALITY_PRESETS);
+        let experiments: Vec<String> = ExperimentName::value_variants()
+            .iter()
+            .map(value_name)
+            .filter(|n| n != "all" && n != "calibrate")
+            .collect();
+        assert_eq!(experiments, crate::experiment::NAMES);
+        // Defaults as before.
+        let d = render_args(&["hybrid-rt", "render", "a.rad"]);
+        assert_eq!(d.parallel.runtime, RuntimeArg::Threads);
+        assert_eq!(d.parallel.policy, PolicyArg::Local);
+        assert_eq!(d.parallel.distribution, DistributionArg::Octree);
+        assert_eq!(d.parallel.network, NetworkArg::TenGbe);
+        assert_eq!(d.parallel.hemispheres, HemispheresArg::OneAtATime);
+        assert_eq!(d.up, UpAxis::Y);
+    }
+
+    #[test]
+    fn bad_enum_values_list_every_accepted_value() {
+        let e = Cli::try_parse_from(translate(s(&[
+            "hybrid-rt",
+            "render",
+            "a.rad",
+            "--policy",
+            "fastest",
+        ])))
+        .unwrap_err()
+        .to_string();
+        for p in PolicyArg::value_variants() {
+            assert!(e.contains(&value_name(p)), "{e}");
+        }
+        assert!(e.contains("load-aware"));
+        let e = Cli::try_parse_from(translate(s(&["hybrid-rt", "experiment", "fig99"])))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("table1") && e.contains("calibrate"), "{e}");
     }
 }

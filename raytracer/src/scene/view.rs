@@ -531,10 +531,11 @@ impl View {
         let from = (front + up * 0.5).normalize();
         let v = View::default();
         let distance = radius / (v.vh * 0.5).to_radians().sin();
+        // (+ 0.0 turns -0 into 0 for the VIEW= line.)
         View {
-            vp: centre + from * distance,
-            vd: -from,
-            vu: up,
+            vp: centre + from * distance + Vec3::ZERO,
+            vd: -from + Vec3::ZERO,
+            vu: up + Vec3::ZERO,
             ..v
         }
     }
