@@ -1045,4 +1045,7 @@ fn readme_command_extraction() {
         ]
     );
     assert_eq!(shell_words("a \"b c\" 'd'"), vec!["a", "b c", "d"]);
+    // A bare program name is caught.
+    let bare = std::panic::catch_unwind(|| readme_commands("see `hybrid-rt render --help`"));
+    assert!(bare.is_err());
 }

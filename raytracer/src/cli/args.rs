@@ -295,6 +295,17 @@ pub struct RadianceArgs {
     /// -i+ / -i-: irradiance (Radiance's white Lambertian at the first surfaces seen) instead of radiance [default: -]
     #[arg(long = "i", value_name = "+|-", value_enum)]
     pub i: Option<Switch>,
+    /// -dp: virtual source pretest density: accepted, no effect
+    #[arg(long = "dp", value_name = "N", allow_hyphen_values = true, hide = true)]
+    pub dp: Option<String>,
+    /// -af: ambient file: accepted, no effect (nothing is read or written)
+    #[arg(
+        long = "af",
+        value_name = "FILE",
+        allow_hyphen_values = true,
+        hide = true
+    )]
+    pub af: Option<String>,
     /// -u+ / -u-: uncorrelated sampling: accepted, no effect
     #[arg(long = "u", value_name = "+|-", value_enum, hide = true)]
     pub u: Option<Switch>,
@@ -328,6 +339,8 @@ impl RadianceArgs {
             ("dt", one(&self.dt)),
             ("dc", one(&self.dc)),
             ("dr", one(&self.dr)),
+            ("dp", one(&self.dp)),
+            ("af", one(&self.af)),
             ("lr", one(&self.lr)),
             ("lw", one(&self.lw)),
             (
@@ -949,11 +962,28 @@ mod tests {
         assert_eq!(r.radiance.i, Some(Switch::On));
         assert!(r.radiance.given().contains(&("i+", vec![])));
         // -i- and -i+ as written; no -o at all.
-        let r = render_args(&["hybrid-rt", "render", "a.rad", "-i-", "-bv-"]);
+        let r = render_args(&[
+            "hybrid-rt",
+            "render",
+            "a.rad",
+            "-i-",
+            "-bv-",
+            "-u",
+            "-dp",
+            "32",
+            "-af",
+            "x.amb",
+        ]);
         assert_eq!(r.radiance.i, Some(Switch::Off));
         assert_eq!(r.output, None);
         let given = r.radiance.given();
         assert!(given.contains(&("i-", vec![])) && given.contains(&("bv-", vec![])));
+        assert!(given.contains(&("dp", vec!["32"])) && given.contains(&("af", vec!["x.amb"])));
+        let mut o = crate::render::RenderOptions::default();
+        for (name, values) in given {
+            o.set(name, &values).unwrap();
+        }
+        assert!(!o.irradiance && !o.bv);
         let mut o = crate::render::RenderOptions::default();
         for (name, values) in render_args(&["hybrid-rt", "render", "a.rad", "-i"])
             .radiance
