@@ -816,6 +816,17 @@ fn view_file_may_be_a_radiance_picture() {
         assert!(stderr(&o).contains(name), "{name}: {}", stderr(&o));
         assert!(stderr(&o).contains(says), "{name}: {}", stderr(&o));
     }
+    // Not a regular file: refused, not read forever.
+    #[cfg(unix)]
+    {
+        let o = run(&["render", &rad, "-vf", "/dev/zero", "-o", "x.png"]);
+        assert_eq!(o.status.code(), Some(1));
+        assert!(
+            stderr(&o).contains("/dev/zero: not a regular file"),
+            "{}",
+            stderr(&o)
+        );
+    }
 }
 
 #[test]

@@ -755,4 +755,32 @@ mod tests {
         assert!(e.contains("cannot read view file"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
     }
+
+    #[test]
+    fn framing_sees_the_whole_box_from_the_front() {
+        let (min, max) = (Vec3::new(-3.0, 1.0, 2.0), Vec3::new(5.0, 2.0, 4.0));
+        for (up, front) in [(Vec3::Y, Vec3::Z), (Vec3::Z, -Vec3::Y), (-Vec3::X, Vec3::Z)] {
+            let v = View::framing(min, max, up);
+            v.validate().unwrap();
+            assert_eq!(v.vu, up);
+            let (d, h, u) = v.frame();
+            assert!(d.dot(front) < -0.5, "looks towards -front");
+            assert!(d.dot(up) < 0.0, "from above");
+            let half = (v.vh * 0.5).to_radians().tan();
+            for k in 0..8 {
+                let c = Vec3::new(
+                    if k & 1 == 0 { min.x } else { max.x },
+                    if k & 2 == 0 { min.y } else { max.y },
+                    if k & 4 == 0 { min.z } else { max.z },
+                );
+                let p = c - v.vp;
+                let z = p.dot(d);
+                assert!(z > 0.0);
+                assert!((p.dot(h) / z).abs() < half && (p.dot(u) / z).abs() < half);
+            }
+        }
+        // An empty box: the unit cube around the origin.
+        let v = View::framing(Vec3::INFINITY, Vec3::NEG_INFINITY, Vec3::Y);
+        assert!(v.validate().is_ok() && v.vp.is_finite());
+    }
 }
