@@ -239,7 +239,11 @@ fn bad_inputs_exit_with_code_and_location() {
             2,
             "x.jpg".into(),
         ),
-        (vec![&rad, "-o", &out], 2, "no view".into()),
+        (
+            vec![&rad, "--view-file", &vf, "-o", &out, "--up", "w"],
+            2,
+            "-x, -y, -z".into(),
+        ),
         (
             vec![&rad, "--view-file", &vf, "-o", &out, "--width", "many"],
             2,
@@ -649,4 +653,410 @@ fn scene_from_standard_input_and_any_file_name() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(d.join("out.hdr").is_file());
     std::fs::remove_dir_all(&d).ok();
+}
+
+/// A Radiance picture's header (up to the empty line) and its resolution line.
+fn picture_header(bytes: &[u8]) -> (String, String) {
+    let end = bytes
+        .windows(2)
+        .position(|w| w == b"\n\n")
+        .expect("a header ending in an empty line");
+    let header = String::from_utf8_lossy(&bytes[..end]).into_owned();
+    let rest = &bytes[end + 2..];
+    let nl = rest.iter().position(|&b| b == b'\n').unwrap();
+    (header, String::from_utf8_lossy(&rest[..nl]).into_owned())
+}
+
+fn view_line(header: &str) -> String {
+    header
+        .lines()
+        .find(|l| l.starts_with("VIEW="))
+        .expect("a VIEW= line")
+        .to_string()
+}
+
+#[test]
+fn rpict_sizes_and_the_picture_on_standard_output() {
+    let d = tmpdir("stdout");
+    let (rad, vf) = cornell_files(&d);
+    let hdr = d.join("c.hdr");
+    let long = run(&[
+        "render",
+        &rad,
+        "-vf",
+        &vf,
+        "--width",
+        "20",
+        "--height",
+        "12",
+        "-o",
+        hdr.to_str().unwrap(),
+    ]);
+    assert!(long.status.success(), "{}", stderr(&long));
+    assert!(long.stdout.is_empty(), "nothing on stdout with -o FILE");
+    let file = std::fs::read(&hdr).unwrap();
+    for out in [None, Some("-")] {
+        let mut args = vec!["render", &rad, "-vf", &vf, "-x", "20", "-y", "12"];
+        if let Some(o) = out {
+            args.extend(["-o", o]);
+        }
+        let o = run(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(o.stdout.starts_with(b"#?RADIANCE\n"), "{out:?}");
+        // -x -y are --width --height: the same picture.
+        assert_eq!(o.stdout, file, "{out:?}");
+        let (_, res) = picture_header(&o.stdout);
+        assert_eq!(res, "-Y 12 +X 12");
+        assert!(!stderr(&o).contains("#?RADIANCE"));
+    }
+}
+
+#[test]
+fn error_file_receives_the_diagnostics() {
+    let d = tmpdir("errfile");
+    // A curved mirror: the renderer warns that it relays no sources.
+    let rad = write(
+        &d,
+        "ball.rad",
+        "void mirror m 0 0 3 1 1 1\nm sphere ball 0 0 4 0 3 0 1\n",
+    );
+    let log = d.join("log.txt");
+    let args = |out: &str| {
+        vec![
+            "render".to_string(),
+            rad.to_string_lossy().into_owned(),
+            "-x".into(),
+            "4".into(),
+            "-y".into(),
+            "4".into(),
+            "-e".into(),
+            log.to_string_lossy().into_owned(),
+            "-o".into(),
+            out.into(),
+        ]
+    };
+    let png = d.join("b.png");
+    let a = args(png.to_str().unwrap());
+    let o = exe().args(&a).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stderr(&o), "", "diagnostics go to the file");
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(text.contains("warning: mirror surface \"ball\""), "{text}");
+    assert!(text.contains("view: Radiance's default"), "{text}");
+    // Appended, errors too (and the exit code stays).
+    let o = exe()
+        .args(args(&d.join("x.jpg").to_string_lossy()))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(stderr(&o), "");
+    let text2 = std::fs::read_to_string(&log).unwrap();
+    assert!(text2.starts_with(&text), "appended");
+    assert!(text2[text.len()..].contains("error: "), "{text2}");
+}
+
+#[test]
+fn view_file_may_be_a_radiance_picture() {
+    let d = tmpdir("vfpic");
+    let (rad, _) = cornell_files(&d);
+    let first = d.join("a.hdr");
+    let o = run(&[
+        "render",
+        &rad,
+        "-vtv",
+        "-vp",
+        "0.4",
+        "0.1",
+        "0.1",
+        "-vd",
+        "-1",
+        "0.1",
+        "0",
+        "-vh",
+        "70",
+        "-vv",
+        "50",
+        "-x",
+        "12",
+        "-y",
+        "12",
+        "-o",
+        first.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let a = std::fs::read(&first).unwrap();
+    let o = run(&[
+        "render",
+        &rad,
+        "-vf",
+        first.to_str().unwrap(),
+        "-x",
+        "12",
+        "-y",
+        "12",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (ha, _) = picture_header(&a);
+    let (hb, _) = picture_header(&o.stdout);
+    assert_eq!(view_line(&ha), view_line(&hb));
+    assert!(view_line(&ha).contains("-vh 70 -vv 50"));
+    assert_eq!(a, o.stdout, "the same view renders the same picture");
+    // A picture without a VIEW= line, and one whose header never ends.
+    let mut no_view = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 1\n".to_vec();
+    no_view.extend([0xff, 0x00, 0x80, 0x81]);
+    let endless = [b"#?RADIANCE\n".to_vec(), vec![b'x'; 100_000]].concat();
+    for (name, bytes, says) in [
+        ("none.hdr", no_view, "VIEW="),
+        ("endless.hdr", endless, "header"),
+    ] {
+        let p = d.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        let o = run(&["render", &rad, "-vf", p.to_str().unwrap(), "-o", "x.png"]);
+        assert_eq!(o.status.code(), Some(1), "{name}");
+        assert!(stderr(&o).contains(name), "{name}: {}", stderr(&o));
+        assert!(stderr(&o).contains(says), "{name}: {}", stderr(&o));
+    }
+    // Not a regular file: refused, not read forever.
+    #[cfg(unix)]
+    {
+        let o = run(&["render", &rad, "-vf", "/dev/zero", "-o", "x.png"]);
+        assert_eq!(o.status.code(), Some(1));
+        assert!(
+            stderr(&o).contains("/dev/zero: not a regular file"),
+            "{}",
+            stderr(&o)
+        );
+    }
+}
+
+#[test]
+fn default_view_beside_the_scene_else_radiance_s() {
+    let d = tmpdir("defview");
+    let (rad, vf) = cornell_files(&d);
+    let o = run(&["render", &rad, "-x", "8", "-y", "8"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(&format!("view: {vf} (beside the scene)")),
+        "{}",
+        stderr(&o)
+    );
+    let with_vf = run(&["render", &rad, "-vf", &vf, "-x", "8", "-y", "8"]);
+    assert_eq!(o.stdout, with_vf.stdout);
+    assert!(!stderr(&with_vf).contains("view:"), "only when chosen");
+    std::fs::remove_file(&vf).unwrap();
+    let o = run(&["render", &rad, "-x", "8", "-y", "8"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o)
+        .contains("view: Radiance's default (-vtv -vp 0 0 0 -vd 0 1 0 -vu 0 0 1 -vh 45 -vv 45"));
+    let (h, _) = picture_header(&o.stdout);
+    assert!(view_line(&h).contains("-vp 0 0 0 -vd 0 1 0 -vu 0 0 1 -vh 45 -vv 45"));
+}
+
+#[test]
+fn obj_scenes_are_framed_automatically() {
+    let d = tmpdir("objframe");
+    // A unit cube away from the origin: Radiance's default view (from the
+    // origin along +y) would miss it.
+    let mut obj = String::new();
+    for z in [9.0, 11.0] {
+        for (x, y) in [(4.0, -6.0), (6.0, -6.0), (6.0, -4.0), (4.0, -4.0)] {
+            obj += &format!("v {x} {y} {z}\n");
+        }
+    }
+    obj += "f 1 2 3 4\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+    let scene = write(&d, "box.obj", &obj);
+    let scene = scene.to_str().unwrap();
+    let mut views = Vec::new();
+    for up in [None, Some("z"), Some("-x")] {
+        let mut args = vec!["render", scene, "-av", "1", "1", "1", "-x", "9", "-y", "9"];
+        if let Some(u) = up {
+            args.extend(["--up", u]);
+        }
+        let o = run(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let err = stderr(&o);
+        let want = format!("view: framing the scene's bounds, up {}", up.unwrap_or("y"));
+        assert!(err.contains(&want), "{err}");
+        let img = hybrid_rt::image::hdr::read_hdr(&mut std::io::Cursor::new(&o.stdout)).unwrap();
+        let centre = img.film.get(4, 4);
+        assert!(
+            centre.min_element() > 0.0,
+            "{up:?}: the centre sees the box"
+        );
+        let (h, _) = picture_header(&o.stdout);
+        views.push(view_line(&h));
+    }
+    assert_ne!(views[0], views[1]);
+    assert_ne!(views[1], views[2]);
+    assert!(views[0].contains("-vu 0 1 0"), "{}", views[0]);
+    assert!(views[2].contains("-vu -1 0 0"), "{}", views[2]);
+}
+
+#[test]
+fn enumerated_options_list_every_value() {
+    let o = run(&["render", "--help"]);
+    let help = String::from_utf8_lossy(&o.stdout);
+    for value in [
+        "replicated",
+        "load-aware",
+        "one-at-a-time",
+        "parsytec-cc",
+        "draft",
+    ] {
+        assert!(help.contains(value), "render --help lacks {value}");
+    }
+    let d = tmpdir("enums");
+    let (rad, vf) = cornell_files(&d);
+    for (flag, all) in [
+        (
+            "--policy",
+            &[
+                "local",
+                "via-master",
+                "to-origin",
+                "round-robin",
+                "load-aware",
+            ][..],
+        ),
+        (
+            "--distribution",
+            &["octree", "predicted", "replicated", "worst"][..],
+        ),
+        ("--runtime", &["threads", "sequential", "sim", "mpi"][..]),
+        ("--hemispheres", &["one-at-a-time", "extra"][..]),
+        ("--quality", &["draft", "normal", "high"][..]),
+    ] {
+        let o = run(&["render", &rad, "-vf", &vf, flag, "bogus", "-o", "x.png"]);
+        assert_eq!(o.status.code(), Some(2));
+        let err = stderr(&o);
+        for v in all {
+            assert!(err.contains(v), "{flag}: {err} lacks {v}");
+        }
+    }
+    // The other spellings still work, in any case.
+    for (flag, value) in [("--policy", "RR"), ("--distribution", "shared")] {
+        let o = run(&[
+            "render", &rad, "-vf", &vf, "-x", "4", "-y", "4", "--procs", "2", flag, value,
+        ]);
+        assert!(o.status.success(), "{flag} {value}: {}", stderr(&o));
+    }
+    let o = run(&["experiment", "--help"]);
+    let help = String::from_utf8_lossy(&o.stdout);
+    for value in ["table1", "flow", "calibrate"] {
+        assert!(help.contains(value), "experiment --help lacks {value}");
+    }
+}
+
+/// Every `hybrid-rt` command in the README's code (blocks and spans):
+/// the words after `cargo run ... -p hybrid-rt --` or
+/// `target/release/hybrid-rt`, up to a shell operator.
+fn readme_commands(readme: &str) -> Vec<Vec<String>> {
+    let mut snippets = Vec::new();
+    let mut fence: Option<String> = None;
+    for line in readme.lines() {
+        if line.trim_start().starts_with("```") {
+            match fence.take() {
+                Some(block) => snippets.push(block.replace("\\\n", " ")),
+                None => fence = Some(String::new()),
+            }
+            continue;
+        }
+        match &mut fence {
+            Some(block) => {
+                block.push_str(line);
+                block.push('\n');
+            }
+            None => {
+                snippets.extend(line.split('`').skip(1).step_by(2).map(str::to_string));
+            }
+        }
+    }
+    let mut commands = Vec::new();
+    for snippet in &snippets {
+        for line in snippet.lines() {
+            // No bare program name: it is not on the PATH after the quick start.
+            for sub in ["render", "bench", "sweep", "experiment"] {
+                let bare = format!("hybrid-rt {sub}");
+                for (i, _) in line.match_indices(&bare) {
+                    assert!(
+                        line[..i].ends_with("release/"),
+                        "README runs a bare `hybrid-rt`: {line}"
+                    );
+                }
+            }
+            for marker in ["-p hybrid-rt -- ", "target/release/hybrid-rt"] {
+                for (i, _) in line.match_indices(marker) {
+                    let rest = &line[i + marker.len()..];
+                    let rest = if marker.starts_with("-p") {
+                        rest
+                    } else if let Some(r) = rest.strip_prefix(' ') {
+                        r
+                    } else {
+                        continue;
+                    };
+                    let end = rest.find(['|', ';', '>', '&']).unwrap_or(rest.len());
+                    commands.push(shell_words(&rest[..end]));
+                }
+            }
+        }
+    }
+    commands
+}
+
+/// Splits a command line into words as a shell does for plain and quoted words.
+fn shell_words(s: &str) -> Vec<String> {
+    let mut words = Vec::new();
+    let mut word: Option<String> = None;
+    let mut quote: Option<char> = None;
+    for c in s.chars() {
+        match (quote, c) {
+            (Some(q), c) if c == q => quote = None,
+            (Some(_), c) => word.get_or_insert_with(String::new).push(c),
+            (None, '"' | '\'') => {
+                quote = Some(c);
+                word.get_or_insert_with(String::new);
+            }
+            (None, c) if c.is_whitespace() => words.extend(word.take()),
+            (None, c) => word.get_or_insert_with(String::new).push(c),
+        }
+    }
+    words.extend(word);
+    words
+}
+
+#[test]
+fn readme_commands_parse() {
+    use clap::Parser;
+    let readme = include_str!("../../README.md");
+    let commands = readme_commands(readme);
+    assert!(commands.len() >= 10, "found only {commands:?}");
+    for words in commands {
+        let argv: Vec<String> = std::iter::once("hybrid-rt".to_string())
+            .chain(words.iter().cloned())
+            .collect();
+        match hybrid_rt::cli::Cli::try_parse_from(hybrid_rt::cli::translate(argv)) {
+            Ok(_) => {}
+            Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelp => {}
+            Err(e) => panic!("README command {words:?} does not parse: {e}"),
+        }
+    }
+}
+
+#[test]
+fn readme_command_extraction() {
+    let md = "text `cargo run --release -p hybrid-rt -- render a.rad --view \"-vtv -vp 0 0 1\" -o x.png` and\n\
+              ```sh\n\
+              mpirun -np 2 target/release/hybrid-rt bench --scene studio \\\n    --width 8 | tee log\n\
+              ```\n";
+    assert_eq!(
+        readme_commands(md),
+        vec![
+            shell_words("render a.rad --view '-vtv -vp 0 0 1' -o x.png"),
+            shell_words("bench --scene studio --width 8"),
+        ]
+    );
+    assert_eq!(shell_words("a \"b c\" 'd'"), vec!["a", "b c", "d"]);
+    // A bare program name is caught.
+    let bare = std::panic::catch_unwind(|| readme_commands("see `hybrid-rt render --help`"));
+    assert!(bare.is_err());
 }

@@ -4,16 +4,210 @@
 
 use std::path::PathBuf;
 
-use clap::{Args, Parser, Subcommand};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use crate::render::RADIANCE_OPTIONS;
+
+/// The name clap accepts for an enum value (its canonical spelling).
+pub fn value_name<T: ValueEnum>(v: &T) -> String {
+    v.to_possible_value()
+        .map(|p| p.get_name().to_string())
+        .unwrap_or_default()
+}
+
+/// rpict's switch states: `-bv+` / `-bv-`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Switch {
+    #[value(name = "+")]
+    On,
+    #[value(name = "-")]
+    Off,
+}
+
+/// `--quality`: the presets of [`crate::render::RenderOptions::preset`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Quality {
+    Draft,
+    Normal,
+    High,
+}
+
+/// `--runtime`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum RuntimeArg {
+    #[default]
+    Threads,
+    Sequential,
+    #[value(alias = "simulated")]
+    Sim,
+    Mpi,
+}
+
+impl From<RuntimeArg> for crate::parallel::RuntimeKind {
+    fn from(r: RuntimeArg) -> Self {
+        use crate::parallel::RuntimeKind as K;
+        match r {
+            RuntimeArg::Threads => K::Threads,
+            RuntimeArg::Sequential => K::Sequential,
+            RuntimeArg::Sim => K::Sim,
+            RuntimeArg::Mpi => K::Mpi,
+        }
+    }
+}
+
+/// `--policy`: the framework's placement policies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum PolicyArg {
+    #[default]
+    Local,
+    #[value(aliases = ["via_master", "viamaster", "master"])]
+    ViaMaster,
+    #[value(aliases = ["to_origin", "toorigin", "origin"])]
+    ToOrigin,
+    #[value(aliases = ["round_robin", "roundrobin", "rr"])]
+    RoundRobin,
+    #[value(aliases = ["load_aware", "loadaware", "load"])]
+    LoadAware,
+}
+
+impl From<PolicyArg> for hybrid_sched::Policy {
+    fn from(p: PolicyArg) -> Self {
+        use hybrid_sched::Policy as P;
+        match p {
+            PolicyArg::Local => P::Local,
+            PolicyArg::ViaMaster => P::ViaMaster,
+            PolicyArg::ToOrigin => P::ToOrigin,
+            PolicyArg::RoundRobin => P::RoundRobin,
+            PolicyArg::LoadAware => P::LoadAware,
+        }
+    }
+}
+
+/// `--distribution`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum DistributionArg {
+    #[default]
+    #[value(alias = "balanced")]
+    Octree,
+    #[value(aliases = ["cost-predicted", "work"])]
+    Predicted,
+    #[value(alias = "shared")]
+    Replicated,
+    #[value(aliases = ["worst-case", "one"])]
+    Worst,
+}
+
+impl From<DistributionArg> for crate::parallel::Distribution {
+    fn from(d: DistributionArg) -> Self {
+        use crate::parallel::Distribution as D;
+        match d {
+            DistributionArg::Octree => D::Octree,
+            DistributionArg::Predicted => D::Predicted,
+            DistributionArg::Replicated => D::Replicated,
+            DistributionArg::Worst => D::Worst,
+        }
+    }
+}
+
+/// `--network`: the simulated machines.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum NetworkArg {
+    /// The paper's Parsytec CC.
+    #[value(name = "parsytec-cc", aliases = ["parsytec", "parsytec_cc"])]
+    ParsytecCc,
+    /// A cluster on 10 Gbit/s Ethernet.
+    #[default]
+    #[value(name = "10gbe", aliases = ["10gbe-cluster", "ten-gbe"])]
+    TenGbe,
+}
+
+impl From<NetworkArg> for hybrid_sched::Network {
+    fn from(n: NetworkArg) -> Self {
+        match n {
+            NetworkArg::ParsytecCc => hybrid_sched::Network::parsytec_cc(),
+            NetworkArg::TenGbe => hybrid_sched::Network::ten_gbe(),
+        }
+    }
+}
+
+/// `--hemispheres`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum HemispheresArg {
+    #[default]
+    #[value(aliases = ["one", "wait"])]
+    OneAtATime,
+    #[value(aliases = ["accept-extra", "free"])]
+    Extra,
+}
+
+impl From<HemispheresArg> for crate::parallel::ambient::HemisphereMode {
+    fn from(h: HemispheresArg) -> Self {
+        use crate::parallel::ambient::HemisphereMode as H;
+        match h {
+            HemispheresArg::OneAtATime => H::OneAtATime,
+            HemispheresArg::Extra => H::Extra,
+        }
+    }
+}
+
+/// `--up`: the up axis of an OBJ scene framed automatically.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum UpAxis {
+    #[value(name = "x", alias = "+x")]
+    X,
+    #[default]
+    #[value(name = "y", alias = "+y")]
+    Y,
+    #[value(name = "z", alias = "+z")]
+    Z,
+    #[value(name = "-x")]
+    NegX,
+    #[value(name = "-y")]
+    NegY,
+    #[value(name = "-z")]
+    NegZ,
+}
+
+impl UpAxis {
+    /// The axis as a unit vector.
+    pub fn vector(self) -> crate::geometry::Vec3 {
+        use crate::geometry::Vec3;
+        match self {
+            UpAxis::X => Vec3::X,
+            UpAxis::Y => Vec3::Y,
+            UpAxis::Z => Vec3::Z,
+            UpAxis::NegX => -Vec3::X,
+            UpAxis::NegY => -Vec3::Y,
+            UpAxis::NegZ => -Vec3::Z,
+        }
+    }
+}
+
+/// `hybrid-rt experiment NAME`: the paper's experiments
+/// ([`crate::experiment::NAMES`]), all of them, or the calibration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ExperimentName {
+    Table1,
+    Speedup,
+    Efficiency,
+    Clipping,
+    Idle,
+    Communication,
+    Data,
+    Cache,
+    Breakdown,
+    Memory,
+    Flow,
+    All,
+    Calibrate,
+}
 
 #[derive(Debug, Parser)]
 #[command(
     name = "hybrid-rt",
     version,
     about = "A Radiance-style ray tracer, sequential reference of a hybrid-scheduled parallel renderer",
-    after_help = "Radiance options may be written Radiance's way: -ds 0.2 -dj 0.5 -dt 0.05 -dc 0.5 -lr 8 -lw 0.002 -av 0.1 0.1 0.1 -ab 1 -aa 0.1 -ar 256 -ad 512 -as 128 -ps 1, and view options -vf FILE -vtv -vp X Y Z -vd X Y Z -vu X Y Z -vh A -vv A.\nLogging: set RUST_LOG (e.g. RUST_LOG=info)."
+    after_help = "rpict's habits: -x W -y H (--width, --height), -o FILE or no -o for a Radiance picture on standard output, -e FILE (diagnostics appended to FILE), -i (irradiance), -vf FILE (a view file or a Radiance picture's VIEW= line).\nRadiance options may be written Radiance's way: -ds 0.2 -dj 0.5 -dt 0.05 -dc 0.5 -lr 8 -lw 0.002 -av 0.1 0.1 0.1 -ab 1 -aa 0.1 -ar 256 -ad 512 -as 128 -ps 1, and view options -vf FILE -vtv -vp X Y Z -vd X Y Z -vu X Y Z -vh A -vv A.\nLogging: set RUST_LOG (e.g. RUST_LOG=info)."
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -36,8 +230,8 @@ pub enum Command {
 #[derive(Debug, Args, Default)]
 pub struct RadianceArgs {
     /// Quality preset chosen from the sweep's Pareto front: draft, normal or high (Radiance options given as well override it).
-    #[arg(long, value_name = "PRESET")]
-    pub quality: Option<String>,
+    #[arg(long, value_name = "PRESET", value_enum, ignore_case = true)]
+    pub quality: Option<Quality>,
     /// -ds: source subdivision ratio [default: 0.2]
     #[arg(long = "ds", value_name = "RATIO", allow_hyphen_values = true)]
     pub ds: Option<String>,
@@ -96,8 +290,25 @@ pub struct RadianceArgs {
     #[arg(long = "pn", value_name = "N", allow_hyphen_values = true)]
     pub pn: Option<String>,
     /// -bv+ / -bv-: back faces visible, or rays pass through them [default: +]
-    #[arg(long = "bv", value_name = "+|-", value_parser = ["+", "-"])]
-    pub bv: Option<String>,
+    #[arg(long = "bv", value_name = "+|-", value_enum)]
+    pub bv: Option<Switch>,
+    /// -i+ / -i-: irradiance (Radiance's white Lambertian at the first surfaces seen) instead of radiance [default: -]
+    #[arg(long = "i", value_name = "+|-", value_enum)]
+    pub i: Option<Switch>,
+    /// -dp: virtual source pretest density: accepted, no effect
+    #[arg(long = "dp", value_name = "N", allow_hyphen_values = true, hide = true)]
+    pub dp: Option<String>,
+    /// -af: ambient file: accepted, no effect (nothing is read or written)
+    #[arg(
+        long = "af",
+        value_name = "FILE",
+        allow_hyphen_values = true,
+        hide = true
+    )]
+    pub af: Option<String>,
+    /// -u+ / -u-: uncorrelated sampling: accepted, no effect
+    #[arg(long = "u", value_name = "+|-", value_enum, hide = true)]
+    pub u: Option<Switch>,
     /// -me: global medium extinction per unit length [default: 0 0 0]
     #[arg(long = "me", num_args = 3, value_names = ["R", "G", "B"], allow_hyphen_values = true)]
     pub me: Option<Vec<String>>,
@@ -128,6 +339,8 @@ impl RadianceArgs {
             ("dt", one(&self.dt)),
             ("dc", one(&self.dc)),
             ("dr", one(&self.dr)),
+            ("dp", one(&self.dp)),
+            ("af", one(&self.af)),
             ("lr", one(&self.lr)),
             ("lw", one(&self.lw)),
             (
@@ -148,11 +361,25 @@ impl RadianceArgs {
             ("pj", one(&self.pj)),
             ("pn", one(&self.pn)),
             (
-                match self.bv.as_deref() {
-                    Some("-") => "bv-",
+                match self.bv {
+                    Some(Switch::Off) => "bv-",
                     _ => "bv+",
                 },
-                self.bv.as_ref().map(|_| Vec::new()),
+                self.bv.map(|_| Vec::new()),
+            ),
+            (
+                match self.i {
+                    Some(Switch::On) => "i+",
+                    _ => "i-",
+                },
+                self.i.map(|_| Vec::new()),
+            ),
+            (
+                match self.u {
+                    Some(Switch::On) => "u+",
+                    _ => "u-",
+                },
+                self.u.map(|_| Vec::new()),
             ),
             ("me", three(&self.me)),
             ("ma", three(&self.ma)),
@@ -172,24 +399,35 @@ pub struct RenderArgs {
     /// Scene files (.rad or .obj), read in order into one scene.
     #[arg(required = true, value_name = "SCENE")]
     pub scenes: Vec<PathBuf>,
-    /// Radiance view file (also -vf).
+    /// Radiance view file (also -vf), or a Radiance picture whose header's VIEW= line is read. Without any view option: SCENE.vf beside the first scene file, else (OBJ) a view framing the scene, else Radiance's default view.
     #[arg(long = "view-file", value_name = "FILE")]
     pub view_file: Option<PathBuf>,
+    /// Up axis of an OBJ scene framed automatically (no view given).
+    #[arg(long, value_enum, default_value_t = UpAxis::Y, allow_hyphen_values = true)]
+    pub up: UpAxis,
     /// Radiance view options, e.g. "-vtv -vp 0 0 1 -vd 0 1 0 -vh 60 -vv 45" (applied after --view-file; may repeat).
     #[arg(long = "view", value_name = "OPTIONS", allow_hyphen_values = true)]
     pub view: Vec<String>,
     /// View options given Radiance's way on the command line (collected by the translator).
     #[arg(long = "view-words", hide = true, allow_hyphen_values = true)]
     pub view_words: Vec<String>,
-    /// Maximum image width; reduced to keep pixels square (rpict -x).
+    /// Maximum image width; reduced to keep pixels square (also rpict's -x W).
     #[arg(long, default_value_t = 512, value_name = "W")]
     pub width: u32,
-    /// Maximum image height; reduced to keep pixels square (rpict -y).
+    /// Maximum image height; reduced to keep pixels square (also rpict's -y H).
     #[arg(long, default_value_t = 512, value_name = "H")]
     pub height: u32,
-    /// Output picture: .png (tone mapped) or .hdr (Radiance RGBE).
-    #[arg(short = 'o', long = "output", value_name = "FILE")]
-    pub output: PathBuf,
+    /// Output picture: .png (tone mapped) or .hdr (Radiance RGBE). Without -o, or with -o -, a Radiance picture goes to standard output, as rpict writes it.
+    #[arg(
+        short = 'o',
+        long = "output",
+        value_name = "FILE",
+        allow_hyphen_values = true
+    )]
+    pub output: Option<PathBuf>,
+    /// Diagnostics (warnings, errors, log output) appended to this file instead of standard error (also rpict's -e FILE).
+    #[arg(long = "error-file", value_name = "FILE", allow_hyphen_values = true)]
+    pub error_file: Option<PathBuf>,
     /// Write render statistics as JSON to this file.
     #[arg(long, value_name = "FILE")]
     pub stats: Option<PathBuf>,
@@ -219,17 +457,21 @@ pub struct ParallelArgs {
         long,
         default_value = "threads",
         value_name = "RUNTIME",
+        value_enum,
+        ignore_case = true,
         help_heading = "Parallel rendering"
     )]
-    pub runtime: String,
+    pub runtime: RuntimeArg,
     /// Placement of shadow tasks: local, via-master, to-origin, round-robin or load-aware.
     #[arg(
         long,
         default_value = "local",
         value_name = "POLICY",
+        value_enum,
+        ignore_case = true,
         help_heading = "Parallel rendering"
     )]
-    pub policy: String,
+    pub policy: PolicyArg,
     /// Object cache per processor: unlimited, bytes (64M, 512K) or a percentage of the scene data (10%).
     #[arg(
         long,
@@ -243,9 +485,11 @@ pub struct ParallelArgs {
         long,
         default_value = "octree",
         value_name = "D",
+        value_enum,
+        ignore_case = true,
         help_heading = "Parallel rendering"
     )]
-    pub distribution: String,
+    pub distribution: DistributionArg,
     /// Side of the square screen tiles handed out as primary tasks, in pixels.
     #[arg(
         long,
@@ -278,9 +522,11 @@ pub struct ParallelArgs {
         long,
         default_value = "10gbe",
         value_name = "PRESET",
+        value_enum,
+        ignore_case = true,
         help_heading = "Parallel rendering"
     )]
-    pub network: String,
+    pub network: NetworkArg,
     /// Flow control: task and result messages one processor may have unconsumed at another.
     #[arg(
         long,
@@ -300,9 +546,11 @@ pub struct ParallelArgs {
         long,
         default_value = "one-at-a-time",
         value_name = "MODE",
+        value_enum,
+        ignore_case = true,
         help_heading = "Parallel rendering"
     )]
-    pub hemispheres: String,
+    pub hemispheres: HemispheresArg,
     /// Give up with an error after this many seconds of parallel rendering (under MPI: and end every rank).
     #[arg(
         long = "time-limit",
@@ -382,8 +630,9 @@ pub struct SweepArgs {
 /// `hybrid-rt experiment NAME`: the paper's experiments on a simulated cluster.
 #[derive(Debug, Args)]
 pub struct ExperimentArgs {
-    /// table1, speedup, efficiency, clipping, idle, communication, data, cache, breakdown, memory, flow, all; or calibrate (fit the cost model on this machine).
-    pub name: String,
+    /// An experiment, all of them, or calibrate (fit the cost model on this machine).
+    #[arg(value_enum)]
+    pub name: ExperimentName,
     /// Built-in scene (cornell, studio, conference) or a scene file.
     #[arg(long, default_value = "studio")]
     pub scene: String,
@@ -394,8 +643,8 @@ pub struct ExperimentArgs {
     #[arg(long, default_value = "experiments")]
     pub out: PathBuf,
     /// Simulated machine: parsytec-cc (the paper's) or 10gbe.
-    #[arg(long, default_value = "parsytec-cc")]
-    pub network: String,
+    #[arg(long, value_enum, ignore_case = true, default_value = "parsytec-cc")]
+    pub network: NetworkArg,
     /// Image width of the speed-up and per-processor experiments.
     #[arg(long, default_value_t = 256)]
     pub width: u32,
@@ -453,6 +702,8 @@ const VALUE_FLAGS: &[&str] = &[
     "--cache-procs",
     "--cache-size",
     "--reference",
+    "--up",
+    "--error-file",
 ];
 
 /// Number of values each Radiance view option takes.
@@ -466,7 +717,8 @@ fn view_arity(word: &str) -> Option<usize> {
 }
 
 /// Rewrites Radiance-style options into clap's long options: `-ds 0.2`
-/// becomes `--ds 0.2`, `-vf F` becomes `--view-file F`, and view options
+/// becomes `--ds 0.2`, `-vf F` becomes `--view-file F` (`-x`, `-y`, `-e`:
+/// `--width`, `--height`, `--error-file`), `-i` becomes `--i=+`, and view options
 /// (`-vtv -vp 0 0 1 ...`) are collected into one hidden `--view-words`
 /// argument each. Everything else passes through unchanged. Values are
 /// taken verbatim (a negative number is a value, not an option).
@@ -505,8 +757,10 @@ pub fn translate(args: Vec<String>) -> Vec<String> {
         }
         if let Some(opt) = name.and_then(|n| RADIANCE_OPTIONS.iter().find(|o| o.name == n)) {
             if opt.arity == 0 {
-                // A bare switch toggles rpict's default (on).
-                out.push(format!("--{}=-", opt.name));
+                // A bare switch toggles rpict's default (off for -i, on
+                // for the others).
+                let state = if opt.name == "i" { "+" } else { "-" };
+                out.push(format!("--{}={state}", opt.name));
                 continue;
             }
             out.push(format!("--{}", opt.name));
@@ -515,8 +769,14 @@ pub fn translate(args: Vec<String>) -> Vec<String> {
                     out.push(v);
                 }
             }
-        } else if a == "-vf" {
-            out.push("--view-file".into());
+        } else if let Some(long) = match a.as_str() {
+            "-vf" => Some("--view-file"),
+            "-x" => Some("--width"),
+            "-y" => Some("--height"),
+            "-e" => Some("--error-file"),
+            _ => None,
+        } {
+            out.push(long.into());
             if let Some(v) = it.next() {
                 out.push(v);
             }
@@ -652,5 +912,197 @@ mod tests {
         assert_eq!(r.radiance.ds.as_deref(), Some("0.1"));
         assert_eq!(r.radiance.lr.as_deref(), Some("-3"));
         assert_eq!(r.view_words, s(&["-vtv", "-vp -1 0 2"]));
+    }
+
+    fn render_args(v: &[&str]) -> RenderArgs {
+        let cli = Cli::try_parse_from(translate(s(v))).unwrap();
+        let Command::Render(r) = cli.command else {
+            panic!()
+        };
+        *r
+    }
+
+    #[test]
+    fn rpict_size_error_file_and_irradiance() {
+        let t = translate(s(&[
+            "hybrid-rt",
+            "render",
+            "a.rad",
+            "-x",
+            "64",
+            "-y",
+            "32",
+            "-e",
+            "-log",
+            "-i",
+            "-o",
+            "-",
+        ]));
+        assert_eq!(
+            t,
+            s(&[
+                "hybrid-rt",
+                "render",
+                "a.rad",
+                "--width",
+                "64",
+                "--height",
+                "32",
+                "--error-file",
+                "-log",
+                "--i=+",
+                "-o",
+                "-"
+            ])
+        );
+        let r = render_args(&t.iter().map(String::as_str).collect::<Vec<_>>());
+        assert_eq!((r.width, r.height), (64, 32));
+        assert_eq!(r.error_file, Some(PathBuf::from("-log")));
+        assert_eq!(r.output, Some(PathBuf::from("-")));
+        assert_eq!(r.radiance.i, Some(Switch::On));
+        assert!(r.radiance.given().contains(&("i+", vec![])));
+        // -i- and -i+ as written; no -o at all.
+        let r = render_args(&[
+            "hybrid-rt",
+            "render",
+            "a.rad",
+            "-i-",
+            "-bv-",
+            "-u",
+            "-dp",
+            "32",
+            "-af",
+            "x.amb",
+        ]);
+        assert_eq!(r.radiance.i, Some(Switch::Off));
+        assert_eq!(r.output, None);
+        let given = r.radiance.given();
+        assert!(given.contains(&("i-", vec![])) && given.contains(&("bv-", vec![])));
+        assert!(given.contains(&("dp", vec!["32"])) && given.contains(&("af", vec!["x.amb"])));
+        let mut o = crate::render::RenderOptions::default();
+        for (name, values) in given {
+            o.set(name, &values).unwrap();
+        }
+        assert!(!o.irradiance && !o.bv);
+        let mut o = crate::render::RenderOptions::default();
+        for (name, values) in render_args(&["hybrid-rt", "render", "a.rad", "-i"])
+            .radiance
+            .given()
+        {
+            o.set(name, &values).unwrap();
+        }
+        assert!(o.irradiance);
+    }
+
+    #[test]
+    fn enums_map_onto_the_internal_types() {
+        let r = render_args(&[
+            "hybrid-rt",
+            "render",
+            "a.rad",
+            "--runtime",
+            "simulated",
+            "--policy",
+            "Load_Aware",
+            "--distribution",
+            "replicated",
+            "--network",
+            "parsytec",
+            "--hemispheres",
+            "extra",
+            "--quality",
+            "HIGH",
+            "--up",
+            "-z",
+        ]);
+        let p = &r.parallel;
+        assert_eq!(
+            crate::parallel::RuntimeKind::from(p.runtime),
+            crate::parallel::RuntimeKind::Sim
+        );
+        assert_eq!(
+            hybrid_sched::Policy::from(p.policy),
+            hybrid_sched::Policy::LoadAware
+        );
+        assert_eq!(
+            crate::parallel::Distribution::from(p.distribution),
+            crate::parallel::Distribution::Replicated
+        );
+        assert_eq!(
+            hybrid_sched::Network::from(p.network).name,
+            hybrid_sched::Network::parsytec_cc().name
+        );
+        assert_eq!(
+            crate::parallel::ambient::HemisphereMode::from(p.hemispheres),
+            crate::parallel::ambient::HemisphereMode::Extra
+        );
+        assert_eq!(r.radiance.quality, Some(Quality::High));
+        assert_eq!(r.up.vector(), -crate::geometry::Vec3::Z);
+        // Every canonical spelling parses as the internal type does, and
+        // means the same.
+        for p in PolicyArg::value_variants() {
+            let internal: hybrid_sched::Policy = value_name(p).parse().unwrap();
+            assert_eq!(internal, hybrid_sched::Policy::from(*p));
+        }
+        for d in DistributionArg::value_variants() {
+            let internal: crate::parallel::Distribution = value_name(d).parse().unwrap();
+            assert_eq!(internal, crate::parallel::Distribution::from(*d));
+        }
+        for h in HemispheresArg::value_variants() {
+            let internal: crate::parallel::ambient::HemisphereMode = value_name(h).parse().unwrap();
+            assert_eq!(internal, crate::parallel::ambient::HemisphereMode::from(*h));
+        }
+        for n in NetworkArg::value_variants() {
+            let name = value_name(n);
+            assert_eq!(
+                hybrid_sched::Network::preset(&name).map(|x| x.name),
+                Some(hybrid_sched::Network::from(*n).name)
+            );
+        }
+        let names: Vec<String> = NetworkArg::value_variants()
+            .iter()
+            .map(value_name)
+            .collect();
+        assert_eq!(names, hybrid_sched::Network::PRESETS);
+        for q in Quality::value_variants() {
+            crate::render::RenderOptions::preset(&value_name(q)).unwrap();
+        }
+        let quality: Vec<String> = Quality::value_variants().iter().map(value_name).collect();
+        assert_eq!(quality, crate::render::QUALITY_PRESETS);
+        let experiments: Vec<String> = ExperimentName::value_variants()
+            .iter()
+            .map(value_name)
+            .filter(|n| n != "all" && n != "calibrate")
+            .collect();
+        assert_eq!(experiments, crate::experiment::NAMES);
+        // Defaults as before.
+        let d = render_args(&["hybrid-rt", "render", "a.rad"]);
+        assert_eq!(d.parallel.runtime, RuntimeArg::Threads);
+        assert_eq!(d.parallel.policy, PolicyArg::Local);
+        assert_eq!(d.parallel.distribution, DistributionArg::Octree);
+        assert_eq!(d.parallel.network, NetworkArg::TenGbe);
+        assert_eq!(d.parallel.hemispheres, HemispheresArg::OneAtATime);
+        assert_eq!(d.up, UpAxis::Y);
+    }
+
+    #[test]
+    fn bad_enum_values_list_every_accepted_value() {
+        let e = Cli::try_parse_from(translate(s(&[
+            "hybrid-rt",
+            "render",
+            "a.rad",
+            "--policy",
+            "fastest",
+        ])))
+        .unwrap_err()
+        .to_string();
+        for p in PolicyArg::value_variants() {
+            assert!(e.contains(&value_name(p)), "{e}");
+        }
+        assert!(e.contains("load-aware"));
+        let e = Cli::try_parse_from(translate(s(&["hybrid-rt", "experiment", "fig99"])))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("table1") && e.contains("calibrate"), "{e}");
     }
 }

@@ -30,6 +30,11 @@ fn builtin_dir() -> Vec<PathBuf> {
     ]
 }
 
+/// The view file beside a scene file: `SCENE.vf` for `SCENE.rad`.
+pub(super) fn view_file_beside(scene: &Path) -> PathBuf {
+    scene.with_extension("vf")
+}
+
 /// A built-in scene name (cornell, studio, conference) or a scene file, with
 /// its view file (`view_file`, else the `.vf` next to the scene).
 pub(super) fn resolve_scene_view(scene: &str, view_file: Option<&Path>) -> Result<(PathBuf, View)> {
@@ -43,11 +48,11 @@ pub(super) fn resolve_scene_view(scene: &str, view_file: Option<&Path>) -> Resul
                 "built-in scene {scene:?} not found (looked for examples/scenes/{scene}.rad)"
             )));
         };
-        let vf = p.with_extension("vf");
+        let vf = view_file_beside(&p);
         (p, vf)
     } else {
         let p = PathBuf::from(scene);
-        let vf = p.with_extension("vf");
+        let vf = view_file_beside(&p);
         (p, vf)
     };
     if !scene_path.is_file() {

@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use super::args::ExperimentArgs;
+use super::args::{ExperimentArgs, ExperimentName};
 use super::bench::resolve_scene_view;
 use super::{options_from, usage};
 use crate::experiment::{self, Setup};
@@ -21,23 +21,15 @@ pub(super) fn run(a: &ExperimentArgs) -> Result<()> {
     if a.max_procs > 4096 || a.detail_procs > 4096 || a.cache_procs > 4096 {
         return Err(usage("processor counts above 4096 are not supported"));
     }
-    let known =
-        a.name == "all" || a.name == "calibrate" || experiment::NAMES.contains(&a.name.as_str());
-    if !known {
-        return Err(usage(format!(
-            "unknown experiment {:?}: expected all, calibrate or one of {}",
-            a.name,
-            experiment::NAMES.join(", ")
-        )));
-    }
-    let network = super::parallel::network_preset(&a.network)?;
+    let experiment_name = super::args::value_name(&a.name);
+    let network = a.network.into();
     let options = options_from(&a.radiance, 0)?;
     let (path, view) = resolve_scene_view(&a.scene, a.view_file.as_deref())?;
     let (view, w, h) = view.fit_aspect(a.width, a.height);
     let (cview, cw, ch) = view.fit_aspect(a.cache_size, a.cache_size);
     let _ = cview;
     let scene = Arc::new(scene::load(&[&path])?);
-    if a.name == "calibrate" {
+    if a.name == ExperimentName::Calibrate {
         let c = cost::calibrate(scene, options, &view, w as usize, h as usize)?;
         let text =
             serde_json::to_string_pretty(&c).map_err(|e| crate::Error::Other(e.to_string()))?;
@@ -69,7 +61,7 @@ pub(super) fn run(a: &ExperimentArgs) -> Result<()> {
         cache_procs: a.cache_procs,
         seed: a.seed,
     };
-    let written = experiment::run(&a.name, &setup, &a.out)?;
+    let written = experiment::run(&experiment_name, &setup, &a.out)?;
     for o in written {
         println!("{}", o.path.display());
     }

@@ -66,8 +66,8 @@ fn init_logging() {
 
 /// Render options from Radiance arguments and a seed.
 fn options_from(radiance: &args::RadianceArgs, seed: u64) -> Result<RenderOptions> {
-    let mut o = match radiance.quality.as_deref() {
-        Some(q) => RenderOptions::preset(q)?,
+    let mut o = match &radiance.quality {
+        Some(q) => RenderOptions::preset(&args::value_name(q))?,
         None => RenderOptions::default(),
     };
     o.seed = seed;

@@ -15,13 +15,8 @@ use crate::Result;
 /// or `--runtime mpi` (then `--procs` defaults to the number of ranks and
 /// must equal it if given). Starts MPI for `--runtime mpi`.
 pub(super) fn resolve(a: &ParallelArgs) -> Result<Option<ParallelOptions>> {
-    let runtime: RuntimeKind = match (a.procs, a.runtime.parse::<RuntimeKind>()) {
-        (_, Ok(r)) => r,
-        (Some(_), Err(e)) => return Err(usage(format!("--runtime: {e}"))),
-        // Without --procs the render is sequential unless --runtime says mpi.
-        (None, Err(_)) if !a.runtime.trim().eq_ignore_ascii_case("mpi") => return Ok(None),
-        (None, Err(e)) => return Err(usage(format!("--runtime: {e}"))),
-    };
+    // Without --procs the render is sequential unless --runtime says mpi.
+    let runtime = RuntimeKind::from(a.runtime);
     if runtime != RuntimeKind::Mpi {
         return a.procs.map(|n| options(a, n)).transpose();
     }
@@ -66,20 +61,14 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
             )))
         }
     };
-    let policy: Policy = a
-        .policy
-        .parse()
-        .map_err(|e| usage(format!("--policy: {e}")))?;
-    let network = network_preset(&a.network)?;
+    let policy = Policy::from(a.policy);
+    let network = Network::from(a.network);
     if a.credits == 0 {
         return Err(usage("--credits 0: at least one credit per link is needed"));
     }
     Ok(ParallelOptions {
         procs,
-        runtime: a
-            .runtime
-            .parse()
-            .map_err(|e| usage(format!("--runtime: {e}")))?,
+        runtime: a.runtime.into(),
         policy,
         cache: a
             .cache
@@ -88,10 +77,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
         workload: WorkloadOptions {
             tile: a.tile,
             shadow_dp_below: a.shadow_dp_below,
-            distribution: a
-                .distribution
-                .parse()
-                .map_err(|e| usage(format!("--distribution: {e}")))?,
+            distribution: a.distribution.into(),
             clip_cache: a.clip_cache,
         },
         threads: a.threads,
@@ -246,15 +232,4 @@ pub fn summary(r: &ParallelRender) -> String {
         }
     }
     s
-}
-
-/// `--network NAME`: a simulated machine preset, or a usage error naming
-/// the presets.
-pub(super) fn network_preset(name: &str) -> Result<Network> {
-    Network::preset(name).ok_or_else(|| {
-        usage(format!(
-            "--network {name:?}: expected one of {}",
-            Network::PRESETS.join(", ")
-        ))
-    })
 }

@@ -68,9 +68,88 @@ pub(super) fn parse_exposure(s: &str) -> Result<f64> {
     }
 }
 
+/// True when the picture goes to standard output (no `-o`, or `-o -`).
+fn to_stdout(a: &RenderArgs) -> bool {
+    a.output.as_deref().is_none_or(|p| p == Path::new("-"))
+}
+
+/// The output's name for messages.
+fn output_name(a: &RenderArgs) -> String {
+    match &a.output {
+        Some(p) if !to_stdout(a) => p.display().to_string(),
+        _ => "<standard output>".into(),
+    }
+}
+
+/// `-e FILE`: standard error (every diagnostic: warnings, errors, log
+/// output) appended to `path` from now on, as rpict's `-e`.
+#[cfg(unix)]
+fn redirect_stderr(path: &Path) -> Result<()> {
+    use std::os::unix::io::AsRawFd;
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
+        .map_err(|e| Error::io(path, e))?;
+    // SAFETY: dup2 on two open descriptors; `file` stays open until dup2
+    // has returned, and descriptor 2 then refers to the file by itself.
+    if unsafe { libc::dup2(file.as_raw_fd(), 2) } < 0 {
+        return Err(Error::io(path, std::io::Error::last_os_error()));
+    }
+    Ok(())
+}
+
+#[cfg(not(unix))]
+fn redirect_stderr(path: &Path) -> Result<()> {
+    Err(usage(format!(
+        "-e {}: an error file is supported on Unix only; redirect standard error instead",
+        path.display()
+    )))
+}
+
+/// The view when none is given (no `-vf`, `--view` or `-v` option):
+/// `SCENE.vf` beside the first scene file if there is one (as `bench` and
+/// `sweep` find it), else for an OBJ scene none yet (it is framed once
+/// loaded, see [`View::framing`]), else Radiance's default view.
+fn default_view(scenes: &[std::path::PathBuf]) -> Result<Option<View>> {
+    let Some(first) = scenes.first() else {
+        return Ok(Some(View::default()));
+    };
+    let vf = super::bench::view_file_beside(first);
+    if vf.is_file() {
+        let view = build_view(Some(&vf), &[], &[])?;
+        eprintln!("view: {} (beside the scene)", vf.display());
+        return Ok(Some(view));
+    }
+    let obj = first
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+    if obj {
+        return Ok(None);
+    }
+    let view = View::default();
+    eprintln!(
+        "view: Radiance's default ({}), no {} beside the scene",
+        view.to_options(),
+        vf.display()
+    );
+    Ok(Some(view))
+}
+
 pub(super) fn run(a: &RenderArgs) -> Result<()> {
+    if let Some(path) = &a.error_file {
+        redirect_stderr(path)?;
+    }
     // Check everything cheap before the expensive work.
-    ImageFormat::from_path(&a.output)?;
+    if to_stdout(a) {
+        if std::io::stdout().is_terminal() {
+            return Err(usage(
+                "standard output is a terminal: give -o FILE, or redirect the picture (hybrid-rt render ... > picture.hdr)",
+            ));
+        }
+    } else if let Some(path) = &a.output {
+        ImageFormat::from_path(path)?;
+    }
     let options = options_from(&a.radiance, a.seed)?;
     let exposure = a.exposure.as_deref().map(parse_exposure).transpose()?;
     if let Some(g) = a.gamma {
@@ -79,15 +158,33 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
         }
     }
     check_resolution(a.width as usize, a.height as usize)?;
-    let view = build_view(a.view_file.as_deref(), &a.view, &a.view_words)?;
-    let (view, width, height) = view.fit_aspect(a.width, a.height);
-    let (width, height) = (width as usize, height as usize);
-    check_resolution(width, height)?;
+    let given = a.view_file.is_some() || !a.view.is_empty() || !a.view_words.is_empty();
+    let view = if given {
+        Some(build_view(a.view_file.as_deref(), &a.view, &a.view_words)?)
+    } else {
+        default_view(&a.scenes)?
+    };
 
     let popts = super::parallel::resolve(&a.parallel)?;
     let t0 = std::time::Instant::now();
     let scene = Arc::new(scene::load(&a.scenes)?);
     print_scene_warnings(&scene);
+    let view = match view {
+        Some(v) => v,
+        None => {
+            let b = scene.bounds();
+            let v = View::framing(b.min, b.max, a.up.vector());
+            eprintln!(
+                "view: framing the scene's bounds, up {}: {}",
+                super::args::value_name(&a.up),
+                v.to_options()
+            );
+            v
+        }
+    };
+    let (view, width, height) = view.fit_aspect(a.width, a.height);
+    let (width, height) = (width as usize, height as usize);
+    check_resolution(width, height)?;
     tracing::info!(
         objects = scene.stats.objects,
         lights = scene.lights.len(),
@@ -136,7 +233,7 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
         primary = stats.rays.primary,
         shadow = stats.rays.shadow.tested,
         "rendered {}",
-        a.output.display()
+        output_name(a)
     );
     Ok(())
 }
@@ -168,7 +265,22 @@ fn write_film(a: &RenderArgs, film: &Film, view: &View, exposure: Option<f64>) -
         view: Some(view.to_options()),
         software: Some(format!("hybrid-rt {}", env!("CARGO_PKG_VERSION"))),
     };
-    write_image(film, &a.output, &tone, &info)
+    match &a.output {
+        Some(path) if !to_stdout(a) => write_image(film, path, &tone, &info),
+        // A Radiance picture on standard output, as rpict writes it.
+        _ => {
+            use std::io::Write;
+            let name = Path::new("<standard output>");
+            let mut w = std::io::BufWriter::new(std::io::stdout().lock());
+            let exposure = match tone.exposure {
+                Exposure::Fixed(e) => e,
+                Exposure::Auto => 1.0,
+            };
+            crate::image::hdr::write_hdr(&mut w, film, exposure, &info)
+                .and_then(|()| w.flush())
+                .map_err(|e| Error::io(name, e))
+        }
+    }
 }
 
 fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
@@ -219,7 +331,7 @@ fn run_ambient_parallel(
     exposure: Option<f64>,
 ) -> Result<()> {
     use crate::parallel::ambient::{render_ambient_parallel, AmbientParallelOptions};
-    let mode = a.parallel.hemispheres.parse().map_err(usage)?;
+    let mode = a.parallel.hemispheres.into();
     let opts = AmbientParallelOptions {
         procs: popts.procs,
         mode,

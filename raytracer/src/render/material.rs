@@ -725,6 +725,13 @@ fn shade_material(
         id = *a;
         material = ctx.scene.material(id);
     }
+    // -i: the first surface seen (a primary ray's, or one continued
+    // through pure transmission: Radiance's crtype test; every other ray
+    // is a level deeper) is shaded as irradiance.
+    if ctx.options.irradiance && task.depth == 0 && irradiance(em, shaded, material, flat, &applied)
+    {
+        return;
+    }
     let mut ap = applied;
     let mods = ctx.scene.mods(id);
     if !mods.is_empty() {
@@ -1014,6 +1021,56 @@ fn shade_material(
             if let Some(Request::Trace { task, .. }) = em.out.get_mut(n) {
                 task.medium = c.medium;
             }
+        }
+    }
+}
+
+/// Radiance's `Lamb`: `plastic` of colour (pi, pi, pi), no specularity,
+/// whose value is the irradiance at the point.
+const LAMB: Color = Color::splat(PI);
+
+/// `-i` at a surface a primary ray sees (Radiance's `rayshade` with
+/// `do_irrad`): light sources, `void` and antimatter shade as usual (false);
+/// the materials Radiance marks `T_IRR_IGN` (trans, trans2, dielectric,
+/// interface, mist, glass) pass the ray on unchanged, and every other
+/// material and mixture is shaded as [`LAMB`] without its patterns (the
+/// mesh's smooth normal stays). True when the point is done.
+fn irradiance(
+    em: &mut Emitter,
+    shaded: &mut Shaded,
+    material: &Material,
+    flat: bool,
+    mesh: &Applied,
+) -> bool {
+    use crate::scene::AnisoKind;
+    match material {
+        Material::Light { .. }
+        | Material::Spotlight { .. }
+        | Material::Glow { .. }
+        | Material::Illum { .. }
+        | Material::Void
+        | Material::Antimatter { .. } => false,
+        Material::Trans { .. }
+        | Material::Aniso {
+            kind: AnisoKind::Trans2,
+            ..
+        }
+        | Material::Dielectric { .. }
+        | Material::Interface { .. }
+        | Material::Mist { .. }
+        | Material::Glass { .. } => {
+            let (dir, ext) = (em.task.ray.dir, em.task.extinction);
+            em.spawn(RayKind::PassThrough, dir, Color::ONE, ext);
+            true
+        }
+        _ => {
+            let ap = Applied {
+                color: Color::ONE,
+                pert: mesh.pert,
+            };
+            let scale = em.scale;
+            shaded.base += normal(em, Kind::Plastic, LAMB, 0.0, 0.0, 0.0, 0.0, flat, &ap) * scale;
+            true
         }
     }
 }

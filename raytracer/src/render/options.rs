@@ -90,6 +90,13 @@ pub struct RenderOptions {
     /// `-ms`: sample spacing of light-source in-scattering in a medium
     /// (0: one sample per ray segment).
     pub ms: f64,
+    /// `-i`: irradiance instead of radiance (Radiance's `do_irrad`): the
+    /// first surface a primary ray meets, or reaches through pure
+    /// transmission, is shaded as a white Lambertian (`Lamb`), so the
+    /// picture's values are irradiance in W/m²; light sources keep their
+    /// radiance, and glass, dielectric, interface, trans, trans2 and mist
+    /// surfaces are passed through.
+    pub irradiance: bool,
 }
 
 impl Default for RenderOptions {
@@ -120,6 +127,7 @@ impl Default for RenderOptions {
             ma: Color::ZERO,
             mg: 0.0,
             ms: 0.0,
+            irradiance: false,
         }
     }
 }
@@ -295,6 +303,11 @@ pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
         help: "uncorrelated sampling -u+/-u-: accepted, no effect (renders stay reproducible from --seed)",
     },
     RadianceOption {
+        name: "i",
+        arity: 0,
+        help: "irradiance: -i+ computes irradiance at the first surfaces seen (a white Lambertian), -i- radiance (default)",
+    },
+    RadianceOption {
         name: "bv",
         arity: 0,
         help: "back faces visible: -bv+ (default) or -bv- (rays pass through back faces)",
@@ -394,6 +407,7 @@ impl RenderOptions {
         if opt.arity == 0 {
             match name {
                 "bv" => self.bv = switch.unwrap_or(!self.bv),
+                "i" => self.irradiance = switch.unwrap_or(!self.irradiance),
                 "u" => {}
                 _ => unreachable!("option table and match disagree"),
             }

@@ -114,6 +114,72 @@ impl Default for View {
 /// Deepest `-vf` nesting.
 const MAX_VF_DEPTH: usize = 8;
 
+/// Largest view file read, in bytes.
+const MAX_VIEW_FILE: u64 = 1 << 20;
+
+/// Largest Radiance picture header read for its `VIEW=` lines, in bytes.
+const MAX_PICTURE_HEADER: u64 = 64 << 10;
+
+/// The text of a view file. A Radiance picture (starting `#?`) gives its
+/// header's `VIEW=` lines (the header is the text up to the first empty
+/// line; the pixels after it are never read), every other header line
+/// left empty so line numbers stay right. Only regular files are read,
+/// and no more than [`MAX_VIEW_FILE`] bytes ([`MAX_PICTURE_HEADER`] of a
+/// picture's header).
+fn read_view_text(path: &Path) -> std::io::Result<String> {
+    use std::io::{BufRead, BufReader, Error as IoError, ErrorKind, Read};
+    let file = std::fs::File::open(path)?;
+    if !file.metadata()?.is_file() {
+        return Err(IoError::new(ErrorKind::InvalidInput, "not a regular file"));
+    }
+    let mut r = BufReader::new(file);
+    if r.fill_buf()?.starts_with(b"#?") {
+        let mut header = Vec::new();
+        let mut text = String::new();
+        let mut found = false;
+        let mut limited = r.take(MAX_PICTURE_HEADER);
+        loop {
+            header.clear();
+            if limited.read_until(b'\n', &mut header)? == 0 || !header.ends_with(b"\n") {
+                return Err(IoError::new(
+                    ErrorKind::InvalidData,
+                    format!(
+                        "Radiance picture header not ended by an empty line within {} KiB",
+                        MAX_PICTURE_HEADER >> 10
+                    ),
+                ));
+            }
+            let line = String::from_utf8_lossy(&header);
+            let line = line.trim_end_matches(['\n', '\r']);
+            if line.is_empty() {
+                break;
+            }
+            if line.trim_start().starts_with("VIEW=") {
+                text.push_str(line.trim_start());
+                found = true;
+            }
+            text.push('\n');
+        }
+        if !found {
+            return Err(IoError::new(
+                ErrorKind::InvalidData,
+                "Radiance picture without a VIEW= line in its header",
+            ));
+        }
+        return Ok(text);
+    }
+    let mut bytes = Vec::new();
+    r.take(MAX_VIEW_FILE + 1).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > MAX_VIEW_FILE {
+        return Err(IoError::new(
+            ErrorKind::InvalidData,
+            format!("larger than {} KiB: not a view file", MAX_VIEW_FILE >> 10),
+        ));
+    }
+    String::from_utf8(bytes)
+        .map_err(|_| IoError::new(ErrorKind::InvalidData, "not text (invalid UTF-8)"))
+}
+
 /// Program names a view line may start with.
 const PROGRAMS: &[&str] = &["rview", "rvu", "rpict", "rtrace", "rtpict", "VIEW="];
 
@@ -148,7 +214,7 @@ impl View {
     }
 
     fn apply_file(&mut self, path: &Path, from: Option<&SourceLoc>, depth: usize) -> Result<()> {
-        let text = std::fs::read_to_string(path).map_err(|e| match from {
+        let text = read_view_text(path).map_err(|e| match from {
             Some(loc) => Error::parse(
                 loc.clone(),
                 format!("cannot read view file '{}': {e}", path.display()),
@@ -442,6 +508,38 @@ impl View {
         (self.clone(), w2 as u32, h2 as u32)
     }
 
+    /// A perspective view (Radiance's 45 by 45 degrees) that sees the whole
+    /// box `min`..`max` with `up` up: from the front and a little above,
+    /// at the distance where the box's bounding sphere fills the view. The
+    /// front is +z for a y up axis (OBJ's convention), -y for z up (as
+    /// Radiance's default view looks along +y) and +z for x up. An empty
+    /// or non-finite box is taken as the unit cube around the origin.
+    pub fn framing(min: Vec3, max: Vec3, up: Vec3) -> View {
+        let ok = min.is_finite() && max.is_finite() && min.cmple(max).all();
+        let (centre, radius) = if ok {
+            ((min + max) * 0.5, (max - min).length() * 0.5)
+        } else {
+            (Vec3::ZERO, 0.0)
+        };
+        let radius = if radius > 0.0 && radius.is_finite() {
+            radius
+        } else {
+            1.0
+        };
+        let up = up.normalize_or(Vec3::Y);
+        let front = if up.z.abs() > 0.5 { -Vec3::Y } else { Vec3::Z };
+        let from = (front + up * 0.5).normalize();
+        let v = View::default();
+        let distance = radius / (v.vh * 0.5).to_radians().sin();
+        // (+ 0.0 turns -0 into 0 for the VIEW= line.)
+        View {
+            vp: centre + from * distance + Vec3::ZERO,
+            vd: -from + Vec3::ZERO,
+            vu: up + Vec3::ZERO,
+            ..v
+        }
+    }
+
     /// The view as Radiance options (`-vtv -vp ... -va ...`).
     pub fn to_options(&self) -> String {
         let v = |a: Vec3| format!("{} {} {}", a.x, a.y, a.z);
@@ -656,5 +754,33 @@ mod tests {
             .to_string();
         assert!(e.contains("cannot read view file"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn framing_sees_the_whole_box_from_the_front() {
+        let (min, max) = (Vec3::new(-3.0, 1.0, 2.0), Vec3::new(5.0, 2.0, 4.0));
+        for (up, front) in [(Vec3::Y, Vec3::Z), (Vec3::Z, -Vec3::Y), (-Vec3::X, Vec3::Z)] {
+            let v = View::framing(min, max, up);
+            v.validate().unwrap();
+            assert_eq!(v.vu, up);
+            let (d, h, u) = v.frame();
+            assert!(d.dot(front) < -0.5, "looks towards -front");
+            assert!(d.dot(up) < 0.0, "from above");
+            let half = (v.vh * 0.5).to_radians().tan();
+            for k in 0..8 {
+                let c = Vec3::new(
+                    if k & 1 == 0 { min.x } else { max.x },
+                    if k & 2 == 0 { min.y } else { max.y },
+                    if k & 4 == 0 { min.z } else { max.z },
+                );
+                let p = c - v.vp;
+                let z = p.dot(d);
+                assert!(z > 0.0);
+                assert!((p.dot(h) / z).abs() < half && (p.dot(u) / z).abs() < half);
+            }
+        }
+        // An empty box: the unit cube around the origin.
+        let v = View::framing(Vec3::INFINITY, Vec3::NEG_INFINITY, Vec3::Y);
+        assert!(v.validate().is_ok() && v.vp.is_finite());
     }
 }
