@@ -425,6 +425,7 @@ impl PreparedLight {
     /// False if no part of the source can send light to `p` (the point is
     /// behind a one-sided flat source, or inside a spherical one): a cheap
     /// test that saves running an empty shadow bundle.
+    #[inline]
     pub fn may_reach(&self, p: Vec3) -> bool {
         if let Some(v) = &self.virt {
             return v.may_reach(p);
@@ -440,6 +441,7 @@ impl PreparedLight {
     /// Emitted radiance from a sample towards the shaded point `from`,
     /// after the light material (glow's radius of influence, spotlight's
     /// cone) and its patterns (evaluated for the shadow ray from `from`).
+    #[inline]
     pub fn emission(&self, from: Vec3, s: &PatchSample) -> Color {
         if let Some(v) = &self.virt {
             return v.emission(from, s);
@@ -448,6 +450,12 @@ impl PreparedLight {
         if self.mods.is_empty() || c == Color::ZERO {
             return c;
         }
+        self.patterned(from, s, c)
+    }
+
+    /// `c` times the light's patterns for the sample `s` seen from `from`.
+    #[inline(never)]
+    fn patterned(&self, from: Vec3, s: &PatchSample, c: Color) -> Color {
         let point = if s.dist.is_finite() {
             from + s.dir * s.dist
         } else {
@@ -472,6 +480,7 @@ impl PreparedLight {
         c * a.color
     }
 
+    #[inline]
     fn bare_emission(&self, s: &PatchSample) -> Color {
         match &self.material {
             Material::Light { radiance } | Material::Illum { radiance, .. } => *radiance,
