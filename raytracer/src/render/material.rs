@@ -1186,15 +1186,10 @@ fn normal(
     if opts.ab > task.ambient && em.ctx.effects.diffuse_interreflection.enabled {
         // Diffuse inter-reflection replaces the constant ambient term.
         if b.rdiff > FTINY {
-            let f = if b.specfl & spec::RBLT != 0 {
-                1.0 - b.trans
-            } else {
-                b.rdiff
-            };
             em.want_ambient(AmbientRequest {
                 point: em.hit.point,
                 normal: n,
-                coef: b.mcolor * f,
+                coef: reflected_ambient(&b),
                 offset_scale: em.offset_scale,
                 side: 0,
             });
@@ -1215,12 +1210,7 @@ fn normal(
         }
     } else if av != Color::ZERO {
         if b.rdiff > FTINY {
-            let f = if b.specfl & spec::RBLT != 0 {
-                1.0 - b.trans
-            } else {
-                b.rdiff
-            };
-            base += b.mcolor * f * av;
+            base += reflected_ambient(&b) * av;
         }
         if b.tdiff > FTINY {
             let f = if b.specfl & spec::TBLT != 0 {
@@ -1233,6 +1223,19 @@ fn normal(
     }
     em.direct(&Surface::Normal(b), base * em.scale);
     base
+}
+
+/// The coefficient of ambient light on the reflected side (normal.c):
+/// the diffuse reflection, plus the specular one when it is below the
+/// `-st` threshold and so not sampled (white for plastic, the material's
+/// colour for metal: `scolor`).
+fn reflected_ambient(b: &NormalBsdf) -> Color {
+    let diffuse = b.mcolor * b.rdiff;
+    if b.specfl & spec::RBLT != 0 {
+        diffuse + b.scolor
+    } else {
+        diffuse
+    }
 }
 
 /// `gaussamp()`: one sampled ray for a rough specular reflection and/or
