@@ -199,6 +199,15 @@ pub struct RenderArgs {
     /// Display gamma for PNG instead of the sRGB curve.
     #[arg(long, value_name = "G")]
     pub gamma: Option<f64>,
+    /// Tone operator for PNG output [default: reinhard; exposure when --exposure is given].
+    #[arg(long, value_enum, value_name = "OPERATOR")]
+    pub tone: Option<crate::image::ToneOperator>,
+    /// --tone reinhard: the percentile of luminance that maps to white [default: 100, the brightest pixel].
+    #[arg(long = "tone-white", value_name = "PERCENT")]
+    pub tone_white: Option<f64>,
+    /// rpict -t: a progress report on stderr every N seconds (0: none).
+    #[arg(short = 't', long = "report", value_name = "N")]
+    pub report: Option<u64>,
     /// Seed of the random streams.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -431,6 +440,7 @@ const VALUE_FLAGS: &[&str] = &[
     "--stats",
     "--exposure",
     "--gamma",
+    "-t",
     "--seed",
     "--width",
     "--height",

@@ -6,6 +6,7 @@
 
 mod args;
 mod bench;
+mod console;
 mod experiment;
 mod parallel;
 mod render;
@@ -54,13 +55,17 @@ pub fn main() -> i32 {
     }
 }
 
-/// `tracing` to stderr, filtered by `RUST_LOG` (default: warnings).
+/// `tracing` to stderr, filtered by `RUST_LOG` (default: warnings), in
+/// colour only on a terminal and without `NO_COLOR` (<https://no-color.org>).
 fn init_logging() {
+    use std::io::IsTerminal;
     use tracing_subscriber::EnvFilter;
     let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("warn"));
+    let no_color = std::env::var_os("NO_COLOR").is_some_and(|v| !v.is_empty());
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal() && !no_color)
         .try_init();
 }
 

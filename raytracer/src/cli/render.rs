@@ -1,16 +1,17 @@
 //! `hybrid-rt render`.
 
-use std::io::IsTerminal;
 use std::path::Path;
 use std::sync::Arc;
-
-use indicatif::{ProgressBar, ProgressStyle};
+use std::time::Instant;
 
 use super::args::RenderArgs;
+use super::console::{summary_line, Progress, Rays};
 use super::{options_from, print_scene_warnings, usage};
 use crate::image::Film;
-use crate::image::{write_image, Exposure, HdrInfo, ImageFormat, ToneMap, Transfer};
-use crate::parallel::{render_parallel_ranked, ParallelOptions};
+use crate::image::{
+    write_image, Exposure, HdrInfo, ImageFormat, Reinhard, ToneMap, ToneOperator, Transfer,
+};
+use crate::parallel::{render_parallel_with_progress, ParallelOptions};
 use crate::render::{check_resolution, RenderOptions, Renderer};
 use crate::scene::{self, View};
 use crate::{Error, Result, SourceLoc};
@@ -69,6 +70,7 @@ pub(super) fn parse_exposure(s: &str) -> Result<f64> {
 }
 
 pub(super) fn run(a: &RenderArgs) -> Result<()> {
+    let start = Instant::now();
     // Check everything cheap before the expensive work.
     ImageFormat::from_path(&a.output)?;
     let options = options_from(&a.radiance, a.seed)?;
@@ -78,6 +80,7 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
             return Err(usage(format!("--gamma {g}: must be a positive number")));
         }
     }
+    tone_map(a, exposure)?;
     check_resolution(a.width as usize, a.height as usize)?;
     let view = build_view(a.view_file.as_deref(), &a.view, &a.view_words)?;
     let (view, width, height) = view.fit_aspect(a.width, a.height);
@@ -88,19 +91,28 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
     let scene = Arc::new(scene::load(&a.scenes)?);
     print_scene_warnings(&scene);
+    let bounds = scene.bounds();
     tracing::info!(
         objects = scene.stats.objects,
+        primitives = scene.stats.primitives,
+        instances = scene.stats.instances,
+        materials = scene.stats.materials,
         lights = scene.lights.len(),
+        bounds = ?(bounds.min.to_array(), bounds.max.to_array()),
         seconds = t0.elapsed().as_secs_f64(),
         "scene loaded"
     );
+    tracing::debug!(?options, width, height, view = %view.to_options(), "render options");
     if let Some(popts) = popts {
+        tracing::debug!(?popts, "parallel options");
         if options.ab > 0 {
             return run_ambient_parallel(
-                a, &scene, options, &view, width, height, &popts, exposure,
+                a, &scene, options, &view, width, height, &popts, exposure, start,
             );
         }
-        return run_parallel(a, scene, options, &view, width, height, &popts, exposure);
+        return run_parallel(
+            a, scene, options, &view, width, height, &popts, exposure, start,
+        );
     }
     let renderer = Renderer::new(&scene, options)?;
     for w in renderer.warnings() {
@@ -108,23 +120,23 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
     }
     tracing::info!(effects = ?renderer.effects(), "effects");
 
-    let bar = if std::io::stderr().is_terminal() && width * height >= 64 * 64 {
-        let b = ProgressBar::new(height as u64);
-        if let Ok(style) = ProgressStyle::with_template(
-            "{spinner} rendering [{bar:40}] {pos}/{len} rows {elapsed_precise} (eta {eta})",
-        ) {
-            b.set_style(style.progress_chars("=> "));
-        }
-        b
-    } else {
-        ProgressBar::hidden()
-    };
-    let (film, stats) = renderer.render_with_progress(&view, width, height, &mut |rows| {
-        bar.set_position(rows as u64)
-    })?;
-    bar.finish_and_clear();
+    let progress = Progress::start(height as u64, "rows", a.report, width * height >= 64 * 64);
+    let (film, stats) = renderer
+        .render_with_progress(&view, width, height, &mut |rows| progress.set(rows as u64))?;
+    progress.finish();
 
     write_film(a, &film, &view, exposure)?;
+    eprintln!(
+        "{}",
+        summary_line(
+            width,
+            height,
+            start.elapsed().as_secs_f64(),
+            stats.time.render_s,
+            Rays::from(&stats.rays),
+            &stats.effects.enabled_names(),
+        )
+    );
     if let Some(path) = &a.stats {
         write_json(path, &stats)?;
     }
@@ -159,11 +171,55 @@ pub(super) fn print_pattern_errors(e: &crate::render::stats::PatternErrors) {
     );
 }
 
-fn write_film(a: &RenderArgs, film: &Film, view: &View, exposure: Option<f64>) -> Result<()> {
-    let tone = ToneMap {
-        exposure: exposure.map_or(Exposure::Auto, Exposure::Fixed),
-        transfer: a.gamma.map_or(Transfer::Srgb, Transfer::Gamma),
+/// The tone map of `--tone`, `--tone-white`, `--exposure` and `--gamma`:
+/// Reinhard's operator unless `--exposure` is given or `--tone exposure`
+/// asked for (then a fixed or, without `--exposure`, automatic exposure).
+pub(super) fn tone_map(a: &RenderArgs, exposure: Option<f64>) -> Result<ToneMap> {
+    let op = a.tone.unwrap_or(if exposure.is_some() {
+        ToneOperator::Exposure
+    } else {
+        ToneOperator::Reinhard
+    });
+    if let Some(p) = a.tone_white {
+        if !(p.is_finite() && p > 0.0 && p <= 100.0) {
+            return Err(usage(format!(
+                "--tone-white {p}: expected a percentile above 0 and at most 100"
+            )));
+        }
+        if op != ToneOperator::Reinhard {
+            return Err(usage("--tone-white applies to --tone reinhard"));
+        }
+    }
+    let exposure = match op {
+        ToneOperator::Reinhard => {
+            if exposure.is_some() {
+                return Err(usage(
+                    "--exposure applies to --tone exposure (Reinhard's operator chooses its own scale)",
+                ));
+            }
+            Exposure::Reinhard(Reinhard {
+                white_percentile: a.tone_white.unwrap_or(100.0),
+                ..Reinhard::default()
+            })
+        }
+        ToneOperator::Exposure => exposure.map_or(Exposure::Auto, Exposure::Fixed),
     };
+    Ok(ToneMap {
+        exposure,
+        transfer: a.gamma.map_or(Transfer::Srgb, Transfer::Gamma),
+    })
+}
+
+fn write_film(a: &RenderArgs, film: &Film, view: &View, exposure: Option<f64>) -> Result<()> {
+    let tone = tone_map(a, exposure)?;
+    if exposure.is_some()
+        && matches!(
+            ImageFormat::from_path(&a.output),
+            Ok(ImageFormat::Exr | ImageFormat::Pfm)
+        )
+    {
+        eprintln!("warning: --exposure does not apply to EXR and PFM output (written unscaled)");
+    }
     let info = HdrInfo {
         view: Some(view.to_options()),
         software: Some(format!("hybrid-rt {}", env!("CARGO_PKG_VERSION"))),
@@ -188,13 +244,47 @@ fn run_parallel(
     height: usize,
     popts: &ParallelOptions,
     exposure: Option<f64>,
+    start: Instant,
 ) -> Result<()> {
-    let Some(out) = render_parallel_ranked(scene, options, view, width, height, popts)? else {
+    let progress = Progress::start((width * height) as u64, "pixels", a.report, true);
+    let out = render_parallel_with_progress(
+        scene,
+        options,
+        view,
+        width,
+        height,
+        popts,
+        Some(progress.counter()),
+    );
+    progress.finish();
+    let Some(out) = out? else {
         // An MPI rank other than 0: rank 0 writes the picture and reports.
         return Ok(());
     };
     eprint!("{}", super::parallel::summary(&out));
     write_film(a, &out.film, view, exposure)?;
+    {
+        use crate::parallel::workload::work;
+        let rays = Rays {
+            primary: out.work(work::RAYS_PRIMARY),
+            shadow: out.work(work::SHADOW_TESTED) + out.work(work::SHADOW_SEGMENTS),
+            other: out.work(work::RAYS_REFLECTION)
+                + out.work(work::RAYS_REFRACTION)
+                + out.work(work::RAYS_PASS_THROUGH)
+                + out.work(work::RAYS_AMBIENT),
+        };
+        eprintln!(
+            "{}",
+            summary_line(
+                width,
+                height,
+                start.elapsed().as_secs_f64(),
+                out.render_s,
+                rays,
+                &out.effects.enabled_names(),
+            )
+        );
+    }
     if let Some(path) = &a.parallel.parallel_stats {
         write_json(path, &out)?;
     }
@@ -217,15 +307,27 @@ fn run_ambient_parallel(
     height: usize,
     popts: &ParallelOptions,
     exposure: Option<f64>,
+    start: Instant,
 ) -> Result<()> {
-    use crate::parallel::ambient::{render_ambient_parallel, AmbientParallelOptions};
+    use crate::parallel::ambient::{render_ambient_parallel_with_progress, AmbientParallelOptions};
     let mode = a.parallel.hemispheres.parse().map_err(usage)?;
     let opts = AmbientParallelOptions {
         procs: popts.procs,
         mode,
         tile: a.parallel.tile,
     };
-    let out = render_ambient_parallel(scene, options, view, width, height, &opts)?;
+    let progress = Progress::start((width * height) as u64, "pixels", a.report, true);
+    let out = render_ambient_parallel_with_progress(
+        scene,
+        options,
+        view,
+        width,
+        height,
+        &opts,
+        Some(progress.counter()),
+    );
+    progress.finish();
+    let out = out?;
     eprintln!(
         "parallel inter-reflection: {} processors, hemispheres {}: {:.3} s; {} hemispheres ({} redundant), {} hemisphere rays, {} pixels retraced, {} waits, {:.3} s idle, {} records",
         opts.procs,
@@ -240,6 +342,17 @@ fn run_ambient_parallel(
         out.records
     );
     write_film(a, &out.film, view, exposure)?;
+    eprintln!(
+        "{}",
+        summary_line(
+            width,
+            height,
+            start.elapsed().as_secs_f64(),
+            out.render_s,
+            Rays::from(&out.rays),
+            &out.effects.enabled_names(),
+        )
+    );
     if let Some(path) = a.parallel.parallel_stats.as_ref().or(a.stats.as_ref()) {
         write_json(path, &out)?;
     }
