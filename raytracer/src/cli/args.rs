@@ -22,7 +22,7 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Render a scene to a PNG or Radiance HDR picture.
+    /// Render a scene to a PNG, Radiance HDR, OpenEXR or PFM picture.
     Render(Box<RenderArgs>),
     /// Measure primary and shadow ray throughput on a scene.
     Bench(Box<BenchArgs>),
@@ -187,13 +187,13 @@ pub struct RenderArgs {
     /// Maximum image height; reduced to keep pixels square (rpict -y).
     #[arg(long, default_value_t = 512, value_name = "H")]
     pub height: u32,
-    /// Output picture: .png (tone mapped) or .hdr (Radiance RGBE).
+    /// Output picture: .png (tone mapped), or linear radiance as .hdr (Radiance RGBE), .exr (OpenEXR) or .pfm.
     #[arg(short = 'o', long = "output", value_name = "FILE")]
     pub output: PathBuf,
     /// Write render statistics as JSON to this file.
     #[arg(long, value_name = "FILE")]
     pub stats: Option<PathBuf>,
-    /// Exposure: a multiplier (2.5) or stops with a sign (+1, -2) like pfilt -e. Default: automatic (mean brightness to 0.5).
+    /// Exposure: a multiplier (2.5) or stops with a sign (+1, -2) like pfilt -e; selects --tone exposure, which without it maps the mean brightness to 0.5.
     #[arg(long, value_name = "E", allow_hyphen_values = true)]
     pub exposure: Option<String>,
     /// Display gamma for PNG instead of the sRGB curve.
