@@ -216,7 +216,7 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Render a scene to a PNG or Radiance HDR picture.
+    /// Render a scene to a PNG, Radiance HDR, OpenEXR or PFM picture.
     Render(Box<RenderArgs>),
     /// Measure primary and shadow ray throughput on a scene.
     Bench(Box<BenchArgs>),
@@ -417,7 +417,7 @@ pub struct RenderArgs {
     /// Maximum image height; reduced to keep pixels square (also rpict's -y H).
     #[arg(long, default_value_t = 512, value_name = "H")]
     pub height: u32,
-    /// Output picture: .png (tone mapped) or .hdr (Radiance RGBE). Without -o, or with -o -, a Radiance picture goes to standard output, as rpict writes it.
+    /// Output picture: .png (tone mapped), or linear radiance as .hdr (Radiance RGBE), .exr (OpenEXR) or .pfm. Without -o, or with -o -, a Radiance picture goes to standard output, as rpict writes it.
     #[arg(
         short = 'o',
         long = "output",
@@ -431,12 +431,21 @@ pub struct RenderArgs {
     /// Write render statistics as JSON to this file.
     #[arg(long, value_name = "FILE")]
     pub stats: Option<PathBuf>,
-    /// Exposure: a multiplier (2.5) or stops with a sign (+1, -2) like pfilt -e. Default: automatic (mean brightness to 0.5).
+    /// Exposure: a multiplier (2.5) or stops with a sign (+1, -2) like pfilt -e; selects --tone exposure, which without it maps the mean brightness to 0.5.
     #[arg(long, value_name = "E", allow_hyphen_values = true)]
     pub exposure: Option<String>,
     /// Display gamma for PNG instead of the sRGB curve.
     #[arg(long, value_name = "G")]
     pub gamma: Option<f64>,
+    /// Tone operator for PNG output [default: reinhard; exposure when --exposure is given].
+    #[arg(long, value_enum, value_name = "OPERATOR")]
+    pub tone: Option<crate::image::ToneOperator>,
+    /// --tone reinhard: the percentile of luminance that maps to white [default: 100, the brightest pixel].
+    #[arg(long = "tone-white", value_name = "PERCENT")]
+    pub tone_white: Option<f64>,
+    /// rpict -t: a progress report on stderr every N seconds (0: none).
+    #[arg(short = 't', long = "report", value_name = "N")]
+    pub report: Option<u64>,
     /// Seed of the random streams.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -680,6 +689,7 @@ const VALUE_FLAGS: &[&str] = &[
     "--stats",
     "--exposure",
     "--gamma",
+    "-t",
     "--seed",
     "--width",
     "--height",

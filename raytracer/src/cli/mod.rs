@@ -6,6 +6,7 @@
 
 mod args;
 mod bench;
+mod console;
 mod experiment;
 mod parallel;
 mod render;
@@ -54,14 +55,27 @@ pub fn main() -> i32 {
     }
 }
 
-/// `tracing` to stderr, filtered by `RUST_LOG` (default: warnings).
+/// `tracing` to stderr, filtered by `RUST_LOG` (default: warnings), in
+/// colour only on a terminal and without `NO_COLOR` (<https://no-color.org>).
 fn init_logging() {
+    use std::io::IsTerminal;
     use tracing_subscriber::EnvFilter;
     let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("warn"));
+    let ansi = use_colour(
+        std::io::stderr().is_terminal(),
+        std::env::var_os("NO_COLOR").as_deref(),
+    );
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
+        .with_ansi(ansi)
         .try_init();
+}
+
+/// Colour codes only on a terminal, and not when `NO_COLOR` is set to
+/// anything but the empty string.
+fn use_colour(terminal: bool, no_color: Option<&std::ffi::OsStr>) -> bool {
+    terminal && no_color.is_none_or(|v| v.is_empty())
 }
 
 /// Render options from Radiance arguments and a seed.
@@ -87,4 +101,19 @@ fn print_scene_warnings(scene: &crate::scene::Scene) {
 
 fn usage(msg: impl Into<String>) -> Error {
     Error::Usage(msg.into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::use_colour;
+    use std::ffi::OsStr;
+
+    #[test]
+    fn colour_only_on_a_terminal_without_no_color() {
+        assert!(use_colour(true, None));
+        assert!(use_colour(true, Some(OsStr::new(""))));
+        assert!(!use_colour(true, Some(OsStr::new("1"))));
+        assert!(!use_colour(false, None));
+        assert!(!use_colour(false, Some(OsStr::new("1"))));
+    }
 }

@@ -1,16 +1,18 @@
 //! `hybrid-rt render`.
 
-use std::io::IsTerminal;
 use std::path::Path;
 use std::sync::Arc;
-
-use indicatif::{ProgressBar, ProgressStyle};
+use std::time::Instant;
 
 use super::args::RenderArgs;
+use super::console::{summary_line, Progress, Rays};
 use super::{options_from, print_scene_warnings, usage};
 use crate::image::Film;
-use crate::image::{write_image, Exposure, HdrInfo, ImageFormat, ToneMap, Transfer};
-use crate::parallel::{render_parallel_ranked, ParallelOptions};
+use crate::image::{
+    encode_image, write_image, Exposure, HdrInfo, ImageFormat, Reinhard, ToneMap, ToneOperator,
+    Transfer,
+};
+use crate::parallel::{render_parallel_with_progress, ParallelOptions};
 use crate::render::{check_resolution, RenderOptions, Renderer};
 use crate::scene::{self, View};
 use crate::{Error, Result, SourceLoc};
@@ -137,12 +139,13 @@ fn default_view(scenes: &[std::path::PathBuf]) -> Result<Option<View>> {
 }
 
 pub(super) fn run(a: &RenderArgs) -> Result<()> {
+    let start = Instant::now();
     if let Some(path) = &a.error_file {
         redirect_stderr(path)?;
     }
     // Check everything cheap before the expensive work.
     if to_stdout(a) {
-        if std::io::stdout().is_terminal() {
+        if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
             return Err(usage(
                 "standard output is a terminal: give -o FILE, or redirect the picture (hybrid-rt render ... > picture.hdr)",
             ));
@@ -157,6 +160,7 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
             return Err(usage(format!("--gamma {g}: must be a positive number")));
         }
     }
+    tone_map(a, exposure)?;
     check_resolution(a.width as usize, a.height as usize)?;
     let given = a.view_file.is_some() || !a.view.is_empty() || !a.view_words.is_empty();
     let view = if given {
@@ -185,19 +189,28 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
     let (view, width, height) = view.fit_aspect(a.width, a.height);
     let (width, height) = (width as usize, height as usize);
     check_resolution(width, height)?;
+    let bounds = scene.bounds();
     tracing::info!(
         objects = scene.stats.objects,
+        primitives = scene.stats.primitives,
+        instances = scene.stats.instances,
+        materials = scene.stats.materials,
         lights = scene.lights.len(),
+        bounds = ?(bounds.min.to_array(), bounds.max.to_array()),
         seconds = t0.elapsed().as_secs_f64(),
         "scene loaded"
     );
+    tracing::debug!(?options, width, height, view = %view.to_options(), "render options");
     if let Some(popts) = popts {
+        tracing::debug!(?popts, "parallel options");
         if options.ab > 0 {
             return run_ambient_parallel(
-                a, &scene, options, &view, width, height, &popts, exposure,
+                a, &scene, options, &view, width, height, &popts, exposure, start,
             );
         }
-        return run_parallel(a, scene, options, &view, width, height, &popts, exposure);
+        return run_parallel(
+            a, scene, options, &view, width, height, &popts, exposure, start,
+        );
     }
     let renderer = Renderer::new(&scene, options)?;
     for w in renderer.warnings() {
@@ -205,23 +218,23 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
     }
     tracing::info!(effects = ?renderer.effects(), "effects");
 
-    let bar = if std::io::stderr().is_terminal() && width * height >= 64 * 64 {
-        let b = ProgressBar::new(height as u64);
-        if let Ok(style) = ProgressStyle::with_template(
-            "{spinner} rendering [{bar:40}] {pos}/{len} rows {elapsed_precise} (eta {eta})",
-        ) {
-            b.set_style(style.progress_chars("=> "));
-        }
-        b
-    } else {
-        ProgressBar::hidden()
-    };
-    let (film, stats) = renderer.render_with_progress(&view, width, height, &mut |rows| {
-        bar.set_position(rows as u64)
-    })?;
-    bar.finish_and_clear();
+    let progress = Progress::start(height as u64, "rows", a.report, width * height >= 64 * 64);
+    let (film, stats) = renderer
+        .render_with_progress(&view, width, height, &mut |rows| progress.set(rows as u64))?;
+    progress.finish();
 
     write_film(a, &film, &view, exposure)?;
+    eprintln!(
+        "{}",
+        summary_line(
+            width,
+            height,
+            start.elapsed().as_secs_f64(),
+            stats.time.render_s,
+            Rays::from(&stats.rays),
+            &stats.effects.enabled_names(),
+        )
+    );
     if let Some(path) = &a.stats {
         write_json(path, &stats)?;
     }
@@ -256,11 +269,55 @@ pub(super) fn print_pattern_errors(e: &crate::render::stats::PatternErrors) {
     );
 }
 
-fn write_film(a: &RenderArgs, film: &Film, view: &View, exposure: Option<f64>) -> Result<()> {
-    let tone = ToneMap {
-        exposure: exposure.map_or(Exposure::Auto, Exposure::Fixed),
-        transfer: a.gamma.map_or(Transfer::Srgb, Transfer::Gamma),
+/// The tone map of `--tone`, `--tone-white`, `--exposure` and `--gamma`:
+/// Reinhard's operator unless `--exposure` is given or `--tone exposure`
+/// asked for (then a fixed or, without `--exposure`, automatic exposure).
+pub(super) fn tone_map(a: &RenderArgs, exposure: Option<f64>) -> Result<ToneMap> {
+    let op = a.tone.unwrap_or(if exposure.is_some() {
+        ToneOperator::Exposure
+    } else {
+        ToneOperator::Reinhard
+    });
+    if let Some(p) = a.tone_white {
+        if !(p.is_finite() && p > 0.0 && p <= 100.0) {
+            return Err(usage(format!(
+                "--tone-white {p}: expected a percentile above 0 and at most 100"
+            )));
+        }
+        if op != ToneOperator::Reinhard {
+            return Err(usage("--tone-white applies to --tone reinhard"));
+        }
+    }
+    let exposure = match op {
+        ToneOperator::Reinhard => {
+            if exposure.is_some() {
+                return Err(usage(
+                    "--exposure applies to --tone exposure (Reinhard's operator chooses its own scale)",
+                ));
+            }
+            Exposure::Reinhard(Reinhard {
+                white_percentile: a.tone_white.unwrap_or(100.0),
+                ..Reinhard::default()
+            })
+        }
+        ToneOperator::Exposure => exposure.map_or(Exposure::Auto, Exposure::Fixed),
     };
+    Ok(ToneMap {
+        exposure,
+        transfer: a.gamma.map_or(Transfer::Srgb, Transfer::Gamma),
+    })
+}
+
+fn write_film(a: &RenderArgs, film: &Film, view: &View, exposure: Option<f64>) -> Result<()> {
+    let tone = tone_map(a, exposure)?;
+    if exposure.is_some()
+        && matches!(
+            a.output.as_deref().map(ImageFormat::from_path),
+            Some(Ok(ImageFormat::Exr | ImageFormat::Pfm))
+        )
+    {
+        eprintln!("warning: --exposure does not apply to EXR and PFM output (written unscaled)");
+    }
     let info = HdrInfo {
         view: Some(view.to_options()),
         software: Some(format!("hybrid-rt {}", env!("CARGO_PKG_VERSION"))),
@@ -272,11 +329,7 @@ fn write_film(a: &RenderArgs, film: &Film, view: &View, exposure: Option<f64>) -
             use std::io::Write;
             let name = Path::new("<standard output>");
             let mut w = std::io::BufWriter::new(std::io::stdout().lock());
-            let exposure = match tone.exposure {
-                Exposure::Fixed(e) => e,
-                Exposure::Auto => 1.0,
-            };
-            crate::image::hdr::write_hdr(&mut w, film, exposure, &info)
+            encode_image(film, ImageFormat::Hdr, &tone, &info, &mut w)
                 .and_then(|()| w.flush())
                 .map_err(|e| Error::io(name, e))
         }
@@ -300,13 +353,47 @@ fn run_parallel(
     height: usize,
     popts: &ParallelOptions,
     exposure: Option<f64>,
+    start: Instant,
 ) -> Result<()> {
-    let Some(out) = render_parallel_ranked(scene, options, view, width, height, popts)? else {
+    let progress = Progress::start((width * height) as u64, "pixels", a.report, true);
+    let out = render_parallel_with_progress(
+        scene,
+        options,
+        view,
+        width,
+        height,
+        popts,
+        Some(progress.counter()),
+    );
+    progress.finish();
+    let Some(out) = out? else {
         // An MPI rank other than 0: rank 0 writes the picture and reports.
         return Ok(());
     };
     eprint!("{}", super::parallel::summary(&out));
     write_film(a, &out.film, view, exposure)?;
+    {
+        use crate::parallel::workload::work;
+        let rays = Rays {
+            primary: out.work(work::RAYS_PRIMARY),
+            shadow: out.work(work::SHADOW_TESTED) + out.work(work::SHADOW_SEGMENTS),
+            other: out.work(work::RAYS_REFLECTION)
+                + out.work(work::RAYS_REFRACTION)
+                + out.work(work::RAYS_PASS_THROUGH)
+                + out.work(work::RAYS_AMBIENT),
+        };
+        eprintln!(
+            "{}",
+            summary_line(
+                width,
+                height,
+                start.elapsed().as_secs_f64(),
+                out.render_s,
+                rays,
+                &out.effects.enabled_names(),
+            )
+        );
+    }
     if let Some(path) = &a.parallel.parallel_stats {
         write_json(path, &out)?;
     }
@@ -329,15 +416,27 @@ fn run_ambient_parallel(
     height: usize,
     popts: &ParallelOptions,
     exposure: Option<f64>,
+    start: Instant,
 ) -> Result<()> {
-    use crate::parallel::ambient::{render_ambient_parallel, AmbientParallelOptions};
+    use crate::parallel::ambient::{render_ambient_parallel_with_progress, AmbientParallelOptions};
     let mode = a.parallel.hemispheres.into();
     let opts = AmbientParallelOptions {
         procs: popts.procs,
         mode,
         tile: a.parallel.tile,
     };
-    let out = render_ambient_parallel(scene, options, view, width, height, &opts)?;
+    let progress = Progress::start((width * height) as u64, "pixels", a.report, true);
+    let out = render_ambient_parallel_with_progress(
+        scene,
+        options,
+        view,
+        width,
+        height,
+        &opts,
+        Some(progress.counter()),
+    );
+    progress.finish();
+    let out = out?;
     eprintln!(
         "parallel inter-reflection: {} processors, hemispheres {}: {:.3} s; {} hemispheres ({} redundant), {} hemisphere rays, {} pixels retraced, {} waits, {:.3} s idle, {} records",
         opts.procs,
@@ -352,6 +451,17 @@ fn run_ambient_parallel(
         out.records
     );
     write_film(a, &out.film, view, exposure)?;
+    eprintln!(
+        "{}",
+        summary_line(
+            width,
+            height,
+            start.elapsed().as_secs_f64(),
+            out.render_s,
+            Rays::from(&out.rays),
+            &out.effects.enabled_names(),
+        )
+    );
     if let Some(path) = a.parallel.parallel_stats.as_ref().or(a.stats.as_ref()) {
         write_json(path, &out)?;
     }

@@ -1,17 +1,19 @@
 //! Images: the film a render writes into, tone mapping to 8-bit PNG, and
-//! Radiance HDR (RGBE) output.
+//! linear output as Radiance HDR (RGBE), OpenEXR and PFM.
 //!
 //! The film stores linear RGB radiance (Radiance's units, W/sr/m² per
 //! channel) in `f64`, row-major with row 0 at the **top** of the picture.
 //! Output format is chosen by the file extension ([`ImageFormat::from_path`]).
 
 pub mod compare;
+pub mod exr;
 mod film;
 pub mod hdr;
+pub mod pfm;
 pub mod tonemap;
 
 pub use film::{brightness, Film};
-pub use tonemap::{Exposure, ToneMap, Transfer};
+pub use tonemap::{Exposure, Reinhard, ToneMap, ToneOperator, Transfer};
 
 use std::path::Path;
 
@@ -24,11 +26,19 @@ pub enum ImageFormat {
     Png,
     /// Radiance RGBE picture (`#?RADIANCE`), linear radiance.
     Hdr,
+    /// OpenEXR, 32-bit float RGB, linear radiance.
+    Exr,
+    /// Portable float map, 32-bit float RGB, linear radiance.
+    Pfm,
 }
 
+/// The extensions [`ImageFormat::from_path`] accepts, for messages.
+pub const IMAGE_EXTENSIONS: &str = ".png, .hdr (or .pic), .exr or .pfm";
+
 impl ImageFormat {
-    /// `.png` or `.hdr` (also Radiance's `.pic`), case-insensitive; anything
-    /// else is a usage error naming the accepted extensions.
+    /// `.png`, `.hdr` (also Radiance's `.pic`), `.exr` or `.pfm`,
+    /// case-insensitive; anything else is a usage error naming the
+    /// accepted extensions.
     pub fn from_path(path: &Path) -> Result<Self> {
         let ext = path
             .extension()
@@ -37,11 +47,18 @@ impl ImageFormat {
         match ext.as_deref() {
             Some("png") => Ok(ImageFormat::Png),
             Some("hdr") | Some("pic") => Ok(ImageFormat::Hdr),
+            Some("exr") => Ok(ImageFormat::Exr),
+            Some("pfm") => Ok(ImageFormat::Pfm),
             _ => Err(Error::Usage(format!(
-                "{}: unknown output image type (use a .png or .hdr file name)",
+                "{}: unknown output image type (use a {IMAGE_EXTENSIONS} file name)",
                 path.display()
             ))),
         }
+    }
+
+    /// Whether the format holds linear radiance (everything but PNG).
+    pub fn is_linear(self) -> bool {
+        self != ImageFormat::Png
     }
 }
 
@@ -54,23 +71,39 @@ pub struct HdrInfo {
     pub software: Option<String>,
 }
 
-/// Writes `film` to `path` in the format its extension names.
+/// Writes `film` to `path` in the format its extension names (see
+/// [`encode_image`]).
+pub fn write_image(film: &Film, path: &Path, tone: &ToneMap, info: &HdrInfo) -> Result<()> {
+    let format = ImageFormat::from_path(path)?;
+    let file = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
+    let mut w = std::io::BufWriter::new(file);
+    encode_image(film, format, tone, info, &mut w).map_err(|e| Error::io(path, e))?;
+    use std::io::Write;
+    w.flush().map_err(|e| Error::io(path, e))
+}
+
+/// Encodes `film` as `format` into `w`.
 /// PNG output is tone mapped with `tone`; HDR output stays linear radiance,
 /// multiplied by `tone`'s exposure only if it was given explicitly (and
-/// then recorded in the `EXPOSURE=` line).
-pub fn write_image(film: &Film, path: &Path, tone: &ToneMap, info: &HdrInfo) -> Result<()> {
-    match ImageFormat::from_path(path)? {
-        ImageFormat::Png => tonemap::write_png(film, path, tone),
+/// then recorded in the `EXPOSURE=` line); EXR and PFM hold the film's
+/// radiance as it is.
+pub fn encode_image<W: std::io::Write>(
+    film: &Film,
+    format: ImageFormat,
+    tone: &ToneMap,
+    info: &HdrInfo,
+    w: &mut W,
+) -> std::io::Result<()> {
+    match format {
+        ImageFormat::Png => tonemap::encode_png(film, tone, w),
         ImageFormat::Hdr => {
             let exposure = match tone.exposure {
                 Exposure::Fixed(e) => e,
-                Exposure::Auto => 1.0,
+                Exposure::Auto | Exposure::Reinhard(_) => 1.0,
             };
-            let file = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
-            let mut w = std::io::BufWriter::new(file);
-            hdr::write_hdr(&mut w, film, exposure, info).map_err(|e| Error::io(path, e))?;
-            use std::io::Write;
-            w.flush().map_err(|e| Error::io(path, e))
+            hdr::write_hdr(w, film, exposure, info)
         }
+        ImageFormat::Exr => exr::encode_exr(film, info, w),
+        ImageFormat::Pfm => pfm::encode_pfm(film, w),
     }
 }

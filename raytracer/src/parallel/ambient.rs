@@ -132,6 +132,8 @@ pub struct AmbientParallelReport {
     pub records: usize,
     /// Rays by kind over all processors (retraced pixels included).
     pub rays: RayCounts,
+    /// The effects the render simulated, and why.
+    pub effects: crate::render::EffectsReport,
 }
 
 /// A first-level hemisphere in flight.
@@ -171,6 +173,8 @@ struct Shared<'r, 's> {
     hemispheres: AtomicU64,
     redundant: AtomicU64,
     tasks: AtomicU64,
+    /// Finished pixels, for a progress display.
+    progress: Option<Arc<AtomicU64>>,
 }
 
 impl Shared<'_, '_> {
@@ -279,6 +283,9 @@ impl Proc {
             Some(h) => Some(*h),
             None => {
                 self.pixels.push((i, c));
+                if let Some(p) = &sh.progress {
+                    p.fetch_add(1, Ordering::Relaxed);
+                }
                 None
             }
         }
@@ -401,6 +408,20 @@ pub fn render_ambient_parallel(
     height: usize,
     opts: &AmbientParallelOptions,
 ) -> Result<AmbientParallelReport> {
+    render_ambient_parallel_with_progress(scene, options, view, width, height, opts, None)
+}
+
+/// [`render_ambient_parallel`] counting finished pixels into `progress`
+/// while it runs (the picture is the same).
+pub fn render_ambient_parallel_with_progress(
+    scene: &Scene,
+    options: RenderOptions,
+    view: &View,
+    width: usize,
+    height: usize,
+    opts: &AmbientParallelOptions,
+    progress: Option<Arc<AtomicU64>>,
+) -> Result<AmbientParallelReport> {
     check_resolution(width, height)?;
     if opts.procs == 0 {
         return Err(Error::Usage("--procs must be at least 1".into()));
@@ -428,6 +449,7 @@ pub fn render_ambient_parallel(
         hemispheres: AtomicU64::new(0),
         redundant: AtomicU64::new(0),
         tasks: AtomicU64::new(0),
+        progress,
     };
     let caching = renderer.ambient_settings().accuracy > 0.0;
     let t0 = Instant::now();
@@ -501,6 +523,7 @@ pub fn render_ambient_parallel(
         idle_s: idle.as_secs_f64(),
         records,
         rays,
+        effects: renderer.effects().clone(),
     })
 }
 

@@ -29,6 +29,7 @@ pub use workload::{CellData, DdTask, Distribution, DpTask, RtWorkload, WorkloadO
 
 use crate::accel::OctreeParams;
 use crate::image::Film;
+use crate::render::effects::EffectsReport;
 use crate::render::{check_resolution, RenderOptions, Renderer};
 use crate::scene::{Scene, View};
 use crate::{Error, Result};
@@ -197,6 +198,8 @@ pub struct ParallelRender {
     /// Simulated seconds (runtime `sim`; the statistics' times are virtual
     /// too).
     pub simulated_s: Option<f64>,
+    /// The effects the render simulated, and why.
+    pub effects: EffectsReport,
     /// Per-state time line of every actor (runtime `sim`).
     #[serde(skip)]
     pub timeline: Option<Timeline>,
@@ -245,6 +248,20 @@ pub fn render_parallel_ranked(
     height: usize,
     popts: &ParallelOptions,
 ) -> Result<Option<ParallelRender>> {
+    render_parallel_with_progress(scene, options, view, width, height, popts, None)
+}
+
+/// [`render_parallel_ranked`] counting finished pixels into `progress`
+/// while it runs (on this rank's processors; the picture is the same).
+pub fn render_parallel_with_progress(
+    scene: Arc<Scene>,
+    options: RenderOptions,
+    view: &View,
+    width: usize,
+    height: usize,
+    popts: &ParallelOptions,
+    progress: Option<Arc<std::sync::atomic::AtomicU64>>,
+) -> Result<Option<ParallelRender>> {
     check_resolution(width, height)?;
     if popts.procs == 0 {
         return Err(Error::Usage("--procs must be at least 1".into()));
@@ -266,6 +283,10 @@ pub fn render_parallel_ranked(
         popts.procs,
         popts.workload,
     );
+    let wl = match progress {
+        Some(p) => wl.with_progress(p),
+        None => wl,
+    };
     let data_bytes = wl.data_bytes();
     let cache_bytes = popts.cache.resolve(data_bytes);
     let mut config = Config::new(popts.procs)
@@ -324,6 +345,12 @@ pub fn render_parallel_ranked(
             }
             film.set(i % width, i / width, c);
         }
+        tracing::debug!(
+            proc = p,
+            pixels = acc.pixels.len(),
+            peak_tree_nodes = acc.peak_pending,
+            "processor finished"
+        );
         let resident = part.resident(p as u32);
         procs.push(ProcSummary {
             // Replicated: every processor reads the whole scene.
@@ -355,6 +382,7 @@ pub fn render_parallel_ranked(
         ));
     }
     Ok(Some(ParallelRender {
+        effects: wl.renderer().effects().clone(),
         film,
         options: popts.clone(),
         cache_bytes,

@@ -285,6 +285,9 @@ pub struct RtWorkload {
     /// Shadow selections per (processor, cell, light) (option
     /// `clip_cache`), one map per processor so they do not contend.
     clip_cache: Vec<Mutex<ClipCache>>,
+    /// Finished pixels, counted for a progress display (see
+    /// [`RtWorkload::with_progress`]).
+    progress: Option<Arc<std::sync::atomic::AtomicU64>>,
 }
 
 /// Shadow selections per (processor, cell, light).
@@ -304,6 +307,13 @@ const EMPTY: u32 = u32::MAX - 1;
 const MIXED: u32 = u32::MAX;
 
 impl RtWorkload {
+    /// Counts finished pixels into `counter` as processors assemble them
+    /// (what is computed does not change).
+    pub fn with_progress(mut self, counter: Arc<std::sync::atomic::AtomicU64>) -> Self {
+        self.progress = Some(counter);
+        self
+    }
+
     /// A workload rendering `view` at `width` x `height` on `procs`
     /// processors.
     pub fn new(
@@ -364,6 +374,7 @@ impl RtWorkload {
             },
             cells,
             partition,
+            progress: None,
         }
     }
 
@@ -1009,6 +1020,7 @@ impl Workload for RtWorkload {
     }
 
     fn load_partition(&self, proc: usize, procs: usize) -> Vec<(NodeId, CellData)> {
+        tracing::debug!(proc, procs, "processor starting: loading its partition");
         let objects: std::collections::HashMap<NodeId, u32> =
             self.cells.iter().map(|&(l, n, _)| (l, n)).collect();
         self.owner_table(procs)
@@ -1165,7 +1177,14 @@ impl Workload for RtWorkload {
     }
 
     fn merge(&self, acc: &mut PixelTrees, result: RtResult) {
+        let before = acc.pixels.len();
         acc.merge(result);
+        if let Some(p) = &self.progress {
+            let done = acc.pixels.len().saturating_sub(before) as u64;
+            if done > 0 {
+                p.fetch_add(done, std::sync::atomic::Ordering::Relaxed);
+            }
+        }
     }
 }
 

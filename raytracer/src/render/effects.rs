@@ -134,6 +134,30 @@ fn names(scene: &Scene, ids: &[MaterialId]) -> String {
 }
 
 impl EffectsReport {
+    /// The effects that run, by name (`area shadows`, `reflection`, ...),
+    /// in the report's order.
+    pub fn enabled_names(&self) -> Vec<&'static str> {
+        [
+            ("area shadows", &self.area_shadows),
+            ("distant shadows", &self.distant_shadows),
+            ("adaptive shadow testing", &self.adaptive_shadow_testing),
+            ("transparent shadows", &self.transparent_shadows),
+            ("reflection", &self.reflection),
+            ("refraction", &self.refraction),
+            ("absorption", &self.absorption),
+            ("ambient", &self.ambient),
+            ("diffuse inter-reflection", &self.diffuse_interreflection),
+            ("patterns", &self.patterns),
+            ("media", &self.media),
+        ]
+        .into_iter()
+        .filter(|(_, e)| e.enabled)
+        .map(|(n, _)| n)
+        .collect()
+    }
+}
+
+impl EffectsReport {
     /// Analyses `scene` under `options` with the sampled `lights`.
     pub fn analyse(scene: &Scene, options: &RenderOptions, lights: &[PreparedLight]) -> Self {
         let used = used_materials(scene);

@@ -226,6 +226,21 @@ impl<'s> Renderer<'s> {
         } else {
             timed_build(|| Octree::build(objects, params))
         };
+        {
+            let o = octree.stats();
+            tracing::debug!(
+                objects = o.objects,
+                octree_leaves = o.leaf_nodes,
+                octree_internal = o.internal_nodes,
+                octree_depth = o.max_depth,
+                octree_refs = o.object_refs,
+                octree_seconds = build_s,
+                bvh_nodes = bvh.get().map(|b: &(Bvh, f64)| b.0.stats().nodes),
+                bvh_depth = bvh.get().map(|b: &(Bvh, f64)| b.0.stats().depth),
+                bvh_seconds = bvh.get().map(|b: &(Bvh, f64)| b.1),
+                "acceleration structures built"
+            );
+        }
         let (mut lights, mut warnings) = prepare_lights_relayed(&scene, options.dr);
         if scene.lights.is_empty() && options.av == Color::ZERO {
             warnings.push(
@@ -255,6 +270,13 @@ impl<'s> Renderer<'s> {
                 l.hit_ratio = r;
             }
         }
+        tracing::debug!(
+            lights = lights.len(),
+            virtual_lights = lights.iter().filter(|l| l.virt.is_some()).count(),
+            // Radiance's nhits/ntests per source (the first 16).
+            hit_ratios = ?lights.iter().take(16).map(|l| (l.hit_ratio * 1000.0).round() / 1000.0).collect::<Vec<_>>(),
+            "lights prepared"
+        );
         let ext = octree.root_bounds();
         let ambient = AmbientSettings::new(&options, (ext.max - ext.min).max_element());
         let sky = scene
