@@ -25,7 +25,12 @@ if [ "$(mdbook --version 2>/dev/null)" != "mdbook v$MDBOOK_VERSION" ]; then
     cargo install mdbook --locked --version "$MDBOOK_VERSION" \
         --no-default-features --features search --root target/tools
 fi
-mdbook build book
+book_log="$(mdbook build book 2>&1)" || { echo "$book_log" >&2; exit 1; }
+echo "$book_log"
+if grep -qE '^ *(WARN|ERROR)' <<<"$book_log"; then
+    echo "error: mdbook warned (see above)" >&2
+    exit 1
+fi
 echo "== tests (workspace: unit, integration, doctests incl. the book)"
 cargo test --workspace --locked
 echo "== Radiance's regression scenes against its reference images (release build)"
