@@ -13,6 +13,24 @@ echo "== rustfmt"
 cargo fmt --all --check
 echo "== clippy"
 cargo clippy --workspace --all-targets --locked -- -D warnings
+echo "== API docs (rustdoc, warnings denied; open target/doc/hybrid_sched/index.html)"
+RUSTDOCFLAGS="${RUSTDOCFLAGS:-} -D warnings" cargo doc --workspace --no-deps --locked
+# mdBook, pinned, built from crates.io into target/tools (no root needed,
+# kept with the build cache) unless that version is on the PATH already.
+MDBOOK_VERSION=0.5.4
+export PATH="$PWD/target/tools/bin:$PATH"
+echo "== book (mdBook $MDBOOK_VERSION; open book/book/index.html)"
+if [ "$(mdbook --version 2>/dev/null)" != "mdbook v$MDBOOK_VERSION" ]; then
+    echo "installing mdbook $MDBOOK_VERSION into target/tools"
+    cargo install mdbook --locked --version "$MDBOOK_VERSION" \
+        --no-default-features --features search --root target/tools
+fi
+book_log="$(mdbook build book 2>&1)" || { echo "$book_log" >&2; exit 1; }
+echo "$book_log"
+if grep -qE '^ *(WARN|ERROR)' <<<"$book_log"; then
+    echo "error: mdbook warned (see above)" >&2
+    exit 1
+fi
 echo "== tests (workspace: unit, integration, doctests incl. the book)"
 cargo test --workspace --locked
 echo "== Radiance's regression scenes against its reference images (release build)"

@@ -39,6 +39,32 @@ struct Entry<V> {
 }
 
 /// Byte-budgeted LRU cache. See the module documentation.
+///
+/// # Example
+///
+/// ```rust
+/// use hybrid_sched::ByteLru;
+///
+/// let mut cache: ByteLru<&str, Vec<u8>> = ByteLru::new(Some(100)); // 100 bytes
+/// assert!(cache.insert("a", vec![1; 40], 40));
+/// assert!(cache.insert("b", vec![2; 40], 40));
+/// assert!(cache.get(&"a").is_some()); // "a" is now the most recently used
+/// assert!(cache.insert("c", vec![3; 40], 40)); // no room: evicts "b"
+/// assert!(cache.contains(&"a") && !cache.contains(&"b") && cache.contains(&"c"));
+/// assert_eq!(cache.used(), 80);
+///
+/// // A pinned item (one a waiting task needs) is never evicted: "d" evicts
+/// // "c", although "a" is the least recently used.
+/// assert!(cache.pin(&"a"));
+/// assert!(cache.insert("d", vec![4; 60], 60));
+/// assert!(cache.contains(&"a") && !cache.contains(&"c") && cache.contains(&"d"));
+/// // An item that cannot fit beside the pinned ones is refused.
+/// assert!(!cache.insert("e", vec![5; 70], 70));
+///
+/// assert_eq!(cache.counters().evictions, 2);
+/// assert_eq!(cache.counters().hits, 1);
+/// assert_eq!(cache.high_water(), 100); // the budget was never exceeded
+/// ```
 #[derive(Debug)]
 pub struct ByteLru<K: Hash + Eq, V> {
     budget: u64,

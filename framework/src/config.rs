@@ -43,6 +43,23 @@ impl Default for BundleConfig {
 }
 
 /// Everything a run needs besides the workload.
+///
+/// # Example
+///
+/// ```rust
+/// use hybrid_sched::{Config, ConfigError, Policy};
+///
+/// let config = Config::new(8)
+///     .with_policy(Policy::ViaMaster)
+///     .with_cache_bytes(Some(1 << 20))
+///     .with_credits(16);
+/// assert_eq!(config.validate(), Ok(()));
+/// // Flow control bounds every input buffer: 8 senders with 16 credits each.
+/// assert_eq!(config.input_buffer_bound(), 128);
+///
+/// assert_eq!(Config::new(0).validate(), Err(ConfigError::NoProcessors));
+/// assert_eq!(Config::new(2).with_credits(0).validate(), Err(ConfigError::ZeroCredits));
+/// ```
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Config {
     /// Number of worker processors (the master is an extra actor).

@@ -46,6 +46,31 @@ impl Credits {
 /// Receiver side: consumed messages whose credit has not been returned yet.
 /// Credits go back in batches (half a window at a time) to keep control
 /// traffic small, and all at once when the receiver runs out of work.
+///
+/// # Example
+///
+/// ```rust
+/// use hybrid_sched::flow::{CreditLedger, Credits};
+///
+/// // One sender with 4 credits towards one receiver (slot 0 on both sides).
+/// let mut sender = Credits::new(1, 4);
+/// let mut receiver = CreditLedger::new(1, 4);
+/// sender.consume(0, 4); // four results sent: no credit left
+/// assert_eq!(sender.available(0), 0);
+///
+/// // The receiver returns credits half a window (2) at a time ...
+/// receiver.consumed(0);
+/// assert!(receiver.take_due(false).is_empty());
+/// receiver.consumed(0);
+/// for (slot, n) in receiver.take_due(false) {
+///     sender.grant(slot, n);
+/// }
+/// assert_eq!(sender.available(0), 2);
+/// // ... and everything it owes when it runs out of work.
+/// receiver.consumed(0);
+/// assert_eq!(receiver.take_due(true), [(0, 1)]);
+/// assert!(!receiver.any_owed());
+/// ```
 #[derive(Clone, Debug)]
 pub struct CreditLedger {
     owed: Vec<u32>,

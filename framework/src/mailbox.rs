@@ -11,6 +11,24 @@ use crate::message::Class;
 
 /// Priority mailbox holding items of type `T` (the processor stores incoming
 /// messages with their sender; tests use plain values).
+///
+/// # Example
+///
+/// ```rust
+/// use hybrid_sched::{Class, Mailbox};
+///
+/// let mut mailbox = Mailbox::new();
+/// mailbox.push(Class::DemandDriven, "tile 1");
+/// mailbox.push(Class::DemandDriven, "tile 2");
+/// mailbox.push(Class::Result, "pixels");
+/// mailbox.push(Class::Data, "data request");
+/// assert_eq!(mailbox.peek_class(), Some(Class::Data));
+///
+/// // The highest class first, arrival order within a class.
+/// let order: Vec<&str> = std::iter::from_fn(|| mailbox.pop().map(|(_, m)| m)).collect();
+/// assert_eq!(order, ["data request", "pixels", "tile 1", "tile 2"]);
+/// assert_eq!(mailbox.high_water(), 4);
+/// ```
 #[derive(Debug)]
 pub struct Mailbox<T> {
     queues: [VecDeque<T>; 5],

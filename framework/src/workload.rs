@@ -67,6 +67,99 @@ pub enum DpOutcome<T> {
 ///   that asks to migrate towards data it already has is reported as an error.
 /// * [`Workload::load_partition`] for processor `p` must return exactly the
 ///   items that [`Workload::placement`] assigns to `p` (checked at start-up).
+///
+/// # Example
+///
+/// The hooks of both kinds of task, called by hand on the workload of the
+/// crate-level example (a runtime makes these calls).
+///
+/// ```rust
+/// # use std::sync::Arc;
+/// # use hybrid_sched::serde::{Deserialize, Serialize};
+/// # use hybrid_sched::{Addr, ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};
+/// # // The crate-level example's workload: six numbers 1..=6 over the processors;
+/// # // demand-driven task `Pair(i)` adds items i and i + 1, data-parallel `Walk`
+/// # // adds items `next..end` by migrating to their owners.
+/// # #[derive(Clone, Debug, Serialize, Deserialize)]
+/// # #[serde(crate = "hybrid_sched::serde")]
+/// # struct Num(u64);
+/// # impl ByteSize for Num { fn byte_size(&self) -> usize { 8 } }
+/// # #[derive(Clone, Debug, Serialize, Deserialize)]
+/// # #[serde(crate = "hybrid_sched::serde")]
+/// # struct Pair(u32);
+/// # impl ByteSize for Pair { fn byte_size(&self) -> usize { 4 } }
+/// # #[derive(Clone, Debug, Serialize, Deserialize)]
+/// # #[serde(crate = "hybrid_sched::serde")]
+/// # struct Walk { next: u32, end: u32, acc: u64 }
+/// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
+/// # struct Pairs;
+/// # impl Workload for Pairs {
+/// #     type DataId = u32;
+/// #     type DataItem = Num;
+/// #     type DdTask = Pair;
+/// #     type DpTask = Walk;
+/// #     type Result = Num;
+/// #     type Accumulator = u64;
+/// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
+/// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
+/// #     }
+/// #     fn load_partition(&self, proc: usize, procs: usize) -> Vec<(u32, Num)> {
+/// #         (0..6u32).filter(|&i| i as usize % procs == proc).map(|i| (i, Num(u64::from(i) + 1))).collect()
+/// #     }
+/// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
+/// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
+/// #         ctx.charge("select", 1);
+/// #         vec![t.0, t.0 + 1]
+/// #     }
+/// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
+/// #         let sum = data.get(&t.0).unwrap().0 + data.get(&(t.0 + 1)).unwrap().0;
+/// #         ctx.emit_result(Addr::Master, Num(sum));
+/// #     }
+/// #     fn to_data_parallel(&self, t: Pair, ctx: &mut Ctx<Self>) {
+/// #         ctx.spawn_dp(Walk { next: t.0, end: t.0 + 2, acc: 0 });
+/// #     }
+/// #     fn route_dp(&self, w: &Walk) -> Option<u32> { (w.next < w.end).then_some(w.next) }
+/// #     fn execute_dp(&self, mut w: Walk, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) -> DpOutcome<Walk> {
+/// #         while w.next < w.end {
+/// #             let Some(item) = data.get(&w.next) else { return DpOutcome::Migrate(w) };
+/// #             w.acc += item.0;
+/// #             w.next += 1;
+/// #         }
+/// #         ctx.emit_result(Addr::Master, Num(w.acc));
+/// #         DpOutcome::Finished
+/// #     }
+/// #     fn merge(&self, acc: &mut u64, r: Num) { *acc += r.0; }
+/// # }
+/// use hybrid_sched::{ByteLru, IdMap};
+///
+/// // Processor 0 of 2 owns the even items 0, 2 and 4 (values 1, 3 and 5).
+/// let resident: IdMap<u32, Num> = Pairs.load_partition(0, 2).into_iter().collect();
+/// assert_eq!(resident.len(), 3);
+/// let mut ctx = Ctx::new(0, 2);
+///
+/// // Demand-driven: data selection names everything the task will read (the
+/// // processor fetches what is not local before it calls `execute_dd`).
+/// assert_eq!(Pairs.select_data(&Pair(2), &mut ctx), [2, 3]);
+/// assert_eq!(ctx.charges(), [("select", 1)]);
+///
+/// // Data-parallel: a walk over items 2 and 3 runs as far as the local data
+/// // allows, then asks to migrate towards the owner of the item it needs next.
+/// let view = DataView::new(&resident, None);
+/// let walk = Walk { next: 2, end: 4, acc: 0 };
+/// let DpOutcome::Migrate(walk) = Pairs.execute_dp(walk, &view, &mut ctx) else {
+///     panic!("item 3 is not local");
+/// };
+/// assert_eq!((walk.next, walk.acc), (3, 3));
+/// assert_eq!(Pairs.route_dp(&walk), Some(3));
+/// assert_eq!(Pairs.placement(2)[3].owner, 1);
+///
+/// // With item 3 in the cache (fetched for an earlier task) it finishes here.
+/// let mut cache = ByteLru::new(Some(64));
+/// assert!(cache.insert(3, Num(4), 8));
+/// let view = DataView::new(&resident, Some(&cache));
+/// assert!(view.is_local(&3) && !view.is_resident(&3));
+/// assert!(matches!(Pairs.execute_dp(walk, &view, &mut ctx), DpOutcome::Finished));
+/// ```
 pub trait Workload: Send + Sync + Sized + 'static {
     /// Identifies one unit of data (an octree cell, an object, a block).
     type DataId: Payload + Hash + Eq + Ord;

@@ -5,7 +5,7 @@
 //!   local, no messages.
 //! * [`lockstep`]: deterministic, single-threaded, seeded interleavings of
 //!   all actors (for tests and debugging).
-//! * [`mpi`] (feature `mpi`): one processor per MPI rank, the master on
+//! * `mpi` (feature `mpi`): one processor per MPI rank, the master on
 //!   rank 0.
 //!
 //! A runtime needs only the [`Node`] interface: `deliver`, `step`,

@@ -45,6 +45,87 @@ impl Runtime for Threads {
 /// Runs `workload` on a fresh tokio multi-thread runtime with one actor per
 /// processor plus the master. Blocks until termination is detected, an actor
 /// fails, or the configured time limit passes.
+///
+/// # Example
+///
+/// The workload is the crate-level example's (the sum of five pairs, 35).
+///
+/// ```rust
+/// # use std::sync::Arc;
+/// # use hybrid_sched::serde::{Deserialize, Serialize};
+/// # use hybrid_sched::{Addr, ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};
+/// # // The crate-level example's workload: six numbers 1..=6 over the processors;
+/// # // demand-driven task `Pair(i)` adds items i and i + 1, data-parallel `Walk`
+/// # // adds items `next..end` by migrating to their owners.
+/// # #[derive(Clone, Debug, Serialize, Deserialize)]
+/// # #[serde(crate = "hybrid_sched::serde")]
+/// # struct Num(u64);
+/// # impl ByteSize for Num { fn byte_size(&self) -> usize { 8 } }
+/// # #[derive(Clone, Debug, Serialize, Deserialize)]
+/// # #[serde(crate = "hybrid_sched::serde")]
+/// # struct Pair(u32);
+/// # impl ByteSize for Pair { fn byte_size(&self) -> usize { 4 } }
+/// # #[derive(Clone, Debug, Serialize, Deserialize)]
+/// # #[serde(crate = "hybrid_sched::serde")]
+/// # struct Walk { next: u32, end: u32, acc: u64 }
+/// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
+/// # struct Pairs;
+/// # impl Workload for Pairs {
+/// #     type DataId = u32;
+/// #     type DataItem = Num;
+/// #     type DdTask = Pair;
+/// #     type DpTask = Walk;
+/// #     type Result = Num;
+/// #     type Accumulator = u64;
+/// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
+/// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
+/// #     }
+/// #     fn load_partition(&self, proc: usize, procs: usize) -> Vec<(u32, Num)> {
+/// #         (0..6u32).filter(|&i| i as usize % procs == proc).map(|i| (i, Num(u64::from(i) + 1))).collect()
+/// #     }
+/// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
+/// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
+/// #         ctx.charge("select", 1);
+/// #         vec![t.0, t.0 + 1]
+/// #     }
+/// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
+/// #         let sum = data.get(&t.0).unwrap().0 + data.get(&(t.0 + 1)).unwrap().0;
+/// #         ctx.emit_result(Addr::Master, Num(sum));
+/// #     }
+/// #     fn to_data_parallel(&self, t: Pair, ctx: &mut Ctx<Self>) {
+/// #         ctx.spawn_dp(Walk { next: t.0, end: t.0 + 2, acc: 0 });
+/// #     }
+/// #     fn route_dp(&self, w: &Walk) -> Option<u32> { (w.next < w.end).then_some(w.next) }
+/// #     fn execute_dp(&self, mut w: Walk, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) -> DpOutcome<Walk> {
+/// #         while w.next < w.end {
+/// #             let Some(item) = data.get(&w.next) else { return DpOutcome::Migrate(w) };
+/// #             w.acc += item.0;
+/// #             w.next += 1;
+/// #         }
+/// #         ctx.emit_result(Addr::Master, Num(w.acc));
+/// #         DpOutcome::Finished
+/// #     }
+/// #     fn merge(&self, acc: &mut u64, r: Num) { *acc += r.0; }
+/// # }
+/// use std::time::Duration;
+/// use hybrid_sched::{run_sequential, run_threads, Config, Policy, RunError};
+///
+/// let config = Config::new(3)
+///     .with_policy(Policy::RoundRobin)
+///     .with_cache_bytes(Some(16))
+///     .with_time_limit(Duration::from_secs(60));
+/// let report = run_threads(Arc::new(Pairs), &config)?;
+/// assert_eq!(report.master, 35);
+/// assert_eq!(report.master, run_sequential(&Pairs, 3)?.master);
+/// assert_eq!(report.stats.runtime, "threads");
+/// assert_eq!(report.stats.procs.len(), 3);
+/// assert_eq!(report.stats.sum(|p| p.tasks.demand_driven), 5);
+///
+/// // A bad configuration is an error, not a panic.
+/// let err = run_threads(Arc::new(Pairs), &Config::new(0)).unwrap_err();
+/// assert!(matches!(err, RunError::Config(_)));
+/// # Ok::<(), RunError>(())
+/// ```
 pub fn run_threads<W: Workload>(
     workload: Arc<W>,
     config: &Config,

@@ -14,9 +14,10 @@
 //! decision depends only on traced values inside one grid cell, and pixel
 //! values depend only on the pixel's position: any region, rendered alone
 //! (with the grid cells it touches as an apron), gets the same values as
-//! the whole picture, whatever the tiling. [`fill_region`] is that region
-//! renderer; given a fully traced picture as its sampler it reproduces the
-//! adaptive picture exactly (what the distributed renderers do).
+//! the whole picture, whatever the tiling. [`Grid::fill_region`] is that
+//! region renderer; given a fully traced picture as its sampler it
+//! reproduces the adaptive picture exactly (what the distributed renderers
+//! do).
 
 use std::ops::Range;
 

@@ -5,7 +5,7 @@
 //! ([`crate::modifier::Patterns::direction`]).
 //!
 //! [`AnisoBsdf`] is what a shadow bundle carries (Radiance's `ANISODAT`);
-//! its [`AnisoBsdf::coefficient`] is `diraniso()`. [`shade_aniso`] is
+//! its [`AnisoBsdf::coefficient`] is `diraniso()`. `shade_aniso` is
 //! `m_aniso()`: it sets the data up, asks for the sampled specular rays
 //! (`agaussamp()`), the ambient and the direct light.
 

@@ -6,7 +6,7 @@
 //!
 //! [`AshikBsdf`] is what a shadow bundle carries (Radiance's
 //! `ASHIKDAT`); its [`AshikBsdf::coefficient`] is `dirashik()`.
-//! [`shade_ashik`] is `m_ashikhmin()`.
+//! `shade_ashik` is `m_ashikhmin()`.
 
 use std::f64::consts::PI;
 

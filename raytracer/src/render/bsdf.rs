@@ -7,7 +7,7 @@
 //! minimum taken out (`extract_diffuse()`). The material's shadow-bundle
 //! data is [`KlemsSurface`] (an index into [`crate::scene::Scene::bsdfs`]
 //! and the local frame); its [`KlemsSurface::coefficient`] is
-//! `dir_bsdf()`. [`shade_bsdf`] is `m_bsdf()`: one sampled ray for each
+//! `dir_bsdf()`. `shade_bsdf` is `m_bsdf()`: one sampled ray for each
 //! of the non-diffuse reflection and transmission (`sample_sdf()`), the
 //! diffuse parts with the ambient, the direct light.
 //!
