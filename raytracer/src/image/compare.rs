@@ -35,8 +35,9 @@ pub struct Reference {
 impl Reference {
     /// Reads a Radiance picture and divides out its exposure.
     pub fn load(path: &Path) -> Result<Reference> {
-        let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-        let img = read_hdr(&mut std::io::BufReader::new(f)).map_err(|e| Error::io(path, e))?;
+        let bytes = crate::scene::input::read_input(path, crate::scene::input::MAX_INPUT_BYTES)
+            .map_err(|e| Error::io(path, e))?;
+        let img = read_hdr(&mut std::io::Cursor::new(bytes)).map_err(|e| Error::io(path, e))?;
         let mut exposure = 1.0;
         let mut view = None;
         for line in &img.header {

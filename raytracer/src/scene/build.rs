@@ -1155,9 +1155,23 @@ impl Builder {
 
     /// Loads an OBJ file at top level; its emitting faces become area lights.
     pub fn add_obj_file(&mut self, path: &Path) -> Result<()> {
+        self.add_obj_with(|b, objs| super::obj::load_obj_into(b, path, None, None, objs))
+    }
+
+    /// Loads OBJ text held in memory at top level; every `mtllib` it names
+    /// reads `mtl` (none: a missing library).
+    pub fn add_obj_text(&mut self, text: &str, path: &Path, mtl: Option<&str>) -> Result<()> {
+        let source = |_: &str| Ok(mtl.map(|t| (path.with_extension("mtl"), t.to_string())));
+        self.add_obj_with(|b, objs| super::obj::load_obj_text(b, text, path, &source, None, objs))
+    }
+
+    fn add_obj_with(
+        &mut self,
+        load: impl FnOnce(&mut Self, &mut Vec<Object>) -> Result<()>,
+    ) -> Result<()> {
         let mut objs = std::mem::take(&mut self.scene.objects);
         let start = objs.len();
-        let r = super::obj::load_obj_into(self, path, None, None, &mut objs);
+        let r = load(self, &mut objs);
         for (k, o) in objs.iter().enumerate().skip(start) {
             if is_light_material(self.scene.material(o.material)) {
                 self.scene.lights.push(Light {

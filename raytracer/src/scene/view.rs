@@ -148,13 +148,14 @@ impl View {
     }
 
     fn apply_file(&mut self, path: &Path, from: Option<&SourceLoc>, depth: usize) -> Result<()> {
-        let text = std::fs::read_to_string(path).map_err(|e| match from {
-            Some(loc) => Error::parse(
-                loc.clone(),
-                format!("cannot read view file '{}': {e}", path.display()),
-            ),
-            None => Error::io(path, e),
-        })?;
+        let text = crate::scene::input::read_input_text(path, crate::scene::input::MAX_VIEW_BYTES)
+            .map_err(|e| match from {
+                Some(loc) => Error::parse(
+                    loc.clone(),
+                    format!("cannot read view file '{}': {e}", path.display()),
+                ),
+                None => Error::io(path, e),
+            })?;
         for (k, line) in text.lines().enumerate() {
             let loc = SourceLoc::new(path, k + 1);
             let line = line.split('#').next().unwrap_or("");
