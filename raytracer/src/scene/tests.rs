@@ -1384,7 +1384,7 @@ fn obj_and_mtl_errors_name_file_and_line() {
         ),
     ];
     for (obj, mtl, want) in cases {
-        let e = load_obj_str(&format!("{obj}"), *mtl, "m.obj")
+        let e = load_obj_str(obj, *mtl, "m.obj")
             .err()
             .unwrap_or_else(|| panic!("{obj:?} {mtl:?} loaded"))
             .to_string();
