@@ -4,6 +4,14 @@
 //! is 2 for usage errors and 1 for everything else. No input makes the
 //! program panic.
 
+/// `println!` that does not panic when standard output fails (a closed
+/// pipe, a full disk): the failure is remembered and [`main`] exits 1.
+macro_rules! outln {
+    ($($t:tt)*) => {
+        $crate::cli::stdout_line(format_args!($($t)*))
+    };
+}
+
 mod args;
 mod bench;
 mod experiment;
@@ -15,6 +23,9 @@ pub use args::{
     translate, BenchArgs, Cli, Command, ExperimentArgs, ParallelArgs, RenderArgs, SweepArgs,
 };
 pub use parallel::summary as parallel_summary;
+
+use std::io::Write;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
 
@@ -30,7 +41,10 @@ pub fn main() -> i32 {
         Err(e) => {
             // Help and version are not errors.
             let code = if e.use_stderr() { 2 } else { 0 };
-            let _ = e.print();
+            if let Err(w) = e.print() {
+                eprintln!("error: standard output: {w}");
+                return 1;
+            }
             return code;
         }
     };
@@ -40,6 +54,17 @@ pub fn main() -> i32 {
         Command::Sweep(a) => sweep::run(&a),
         Command::Experiment(a) => experiment::run(&a),
     };
+    // Everything written to standard output must have reached it.
+    let result = result.and_then(|()| {
+        let flushed = std::io::stdout().flush();
+        if STDOUT_FAILED.load(Ordering::Relaxed) || flushed.is_err() {
+            let why = flushed
+                .err()
+                .map_or("write failed".to_string(), |e| e.to_string());
+            return Err(Error::io("<standard output>", std::io::Error::other(why)));
+        }
+        Ok(())
+    });
     match result {
         Ok(()) => 0,
         Err(e) => {
@@ -51,6 +76,17 @@ pub fn main() -> i32 {
             }
             e.exit_code()
         }
+    }
+}
+
+/// Set when a line could not be written to standard output.
+static STDOUT_FAILED: AtomicBool = AtomicBool::new(false);
+
+/// Writes one line to standard output (see `outln!`).
+pub(crate) fn stdout_line(args: std::fmt::Arguments<'_>) {
+    let mut out = std::io::stdout().lock();
+    if writeln!(out, "{args}").is_err() {
+        STDOUT_FAILED.store(true, Ordering::Relaxed);
     }
 }
 

@@ -218,7 +218,7 @@ pub fn write_difference(render: &Film, reference: &Film, path: &Path) -> Result<
     let f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
     let mut w = std::io::BufWriter::new(f);
     write_hdr(&mut w, &d, 1.0, &super::HdrInfo::default()).map_err(|e| Error::io(path, e))?;
-    Ok(())
+    std::io::Write::flush(&mut w).map_err(|e| Error::io(path, e))
 }
 
 #[cfg(test)]

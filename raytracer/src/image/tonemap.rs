@@ -103,9 +103,10 @@ pub fn write_png(film: &Film, path: &Path, tone: &ToneMap) -> Result<()> {
     let buf = tone.to_rgb8(film);
     let img = image::RgbImage::from_raw(w32, h32, buf)
         .ok_or_else(|| Error::Other("internal error: PNG buffer size mismatch".into()))?;
-    img.save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| match e {
-            image::ImageError::IoError(io) => Error::io(path, io),
-            other => Error::Other(format!("{}: {other}", path.display())),
-        })
+    // Encoded in memory and written at once: `save_with_format` drops its
+    // buffered writer unflushed, so a full disk went unreported.
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut bytes, image::ImageFormat::Png)
+        .map_err(|e| Error::Other(format!("{}: {e}", path.display())))?;
+    std::fs::write(path, bytes.into_inner()).map_err(|e| Error::io(path, e))
 }
