@@ -79,6 +79,18 @@ pub fn main() -> i32 {
     }
 }
 
+/// Parses and checks a command line as [`main`] does before any file is
+/// loaded or anything rendered (tests, fuzzing): [`translate`], clap, and
+/// for `render` the checks of its options and view. Nothing is printed,
+/// rendered or written; help and version requests are `Err` too.
+pub fn check_command_line(args: Vec<String>) -> Result<()> {
+    let cli = Cli::try_parse_from(translate(args)).map_err(|e| Error::Usage(e.to_string()))?;
+    match cli.command {
+        Command::Render(a) => render::check(&a),
+        _ => Ok(()),
+    }
+}
+
 /// Set when a line could not be written to standard output.
 static STDOUT_FAILED: AtomicBool = AtomicBool::new(false);
 

@@ -68,6 +68,26 @@ pub(super) fn parse_exposure(s: &str) -> Result<f64> {
     }
 }
 
+/// The checks [`run`] makes before it loads the scene (output type,
+/// Radiance options, exposure, gamma, resolution, view, parallel
+/// options), for [`super::check_command_line`].
+pub(super) fn check(a: &RenderArgs) -> Result<()> {
+    ImageFormat::from_path(&a.output)?;
+    options_from(&a.radiance, a.seed)?;
+    a.exposure.as_deref().map(parse_exposure).transpose()?;
+    if let Some(g) = a.gamma {
+        if !(g.is_finite() && g > 0.0) {
+            return Err(usage(format!("--gamma {g}: must be a positive number")));
+        }
+    }
+    check_resolution(a.width as usize, a.height as usize)?;
+    let view = build_view(a.view_file.as_deref(), &a.view, &a.view_words)?;
+    let (_, width, height) = view.fit_aspect(a.width, a.height);
+    check_resolution(width as usize, height as usize)?;
+    super::parallel::resolve(&a.parallel)?;
+    Ok(())
+}
+
 pub(super) fn run(a: &RenderArgs) -> Result<()> {
     // Check everything cheap before the expensive work.
     ImageFormat::from_path(&a.output)?;

@@ -124,9 +124,14 @@ fn g(x: f64) -> String {
 /// line setting the option the reason names (`-vh ...`), else the last line
 /// with view options; 0 when the file cannot be read again.
 fn blame_line(path: &Path, reason: &str) -> usize {
-    let Ok(text) = super::input::read_input_text(path, super::input::MAX_VIEW_BYTES) else {
-        return 0;
-    };
+    match super::input::read_input_text(path, super::input::MAX_VIEW_BYTES) {
+        Ok(text) => blame_in(&text, reason),
+        Err(_) => 0,
+    }
+}
+
+/// [`blame_line`] for a view file's text.
+fn blame_in(text: &str, reason: &str) -> usize {
     let option = reason
         .split(|c: char| c.is_whitespace() || c == '(' || c == ':')
         .find(|w| w.len() >= 3 && w.starts_with("-v"))
@@ -188,6 +193,18 @@ impl View {
         self.apply_words(&words, loc, 0)
     }
 
+    /// A view file's text held in memory (tests, fuzzing): the lines of
+    /// [`View::from_file`], with `path` naming it in errors and resolving
+    /// its `-vf` files.
+    pub fn from_file_text(text: &str, path: impl AsRef<Path>) -> Result<View> {
+        let path = path.as_ref();
+        let mut v = View::default();
+        v.apply_text(text, path, 0)?;
+        v.validate()
+            .map_err(|r| Error::parse(SourceLoc::new(path, blame_in(text, &r)), r))?;
+        Ok(v)
+    }
+
     fn apply_file(&mut self, path: &Path, from: Option<&SourceLoc>, depth: usize) -> Result<()> {
         let text = crate::scene::input::read_input_text(path, crate::scene::input::MAX_VIEW_BYTES)
             .map_err(|e| match from {
@@ -197,6 +214,10 @@ impl View {
                 ),
                 None => Error::io(path, e),
             })?;
+        self.apply_text(&text, path, depth)
+    }
+
+    fn apply_text(&mut self, text: &str, path: &Path, depth: usize) -> Result<()> {
         for (k, line) in text.lines().enumerate() {
             let loc = SourceLoc::new(path, k + 1);
             let line = line.split('#').next().unwrap_or("");
