@@ -852,7 +852,7 @@ impl Builder {
         // Coordinates and radii whose squares (and their products) stay
         // finite: a sphere of radius 1e308 cannot be intersected.
         const LIMIT: f64 = 1e30;
-        if let Some(&x) = r.iter().find(|x| !(x.abs() < LIMIT)) {
+        if let Some(&x) = r.iter().find(|x| !x.is_finite() || x.abs() >= LIMIT) {
             return Err(Self::geometry_error(
                 p,
                 format!("argument {x:e} is out of range (coordinates and sizes must be below {LIMIT:e} in magnitude)"),
