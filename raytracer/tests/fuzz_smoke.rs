@@ -8,7 +8,8 @@
 //!
 //! `FUZZ_CASES` sets the number of inputs per kind (default 300, a few
 //! seconds in the test build); `FUZZ_SEED` the seed (default 22);
-//! `FUZZ_TIMEOUT_S` the per-input limit (default 10 s). The documented
+//! `FUZZ_TIMEOUT_S` the per-input limit (default 10 s); `FUZZ_SHOW=1`
+//! prints the errors of refused scenes and command lines. The documented
 //! run (see the book's "Scenes" chapter) is
 //!
 //! ```text
