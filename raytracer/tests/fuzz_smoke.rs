@@ -2,9 +2,11 @@
 //! project's own example scenes and small hand-written seeds, for each kind
 //! of input the program reads (Radiance scenes, OBJ with MTL, view files
 //! and view options, `.cal` files, command lines). Every input is parsed in
-//! process under `catch_unwind`, while a watchdog thread watches the time
-//! each one takes; the run fails on any panic or any input taking longer
-//! than the limit, printing the input.
+//! process (scenes that load are also rendered at 4x4 pixels, views that
+//! validate give rays, `.cal` functions are called) under `catch_unwind`,
+//! while a watchdog thread watches the time each one takes; the run fails
+//! on any panic or any input taking longer than the limit, printing the
+//! input.
 //!
 //! `FUZZ_CASES` sets the number of inputs per kind (default 300, a few
 //! seconds in the test build); `FUZZ_SEED` the seed (default 22);
@@ -335,6 +337,24 @@ fn rad_seeds() -> Vec<String> {
     seeds
 }
 
+/// Renders `scene` at 4x4 pixels from two views: errors are fine, panics
+/// are not.
+fn render_tiny(scene: &hybrid_rt::scene::Scene) {
+    use hybrid_rt::render::{RenderOptions, Renderer};
+    use hybrid_rt::scene::View;
+    let Ok(r) = Renderer::new(scene, RenderOptions::default()) else {
+        return;
+    };
+    for opts in [
+        "-vp 0 -5 1 -vd 0 1 0",
+        "-vth -vp 0.1 0.2 0.3 -vd 0 0 1 -vu 0 1 0",
+    ] {
+        if let Ok(v) = View::from_options(opts) {
+            let _ = r.render(&v, 4, 4);
+        }
+    }
+}
+
 #[test]
 fn radiance_scenes() {
     let seeds = rad_seeds();
@@ -346,7 +366,11 @@ fn radiance_scenes() {
         let text = mutate(&mut rng, &seeds[k % seeds.len()], RAD_WORDS);
         h.run(text.clone(), || {
             match hybrid_rt::scene::load_rad_str(&text, &name) {
-                Ok(_) => false,
+                Ok(scene) => {
+                    // A scene that loads must also render (4x4 pixels).
+                    render_tiny(&scene);
+                    false
+                }
                 Err(e) => {
                     if std::env::var_os("FUZZ_SHOW").is_some() {
                         eprintln!("{e}");
@@ -390,10 +414,20 @@ fn obj_and_mtl() {
         } else {
             MTL_SEED.to_string()
         };
-        h.run(format!("{obj}\n--- MTL ---\n{mtl}"), || {
-            hybrid_rt::scene::load_obj_str(&obj, Some(&mtl), "/nonexistent-fuzz-dir/fuzz.obj")
-                .is_err()
-        });
+        h.run(
+            format!("{obj}\n--- MTL ---\n{mtl}"),
+            || match hybrid_rt::scene::load_obj_str(
+                &obj,
+                Some(&mtl),
+                "/nonexistent-fuzz-dir/fuzz.obj",
+            ) {
+                Ok(scene) => {
+                    render_tiny(&scene);
+                    false
+                }
+                Err(_) => true,
+            },
+        );
     }
     h.finish();
 }
