@@ -118,6 +118,16 @@ mod tests {
             "{e}"
         );
         assert_eq!(read_input(&f, 100).unwrap().len(), 100);
+        // A FIFO without a writer would block an open(): it is refused first.
+        #[cfg(unix)]
+        {
+            let fifo = dir.join("pipe.rad");
+            let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+            // SAFETY: a valid NUL-terminated path.
+            assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+            let e = read_input(&fifo, MAX_INPUT_BYTES).unwrap_err();
+            assert!(e.to_string().contains("not a regular file"), "{e}");
+        }
         let e = read_capped(&[0u8; 10][..], 9).unwrap_err();
         assert!(e.to_string().contains("limit"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
