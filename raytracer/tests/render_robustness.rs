@@ -275,3 +275,162 @@ fn grazing_light_gives_no_shadow_acne() {
         );
     }
 }
+
+// ---------------------------------------------------------------------------
+// No input hangs the program, every write error exits non-zero, and values
+// outside physical sense are refused with file:line.
+
+fn run_cli(args: &[&str]) -> (i32, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hybrid-rt"))
+        .args(args)
+        .stdin(std::process::Stdio::null())
+        .output()
+        .expect("run hybrid-rt");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn scratch(tag: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("hybrid-rt-robust-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+const LIT: &str = "void light l 0 0 3 10 10 10\nl sphere s 0 0 4 0 2 0 .5\n";
+
+#[test]
+fn write_errors_exit_non_zero() {
+    if !std::path::Path::new("/dev/full").exists() {
+        return;
+    }
+    let d = scratch("full");
+    let scene = d.join("s.rad");
+    std::fs::write(&scene, LIT).unwrap();
+    let scene = scene.to_str().unwrap();
+    for ext in ["png", "hdr"] {
+        let full = d.join(format!("full.{ext}"));
+        let _ = std::fs::remove_file(&full);
+        std::os::unix::fs::symlink("/dev/full", &full).unwrap();
+        let (code, err) = run_cli(&[
+            "render",
+            scene,
+            "--view",
+            "-vp 0 0 0",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "-o",
+            full.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 1, "{ext}: {err}");
+        assert!(err.contains("No space left on device"), "{ext}: {err}");
+    }
+    let stats = d.join("full.json");
+    let _ = std::fs::remove_file(&stats);
+    std::os::unix::fs::symlink("/dev/full", &stats).unwrap();
+    let out = d.join("ok.png");
+    let (code, err) = run_cli(&[
+        "render",
+        scene,
+        "--view",
+        "-vp 0 0 0",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "-o",
+        out.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("full.json"), "{err}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn devices_and_unphysical_values_are_refused_with_file_and_line() {
+    let d = scratch("refuse");
+    let png = d.join("x.png");
+    let png = png.to_str().unwrap();
+    let cases: &[(&str, &str, &str)] = &[
+        ("zero.rad", "!xform /dev/zero\n", "zero.rad:1:"),
+        (
+            "m.obj",
+            "mtllib /dev/zero\nv 0 0 0\n",
+            "m.obj:1: cannot read material library",
+        ),
+        (
+            "big.rad",
+            "void plastic m 0 0 5 .5 .5 .5 0 0\nm sphere s 0 0 4 0 0 0 1e308\n",
+            "big.rad:2:",
+        ),
+        (
+            "n0.rad",
+            "void dielectric d 0 0 5 1 1 1 0 0\n",
+            "n0.rad:1: dielectric 'd': index of refraction 0 must be positive",
+        ),
+        (
+            "neg.rad",
+            "void glass g 0 0 4 1 1 1 -1\n",
+            "neg.rad:1: glass 'g': index of refraction -1 must be positive",
+        ),
+        (
+            "kd.obj",
+            "mtllib kd.mtl\nv 0 0 0\n",
+            "kd.mtl:2: Kd takes one or three numbers",
+        ),
+    ];
+    std::fs::write(d.join("kd.mtl"), "newmtl a\nKd 1 2\n").unwrap();
+    for (name, text, want) in cases {
+        let f = d.join(name);
+        std::fs::write(&f, text).unwrap();
+        let (code, err) = run_cli(&[
+            "render",
+            f.to_str().unwrap(),
+            "--view",
+            "-vp 0 -5 0",
+            "-o",
+            png,
+        ]);
+        assert_eq!(code, 1, "{name}: {err}");
+        assert!(err.contains(want), "{name}: {err}");
+    }
+    // A scene that is a device or a directory.
+    for bad in ["/dev/zero", "/"] {
+        let (code, err) = run_cli(&["render", bad, "--view", "-vp 0 -5 0", "-o", png]);
+        assert_eq!(code, 1, "{bad}: {err}");
+        assert!(
+            err.contains("not a regular file") || err.contains("directory"),
+            "{bad}: {err}"
+        );
+    }
+    // Views outside Radiance's limits.
+    let scene = d.join("lit.rad");
+    std::fs::write(&scene, LIT).unwrap();
+    for (view, want) in [
+        ("-vtl -vh 1e308", "-vh 1e308"),
+        ("-vtv -vh 180", "-vh 180 is out of range"),
+        ("-vth -vv 200", "-vv 200 is out of range"),
+    ] {
+        let (code, err) = run_cli(&["render", scene.to_str().unwrap(), "--view", view, "-o", png]);
+        assert_ne!(code, 0, "{view}: {err}");
+        assert!(err.contains(want), "{view}: {err}");
+    }
+    let vf = d.join("bad.vf");
+    std::fs::write(&vf, "rview -vtv -vp 0 0 0\n-vh 190\n").unwrap();
+    let (code, err) = run_cli(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--view-file",
+        vf.to_str().unwrap(),
+        "-o",
+        png,
+    ]);
+    assert_ne!(code, 0, "{err}");
+    assert!(err.contains("bad.vf:2: -vh 190 is out of range"), "{err}");
+    std::fs::remove_dir_all(&d).ok();
+}

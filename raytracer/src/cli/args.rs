@@ -756,7 +756,9 @@ pub fn translate(args: Vec<String>) -> Vec<String> {
         let name = a.strip_prefix('-').filter(|n| !n.starts_with('-'));
         // A switch with its state (`-bv-`): `--bv=-`.
         if let Some((base, state)) = name.and_then(|n| {
-            let (base, last) = n.split_at(n.len().saturating_sub(1));
+            // The last character, not byte: arguments need not be ASCII.
+            let cut = n.char_indices().last().map_or(0, |(k, _)| k);
+            let (base, last) = n.split_at(cut);
             let switch = RADIANCE_OPTIONS
                 .iter()
                 .any(|o| o.name == base && o.arity == 0);

@@ -181,7 +181,7 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
     let ctx = renderer.context();
     let os = renderer.octree().stats();
     let built = renderer.stats(w, h, &Default::default(), 1.0).time;
-    println!(
+    outln!(
         "scene {}: {} objects, {} lights; octree {} leaves, {} internal nodes, {} references, built in {:.3} s",
         path.display(),
         scene.stats.objects,
@@ -193,9 +193,13 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
     );
 
     let bs = renderer.bvh().stats();
-    println!(
+    outln!(
         "hierarchy: {} nodes, {} leaves, {} objects, depth {}, built in {:.3} s",
-        bs.nodes, bs.leaves, bs.objects, bs.depth, built.bvh_build_s
+        bs.nodes,
+        bs.leaves,
+        bs.objects,
+        bs.depth,
+        built.bvh_build_s
     );
     let rss_scene = peak_rss();
 
@@ -302,30 +306,31 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
     // Whatever is left, however the image ended.
     flush(&mut shadow);
     let _ = ctx;
-    println!(
+    outln!(
         "primary rays: {} in {:.3} s = {:.2} Mrays/s ({} hits)",
         n_primary,
         primary_time.as_secs_f64(),
         rate(n_primary, primary_time),
         n_hits
     );
-    println!(
+    outln!(
         "shadow rays: {} in {:.3} s = {:.2} Mrays/s ({} blocked)",
         n_shadow,
         shadow_time.as_secs_f64(),
         rate(n_shadow, shadow_time),
         n_blocked
     );
-    println!(
+    outln!(
         "primary + shadow: {:.2} Mrays/s",
         rate(n_primary + n_shadow, primary_time + shadow_time)
     );
-    println!(
+    outln!(
         "fingerprint: primary {:016x}, shadow {:016x}",
-        fp_primary.0, fp_shadow.0
+        fp_primary.0,
+        fp_shadow.0
     );
     if a.octree {
-        println!(
+        outln!(
         "octree kernel on the same rays: primary {:.2}, shadow {:.2}, primary + shadow {:.2} Mrays/s; hierarchy / octree {:.2}x; {} answers differ",
         rate(n_primary, octree_primary),
         rate(n_shadow, octree_shadow),
@@ -342,13 +347,13 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         let (film, st) = renderer.render(&view, w, h)?;
         rss_render = peak_rss();
         drop(film);
-        println!(
+        outln!(
             "full render {}x{}: {:.3} s, {} primary + {} shadow rays traced ({} estimated) = {:.2} Mrays/s",
             w, h, st.time.render_s, st.rays.primary, st.rays.shadow.tested, st.rays.shadow.estimated, st.mrays_per_s
         );
     }
     let show = |b: Option<usize>| b.map_or("n/a".to_string(), |b| format!("{:.1} MiB", mib(b)));
-    println!(
+    outln!(
         "memory: octree {:.2} MiB, hierarchy {:.2} MiB, objects {:.2} MiB, film {:.2} MiB; peak RSS {} after loading, {} after the ray benchmark, {} after the render",
         mib(renderer.octree().memory_bytes()),
         mib(renderer.bvh().memory_bytes()),
@@ -429,14 +434,14 @@ fn scaling(a: &BenchArgs) -> Result<()> {
     };
     let med: Vec<f64> = times.iter_mut().map(median).collect();
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    println!(
+    outln!(
         "{} at {w}x{h}, {} runs each (median), {cores} cores; every picture equals the sequential one bit for bit",
         path.display(),
         a.repeat
     );
-    println!("| renderer | processors | time (s) | speed-up over 1 processor | over sequential |");
-    println!("| --- | --- | --- | --- | --- |");
-    println!("| sequential | - | {:.3} | - | 1.00 |", med[0]);
+    outln!("| renderer | processors | time (s) | speed-up over 1 processor | over sequential |");
+    outln!("| --- | --- | --- | --- | --- |");
+    outln!("| sequential | - | {:.3} | - | 1.00 |", med[0]);
     let per = a.scaling.len();
     for (d, dist) in ["replicated", "octree"].iter().enumerate() {
         let one = a
@@ -447,7 +452,7 @@ fn scaling(a: &BenchArgs) -> Result<()> {
         for (k, &n) in a.scaling.iter().enumerate() {
             let t = med[1 + d * per + k];
             let rel = one.map_or("-".to_string(), |o| format!("{:.2}", o / t));
-            println!("| {dist} | {n} | {t:.3} | {rel} | {:.2} |", med[0] / t);
+            outln!("| {dist} | {n} | {t:.3} | {rel} | {:.2} |", med[0] / t);
         }
     }
     Ok(())

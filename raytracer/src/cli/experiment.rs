@@ -33,7 +33,7 @@ pub(super) fn run(a: &ExperimentArgs) -> Result<()> {
         let c = cost::calibrate(scene, options, &view, w as usize, h as usize)?;
         let text =
             serde_json::to_string_pretty(&c).map_err(|e| crate::Error::Other(e.to_string()))?;
-        println!("{text}");
+        outln!("{text}");
         eprintln!(
             "fitted {} steps: R^2 {:.3}; sequential steps {:.3} s measured, {:.3} s fitted; threads (1 proc) {:.3} s measured, built-in model {:.3} s",
             c.steps, c.r_squared, c.measured_s, c.predicted_s, c.threads_s, c.builtin_predicted_s
@@ -63,7 +63,7 @@ pub(super) fn run(a: &ExperimentArgs) -> Result<()> {
     };
     let written = experiment::run(&experiment_name, &setup, &a.out)?;
     for o in written {
-        println!("{}", o.path.display());
+        outln!("{}", o.path.display());
     }
     Ok(())
 }

@@ -4,6 +4,14 @@
 //! is 2 for usage errors and 1 for everything else. No input makes the
 //! program panic.
 
+/// `println!` that does not panic when standard output fails (a closed
+/// pipe, a full disk): the failure is remembered and [`main`] exits 1.
+macro_rules! outln {
+    ($($t:tt)*) => {
+        $crate::cli::stdout_line(format_args!($($t)*))
+    };
+}
+
 mod args;
 mod bench;
 mod console;
@@ -16,6 +24,9 @@ pub use args::{
     translate, BenchArgs, Cli, Command, ExperimentArgs, ParallelArgs, RenderArgs, SweepArgs,
 };
 pub use parallel::summary as parallel_summary;
+
+use std::io::Write;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
 
@@ -31,7 +42,10 @@ pub fn main() -> i32 {
         Err(e) => {
             // Help and version are not errors.
             let code = if e.use_stderr() { 2 } else { 0 };
-            let _ = e.print();
+            if let Err(w) = e.print() {
+                eprintln!("error: standard output: {w}");
+                return 1;
+            }
             return code;
         }
     };
@@ -41,6 +55,17 @@ pub fn main() -> i32 {
         Command::Sweep(a) => sweep::run(&a),
         Command::Experiment(a) => experiment::run(&a),
     };
+    // Everything written to standard output must have reached it.
+    let result = result.and_then(|()| {
+        let flushed = std::io::stdout().flush();
+        if STDOUT_FAILED.load(Ordering::Relaxed) || flushed.is_err() {
+            let why = flushed
+                .err()
+                .map_or("write failed".to_string(), |e| e.to_string());
+            return Err(Error::io("<standard output>", std::io::Error::other(why)));
+        }
+        Ok(())
+    });
     match result {
         Ok(()) => 0,
         Err(e) => {
@@ -52,6 +77,29 @@ pub fn main() -> i32 {
             }
             e.exit_code()
         }
+    }
+}
+
+/// Parses and checks a command line as [`main`] does before any file is
+/// loaded or anything rendered (tests, fuzzing): [`translate`], clap, and
+/// for `render` the checks of its options and view. Nothing is printed,
+/// rendered or written; help and version requests are `Err` too.
+pub fn check_command_line(args: Vec<String>) -> Result<()> {
+    let cli = Cli::try_parse_from(translate(args)).map_err(|e| Error::Usage(e.to_string()))?;
+    match cli.command {
+        Command::Render(a) => render::check(&a),
+        _ => Ok(()),
+    }
+}
+
+/// Set when a line could not be written to standard output.
+static STDOUT_FAILED: AtomicBool = AtomicBool::new(false);
+
+/// Writes one line to standard output (see `outln!`).
+pub(crate) fn stdout_line(args: std::fmt::Arguments<'_>) {
+    let mut out = std::io::stdout().lock();
+    if writeln!(out, "{args}").is_err() {
+        STDOUT_FAILED.store(true, Ordering::Relaxed);
     }
 }
 

@@ -138,22 +138,19 @@ fn default_view(scenes: &[std::path::PathBuf]) -> Result<Option<View>> {
     Ok(Some(view))
 }
 
-pub(super) fn run(a: &RenderArgs) -> Result<()> {
-    let start = Instant::now();
-    if let Some(path) = &a.error_file {
-        redirect_stderr(path)?;
-    }
-    // Check everything cheap before the expensive work.
-    if to_stdout(a) {
-        if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
-            return Err(usage(
-                "standard output is a terminal: give -o FILE, or redirect the picture (hybrid-rt render ... > picture.hdr)",
-            ));
-        }
-    } else if let Some(path) = &a.output {
+/// Whether a view is given on the command line (`-vf`, `--view`, `-v...`).
+fn view_given(a: &RenderArgs) -> bool {
+    a.view_file.is_some() || !a.view.is_empty() || !a.view_words.is_empty()
+}
+
+/// The checks [`run`] makes before it loads the scene (output type,
+/// Radiance options, exposure, tone, gamma, resolution, a given view,
+/// parallel options); also [`super::check_command_line`]'s.
+pub(super) fn check(a: &RenderArgs) -> Result<()> {
+    if let Some(path) = a.output.as_deref().filter(|_| !to_stdout(a)) {
         ImageFormat::from_path(path)?;
     }
-    let options = options_from(&a.radiance, a.seed)?;
+    options_from(&a.radiance, a.seed)?;
     let exposure = a.exposure.as_deref().map(parse_exposure).transpose()?;
     if let Some(g) = a.gamma {
         if !(g.is_finite() && g > 0.0) {
@@ -162,8 +159,30 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
     }
     tone_map(a, exposure)?;
     check_resolution(a.width as usize, a.height as usize)?;
-    let given = a.view_file.is_some() || !a.view.is_empty() || !a.view_words.is_empty();
-    let view = if given {
+    if view_given(a) {
+        let view = build_view(a.view_file.as_deref(), &a.view, &a.view_words)?;
+        let (_, width, height) = view.fit_aspect(a.width, a.height);
+        check_resolution(width as usize, height as usize)?;
+    }
+    super::parallel::resolve(&a.parallel)?;
+    Ok(())
+}
+
+pub(super) fn run(a: &RenderArgs) -> Result<()> {
+    let start = Instant::now();
+    if let Some(path) = &a.error_file {
+        redirect_stderr(path)?;
+    }
+    if to_stdout(a) && std::io::IsTerminal::is_terminal(&std::io::stdout()) {
+        return Err(usage(
+            "standard output is a terminal: give -o FILE, or redirect the picture (hybrid-rt render ... > picture.hdr)",
+        ));
+    }
+    // Everything cheap is checked before the expensive work.
+    check(a)?;
+    let options = options_from(&a.radiance, a.seed)?;
+    let exposure = a.exposure.as_deref().map(parse_exposure).transpose()?;
+    let view = if view_given(a) {
         Some(build_view(a.view_file.as_deref(), &a.view, &a.view_words)?)
     } else {
         default_view(&a.scenes)?

@@ -89,10 +89,10 @@ pub(super) fn run(a: &SweepArgs) -> Result<()> {
             )),
         },
     )?;
-    println!("{md}");
-    println!("Pareto front (fastest first):");
+    outln!("{md}");
+    outln!("Pareto front (fastest first):");
     for p in report.front() {
-        println!(
+        outln!(
             "  {:<22} {:>8.3} s  rel. RMSE {:.4}  {}",
             p.name,
             p.time_s,
@@ -100,6 +100,6 @@ pub(super) fn run(a: &SweepArgs) -> Result<()> {
             option_words(&p.options)
         );
     }
-    println!("written to {}", a.out.display());
+    outln!("written to {}", a.out.display());
     Ok(())
 }

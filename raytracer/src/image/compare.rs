@@ -35,8 +35,9 @@ pub struct Reference {
 impl Reference {
     /// Reads a Radiance picture and divides out its exposure.
     pub fn load(path: &Path) -> Result<Reference> {
-        let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-        let img = read_hdr(&mut std::io::BufReader::new(f)).map_err(|e| Error::io(path, e))?;
+        let bytes = crate::scene::input::read_input(path, crate::scene::input::MAX_INPUT_BYTES)
+            .map_err(|e| Error::io(path, e))?;
+        let img = read_hdr(&mut std::io::Cursor::new(bytes)).map_err(|e| Error::io(path, e))?;
         let mut exposure = 1.0;
         let mut view = None;
         for line in &img.header {
@@ -217,7 +218,7 @@ pub fn write_difference(render: &Film, reference: &Film, path: &Path) -> Result<
     let f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
     let mut w = std::io::BufWriter::new(f);
     write_hdr(&mut w, &d, 1.0, &super::HdrInfo::default()).map_err(|e| Error::io(path, e))?;
-    Ok(())
+    std::io::Write::flush(&mut w).map_err(|e| Error::io(path, e))
 }
 
 #[cfg(test)]

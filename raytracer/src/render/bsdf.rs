@@ -176,7 +176,7 @@ fn text<'a>(n: Option<roxmltree::Node<'a, 'a>>) -> &'a str {
 impl KlemsData {
     /// Reads a file (errors name it and say why).
     pub fn load(path: &Path) -> Result<Self, String> {
-        let s = std::fs::read_to_string(path)
+        let s = crate::scene::input::read_input_text(path, crate::scene::input::MAX_INPUT_BYTES)
             .map_err(|e| format!("cannot read BSDF file '{}': {e}", path.display()))?;
         Self::parse(&s, &path.display().to_string())
     }

@@ -250,6 +250,7 @@ impl Builder {
                 format!("unknown primitive type '{t}' (identifier '{}')", p.id),
             ));
         };
+        self.check_material_values(p, &m)?;
         let chain = match p.modifier.as_str() {
             "void" => Vec::new(),
             name => match self.lookup(name, &p.loc, p)? {
@@ -736,6 +737,81 @@ impl Builder {
         Ok(Some(m))
     }
 
+    /// Values outside physical sense: an index of refraction that is not
+    /// positive is an error (the refraction maths divides by it);
+    /// negative reflectances, transmissions, specularities and roughnesses
+    /// are warned about (Radiance accepts them, with results that are not
+    /// physical).
+    fn check_material_values(&mut self, p: &RawPrim, m: &Material) -> Result<()> {
+        let (indices, values): (Vec<f64>, Vec<f64>) = match *m {
+            Material::Glass {
+                transmission,
+                index,
+            } => (vec![index], transmission.to_array().to_vec()),
+            Material::Dielectric {
+                transmission,
+                index,
+                ..
+            } => (vec![index], transmission.to_array().to_vec()),
+            Material::Interface {
+                inside_transmission,
+                inside_index,
+                outside_transmission,
+                outside_index,
+            } => {
+                let mut v = inside_transmission.to_array().to_vec();
+                v.extend(outside_transmission.to_array());
+                (vec![inside_index, outside_index], v)
+            }
+            Material::Plastic {
+                color,
+                specularity,
+                roughness,
+            }
+            | Material::Metal {
+                color,
+                specularity,
+                roughness,
+            } => {
+                let mut v = color.to_array().to_vec();
+                v.extend([specularity, roughness]);
+                (Vec::new(), v)
+            }
+            Material::Trans {
+                color,
+                specularity,
+                roughness,
+                transmissivity,
+                transmitted_specular,
+            } => {
+                let mut v = color.to_array().to_vec();
+                v.extend([specularity, roughness, transmissivity, transmitted_specular]);
+                (Vec::new(), v)
+            }
+            Material::Mirror { color, .. } => (Vec::new(), color.to_array().to_vec()),
+            _ => return Ok(()),
+        };
+        if let Some(&n) = indices.iter().find(|&&n| !(n > 0.0 && n.is_finite())) {
+            return Err(Error::parse(
+                p.loc.clone(),
+                format!(
+                    "{} '{}': index of refraction {n} must be positive",
+                    p.ptype, p.id
+                ),
+            ));
+        }
+        if let Some(&x) = values.iter().find(|&&x| x < 0.0) {
+            self.warn(
+                &p.loc,
+                format!(
+                    "{} '{}': negative value {x} (a reflectance, transmission, specularity or roughness) is not physical",
+                    p.ptype, p.id
+                ),
+            );
+        }
+        Ok(())
+    }
+
     fn geometry_error(p: &RawPrim, reason: String) -> Error {
         Error::Geometry {
             loc: p.loc.clone(),
@@ -773,6 +849,15 @@ impl Builder {
         let t = p.ptype.as_str();
         let r = &p.reals;
         let v = |k: usize| Vec3::new(r[k], r[k + 1], r[k + 2]);
+        // Coordinates and radii whose squares (and their products) stay
+        // finite: a sphere of radius 1e308 cannot be intersected.
+        const LIMIT: f64 = 1e30;
+        if let Some(&x) = r.iter().find(|x| !x.is_finite() || x.abs() >= LIMIT) {
+            return Err(Self::geometry_error(
+                p,
+                format!("argument {x:e} is out of range (coordinates and sizes must be below {LIMIT:e} in magnitude)"),
+            ));
+        }
         match t {
             "polygon" => {
                 if r.len() % 3 != 0 || r.len() < 9 {
@@ -1155,9 +1240,23 @@ impl Builder {
 
     /// Loads an OBJ file at top level; its emitting faces become area lights.
     pub fn add_obj_file(&mut self, path: &Path) -> Result<()> {
+        self.add_obj_with(|b, objs| super::obj::load_obj_into(b, path, None, None, objs))
+    }
+
+    /// Loads OBJ text held in memory at top level; every `mtllib` it names
+    /// reads `mtl` (none: a missing library).
+    pub fn add_obj_text(&mut self, text: &str, path: &Path, mtl: Option<&str>) -> Result<()> {
+        let source = |_: &str| Ok(mtl.map(|t| (path.with_extension("mtl"), t.to_string())));
+        self.add_obj_with(|b, objs| super::obj::load_obj_text(b, text, path, &source, None, objs))
+    }
+
+    fn add_obj_with(
+        &mut self,
+        load: impl FnOnce(&mut Self, &mut Vec<Object>) -> Result<()>,
+    ) -> Result<()> {
         let mut objs = std::mem::take(&mut self.scene.objects);
         let start = objs.len();
-        let r = super::obj::load_obj_into(self, path, None, None, &mut objs);
+        let r = load(self, &mut objs);
         for (k, o) in objs.iter().enumerate().skip(start) {
             if is_light_material(self.scene.material(o.material)) {
                 self.scene.lights.push(Light {

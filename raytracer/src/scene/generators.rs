@@ -134,7 +134,7 @@ pub(crate) fn run_genprism(
     } else {
         let path = find_file(first, loc, &exp.search_path)
             .ok_or_else(|| err(format!("cannot open vertex file '{first}'")))?;
-        let bytes = std::fs::read(&path)
+        let bytes = crate::scene::input::read_input(&path, crate::scene::input::MAX_INPUT_BYTES)
             .map_err(|e| err(format!("cannot read vertex file '{}': {e}", path.display())))?;
         // Like fscanf("%lf %lf"): pairs of numbers up to the first thing
         // that is not one.
@@ -462,7 +462,11 @@ pub(crate) fn run_genrev(
                 } else {
                     let path = find_file(arg, loc, &exp.search_path)
                         .ok_or_else(|| err(format!("cannot find function file '{arg}'")))?;
-                    let text = std::fs::read(&path).map_err(|e| {
+                    let text = crate::scene::input::read_input(
+                        &path,
+                        crate::scene::input::MAX_INPUT_BYTES,
+                    )
+                    .map_err(|e| {
                         err(format!(
                             "cannot read function file '{}': {e}",
                             path.display()

@@ -15,6 +15,7 @@ mod build;
 mod genbox;
 pub mod generate;
 mod generators;
+pub mod input;
 mod model;
 mod modifiers;
 mod obj;
@@ -69,8 +70,7 @@ pub fn load_with(paths: &[impl AsRef<Path>], options: &LoadOptions) -> Result<Sc
     for p in paths {
         let p = p.as_ref();
         if p == Path::new("-") {
-            let mut bytes = Vec::new();
-            std::io::Read::read_to_end(&mut std::io::stdin(), &mut bytes)
+            let bytes = input::read_capped(std::io::stdin().lock(), input::MAX_INPUT_BYTES)
                 .map_err(|e| Error::io("<standard input>", e))?;
             b.add_rad_text(
                 &String::from_utf8_lossy(&bytes),
@@ -97,6 +97,15 @@ pub fn load_with(paths: &[impl AsRef<Path>], options: &LoadOptions) -> Result<Sc
 pub fn load_rad_str(text: &str, name: impl AsRef<Path>) -> Result<Scene> {
     let mut b = build::Builder::new();
     b.add_rad_text(text, name.as_ref())?;
+    b.finish()
+}
+
+/// Loads a Wavefront OBJ file's text from memory (tests, fuzzing); every
+/// `mtllib` it names reads `mtl` (`None`: the library is missing, a
+/// warning). `name` is used in messages.
+pub fn load_obj_str(obj: &str, mtl: Option<&str>, name: impl AsRef<Path>) -> Result<Scene> {
+    let mut b = build::Builder::new();
+    b.add_obj_text(obj, name.as_ref(), mtl)?;
     b.finish()
 }
 

@@ -53,13 +53,14 @@ pub(crate) struct OctreeFile {
 /// Reads an octree's contents. `from` is where it was named (for the error
 /// if it cannot be read).
 pub(crate) fn read_octree(path: &Path, from: Option<&SourceLoc>) -> Result<OctreeContents> {
-    let data = std::fs::read(path).map_err(|e| match from {
-        Some(loc) => Error::parse(
-            loc.clone(),
-            format!("cannot read octree file '{}': {e}", path.display()),
-        ),
-        None => Error::io(path, e),
-    })?;
+    let data = crate::scene::input::read_input(path, crate::scene::input::MAX_INPUT_BYTES)
+        .map_err(|e| match from {
+            Some(loc) => Error::parse(
+                loc.clone(),
+                format!("cannot read octree file '{}': {e}", path.display()),
+            ),
+            None => Error::io(path, e),
+        })?;
     Ok(parse_octree(&data, path)?.contents)
 }
 

@@ -80,13 +80,14 @@ pub(crate) struct RtmTriangle {
 /// Reads a compiled mesh. `from` is where it was named (for the error if
 /// it cannot be read).
 pub(crate) fn read_rtm(path: &Path, from: Option<&SourceLoc>) -> Result<RtmMesh> {
-    let data = std::fs::read(path).map_err(|e| match from {
-        Some(loc) => Error::parse(
-            loc.clone(),
-            format!("cannot read mesh file '{}': {e}", path.display()),
-        ),
-        None => Error::io(path, e),
-    })?;
+    let data = crate::scene::input::read_input(path, crate::scene::input::MAX_INPUT_BYTES)
+        .map_err(|e| match from {
+            Some(loc) => Error::parse(
+                loc.clone(),
+                format!("cannot read mesh file '{}': {e}", path.display()),
+            ),
+            None => Error::io(path, e),
+        })?;
     parse_rtm(&data, path)
 }
 

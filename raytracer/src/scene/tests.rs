@@ -1289,3 +1289,144 @@ mod fuzz {
         }
     }
 }
+
+// ---------------------------------------------------------------------------
+// OBJ/MTL errors name file:line; devices and directories are refused.
+
+#[test]
+fn obj_and_mtl_errors_name_file_and_line() {
+    use crate::scene::load_obj_str;
+    let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    let cases: &[(&str, Option<&str>, &str)] = &[
+        ("v 1 2\n", None, "m.obj:1: v takes x y z"),
+        (
+            "v 0 0 0\nv 1 x 0\n",
+            None,
+            "m.obj:2: v: 'x' is not a number",
+        ),
+        ("v 0 0 0 0\n", None, "m.obj:1: v: weight w is 0"),
+        (
+            "v 1e39 0 0\n",
+            None,
+            "m.obj:1: v: '1e39' is not a finite number",
+        ),
+        (
+            "v 0 0 0\nf 1 2 3\n",
+            None,
+            "m.obj:2: face vertex '2': vertex 2 does not exist (1 defined so far)",
+        ),
+        (
+            "v 0 0 0\nf 0 1 1\n",
+            None,
+            "m.obj:2: face vertex '0': vertex 0 does not exist",
+        ),
+        (
+            "v 0 0 0\nf -9223372036854775808 1 1\n",
+            None,
+            "vertex -9223372036854775808 does not exist",
+        ),
+        (
+            "v 0 0 0\nf 1/1 1/1 1/1\n",
+            None,
+            "m.obj:2: face vertex '1/1': texture coordinate 1 does not exist",
+        ),
+        (
+            "v 0 0 0\nf 1/2/3/4 1 1\n",
+            None,
+            "m.obj:2: face vertex '1/2/3/4': expected",
+        ),
+        ("usemtl\n", None, "m.obj:1: usemtl needs a material name"),
+        ("mtllib\n", None, "m.obj:1: mtllib needs a file name"),
+        (
+            "mtllib m.mtl\n",
+            Some("newmtl a\nKd 1 2\n"),
+            "m.mtl:2: Kd takes one or three numbers (r g b), found 2",
+        ),
+        (
+            "mtllib m.mtl\n",
+            Some("Kd 1 1 1\n"),
+            "m.mtl:1: 'Kd' before any 'newmtl'",
+        ),
+        (
+            "mtllib m.mtl\n",
+            Some("newmtl a\n\nNi 0\n"),
+            "m.mtl:3: Ni: index of refraction 0 must be positive",
+        ),
+        (
+            "mtllib m.mtl\n",
+            Some("newmtl a\nNi -1\n"),
+            "m.mtl:2: Ni: index of refraction -1 must be positive",
+        ),
+        (
+            "mtllib m.mtl\n",
+            Some("newmtl a\nKs -1 0 0\n"),
+            "m.mtl:2: Ks: negative colour",
+        ),
+        (
+            "mtllib m.mtl\n",
+            Some("newmtl a\nd 2\n"),
+            "m.mtl:2: d: 2 is outside 0..1",
+        ),
+        (
+            "mtllib m.mtl\n",
+            Some("newmtl a\nillum x\n"),
+            "m.mtl:2: illum takes one illumination model",
+        ),
+        (
+            "mtllib m.mtl\n",
+            Some("newmtl a\nNs nan\n"),
+            "m.mtl:2: Ns: 'nan' is not a finite number",
+        ),
+        (
+            "mtllib m.mtl\n",
+            Some("newmtl\n"),
+            "m.mtl:1: newmtl needs a material name",
+        ),
+    ];
+    for (obj, mtl, want) in cases {
+        let e = load_obj_str(obj, *mtl, "m.obj")
+            .err()
+            .unwrap_or_else(|| panic!("{obj:?} {mtl:?} loaded"))
+            .to_string();
+        assert!(e.contains(want), "{obj:?} {mtl:?}: {e}");
+    }
+    // `Kd 1` (grey, as MTL allows) once made tobj panic; relative and
+    // slashed indices, w and vertex colours load.
+    let s = load_obj_str(
+        &format!("mtllib m.mtl\nusemtl a\n{tri}v 0 0 1 2\nv 1 1 1 .5 .5 .5\nvt 0 0\nvn 0 0 1\nf -3/1/1 -4//1 -5/1\nf 1 2 3\n"),
+        Some("newmtl a\nKd 0.25\nTr 0.25 # comment\nmap_Kd x.png\n"),
+        "m.obj",
+    )
+    .unwrap();
+    assert_eq!(s.objects.len(), 2);
+    match s.materials[s.objects[0].material as usize] {
+        Material::Glass { transmission, .. } => assert!((transmission.x - 0.25).abs() < 1e-6),
+        ref m => panic!("{m:?}"),
+    }
+}
+
+#[test]
+fn devices_fifos_and_directories_are_refused() {
+    let d = tempdir("devices");
+    std::fs::write(d.join("m.obj"), "mtllib /dev/zero\n").unwrap();
+    std::fs::write(d.join("x.rad"), "!xform /dev/zero\n").unwrap();
+    std::fs::write(d.join("dir.rad"), "!xform .\n").unwrap();
+    let e = load(&[d.join("m.obj")]).unwrap_err().to_string();
+    assert!(
+        e.contains("m.obj:1: cannot read material library '/dev/zero': not a regular file"),
+        "{e}"
+    );
+    let e = load(&[d.join("x.rad")]).unwrap_err().to_string();
+    assert!(
+        e.contains("x.rad:1:") && e.contains("not a regular file"),
+        "{e}"
+    );
+    let e = load(&[d.join("dir.rad")]).unwrap_err().to_string();
+    assert!(e.contains("dir.rad:1:") && e.contains("directory"), "{e}");
+    for p in ["/dev/zero", "/dev/null/x"] {
+        assert!(load(&[p]).is_err());
+    }
+    let e = load(&[Path::new("/dev/zero.obj")]).unwrap_err().to_string();
+    assert!(e.contains("/dev/zero.obj"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}

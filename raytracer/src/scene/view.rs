@@ -111,6 +111,52 @@ impl Default for View {
     }
 }
 
+/// A number as `%g` writes it, near enough: exponent form when large.
+fn g(x: f64) -> String {
+    if x.is_finite() && x != 0.0 && !(1e-4..1e6).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
+/// The line of view file `path` an invalid view is blamed on: the last
+/// line setting the option the reason names (`-vh ...`), else the last line
+/// with view options; 0 when the file cannot be read again.
+fn blame_line(path: &Path, reason: &str) -> usize {
+    match super::input::read_input_text(path, super::input::MAX_VIEW_BYTES) {
+        Ok(text) => blame_in(&text, reason),
+        Err(_) => 0,
+    }
+}
+
+/// [`blame_line`] for a view file's text.
+fn blame_in(text: &str, reason: &str) -> usize {
+    let option = reason
+        .split(|c: char| c.is_whitespace() || c == '(' || c == ':')
+        .find(|w| w.len() >= 3 && w.starts_with("-v"))
+        .map(|w| if w.starts_with("-vt") { "-vt" } else { w });
+    let mut last = 0;
+    let mut last_option = 0;
+    for (k, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("");
+        let mut words = line.split_whitespace().peekable();
+        if words.peek().is_some() {
+            last = k + 1;
+        }
+        if let Some(o) = option {
+            if line.split_whitespace().any(|w| w.starts_with(o)) {
+                last_option = k + 1;
+            }
+        }
+    }
+    if last_option > 0 {
+        last_option
+    } else {
+        last
+    }
+}
+
 /// Deepest `-vf` nesting.
 const MAX_VF_DEPTH: usize = 8;
 
@@ -202,7 +248,7 @@ impl View {
         let mut v = View::default();
         v.apply_file(path, None, 0)?;
         v.validate()
-            .map_err(|r| Error::parse(SourceLoc::new(path, 0), r))?;
+            .map_err(|r| Error::parse(SourceLoc::new(path, blame_line(path, &r)), r))?;
         Ok(v)
     }
 
@@ -213,6 +259,18 @@ impl View {
         self.apply_words(&words, loc, 0)
     }
 
+    /// A view file's text held in memory (tests, fuzzing): the lines of
+    /// [`View::from_file`], with `path` naming it in errors and resolving
+    /// its `-vf` files.
+    pub fn from_file_text(text: &str, path: impl AsRef<Path>) -> Result<View> {
+        let path = path.as_ref();
+        let mut v = View::default();
+        v.apply_text(text, path, 0)?;
+        v.validate()
+            .map_err(|r| Error::parse(SourceLoc::new(path, blame_in(text, &r)), r))?;
+        Ok(v)
+    }
+
     fn apply_file(&mut self, path: &Path, from: Option<&SourceLoc>, depth: usize) -> Result<()> {
         let text = read_view_text(path).map_err(|e| match from {
             Some(loc) => Error::parse(
@@ -221,6 +279,10 @@ impl View {
             ),
             None => Error::io(path, e),
         })?;
+        self.apply_text(&text, path, depth)
+    }
+
+    fn apply_text(&mut self, text: &str, path: &Path, depth: usize) -> Result<()> {
         for (k, line) in text.lines().enumerate() {
             let loc = SourceLoc::new(path, k + 1);
             let line = line.split('#').next().unwrap_or("");
@@ -317,13 +379,35 @@ impl View {
     /// Checks the view: finite values, `vd` non-zero, `vu` not parallel to
     /// `vd`, sizes in range for the type, `0 <= vo < va` (unless `va == 0`).
     pub fn validate(&self) -> std::result::Result<(), String> {
-        let all = [self.vh, self.vv, self.vs, self.vl, self.vo, self.va];
-        if !self.vp.is_finite()
-            || !self.vd.is_finite()
-            || !self.vu.is_finite()
-            || all.iter().any(|x| !x.is_finite())
-        {
-            return Err("view parameters must be finite".into());
+        // Radiance's FHUGE: larger positions and sizes lose all precision
+        // (a parallel view 1e308 wide renders black).
+        const HUGE: f64 = 1e10;
+        let vectors = [("-vp", self.vp), ("-vd", self.vd), ("-vu", self.vu)];
+        for (name, v) in vectors {
+            if !v.is_finite() || v.abs().max_element() >= HUGE {
+                return Err(format!(
+                    "{name} {} {} {}: view parameters must be finite and below {HUGE:e}",
+                    g(v.x),
+                    g(v.y),
+                    g(v.z)
+                ));
+            }
+        }
+        let all = [
+            ("-vh", self.vh),
+            ("-vv", self.vv),
+            ("-vs", self.vs),
+            ("-vl", self.vl),
+            ("-vo", self.vo),
+            ("-va", self.va),
+        ];
+        for (name, x) in all {
+            if !x.is_finite() || x.abs() >= HUGE {
+                return Err(format!(
+                    "{name} {}: view parameters must be finite and below {HUGE:e}",
+                    g(x)
+                ));
+            }
         }
         if self.vd.length() == 0.0 || !self.vd.length().is_finite() {
             return Err("view direction (-vd) is zero".into());
@@ -716,6 +800,45 @@ mod tests {
         assert!(e.contains("-va"), "{e}");
         let e = View::from_options("-x 512").unwrap_err().to_string();
         assert!(e.contains("unknown view option '-x'"), "{e}");
+    }
+
+    #[test]
+    fn sizes_outside_radiance_limits_are_refused() {
+        for (opts, want) in [
+            (
+                "-vtl -vh 1e308",
+                "-vh 1e308: view parameters must be finite and below 1e10",
+            ),
+            ("-vtl -vv 0", "-vv 0 is out of range"),
+            ("-vtv -vh 179.99 -vv -1", "-vv -1 is out of range"),
+            ("-vth -vh 181", "-vh 181 is out of range"),
+            ("-vta -vv 361", "-vv 361 is out of range"),
+            ("-vtc -vv 180", "-vv 180 is out of range"),
+            ("-vts -vh 360", "-vh 360 is out of range"),
+            (
+                "-vp 1e300 0 0",
+                "-vp 1e300 0 0: view parameters must be finite",
+            ),
+            ("-vo -1", "-vo -1 is negative"),
+        ] {
+            let e = View::from_options(opts).unwrap_err().to_string();
+            assert!(e.contains(want), "{opts}: {e}");
+        }
+        assert!(View::from_options("-vtl -vh 1e9 -vv 1e9").is_ok());
+        // View-file validation errors name the line setting the option.
+        let dir = std::env::temp_dir().join(format!("hybrid-rt-view-blame-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("wide.vf");
+        std::fs::write(&f, "rview -vtv -vp 0 0 0\n-vh 200\n-vv 40\n").unwrap();
+        let e = View::from_file(&f).unwrap_err().to_string();
+        assert!(e.contains("wide.vf:2: -vh 200 is out of range"), "{e}");
+        std::fs::write(&f, "-vh 170\n-vv 40\n\n-vtl\n").unwrap();
+        assert!(View::from_file(&f).is_ok());
+        assert!(View::from_file("/dev/zero")
+            .unwrap_err()
+            .to_string()
+            .contains("not a regular file"));
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]
