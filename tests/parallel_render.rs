@@ -504,12 +504,16 @@ fn adaptive_pixel_sampling_equals_sequential_for_every_tiling_and_distribution()
                 if distribution == Distribution::Replicated {
                     // Sampled adaptively too, tiles rounded up to the grid:
                     // the sequential samples, plus at most a tile's shared
-                    // border grid row and column traced again per tile.
+                    // border grid row and column traced again per tile, and
+                    // on each of its grid rows one grid cell more on each
+                    // side (the apron whose columns decide the refinement
+                    // of the tile's outer columns).
                     let t = tile.div_ceil(4) * 4;
                     let tiles = c.width.div_ceil(t) * c.height.div_ceil(t);
                     let seq = c.counts.primary as usize;
+                    let apron = (t / 4 + 1) * 2 * 4;
                     assert!(
-                        primary >= seq && primary <= seq + tiles * 2 * (t + 1),
+                        primary >= seq && primary <= seq + tiles * (2 * (t + 1) + apron),
                         "{what}: {primary} primary rays, sequential {seq}"
                     );
                 } else {
