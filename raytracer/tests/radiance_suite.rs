@@ -4,8 +4,9 @@
 //!
 //! The references were rendered at 2048 pixels and reduced to 128, last
 //! by `pfilt -1 -r 1` (a Gaussian); we render at a multiple of the
-//! reference's size (4 for patterns and `glass_up`, 2 for mesh and
-//! `glass_fish`, 1 for mist) and reduce the same way ([`pfilt_reduce`]).
+//! reference's size (4 for patterns, mesh and `glass_up`, as the README's
+//! own 512-pixel runs; 2 for `glass_fish`, 1 for mist) and reduce the same
+//! way ([`pfilt_reduce`]).
 //! The figures are those of the folder's README: the ratio of mean
 //! luminances, and the RMS of the per-pixel luminance difference over the
 //! reference's mean after both pictures are smoothed with a 3x3 box
@@ -15,11 +16,12 @@
 //! either way (`--nocapture`).
 //!
 //! Tolerances, against the README's measurements between Radiance's own
-//! runs: mean luminance within 3% (patterns), 2% (mist) and 5% (mesh: 18
-//! chrome and clothed figures whose highlights are smaller than a pixel);
-//! per pixel, Radiance's renders at 512 differ from the references by
-//! 1.8-3.0% nRMSE on patterns, 1.5% on mist and 19-35% on the mesh views;
-//! ours are held to 5%, 6% and 35-50%.
+//! runs: mean luminance within 1% (patterns, mist), 2% (`mesh_def`,
+//! `mesh_cyl2`) and 5% (`mesh_cyl`, a 128 x 26 panorama whose mean hangs
+//! on a few chrome highlights smaller than a pixel: 1.027 here, where the
+//! same view at half the size gave 0.988); per pixel, Radiance's renders at
+//! 512 differ from the references by 1.8-3.0% nRMSE on patterns, 1.5% on
+//! mist and 19-35% on the mesh views; ours are held to 5%, 6% and 20-50%.
 //!
 //! `glass_up` (the torus from below, its sun highlight) gives 0.958 mean
 //! and 17% nRMSE (Radiance's own 512-pixel runs: 16-18%; the mean moves
@@ -38,11 +40,7 @@
 //! Rendering settings: the suite's own (from the references' headers)
 //! where this renderer has the option, `-ps`/`-pt` (adaptive pixel
 //! sampling) included, as written (the patterns' `-ps 3 -pt .08 -ps 1`
-//! ends at `-ps 1`; the mesh views sample with `-ps 3 -pt .08`, which
-//! here, at a quarter of rad's resolution and with a sampler that catches
-//! fewer sub-grid highlights than rpict's, costs them 1-2% of their mean:
-//! `mesh_cyl2` gives 0.963 with `-ps 3` here, 0.993 with `-ps 1` at 256 x
-//! 171); `-dp`
+//! ends at `-ps 1`; the mesh views sample with `-ps 3 -pt .08`); `-dp`
 //! (the pretest of virtual sources, which only drops relays that are
 //! blocked anyway) is left out.
 
@@ -209,7 +207,7 @@ fn patterns_def() {
         extra: "-ps 3 -pt .08 -ps 1",
         allowed_warning: None,
         scale: 4,
-        mean_tol: 0.03,
+        mean_tol: 0.01,
         rms_tol: 0.05,
     });
 }
@@ -227,7 +225,7 @@ fn patterns_plan() {
         extra: "-ps 3 -pt .08 -ps 1",
         allowed_warning: None,
         scale: 4,
-        mean_tol: 0.03,
+        mean_tol: 0.01,
         rms_tol: 0.05,
     });
 }
@@ -255,9 +253,9 @@ fn mesh_def() {
         av: 0.12,
         extra: "-ps 3 -pt .08",
         allowed_warning: None,
-        scale: 2,
-        mean_tol: 0.05,
-        rms_tol: 0.35,
+        scale: 4,
+        mean_tol: 0.02,
+        rms_tol: 0.2,
     });
 }
 
@@ -273,7 +271,7 @@ fn mesh_cyl() {
         av: 0.12,
         extra: "-ps 3 -pt .08",
         allowed_warning: None,
-        scale: 2,
+        scale: 4,
         mean_tol: 0.05,
         rms_tol: 0.5,
     });
@@ -291,9 +289,9 @@ fn mesh_cyl2() {
         av: 0.12,
         extra: "-ps 3 -pt .08",
         allowed_warning: None,
-        scale: 2,
-        mean_tol: 0.05,
-        rms_tol: 0.35,
+        scale: 4,
+        mean_tol: 0.02,
+        rms_tol: 0.3,
     });
 }
 
@@ -379,7 +377,7 @@ fn mist_def() {
         extra: "-ar 25 -ds .3 -dj 0 -bv- -ms 0.27",
         allowed_warning: None,
         scale: 1,
-        mean_tol: 0.02,
+        mean_tol: 0.01,
         rms_tol: 0.06,
     });
 }
