@@ -451,17 +451,21 @@ impl<'s> Renderer<'s> {
                     // A run of shadow bundles (one per source) is timed as
                     // one: reading the clock per bundle cost as much as a
                     // bundle in scenes with hundreds of sources.
+                    // Run in place (a bundle is a few hundred bytes): the
+                    // list is set aside meanwhile, bundles add no requests.
                     Self::timed(st, Bucket::Direct, |st| {
-                        while let Some(&Request::Shadow(bundle)) = st.requests[..end].get(i) {
+                        let requests = std::mem::take(&mut st.requests);
+                        while let Some(Request::Shadow(bundle)) = requests[..end].get(i) {
                             sum += run_shadow_bundle(
                                 &ctx,
                                 &caster,
-                                &bundle,
+                                bundle,
                                 &mut st.patches,
                                 &mut st.counts.shadow,
                             );
                             i += 1;
                         }
+                        st.requests = requests;
                     });
                 }
             }
@@ -474,16 +478,18 @@ impl<'s> Renderer<'s> {
         }
         if i < end {
             Self::timed(st, Bucket::Direct, |st| {
-                while let Some(&Request::Scatter(bundle)) = st.requests[..end].get(i) {
+                let requests = std::mem::take(&mut st.requests);
+                while let Some(Request::Scatter(bundle)) = requests[..end].get(i) {
                     sum += run_shadow_bundle(
                         &ctx,
                         &caster,
-                        &bundle,
+                        bundle,
                         &mut st.patches,
                         &mut st.counts.shadow,
                     );
                     i += 1;
                 }
+                st.requests = requests;
             });
         }
         st.requests.truncate(start);
