@@ -192,7 +192,8 @@ impl Grid {
 
     /// Computes the pixels of the rectangle `xs` x `ys` (row 0 at the top),
     /// tracing with `sample(x, y)` the pixels the adaptive scheme needs
-    /// (also outside the rectangle, in the grid cells it touches) and
+    /// (also outside the rectangle: in the grid cells it touches, and on
+    /// their grid rows one cell more on each side) and
     /// passing every pixel of the rectangle once to `write(x, y, value)`.
     /// `carry` keeps the last grid row filled (reused when the next call
     /// starts on it, as consecutive bands of [`Grid::bands`] do).
