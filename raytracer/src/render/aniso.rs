@@ -13,7 +13,6 @@ use std::f64::consts::PI;
 
 use serde::{Deserialize, Serialize};
 
-use super::ambient::AmbientRequest;
 use super::material::{
     intens, ray_vars, Emitter, Facing, RayKind, Surface, FTINY, MAXITER, MAX_SPECULAR_RAYS,
 };
@@ -337,24 +336,12 @@ pub(crate) fn shade_aniso(
         agaussamp(em, &b, ron, rod);
     }
     let mut base = Color::ZERO;
-    let diffuse_interreflection =
-        ctx.options.ab > task.ambient && ctx.effects.diffuse_interreflection.enabled;
     if b.rdiff > FTINY {
         let mut coef = b.mcolor * b.rdiff;
         if b.specfl & flag::RBLT != 0 {
             coef += b.scolor();
         }
-        if diffuse_interreflection {
-            em.want_ambient(AmbientRequest {
-                point: em.hit.point,
-                normal: b.pnorm,
-                coef,
-                offset_scale: em.offset_scale,
-                side: 0,
-            });
-        } else {
-            base += coef * ctx.options.av;
-        }
+        base += em.ambient(b.pnorm, coef, 0);
     }
     if b.tdiff > FTINY {
         let f = if b.specfl & flag::TBLT != 0 {
@@ -362,18 +349,7 @@ pub(crate) fn shade_aniso(
         } else {
             b.tdiff
         };
-        let coef = b.mcolor * f;
-        if diffuse_interreflection {
-            em.want_ambient(AmbientRequest {
-                point: em.hit.point,
-                normal: -b.pnorm,
-                coef,
-                offset_scale: em.offset_scale,
-                side: 1,
-            });
-        } else {
-            base += coef * ctx.options.av;
-        }
+        base += em.ambient(-b.pnorm, b.mcolor * f, 1);
     }
     em.direct(&Surface::Aniso(b), base * em.scale);
     base

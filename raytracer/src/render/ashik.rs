@@ -12,7 +12,6 @@ use std::f64::consts::PI;
 
 use serde::{Deserialize, Serialize};
 
-use super::ambient::AmbientRequest;
 use super::aniso::sample_count;
 use super::material::{intens, ray_vars, Emitter, Facing, RayKind, Surface, FTINY, MAXITER};
 use super::rng::{child_seed, Rng};
@@ -193,17 +192,7 @@ pub(crate) fn shade_ashik(
         if b.specfl & flag::RBLT != 0 {
             coef += b.scolor;
         }
-        if ctx.options.ab > task.ambient && ctx.effects.diffuse_interreflection.enabled {
-            em.want_ambient(AmbientRequest {
-                point: em.hit.point,
-                normal: b.pnorm,
-                coef,
-                offset_scale: em.offset_scale,
-                side: 0,
-            });
-        } else {
-            base += coef * ctx.options.av;
-        }
+        base += em.ambient(b.pnorm, coef, 0);
     }
     em.direct(&Surface::Ashik(b), base * em.scale);
     base

@@ -27,7 +27,6 @@ use std::f64::consts::PI;
 
 use serde::{Deserialize, Serialize};
 
-use super::ambient::AmbientRequest;
 use super::material::{perturbed_normal, ray_vars, Emitter, Facing, RayKind, Surface, FTINY};
 use crate::accel::Hit;
 use crate::geometry::Vec3;
@@ -261,24 +260,6 @@ fn specular(ev: &MaterialEval, first: usize) -> Option<Color> {
     ))
 }
 
-/// Asks for diffuse inter-reflection on one side, or adds the constant
-/// ambient term; returns what it added to the local value.
-fn ambient(em: &mut Emitter, normal: Vec3, coef: Color, side: u32) -> Color {
-    let opts = em.ctx.options;
-    if opts.ab > em.task.ambient && em.ctx.effects.diffuse_interreflection.enabled {
-        em.want_ambient(AmbientRequest {
-            point: em.hit.point,
-            normal,
-            coef,
-            offset_scale: em.offset_scale,
-            side,
-        });
-        Color::ZERO
-    } else {
-        coef * opts.av
-    }
-}
-
 /// `m_brdf()`: a ray that hit a `BRTDfunc` surface. Returns the local
 /// value (constant ambient); the rest goes to requests.
 pub(super) fn shade_brtd(em: &mut Emitter, id: MaterialId, m: &Material, ap: &Applied) -> Color {
@@ -342,10 +323,10 @@ pub(super) fn shade_brtd(em: &mut Emitter, id: MaterialId, m: &Material, ap: &Ap
     }
     let mut base = Color::ZERO;
     if hasrefl {
-        base += ambient(em, pnorm, rdiff, 0);
+        base += em.ambient(pnorm, rdiff, 0);
     }
     if hastrans {
-        base += ambient(em, -pnorm, tdiff, 1);
+        base += em.ambient(-pnorm, tdiff, 1);
     }
     if hasrefl || hastrans || *directional {
         let b = FuncBsdf {
@@ -394,10 +375,10 @@ pub(super) fn shade_brdf_func(
     };
     let mut base = Color::ZERO;
     if p.trans < 1.0 - FTINY {
-        base += ambient(em, pnorm, mcolor * (1.0 - p.trans), 0);
+        base += em.ambient(pnorm, mcolor * (1.0 - p.trans), 0);
     }
     if p.trans > FTINY {
-        base += ambient(em, -pnorm, mcolor * p.trans, 1);
+        base += em.ambient(-pnorm, mcolor * p.trans, 1);
     }
     let b = FuncBsdf {
         material: id,

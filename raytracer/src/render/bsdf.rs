@@ -22,7 +22,6 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::ambient::AmbientRequest;
 use super::material::{perturbed_normal, ray_vars, Emitter, RayKind, Surface, FTINY};
 use super::rng::{child_seed, Rng};
 use crate::geometry::Vec3;
@@ -678,8 +677,6 @@ pub(crate) fn shade_bsdf(
         }
     }
     let mut base = Color::ZERO;
-    let diffuse_interreflection =
-        ctx.options.ab > task.ambient && ctx.effects.diffuse_interreflection.enabled;
     for (k, coef) in [rdiff + unsampled[0], tdiff + unsampled[1]]
         .into_iter()
         .enumerate()
@@ -687,17 +684,7 @@ pub(crate) fn shade_bsdf(
         if coef.max_element() <= FTINY {
             continue;
         }
-        if diffuse_interreflection {
-            em.want_ambient(AmbientRequest {
-                point: em.hit.point,
-                normal: if k == 0 { pnorm } else { -pnorm },
-                coef,
-                offset_scale: em.offset_scale,
-                side: k as u32,
-            });
-        } else {
-            base += coef * ctx.options.av;
-        }
+        base += em.ambient(if k == 0 { pnorm } else { -pnorm }, coef, k as u32);
     }
     em.direct(&Surface::Klems(s), base * em.scale);
     base

@@ -398,6 +398,26 @@ pub(crate) struct Emitter<'c, 'o> {
 impl Emitter<'_, '_> {
     /// Records a request for diffuse inter-reflection on `side`; the two
     /// sides of a mixture add their coefficients.
+    /// Asks for diffuse inter-reflection from `normal`'s side (`side` 0:
+    /// reflected, 1: transmitted) while `-ab` has bounces left; otherwise
+    /// the constant ambient term, `coef` times `-av`. Returns what it adds
+    /// to the local value.
+    pub(crate) fn ambient(&mut self, normal: Vec3, coef: Color, side: u32) -> Color {
+        let opts = self.ctx.options;
+        if opts.ab > self.task.ambient && self.ctx.effects.diffuse_interreflection.enabled {
+            self.want_ambient(AmbientRequest {
+                point: self.hit.point,
+                normal,
+                coef,
+                offset_scale: self.offset_scale,
+                side,
+            });
+            Color::ZERO
+        } else {
+            coef * opts.av
+        }
+    }
+
     pub(crate) fn want_ambient(&mut self, req: AmbientRequest) {
         let k = req.side as usize;
         let req = AmbientRequest {
@@ -1182,44 +1202,16 @@ fn normal(
         gaussamp(em, &b, facing.ron, facing.rod);
     }
     let mut base = Color::ZERO;
-    let av = opts.av;
-    if opts.ab > task.ambient && em.ctx.effects.diffuse_interreflection.enabled {
-        // Diffuse inter-reflection replaces the constant ambient term.
-        if b.rdiff > FTINY {
-            em.want_ambient(AmbientRequest {
-                point: em.hit.point,
-                normal: n,
-                coef: reflected_ambient(&b),
-                offset_scale: em.offset_scale,
-                side: 0,
-            });
-        }
-        if b.tdiff > FTINY {
-            let f = if b.specfl & spec::TBLT != 0 {
-                b.trans
-            } else {
-                b.tdiff
-            };
-            em.want_ambient(AmbientRequest {
-                point: em.hit.point,
-                normal: -n,
-                coef: b.mcolor * f,
-                offset_scale: em.offset_scale,
-                side: 1,
-            });
-        }
-    } else if av != Color::ZERO {
-        if b.rdiff > FTINY {
-            base += reflected_ambient(&b) * av;
-        }
-        if b.tdiff > FTINY {
-            let f = if b.specfl & spec::TBLT != 0 {
-                b.trans
-            } else {
-                b.tdiff
-            };
-            base += b.mcolor * f * av;
-        }
+    if b.rdiff > FTINY {
+        base += em.ambient(n, reflected_ambient(&b), 0);
+    }
+    if b.tdiff > FTINY {
+        let f = if b.specfl & spec::TBLT != 0 {
+            b.trans
+        } else {
+            b.tdiff
+        };
+        base += em.ambient(-n, b.mcolor * f, 1);
     }
     em.direct(&Surface::Normal(b), base * em.scale);
     base
