@@ -22,6 +22,7 @@
 
 mod breakdown;
 mod cache;
+pub mod calibrate;
 mod communication;
 mod data;
 mod efficiency;
