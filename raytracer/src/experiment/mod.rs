@@ -31,6 +31,7 @@ mod harness;
 mod memory;
 mod speedup;
 mod states;
+pub mod sweep;
 mod table1;
 
 use std::collections::BTreeMap;
