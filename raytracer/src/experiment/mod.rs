@@ -3,9 +3,9 @@
 //!
 //! Every experiment runs the hybrid renderer on the deterministic simulator
 //! ([`hybrid_sched::Sim`] with [`crate::parallel::cost::model`] and a
-//! [`Network`] preset) and writes, into the output directory, `NAME.md` (a
-//! markdown table), `NAME.json` (every figure plotted) and one or more
-//! `NAME*.svg` plots. Nothing is measured on the wall clock, so the same
+//! [`hybrid_sched::Network`] preset) and writes, into the output
+//! directory, `NAME.md` (a markdown table), `NAME.json` (every figure
+//! plotted) and one or more `NAME*.svg` plots. Nothing is measured on the wall clock, so the same
 //! arguments give the same files, byte for byte.
 //!
 //! "The paper's algorithm" is the system as published: the octree
@@ -15,7 +15,7 @@
 //! distribution and the `load-aware` policy. Flow control is on in both; the
 //! `flow` experiment shows what it bounds.
 //!
-//! [`harness`] holds what they share (the [`Setup`], the memoised
+//! `harness` holds what they share (the [`Setup`], the memoised
 //! per-run runner, the output writing); each figure or table has its own
 //! file; [`calibrate`] fits the simulator's cost model on this machine and
 //! [`sweep`] measures what accuracy costs.
