@@ -227,7 +227,7 @@ fn pixel_samples_average_independent_streams() {
 
 #[test]
 fn a_tiny_sweep_finds_a_front() {
-    use hybrid_rt::report::sweep::{configurations, run};
+    use hybrid_rt::experiment::sweep::{configurations, run};
     let s = scene(RADIANCE_CORNELL);
     let v = view(RADIANCE_CORNELL_VIEW);
     let reference = RenderOptions {

@@ -6,8 +6,7 @@ use std::sync::Arc;
 use super::args::{ExperimentArgs, ExperimentName};
 use super::bench::resolve_scene_view;
 use super::{options_from, usage};
-use crate::experiment::{self, Setup};
-use crate::parallel::cost;
+use crate::experiment::{self, calibrate, Setup};
 use crate::render::check_resolution;
 use crate::scene;
 use crate::Result;
@@ -30,7 +29,7 @@ pub(super) fn run(a: &ExperimentArgs) -> Result<()> {
     let _ = cview;
     let scene = Arc::new(scene::load(&[&path])?);
     if a.name == ExperimentName::Calibrate {
-        let c = cost::calibrate(scene, options, &view, w as usize, h as usize)?;
+        let c = calibrate::calibrate(scene, options, &view, w as usize, h as usize)?;
         let text =
             serde_json::to_string_pretty(&c).map_err(|e| crate::Error::Other(e.to_string()))?;
         outln!("{text}");

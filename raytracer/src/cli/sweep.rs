@@ -1,13 +1,13 @@
-//! `hybrid-rt sweep`: what accuracy costs (see [`crate::report::sweep`]).
+//! `hybrid-rt sweep`: what accuracy costs (see [`crate::experiment::sweep`]).
 
 use std::io::Write;
 
 use super::args::SweepArgs;
 use super::bench::resolve_scene_view;
 use super::usage;
+use crate::experiment::sweep::{configurations, option_words, reference_options, run as sweep};
 use crate::image::{write_image, Exposure, HdrInfo, ToneMap, Transfer};
 use crate::render::check_resolution;
-use crate::report::sweep::{configurations, option_words, reference_options, run as sweep};
 use crate::scene;
 use crate::{Error, Result};
 

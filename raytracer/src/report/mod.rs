@@ -1,6 +1,6 @@
 //! Reports: SVG charts ([`plot`]) and markdown tables ([`table`]) for
-//! experiments and sweeps, and the accuracy sweep itself ([`sweep`]).
+//! experiments and sweeps (the accuracy sweep itself is
+//! [`crate::experiment::sweep`]).
 
 pub mod plot;
-pub mod sweep;
 pub mod table;

@@ -24,10 +24,10 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::plot::{Chart, Mark, Series};
-use super::table::Table;
 use crate::image::{brightness, Film};
 use crate::render::{RenderOptions, Renderer};
+use crate::report::plot::{Chart, Mark, Series};
+use crate::report::table::Table;
 use crate::scene::{Scene, View};
 use crate::Result;
 
