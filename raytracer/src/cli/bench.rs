@@ -7,64 +7,19 @@
 //! not. Optionally a full render for its rate of primary plus shadow rays.
 
 use std::collections::HashSet;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::args::BenchArgs;
-use super::options_from;
-use super::render::build_view;
+use super::common::options_from;
+use super::view::resolve_scene_view;
 use crate::geometry::{offset_origin_scaled, InstanceGeometry, Ray, Shape};
 use crate::render::material::hit_object;
 use crate::render::rng::Rng;
 use crate::render::{check_resolution, RayCaster, Renderer};
 use crate::scene::{self, Object, ObjectId, View};
 use crate::{Error, Result};
-
-/// Where the built-in scenes live: `examples/scenes` under the current
-/// directory or the workspace this binary was built from.
-fn builtin_dir() -> Vec<PathBuf> {
-    vec![
-        PathBuf::from("examples/scenes"),
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenes"),
-    ]
-}
-
-/// The view file beside a scene file: `SCENE.vf` for `SCENE.rad`.
-pub(super) fn view_file_beside(scene: &Path) -> PathBuf {
-    scene.with_extension("vf")
-}
-
-/// A built-in scene name (cornell, studio, conference) or a scene file, with
-/// its view file (`view_file`, else the `.vf` next to the scene).
-pub(super) fn resolve_scene_view(scene: &str, view_file: Option<&Path>) -> Result<(PathBuf, View)> {
-    let (scene_path, default_vf) = if matches!(scene, "cornell" | "studio" | "conference") {
-        let found = builtin_dir()
-            .into_iter()
-            .map(|d| d.join(format!("{scene}.rad")))
-            .find(|p| p.is_file());
-        let Some(p) = found else {
-            return Err(Error::Other(format!(
-                "built-in scene {scene:?} not found (looked for examples/scenes/{scene}.rad)"
-            )));
-        };
-        let vf = view_file_beside(&p);
-        (p, vf)
-    } else {
-        let p = PathBuf::from(scene);
-        let vf = view_file_beside(&p);
-        (p, vf)
-    };
-    if !scene_path.is_file() {
-        return Err(Error::io(
-            &scene_path,
-            std::io::Error::from(std::io::ErrorKind::NotFound),
-        ));
-    }
-    let vf = view_file.map(Path::to_path_buf).unwrap_or(default_vf);
-    let view = build_view(Some(&vf), &[], &[])?;
-    Ok((scene_path, view))
-}
 
 /// FNV-1a over 64-bit words: a fingerprint of the query results, so a
 /// faster build can be checked to answer every query exactly as before.
@@ -375,7 +330,7 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
 fn scaling(a: &BenchArgs) -> Result<()> {
     use crate::parallel::{render_parallel, Distribution, ParallelOptions};
     if a.scaling.contains(&0) || a.repeat == 0 {
-        return Err(super::usage(
+        return Err(super::common::usage(
             "--scaling counts and --repeat must be at least 1",
         ));
     }

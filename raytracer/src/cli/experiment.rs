@@ -4,8 +4,8 @@
 use std::sync::Arc;
 
 use super::args::{ExperimentArgs, ExperimentName};
-use super::bench::resolve_scene_view;
-use super::{options_from, usage};
+use super::common::{options_from, usage};
+use super::view::resolve_scene_view;
 use crate::experiment::{self, calibrate, Setup};
 use crate::render::check_resolution;
 use crate::scene;

@@ -8,17 +8,19 @@
 /// pipe, a full disk): the failure is remembered and [`main`] exits 1.
 macro_rules! outln {
     ($($t:tt)*) => {
-        $crate::cli::stdout_line(format_args!($($t)*))
+        $crate::cli::common::stdout_line(format_args!($($t)*))
     };
 }
 
 mod args;
 mod bench;
+mod common;
 mod console;
 mod experiment;
 mod parallel;
 mod render;
 mod sweep;
+mod view;
 
 pub use args::{
     translate, BenchArgs, Cli, Command, ExperimentArgs, ParallelArgs, RenderArgs, SweepArgs,
@@ -26,11 +28,9 @@ pub use args::{
 pub use parallel::summary as parallel_summary;
 
 use std::io::Write;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
 
-use crate::render::RenderOptions;
 use crate::{Error, Result};
 
 /// Entry point of the `hybrid-rt` binary; returns the process exit code.
@@ -58,7 +58,7 @@ pub fn main() -> i32 {
     // Everything written to standard output must have reached it.
     let result = result.and_then(|()| {
         let flushed = std::io::stdout().flush();
-        if STDOUT_FAILED.load(Ordering::Relaxed) || flushed.is_err() {
+        if common::stdout_failed() || flushed.is_err() {
             let why = flushed
                 .err()
                 .map_or("write failed".to_string(), |e| e.to_string());
@@ -92,17 +92,6 @@ pub fn check_command_line(args: Vec<String>) -> Result<()> {
     }
 }
 
-/// Set when a line could not be written to standard output.
-static STDOUT_FAILED: AtomicBool = AtomicBool::new(false);
-
-/// Writes one line to standard output (see `outln!`).
-pub(crate) fn stdout_line(args: std::fmt::Arguments<'_>) {
-    let mut out = std::io::stdout().lock();
-    if writeln!(out, "{args}").is_err() {
-        STDOUT_FAILED.store(true, Ordering::Relaxed);
-    }
-}
-
 /// `tracing` to stderr, filtered by `RUST_LOG` (default: warnings), in
 /// colour only on a terminal and without `NO_COLOR` (<https://no-color.org>).
 fn init_logging() {
@@ -124,31 +113,6 @@ fn init_logging() {
 /// anything but the empty string.
 fn use_colour(terminal: bool, no_color: Option<&std::ffi::OsStr>) -> bool {
     terminal && no_color.is_none_or(|v| v.is_empty())
-}
-
-/// Render options from Radiance arguments and a seed.
-fn options_from(radiance: &args::RadianceArgs, seed: u64) -> Result<RenderOptions> {
-    let mut o = match &radiance.quality {
-        Some(q) => RenderOptions::preset(&args::value_name(q))?,
-        None => RenderOptions::default(),
-    };
-    o.seed = seed;
-    for (name, values) in radiance.given() {
-        o.set(name, &values)?;
-    }
-    o.validate()?;
-    Ok(o)
-}
-
-/// Prints the scene loader's warnings.
-fn print_scene_warnings(scene: &crate::scene::Scene) {
-    for (loc, msg) in &scene.warnings {
-        eprintln!("warning: {loc}: {msg}");
-    }
-}
-
-fn usage(msg: impl Into<String>) -> Error {
-    Error::Usage(msg.into())
 }
 
 #[cfg(test)]

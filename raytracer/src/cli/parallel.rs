@@ -6,7 +6,7 @@ use std::time::Duration;
 use hybrid_sched::{Class, Network, Policy, State};
 
 use super::args::ParallelArgs;
-use super::usage;
+use super::common::usage;
 use crate::parallel::workload::work;
 use crate::parallel::{ParallelOptions, ParallelRender, RuntimeKind, WorkloadOptions};
 use crate::Result;

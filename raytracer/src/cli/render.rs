@@ -5,8 +5,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::args::RenderArgs;
+use super::common::{options_from, print_scene_warnings, usage};
 use super::console::{summary_line, Progress, Rays};
-use super::{options_from, print_scene_warnings, usage};
+use super::view::{build_view, default_view};
 use crate::image::Film;
 use crate::image::{
     encode_image, write_image, Exposure, HdrInfo, ImageFormat, Reinhard, ToneMap, ToneOperator,
@@ -15,39 +16,7 @@ use crate::image::{
 use crate::parallel::{render_parallel_with_progress, ParallelOptions};
 use crate::render::{check_resolution, RenderOptions, Renderer};
 use crate::scene::{self, View};
-use crate::{Error, Result, SourceLoc};
-
-/// The view from `--view-file`, then `--view`, then Radiance-style words.
-pub(super) fn build_view(
-    file: Option<&Path>,
-    options: &[String],
-    words: &[String],
-) -> Result<View> {
-    let mut view = match file {
-        Some(f) => View::from_file(f)?,
-        None => View::default(),
-    };
-    let mut given = file.is_some();
-    let mut apply = |text: &str, what: &str| -> Result<()> {
-        let loc = SourceLoc::new(what, 1);
-        view.apply_options(text, &loc)?;
-        view.validate().map_err(|r| Error::parse(loc, r))
-    };
-    for o in options {
-        apply(o, "<--view>")?;
-        given = true;
-    }
-    if !words.is_empty() {
-        apply(&words.join(" "), "<command line>")?;
-        given = true;
-    }
-    if !given {
-        return Err(usage(
-            "no view given: use --view-file FILE or --view \"-vtv -vp ... -vd ...\"",
-        ));
-    }
-    Ok(view)
-}
+use crate::{Error, Result};
 
 /// Exposure from `--exposure`: a plain multiplier or signed stops.
 pub(super) fn parse_exposure(s: &str) -> Result<f64> {
@@ -107,35 +76,6 @@ fn redirect_stderr(path: &Path) -> Result<()> {
         "-e {}: an error file is supported on Unix only; redirect standard error instead",
         path.display()
     )))
-}
-
-/// The view when none is given (no `-vf`, `--view` or `-v` option):
-/// `SCENE.vf` beside the first scene file if there is one (as `bench` and
-/// `sweep` find it), else for an OBJ scene none yet (it is framed once
-/// loaded, see [`View::framing`]), else Radiance's default view.
-fn default_view(scenes: &[std::path::PathBuf]) -> Result<Option<View>> {
-    let Some(first) = scenes.first() else {
-        return Ok(Some(View::default()));
-    };
-    let vf = super::bench::view_file_beside(first);
-    if vf.is_file() {
-        let view = build_view(Some(&vf), &[], &[])?;
-        eprintln!("view: {} (beside the scene)", vf.display());
-        return Ok(Some(view));
-    }
-    let obj = first
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
-    if obj {
-        return Ok(None);
-    }
-    let view = View::default();
-    eprintln!(
-        "view: Radiance's default ({}), no {} beside the scene",
-        view.to_options(),
-        vf.display()
-    );
-    Ok(Some(view))
 }
 
 /// Whether a view is given on the command line (`-vf`, `--view`, `-v...`).

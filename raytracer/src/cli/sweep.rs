@@ -3,8 +3,8 @@
 use std::io::Write;
 
 use super::args::SweepArgs;
-use super::bench::resolve_scene_view;
-use super::usage;
+use super::common::usage;
+use super::view::resolve_scene_view;
 use crate::experiment::sweep::{configurations, option_words, reference_options, run as sweep};
 use crate::image::{write_image, Exposure, HdrInfo, ToneMap, Transfer};
 use crate::render::check_resolution;
