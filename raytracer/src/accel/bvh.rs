@@ -1,11 +1,9 @@
-//! A bounding volume hierarchy for the rays one processor traces through
-//! the geometry it holds.
+//! A bounding volume hierarchy over a set of objects.
 //!
-//! The octree stays what the paper made it: the partition of the scene into
-//! cells that processors own, and the structure a migrating ray's progress
-//! is counted in. Within one processor, for rays whose whole path is local
-//! (the sequential renderer, a replicated scene, the shared geometry of
-//! instances), this hierarchy answers the same queries with fewer steps: a
+//! The octree stays what the paper made it: the division of the scene into
+//! cells, and the structure a resumable query's progress is counted in. For
+//! rays whose whole path is in one set of objects (the sequential renderer,
+//! a whole scene, the shared geometry of instances), this hierarchy answers the same queries with fewer steps: a
 //! binary tree built with the surface area heuristic, each node holding its
 //! two children's boxes so that both are tested at once, two
 //! double-precision lanes side by side.

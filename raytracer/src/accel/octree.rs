@@ -840,7 +840,7 @@ impl Octree {
     /// Visits the same leaves in the same order as [`Octree::intersect`],
     /// skipping the `cursor.leaves_done` leaves already handled; at the first
     /// non-empty leaf that is not local it records its progress in `cursor`
-    /// and returns [`Partial::Blocked`]. Resumed (on any processor, any
+    /// and returns [`Partial::Blocked`]. Resumed (anywhere, any
     /// number of times) until [`Partial::Done`], it returns exactly what
     /// [`Octree::intersect`] returns: same leaves, same tests, same bounds,
     /// same tie rule.

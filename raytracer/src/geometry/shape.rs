@@ -81,7 +81,7 @@ pub struct InstanceGeometry {
     pub name: String,
     pub objects: Vec<crate::scene::Object>,
     /// Acceleration structure over `objects`, in object space (a
-    /// hierarchy: an instance is never split between processors).
+    /// hierarchy: an instance's objects are always kept together).
     pub accel: crate::accel::Bvh,
     pub bounds: Aabb,
     /// Vertex normals and (u, v) of a Radiance mesh (`.rtm`): its

@@ -31,9 +31,9 @@ use hybrid_sched::serde::{Deserialize, Serialize};
 use hybrid_sched::{Addr, ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};
 
 use super::caster::{PartialCaster, Replay};
+use super::partition::{object_bytes, Partition};
 use super::tree::{Child, NodeKey, PixelTrees, Record, RtResult};
-use crate::accel::partition::object_bytes;
-use crate::accel::{Hit, NodeId, Partial, Partition, Pyramid, TraceCursor};
+use crate::accel::{Hit, NodeId, Partial, Pyramid, TraceCursor};
 use crate::geometry::robust::orthonormal_basis;
 use crate::geometry::{Aabb, Vec3};
 use crate::render::direct::{run_shadow_bundle, ShadowCounts};

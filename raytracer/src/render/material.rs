@@ -292,7 +292,7 @@ impl Surface {
 
 /// Direct light from one source to one surface point: a shadow bundle.
 /// Everything needed to run it is in here (no references), so it can be
-/// shipped to another processor.
+/// stored, sent and run later.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ShadowBundle {
     /// Index into the prepared lights.

@@ -146,9 +146,8 @@ pub struct Renderer<'s> {
     options: RenderOptions,
     octree: Octree,
     /// The hierarchy and its build time: built with the octree by the
-    /// constructors for rendering, on first use for a renderer that only
-    /// shades for the octree-distributed parallel renderer
-    /// ([`Renderer::for_partition`]).
+    /// constructors for rendering, on first use for a renderer whose rays
+    /// go through the octree's cells ([`Renderer::shared_lazy_bvh`]).
     bvh: OnceLock<(Bvh, f64)>,
     lights: Vec<PreparedLight>,
     sky: Vec<SkySource>,
@@ -183,10 +182,9 @@ impl<'s> Renderer<'s> {
         Renderer::build(SceneRef::Shared(scene), options, params, true)
     }
 
-    /// [`Renderer::shared`] for the octree-distributed parallel renderer,
-    /// whose rays go through the octree's cells: the hierarchy is built
-    /// only if something asks for it.
-    pub fn for_partition(
+    /// [`Renderer::shared`] for a caller whose rays go through the octree's
+    /// cells: the hierarchy is built only if something asks for it.
+    pub fn shared_lazy_bvh(
         scene: Arc<Scene>,
         options: RenderOptions,
         params: &OctreeParams,
