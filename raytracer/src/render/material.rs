@@ -812,12 +812,7 @@ fn shade_material(
             angle_deg,
             direction,
         } => {
-            let aim = if direction.length_squared() > 0.0 {
-                direction.normalize()
-            } else {
-                hit.normal
-            };
-            if super::light::spot_admits(aim, *angle_deg, -dir) {
+            if super::light::spot_lights(*direction, hit.normal, *angle_deg, -dir) {
                 shaded.base += *radiance * ap.color * scale;
             }
         }
