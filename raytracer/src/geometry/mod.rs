@@ -8,6 +8,7 @@
 
 mod aabb;
 mod ray;
+pub mod rng;
 pub mod robust;
 pub mod shape;
 mod shape_impl;
