@@ -113,15 +113,8 @@ impl ByteSize for CellData {
     }
 }
 
-/// A rectangle of pixels `[x0, x1) x [y0, y1)` (row 0 at the top).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub struct Tile {
-    pub x0: u32,
-    pub y0: u32,
-    pub x1: u32,
-    pub y1: u32,
-}
+/// A tile: a rectangle of pixels, the renderer's [`Region`](crate::render::Region).
+pub type Tile = crate::render::Region;
 
 /// A shadow bundle scheduled demand-driven.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

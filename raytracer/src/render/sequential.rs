@@ -47,11 +47,36 @@ impl Camera for crate::scene::View {
     }
 }
 
-/// A rectangle of pixels: columns `x`, rows `y` (row 0 at the top).
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// A rectangle of pixels `[x0, x1) x [y0, y1)` (row 0 at the top): a
+/// region rendered at once, or a tile of the parallel renderer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Region {
-    pub x: Range<usize>,
-    pub y: Range<usize>,
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+impl Region {
+    /// The region of columns `x` and rows `y` (each below `u32::MAX`).
+    pub fn new(x: Range<usize>, y: Range<usize>) -> Region {
+        Region {
+            x0: x.start as u32,
+            y0: y.start as u32,
+            x1: x.end as u32,
+            y1: y.end as u32,
+        }
+    }
+
+    /// The columns `x0..x1`.
+    pub fn xs(&self) -> Range<usize> {
+        self.x0 as usize..self.x1 as usize
+    }
+
+    /// The rows `y0..y1`.
+    pub fn ys(&self) -> Range<usize> {
+        self.y0 as usize..self.y1 as usize
+    }
 }
 
 /// Per-thread working memory and tallies: reused buffers (so tracing does
@@ -712,16 +737,16 @@ impl<'s> Renderer<'s> {
     ) {
         if self.options.ps > 1 {
             self.grid(width, height).fill_region(
-                region.x.clone(),
-                region.y.clone(),
+                region.xs(),
+                region.ys(),
                 &mut None,
                 &mut |x, y| self.pixel(camera, width, height, x, y, st),
                 &mut |x, y, c| film.set(x, y, c),
             );
             return;
         }
-        for y in region.y.clone() {
-            for x in region.x.clone() {
+        for y in region.ys() {
+            for x in region.xs() {
                 let c = self.pixel(camera, width, height, x, y, st);
                 film.set(x, y, c);
             }
@@ -771,8 +796,10 @@ impl<'s> Renderer<'s> {
                 width,
                 height,
                 &Region {
-                    x: 0..width,
-                    y: y..y + 1,
+                    x0: 0,
+                    y0: y as u32,
+                    x1: width as u32,
+                    y1: y as u32 + 1,
                 },
                 &mut film,
                 &mut st,
