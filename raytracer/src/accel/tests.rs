@@ -938,7 +938,7 @@ fn crowded_cone_bands_build_a_bounded_octree() {
     let t = Octree::build(&objects, &OctreeParams::default());
     let s = t.stats();
     assert!(s.leaf_nodes + s.internal_nodes <= 1 << 20, "{s:?}");
-    let mut rng = crate::render::rng::Rng::new(7);
+    let mut rng = crate::geometry::rng::Rng::new(7);
     for _ in 0..200 {
         let o = Vec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, 1.0) * 2.0;
         let d = (Vec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, -1.0)).normalize();

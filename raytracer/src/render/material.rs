@@ -34,8 +34,7 @@ use crate::image::brightness;
 use crate::modifier::{Applied, RayVars};
 use crate::scene::{Color, Material, Scene};
 
-/// Radiance's `FTINY`.
-pub const FTINY: f64 = 1e-6;
+pub use crate::geometry::FTINY;
 /// Radiance's `FRESTHRESH`: minimum specularity for the Fresnel estimate.
 const FRESTHRESH: f64 = 0.017999;
 /// Radiance's `MAXITER`: attempts to sample a rough specular direction.

@@ -43,8 +43,7 @@ pub const MAX_SCATTER_SAMPLES: usize = 16;
 /// Most mists with light sources a scene may have (a ray carries the set of
 /// those it is inside as bits).
 pub const MAX_SCATTER_MISTS: usize = 64;
-/// Radiance's `MAXSLIST`: most sources one mist may name.
-pub const MAX_MIST_SOURCES: usize = 32;
+pub use crate::scene::MAX_MIST_SOURCES;
 
 /// Where a ray travels besides its extinction: Radiance's `r->albedo`,
 /// `r->gecc` and `r->slights`.
