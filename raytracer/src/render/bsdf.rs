@@ -21,9 +21,10 @@ use std::f64::consts::PI;
 
 use serde::{Deserialize, Serialize};
 
-use super::material::{perturbed_normal, ray_vars, Emitter, RayKind, Surface, FTINY};
+use super::material::{perturbed_normal, ray_vars, Emitter, RayKind, Surface};
 use super::rng::{child_seed, Rng};
 use crate::geometry::Vec3;
+use crate::geometry::FTINY;
 use crate::modifier::{Applied, ModifierId};
 use crate::scene::{Color, Scene};
 

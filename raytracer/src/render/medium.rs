@@ -30,10 +30,11 @@ use std::f64::consts::PI;
 use serde::{Deserialize, Serialize};
 
 use super::light::PreparedLight;
-use super::material::{intens, RayTask, Request, ShadeContext, ShadowBundle, Surface, FTINY};
+use super::material::{intens, RayTask, Request, ShadeContext, ShadowBundle, Surface};
 use super::options::RenderOptions;
 use super::rng::{child_seed, Rng};
 use crate::geometry::Vec3;
+use crate::geometry::FTINY;
 use crate::scene::{Color, Material, MaterialId, Scene};
 
 /// Radiance's `FHUGE`: the length of a ray that hits nothing.

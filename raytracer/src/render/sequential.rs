@@ -12,20 +12,19 @@ use super::caster::{BvhCaster, OctreeCaster, RayCaster};
 use super::direct::{estimate_hit_ratios, run_shadow_bundle, Contribution};
 use super::effects::EffectsReport;
 use super::light::{prepare_lights_relayed, PreparedLight};
-use super::material::{shade, RayKind, RayTask, Request, ShadeContext, FTINY};
+use super::material::{shade, RayKind, RayTask, Request, ShadeContext};
 use super::medium::{self, Media};
 use super::options::RenderOptions;
 use super::rng::{child_seed, pixel_seed, Rng};
 use super::stats::{EffectTimes, RayCounts, RenderStats, Timings};
 use crate::accel::{Bvh, Octree, OctreeParams};
+use crate::geometry::FTINY;
 use crate::geometry::{Ray, Vec3};
 use crate::image::Film;
 use crate::scene::{Color, LightKind, Material, MaterialId, Scene};
 use crate::{Error, Result};
 
-/// Largest accepted image side, and pixel count.
-pub const MAX_SIDE: usize = 1 << 16;
-pub const MAX_PIXELS: usize = 1 << 28;
+pub use super::options::{MAX_PIXELS, MAX_SIDE};
 
 /// Maps image coordinates to primary rays: `x` in [0, 1] left to right,
 /// `y` in [0, 1] **bottom to top** (Radiance's convention). Returns the
