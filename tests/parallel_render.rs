@@ -345,7 +345,7 @@ fn the_predicted_distribution_equalises_predicted_work() {
     let costs = hybrid_rt::parallel::predict::subtree_costs(&renderer, &c.view, c.width, c.height);
     let octree = renderer.octree();
     let objects = &c.scene.objects;
-    let spread = |part: &hybrid_rt::accel::Partition| {
+    let spread = |part: &hybrid_rt::parallel::Partition| {
         let mut per = vec![0u64; part.procs() as usize];
         for leaf in octree.leaves() {
             per[part.owner(leaf) as usize] += costs[leaf as usize];
@@ -354,8 +354,8 @@ fn the_predicted_distribution_equalises_predicted_work() {
         let mean = per.iter().sum::<u64>() as f64 / per.len() as f64;
         max / mean
     };
-    let by_memory = hybrid_rt::accel::Partition::new(octree, objects, 8);
-    let by_work = hybrid_rt::accel::Partition::by_cost(octree, objects, 8, &costs);
+    let by_memory = hybrid_rt::parallel::Partition::new(octree, objects, 8);
+    let by_work = hybrid_rt::parallel::Partition::by_cost(octree, objects, 8, &costs);
     assert!(
         spread(&by_work) < spread(&by_memory),
         "predicted work imbalance: by work {:.2}, by memory {:.2}",

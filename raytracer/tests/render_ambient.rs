@@ -152,10 +152,7 @@ fn without_a_cache_tile_order_does_not_matter() {
     let mut film = Film::new(w, h);
     let mut st = TraceState::default();
     for (x0, y0) in [(3, 3), (0, 3), (3, 0), (0, 0)] {
-        let region = Region {
-            x: x0..x0 + 3,
-            y: y0..y0 + 3,
-        };
+        let region = Region::new(x0..x0 + 3, y0..y0 + 3);
         r.render_region(&v, w, h, &region, &mut film, &mut st);
     }
     assert_eq!(whole.pixels(), film.pixels());

@@ -177,17 +177,7 @@ fn tile_order_does_not_change_pixels() {
     let mut rows = Film::new(w, h);
     let mut st = TraceState::default();
     for y in (0..h).rev() {
-        r.render_region(
-            &v,
-            w,
-            h,
-            &Region {
-                x: 0..w,
-                y: y..y + 1,
-            },
-            &mut rows,
-            &mut st,
-        );
+        r.render_region(&v, w, h, &Region::new(0..w, y..y + 1), &mut rows, &mut st);
     }
     assert_eq!(whole, rows);
     assert_eq!(st.counts, stats.rays, "ray counts do not depend on order");
@@ -195,10 +185,7 @@ fn tile_order_does_not_change_pixels() {
     let mut tiles = Vec::new();
     for ty in (0..h).step_by(4) {
         for tx in (0..w).step_by(7) {
-            tiles.push(Region {
-                x: tx..(tx + 7).min(w),
-                y: ty..(ty + 4).min(h),
-            });
+            tiles.push(Region::new(tx..(tx + 7).min(w), ty..(ty + 4).min(h)));
         }
     }
     let n = tiles.len();

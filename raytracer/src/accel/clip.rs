@@ -360,7 +360,7 @@ impl Octree {
 
     /// [`Octree::clip_leaves`] restricted to the subtrees for which `wanted`
     /// is true (checked before a node is tested against the pyramid): a
-    /// processor selecting what it must fetch skips what it holds.
+    /// caller that already has some subtrees skips them.
     pub fn clip_leaves_where<W, F>(&self, pyramid: &Pyramid, mut wanted: W, mut leaf: F) -> u64
     where
         W: FnMut(NodeId) -> bool,

@@ -1,20 +1,17 @@
-//! Acceleration: the octree, partitioning and pyramid clipping.
+//! Acceleration over a scene: the octree and pyramid clipping (the
+//! bounding volume hierarchy, which instances hold, is in [`crate::geometry`]).
 
-mod bvh;
 pub mod clip;
 mod octree;
-pub mod partition;
-mod prims;
 
-pub use bvh::{Bvh, BvhStats};
+pub use crate::geometry::{Bvh, BvhStats, Hit};
 pub use clip::{ClipResult, Plane, Pyramid};
 pub use octree::{
-    intersect_brute_force, occluded_brute_force, Hit, LeafSpan, NodeId, NodeView, Octree,
-    OctreeParams, OctreeStats, Partial, TraceCursor, MAX_DEPTH,
+    intersect_brute_force, occluded_brute_force, LeafSpan, NodeId, NodeView, Octree, OctreeParams,
+    OctreeStats, Partial, TraceCursor, MAX_DEPTH,
 };
-pub use partition::Partition;
 
 #[cfg(test)]
-mod clip_partition_tests;
+mod clip_tests;
 #[cfg(test)]
 mod tests;

@@ -13,10 +13,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::prims::{Prims, Tester};
+use crate::geometry::prims::{Prims, Tester};
 use crate::geometry::robust::next_up;
-use crate::geometry::{Aabb, PreparedRay, Ray, ShapeHit, Vec3};
-use crate::scene::{Object, ObjectId};
+use crate::geometry::{Aabb, Hit, Object, ObjectId, PreparedRay, Ray, ShapeHit, Vec3};
 
 /// Index of an octree node (internal or leaf).
 pub type NodeId = u32;
@@ -67,22 +66,6 @@ pub struct OctreeStats {
     pub max_depth: u32,
     /// Largest number of objects in one leaf.
     pub max_leaf_objects: usize,
-}
-
-/// Nearest intersection found by the octree.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Hit {
-    /// Distance along the ray.
-    pub t: f64,
-    /// `ray.at(t)`.
-    pub point: Vec3,
-    /// Unit geometric normal, oriented by the shape (not towards the ray).
-    pub normal: Vec3,
-    /// The top-level object hit.
-    pub object: ObjectId,
-    /// For instances: index of the hit object in the instance's geometry (its
-    /// material is the one that shades the hit).
-    pub inner: Option<u32>,
 }
 
 /// Progress of a resumable traversal ([`Octree::intersect_partial`],
@@ -840,7 +823,7 @@ impl Octree {
     /// Visits the same leaves in the same order as [`Octree::intersect`],
     /// skipping the `cursor.leaves_done` leaves already handled; at the first
     /// non-empty leaf that is not local it records its progress in `cursor`
-    /// and returns [`Partial::Blocked`]. Resumed (on any processor, any
+    /// and returns [`Partial::Blocked`]. Resumed (anywhere, any
     /// number of times) until [`Partial::Done`], it returns exactly what
     /// [`Octree::intersect`] returns: same leaves, same tests, same bounds,
     /// same tie rule.

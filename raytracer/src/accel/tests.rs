@@ -774,26 +774,26 @@ fn instances_in_the_octree() {
     assert!(hits.get() > 400, "{} hits", hits.get());
 }
 
-/// Runs a resumable query the way a migrating ray does: on "processor"
-/// `owner(leaf) = hash(leaf) % procs`, moving to the owner of each leaf it
+/// Runs a resumable query the way a migrating ray does: at "place"
+/// `home(leaf) = hash(leaf) % places`, moving to the home of each leaf it
 /// is blocked on, until it is answered. Returns the answer and the number
 /// of migrations.
 fn migrate<T>(
-    procs: u32,
+    places: u32,
     salt: u32,
     mut step: impl FnMut(&mut TraceCursor, &dyn Fn(NodeId) -> bool) -> Partial<T>,
 ) -> (T, u32) {
-    let owner = move |leaf: NodeId| leaf.wrapping_mul(2654435761).wrapping_add(salt) % procs;
+    let home = move |leaf: NodeId| leaf.wrapping_mul(2654435761).wrapping_add(salt) % places;
     let mut here = 0u32;
     let mut cursor = TraceCursor::default();
     let mut hops = 0;
     loop {
-        let local = move |leaf: NodeId| owner(leaf) == here;
+        let local = move |leaf: NodeId| home(leaf) == here;
         match step(&mut cursor, &local) {
             Partial::Done(t) => return (t, hops),
             Partial::Blocked(leaf) => {
-                assert_ne!(owner(leaf), here, "blocked on a local leaf");
-                here = owner(leaf);
+                assert_ne!(home(leaf), here, "blocked on a local leaf");
+                here = home(leaf);
                 hops += 1;
                 assert!(hops < 100_000, "no progress");
             }
@@ -938,7 +938,7 @@ fn crowded_cone_bands_build_a_bounded_octree() {
     let t = Octree::build(&objects, &OctreeParams::default());
     let s = t.stats();
     assert!(s.leaf_nodes + s.internal_nodes <= 1 << 20, "{s:?}");
-    let mut rng = crate::render::rng::Rng::new(7);
+    let mut rng = crate::geometry::rng::Rng::new(7);
     for _ in 0..200 {
         let o = Vec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, 1.0) * 2.0;
         let d = (Vec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, -1.0)).normalize();

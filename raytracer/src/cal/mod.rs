@@ -422,7 +422,7 @@ impl Library {
 }
 
 fn read_text(path: &Path) -> crate::Result<String> {
-    let bytes = crate::scene::input::read_input(path, crate::scene::input::MAX_INPUT_BYTES)
+    let bytes = crate::input::read_input(path, crate::input::MAX_INPUT_BYTES)
         .map_err(|e| Error::io(path, e))?;
     Ok(String::from_utf8_lossy(&bytes).into_owned())
 }

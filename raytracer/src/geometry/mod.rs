@@ -7,7 +7,10 @@
 //! Radiance polygon: the side from which its vertices appear counter-clockwise).
 
 mod aabb;
+mod bvh;
+pub(crate) mod prims;
 mod ray;
+pub mod rng;
 pub mod robust;
 pub mod shape;
 mod shape_impl;
@@ -15,9 +18,12 @@ mod transform;
 mod triangulate;
 
 pub use aabb::Aabb;
+pub use bvh::{Bvh, BvhStats, Hit};
 pub use ray::{PreparedRay, Ray};
-pub use robust::{offset_origin, offset_origin_scaled};
-pub use shape::{Instance, InstanceGeometry, Polygon, Shape, ShapeHit, Transform};
+pub use robust::{offset_origin, offset_origin_scaled, FTINY};
+pub use shape::{
+    Instance, InstanceGeometry, MaterialId, Object, ObjectId, Polygon, Shape, ShapeHit, Transform,
+};
 pub(crate) use shape_impl::sphere_normal;
 pub use shape_impl::{
     intersect_cone, intersect_cone_consts, intersect_polygon, intersect_ring, intersect_sphere,
@@ -26,6 +32,9 @@ pub use shape_impl::{
 
 /// Double-precision vector used for all geometry.
 pub type Vec3 = glam::DVec3;
+
+/// RGB radiometric colour (Radiance's units: watts/sr/m^2 per channel).
+pub type Color = glam::DVec3;
 
 #[cfg(test)]
 mod tests;

@@ -3,6 +3,9 @@
 
 use super::Vec3;
 
+/// Radiance's `FTINY`: the tolerance below which a quantity counts as zero.
+pub const FTINY: f64 = 1e-6;
+
 /// `a*b - c*d` with about one ulp of error (Kahan's algorithm with FMA).
 /// The sign is exact, and the result is exactly zero iff `a*b == c*d`.
 #[inline]

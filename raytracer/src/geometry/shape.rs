@@ -7,7 +7,21 @@
 
 use std::sync::Arc;
 
+use super::Bvh;
 use super::{Aabb, Ray, Vec3};
+
+/// Index into [`Scene::materials`](crate::scene::Scene::materials).
+pub type MaterialId = u32;
+/// Index into [`Scene::objects`](crate::scene::Scene::objects).
+pub type ObjectId = u32;
+
+/// A named surface: one Radiance primitive (or one OBJ face group).
+#[derive(Debug, Clone)]
+pub struct Object {
+    pub name: String,
+    pub shape: Shape,
+    pub material: MaterialId,
+}
 
 /// A primitive surface.
 #[derive(Debug, Clone)]
@@ -79,10 +93,10 @@ pub struct Transform {
 pub struct InstanceGeometry {
     /// A name for statistics and messages (the source file or generator name).
     pub name: String,
-    pub objects: Vec<crate::scene::Object>,
+    pub objects: Vec<Object>,
     /// Acceleration structure over `objects`, in object space (a
-    /// hierarchy: an instance is never split between processors).
-    pub accel: crate::accel::Bvh,
+    /// hierarchy: an instance's objects are always kept together).
+    pub accel: Bvh,
     pub bounds: Aabb,
     /// Vertex normals and (u, v) of a Radiance mesh (`.rtm`): its
     /// triangles shade smoothly and patterns see `Lu`, `Lv`.

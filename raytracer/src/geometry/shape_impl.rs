@@ -11,11 +11,12 @@ use std::f64::consts::PI;
 use std::sync::Arc;
 
 use super::robust::{diff_of_products, orthonormal_basis};
-use super::shape::{Instance, InstanceGeometry, MeshShading, Polygon, Shape, ShapeHit, Transform};
+use super::shape::{
+    Instance, InstanceGeometry, MeshShading, Object, Polygon, Shape, ShapeHit, Transform,
+};
 use super::triangulate::{ear_clip, project};
+use super::Bvh;
 use super::{Aabb, PreparedRay, Ray, Vec3};
-use crate::accel::Bvh;
-use crate::scene::Object;
 
 /// Largest distance of a polygon vertex from the polygon's plane, relative
 /// to the polygon's size (its bounding-box diagonal), that is still accepted

@@ -14,7 +14,7 @@ use std::path::Path;
 
 use super::hdr::{read_hdr, write_hdr};
 use super::Film;
-use crate::scene::Color;
+use crate::geometry::Color;
 use crate::{Error, Result};
 
 /// Radiance's luminous efficacy times its RGB luminance weights.
@@ -35,7 +35,7 @@ pub struct Reference {
 impl Reference {
     /// Reads a Radiance picture and divides out its exposure.
     pub fn load(path: &Path) -> Result<Reference> {
-        let bytes = crate::scene::input::read_input(path, crate::scene::input::MAX_INPUT_BYTES)
+        let bytes = crate::input::read_input(path, crate::input::MAX_INPUT_BYTES)
             .map_err(|e| Error::io(path, e))?;
         let img = read_hdr(&mut std::io::Cursor::new(bytes)).map_err(|e| Error::io(path, e))?;
         let mut exposure = 1.0;

@@ -51,7 +51,7 @@ pub fn encode_exr<W: Write>(film: &Film, info: &HdrInfo, mut w: W) -> std::io::R
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Color;
+    use crate::geometry::Color;
 
     #[test]
     fn round_trip_through_the_exr_crate_keeps_f32_pixels_and_the_view() {

@@ -1,4 +1,4 @@
-use crate::scene::Color;
+use crate::geometry::Color;
 
 /// Linear RGB radiance per pixel; row 0 is the top row.
 #[derive(Debug, Clone, PartialEq)]

@@ -4,7 +4,7 @@
 use std::io::{self, BufRead, Write};
 
 use super::{Film, HdrInfo};
-use crate::scene::Color;
+use crate::geometry::Color;
 
 /// Radiance's shortest and longest run-length encodable scanline.
 const MIN_ELEN: usize = 8;

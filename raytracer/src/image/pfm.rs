@@ -30,7 +30,7 @@ pub fn encode_pfm<W: Write>(film: &Film, mut w: W) -> std::io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Color;
+    use crate::geometry::Color;
 
     #[test]
     fn header_then_bottom_row_first_little_endian() {

@@ -8,7 +8,7 @@ use std::io::Write;
 use std::path::Path;
 
 use super::{brightness, Film};
-use crate::scene::Color;
+use crate::geometry::Color;
 use crate::{Error, Result};
 
 /// Brightness the auto exposure maps the image mean to (Radiance's `pfilt`

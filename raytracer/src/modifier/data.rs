@@ -284,13 +284,12 @@ impl DataArray {
     /// Reads the data file at `path`; `from` is the scene line that names
     /// it (for "cannot open" errors). Errors in the file name its line.
     pub fn load(path: &Path, from: &SourceLoc) -> Result<DataArray> {
-        let bytes = crate::scene::input::read_input(path, crate::scene::input::MAX_INPUT_BYTES)
-            .map_err(|e| {
-                Error::parse(
-                    from.clone(),
-                    format!("cannot open data file \"{}\": {e}", path.display()),
-                )
-            })?;
+        let bytes = crate::input::read_input(path, crate::input::MAX_INPUT_BYTES).map_err(|e| {
+            Error::parse(
+                from.clone(),
+                format!("cannot open data file \"{}\": {e}", path.display()),
+            )
+        })?;
         Self::parse(&bytes, path)
     }
 
@@ -447,13 +446,12 @@ impl PictureData {
     /// Reads the Radiance picture at `path`; `from` is the scene line that
     /// names it (for "cannot open" errors).
     pub fn load(path: &Path, from: &SourceLoc) -> Result<PictureData> {
-        let bytes = crate::scene::input::read_input(path, crate::scene::input::MAX_INPUT_BYTES)
-            .map_err(|e| {
-                Error::parse(
-                    from.clone(),
-                    format!("cannot open picture file \"{}\": {e}", path.display()),
-                )
-            })?;
+        let bytes = crate::input::read_input(path, crate::input::MAX_INPUT_BYTES).map_err(|e| {
+            Error::parse(
+                from.clone(),
+                format!("cannot open picture file \"{}\": {e}", path.display()),
+            )
+        })?;
         Self::parse(&bytes, path)
     }
 

@@ -130,13 +130,12 @@ pub struct Font {
 impl Font {
     /// Reads the font file at `path`; `from` is the scene line naming it.
     pub fn load(path: &Path, from: &SourceLoc) -> Result<Font> {
-        let bytes = crate::scene::input::read_input(path, crate::scene::input::MAX_INPUT_BYTES)
-            .map_err(|e| {
-                Error::parse(
-                    from.clone(),
-                    format!("cannot open font file \"{}\": {e}", path.display()),
-                )
-            })?;
+        let bytes = crate::input::read_input(path, crate::input::MAX_INPUT_BYTES).map_err(|e| {
+            Error::parse(
+                from.clone(),
+                format!("cannot open font file \"{}\": {e}", path.display()),
+            )
+        })?;
         Self::parse(&bytes, path)
     }
 
@@ -462,13 +461,12 @@ pub fn split_text_args(
 /// newline is removed from each piece (a `\r` stays). Bytes that are not
 /// UTF-8 are replaced. `from` names the primitive in errors.
 pub fn read_text_file(path: &Path, from: &SourceLoc) -> Result<Vec<String>> {
-    let bytes = crate::scene::input::read_input(path, crate::scene::input::MAX_INPUT_BYTES)
-        .map_err(|e| {
-            Error::parse(
-                from.clone(),
-                format!("cannot open text file \"{}\": {e}", path.display()),
-            )
-        })?;
+    let bytes = crate::input::read_input(path, crate::input::MAX_INPUT_BYTES).map_err(|e| {
+        Error::parse(
+            from.clone(),
+            format!("cannot open text file \"{}\": {e}", path.display()),
+        )
+    })?;
     let mut lines = Vec::new();
     let mut rest = &bytes[..];
     while !rest.is_empty() {

@@ -19,8 +19,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use crate::cal::{self, chan, ExprId, FuncId, Inputs, Program};
+use crate::geometry::Color;
 use crate::geometry::{Transform, Vec3};
-use crate::scene::Color;
 use crate::SourceLoc;
 
 use data::{DataArray, PictureData};

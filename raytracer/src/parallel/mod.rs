@@ -12,9 +12,13 @@
 pub mod ambient;
 pub mod caster;
 pub mod cost;
+pub mod partition;
 pub mod predict;
 pub mod tree;
 pub mod workload;
+
+#[cfg(test)]
+mod partition_tests;
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -25,6 +29,7 @@ use hybrid_sched::{
 };
 use serde::Serialize;
 
+pub use partition::Partition;
 pub use workload::{CellData, DdTask, Distribution, DpTask, RtWorkload, WorkloadOptions};
 
 use crate::accel::OctreeParams;
@@ -272,7 +277,7 @@ pub fn render_parallel_with_progress(
     let renderer = if replicated {
         Renderer::shared(scene, options, &OctreeParams::default())?
     } else {
-        Renderer::for_partition(scene, options, &OctreeParams::default())?
+        Renderer::shared_lazy_bvh(scene, options, &OctreeParams::default())?
     };
     ambient::check_hybrid(&renderer)?;
     let wl = RtWorkload::new(

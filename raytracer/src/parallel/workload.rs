@@ -31,10 +31,9 @@ use hybrid_sched::serde::{Deserialize, Serialize};
 use hybrid_sched::{Addr, ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};
 
 use super::caster::{PartialCaster, Replay};
+use super::partition::{object_bytes, Partition};
 use super::tree::{Child, NodeKey, PixelTrees, Record, RtResult};
-use crate::accel::partition::object_bytes;
-use crate::accel::{Hit, NodeId, Partial, Partition, Pyramid, TraceCursor};
-use crate::geometry::robust::orthonormal_basis;
+use crate::accel::{Hit, NodeId, Partial, Pyramid, TraceCursor};
 use crate::geometry::{Aabb, Vec3};
 use crate::render::direct::{run_shadow_bundle, ShadowCounts};
 use crate::render::light::LightExtent;
@@ -114,15 +113,8 @@ impl ByteSize for CellData {
     }
 }
 
-/// A rectangle of pixels `[x0, x1) x [y0, y1)` (row 0 at the top).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub struct Tile {
-    pub x0: u32,
-    pub y0: u32,
-    pub x1: u32,
-    pub y1: u32,
-}
+/// A tile: a rectangle of pixels, the renderer's [`Region`](crate::render::Region).
+pub type Tile = crate::render::Region;
 
 /// A shadow bundle scheduled demand-driven.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -585,19 +577,7 @@ impl RtWorkload {
             .renderer
             .lights()
             .get(b.light as usize)
-            .and_then(|l| l.extent())
-            .and_then(|e| match e {
-                LightExtent::Finite(bb) => {
-                    let lo = bb.min.min(b.point);
-                    let hi = bb.max.max(b.point);
-                    // Far more than the origin offset (a relative 1e-9 or so
-                    // of the coordinates and the offset scale).
-                    let mag = hi.abs().max(lo.abs()).max_element() + b.offset_scale.abs();
-                    let pad = 1e-6 * ((hi - lo).max_element() + mag);
-                    Some(Aabb::new(lo - pad, hi + pad))
-                }
-                LightExtent::Distant { .. } => None,
-            });
+            .and_then(|l| l.shadow_bounds(b.point, b.offset_scale));
         if self.all_resident(bounds, ctx.proc_id(), ctx.procs()) {
             return Vec::new();
         }
@@ -646,16 +626,7 @@ impl RtWorkload {
         }
         // Entries exist only for finite sources (checked here, on a miss).
         let light = self.renderer.lights().get(b.light as usize)?;
-        let LightExtent::Finite(lb) = light.extent()? else {
-            return None;
-        };
-        let cb = octree.node_bounds(leaf);
-        let lo = cb.min.min(lb.min).min(b.point);
-        let hi = cb.max.max(lb.max).max(b.point);
-        let mag = hi.abs().max(lo.abs()).max_element() + b.offset_scale.abs();
-        let pad = 1e-6 * ((hi - lo).max_element() + mag);
-        let padded = |bb: Aabb| Aabb::new(bb.min - pad, bb.max + pad).corners();
-        let points: Vec<Vec3> = padded(cb).into_iter().chain(padded(lb)).collect();
+        let points = light.shadow_hull_points(octree.node_bounds(leaf), b.point, b.offset_scale)?;
         let hull = Pyramid::hull(&points, b.point)?;
         let sel = self.clip(&hull, ctx);
         if let Ok(mut cache) = shard.lock() {
@@ -691,20 +662,10 @@ impl RtWorkload {
     }
 
     fn shadow_pyramid(&self, b: &ShadowBundle) -> Option<Pyramid> {
-        let light = self.renderer.lights().get(b.light as usize)?;
-        match light.extent()? {
-            LightExtent::Finite(bb) => Some(Pyramid::to_targets(b.point, &bb.corners())),
-            LightExtent::Distant { dir, cos_half } => {
-                let sin = (1.0 - cos_half * cos_half).max(0.0).sqrt();
-                let tan = sin / cos_half.max(1e-12);
-                let (u, v) = orthonormal_basis(dir);
-                let dirs: Vec<Vec3> = [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)]
-                    .iter()
-                    .map(|&(a, c)| dir + (u * a + v * c) * (tan * 1.000001))
-                    .collect();
-                Some(Pyramid::from_rays(b.point, &dirs))
-            }
-        }
+        self.renderer
+            .lights()
+            .get(b.light as usize)?
+            .shadow_pyramid(b.point)
     }
 
     /// Whether a new shadow bundle should run data-parallel: too few rays to
@@ -719,10 +680,8 @@ impl RtWorkload {
             Some(LightExtent::Distant { cos_half, .. }) => {
                 cos_half < 0.5 || self.opts.shadow_dp_below > 1
             }
-            Some(LightExtent::Finite(bb)) => {
-                let pad = 1e-6 * (bb.extent().max_element() + b.point.abs().max_element());
-                let inside = (b.point.cmpge(bb.min - pad) & b.point.cmple(bb.max + pad)).all();
-                inside
+            Some(LightExtent::Finite(_)) => {
+                light.box_holds(b.point)
                     || light.patch_estimate(b.point, self.renderer.options().ds)
                         < self.opts.shadow_dp_below
             }

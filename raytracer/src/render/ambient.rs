@@ -29,7 +29,7 @@
 //! given order (scanlines top to bottom, left to right; the per-pixel
 //! random streams of [`super::rng`] are unchanged), and tests fix it. A
 //! parallel render evaluates in another order and agrees only within a
-//! tolerance (see `crate::parallel::ambient`). With `-aa 0` there is no
+//! tolerance (the parallel renderer's ambient pass). With `-aa 0` there is no
 //! cache and the image is again independent of the order.
 //!
 //! Not implemented: Ward and Heckbert's irradiance gradients (1992) and
@@ -41,10 +41,11 @@ use std::sync::{Arc, RwLock};
 
 use serde::{Deserialize, Serialize};
 
-use super::material::{intens, RayKind, RayTask, FTINY};
+use super::material::{intens, RayKind, RayTask};
 use super::options::RenderOptions;
 use super::rng::{child_seed, Rng};
 use crate::geometry::robust::orthonormal_basis;
+use crate::geometry::FTINY;
 use crate::geometry::{offset_origin_scaled, Ray, Vec3};
 use crate::image::brightness;
 use crate::scene::Color;

@@ -14,11 +14,12 @@ use std::f64::consts::PI;
 use serde::{Deserialize, Serialize};
 
 use super::material::{
-    intens, ray_vars, Emitter, Facing, RayKind, Surface, FTINY, MAXITER, MAX_SPECULAR_RAYS,
+    intens, ray_vars, Emitter, Facing, RayKind, Surface, MAXITER, MAX_SPECULAR_RAYS,
 };
 use super::rng::{child_seed, Rng};
 use crate::geometry::robust::orthonormal_basis;
 use crate::geometry::Vec3;
+use crate::geometry::FTINY;
 use crate::modifier::{Applied, ModifierId};
 use crate::scene::{AnisoKind, Color};
 

@@ -13,10 +13,11 @@ use std::f64::consts::PI;
 use serde::{Deserialize, Serialize};
 
 use super::aniso::sample_count;
-use super::material::{intens, ray_vars, Emitter, Facing, RayKind, Surface, FTINY, MAXITER};
+use super::material::{intens, ray_vars, Emitter, Facing, RayKind, Surface, MAXITER};
 use super::rng::{child_seed, Rng};
 use crate::geometry::robust::orthonormal_basis;
 use crate::geometry::Vec3;
+use crate::geometry::FTINY;
 use crate::image::brightness;
 use crate::modifier::{Applied, ModifierId};
 use crate::scene::Color;

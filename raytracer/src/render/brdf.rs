@@ -27,9 +27,10 @@ use std::f64::consts::PI;
 
 use serde::{Deserialize, Serialize};
 
-use super::material::{perturbed_normal, ray_vars, Emitter, Facing, RayKind, Surface, FTINY};
+use super::material::{perturbed_normal, ray_vars, Emitter, Facing, RayKind, Surface};
 use crate::accel::Hit;
 use crate::geometry::Vec3;
+use crate::geometry::FTINY;
 use crate::image::brightness;
 use crate::modifier::{Applied, MaterialEval, MaterialFuncs, MaterialVars, RayVars};
 use crate::scene::{BrdfFamily, Color, Material, MaterialId, Scene};

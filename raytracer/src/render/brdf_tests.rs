@@ -6,11 +6,11 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use super::*;
+use crate::geometry::rng::Rng;
 use crate::geometry::Ray;
 use crate::render::effects::EffectsReport;
 use crate::render::material::{shade, RayTask, Request, ShadeContext};
 use crate::render::options::RenderOptions;
-use crate::render::rng::Rng;
 use crate::scene::{load_with, LoadOptions, Scene};
 
 /// A folder of its own for a test's files.

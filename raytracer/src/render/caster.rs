@@ -2,8 +2,8 @@
 //!
 //! The sequential renderer casts through a hierarchy over the whole scene
 //! ([`BvhCaster`]); the octree ([`OctreeCaster`]) answers the same queries
-//! exactly, and the parallel renderer implements [`RayCaster`] over the
-//! octree cells a processor holds.
+//! exactly, and other casters (over a subset of the octree's cells, say)
+//! implement [`RayCaster`] too.
 
 use crate::accel::{intersect_brute_force, occluded_brute_force, Bvh, Hit, Octree};
 use crate::geometry::Ray;

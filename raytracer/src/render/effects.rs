@@ -5,9 +5,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::light::PreparedLight;
-use super::material::FTINY;
 use super::options::RenderOptions;
 use crate::geometry::Shape;
+use crate::geometry::FTINY;
 use crate::scene::{Material, MaterialId, Object, Scene};
 
 /// Whether an effect runs, and the reason.

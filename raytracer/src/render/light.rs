@@ -12,8 +12,9 @@ use std::f64::consts::PI;
 use glam::DVec2;
 
 use super::rng::Rng;
+use crate::accel::Pyramid;
 use crate::geometry::robust::orthonormal_basis;
-use crate::geometry::{Shape, Vec3};
+use crate::geometry::{Aabb, Shape, Vec3};
 use crate::scene::{Color, LightKind, Material, ObjectId, Scene};
 
 /// Radiance's `MAXSPART`: the most patches one source is split into.
@@ -382,6 +383,73 @@ impl PreparedLight {
         self.extent
     }
 
+    /// The box holding every shadow ray from `point` to this (finite)
+    /// source, padded for the rays' origin offsets (`offset_scale`, see
+    /// [`ShadowBundle::offset_scale`](super::ShadowBundle)); `None` for a
+    /// distant or missing source.
+    pub fn shadow_bounds(&self, point: Vec3, offset_scale: f64) -> Option<Aabb> {
+        match self.extent()? {
+            LightExtent::Finite(bb) => {
+                let lo = bb.min.min(point);
+                let hi = bb.max.max(point);
+                let pad = shadow_pad(lo, hi, offset_scale);
+                Some(Aabb::new(lo - pad, hi + pad))
+            }
+            LightExtent::Distant { .. } => None,
+        }
+    }
+
+    /// The corners of `cell` and of this (finite) source's box, each padded
+    /// as [`PreparedLight::shadow_bounds`] pads the box around `cell`, the
+    /// source and `point`: a pyramid from `point` around them holds every
+    /// shadow ray from a point of `cell` to the source. `None` for a distant
+    /// or missing source.
+    pub fn shadow_hull_points(
+        &self,
+        cell: Aabb,
+        point: Vec3,
+        offset_scale: f64,
+    ) -> Option<Vec<Vec3>> {
+        let LightExtent::Finite(lb) = self.extent()? else {
+            return None;
+        };
+        let lo = cell.min.min(lb.min).min(point);
+        let hi = cell.max.max(lb.max).max(point);
+        let pad = shadow_pad(lo, hi, offset_scale);
+        let padded = |bb: Aabb| Aabb::new(bb.min - pad, bb.max + pad).corners();
+        Some(padded(cell).into_iter().chain(padded(lb)).collect())
+    }
+
+    /// Whether `point` lies in this finite source's box (padded by a
+    /// relative 1e-6), where no pyramid from `point` bounds the source.
+    /// False for a distant or missing source.
+    pub fn box_holds(&self, point: Vec3) -> bool {
+        let Some(LightExtent::Finite(bb)) = self.extent() else {
+            return false;
+        };
+        let pad = 1e-6 * (bb.extent().max_element() + point.abs().max_element());
+        (point.cmpge(bb.min - pad) & point.cmple(bb.max + pad)).all()
+    }
+
+    /// A pyramid from `point` holding every shadow ray to this source: to
+    /// the corners of a finite source's box, or around the cone of a
+    /// distant one's directions. `None` for a missing source.
+    pub fn shadow_pyramid(&self, point: Vec3) -> Option<Pyramid> {
+        match self.extent()? {
+            LightExtent::Finite(bb) => Some(Pyramid::to_targets(point, &bb.corners())),
+            LightExtent::Distant { dir, cos_half } => {
+                let sin = (1.0 - cos_half * cos_half).max(0.0).sqrt();
+                let tan = sin / cos_half.max(1e-12);
+                let (u, v) = orthonormal_basis(dir);
+                let dirs: Vec<Vec3> = [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)]
+                    .iter()
+                    .map(|&(a, c)| dir + (u * a + v * c) * (tan * 1.000001))
+                    .collect();
+                Some(Pyramid::from_rays(point, &dirs))
+            }
+        }
+    }
+
     /// A virtual copy of this (real) light relayed by `virt`, its samples
     /// lying within `extent`.
     pub fn relayed(
@@ -499,12 +567,7 @@ impl PreparedLight {
                 angle_deg,
                 direction,
             } => {
-                let aim = if direction.length_squared() > 0.0 {
-                    direction.normalize()
-                } else {
-                    s.normal
-                };
-                if spot_admits(aim, *angle_deg, -s.dir) {
+                if spot_lights(*direction, s.normal, *angle_deg, -s.dir) {
                     *radiance
                 } else {
                     Color::ZERO
@@ -925,6 +988,27 @@ pub fn spot_focus(mut s: PatchSample, flen: f64) -> PatchSample {
         s.omega *= r * r;
     }
     s
+}
+
+/// The padding of a box `lo..hi` holding shadow rays whose origins are
+/// offset at scale `offset_scale`: far more than the origin offset (a
+/// relative 1e-9 or so of the coordinates and the offset scale).
+fn shadow_pad(lo: Vec3, hi: Vec3, offset_scale: f64) -> f64 {
+    let mag = hi.abs().max(lo.abs()).max_element() + offset_scale.abs();
+    1e-6 * ((hi - lo).max_element() + mag)
+}
+
+/// A spotlight's emission test: the light aims along `direction` (or, if
+/// that is zero, along the emitting surface's `normal`) and lights the
+/// points `to_point` (unit, from the light) within its cone of full angle
+/// `angle_deg` ([`spot_admits`]).
+pub fn spot_lights(direction: Vec3, normal: Vec3, angle_deg: f64, to_point: Vec3) -> bool {
+    let aim = if direction.length_squared() > 0.0 {
+        direction.normalize()
+    } else {
+        normal
+    };
+    spot_admits(aim, angle_deg, to_point)
 }
 
 /// Radiance's spotlight test: `to_point` (unit, from the light towards the

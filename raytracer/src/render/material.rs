@@ -34,8 +34,7 @@ use crate::image::brightness;
 use crate::modifier::{Applied, RayVars};
 use crate::scene::{Color, Material, Scene};
 
-/// Radiance's `FTINY`.
-pub const FTINY: f64 = 1e-6;
+pub use crate::geometry::FTINY;
 /// Radiance's `FRESTHRESH`: minimum specularity for the Fresnel estimate.
 const FRESTHRESH: f64 = 0.017999;
 /// Radiance's `MAXITER`: attempts to sample a rough specular direction.
@@ -292,7 +291,7 @@ impl Surface {
 
 /// Direct light from one source to one surface point: a shadow bundle.
 /// Everything needed to run it is in here (no references), so it can be
-/// shipped to another processor.
+/// stored, sent and run later.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ShadowBundle {
     /// Index into the prepared lights.
@@ -812,12 +811,7 @@ fn shade_material(
             angle_deg,
             direction,
         } => {
-            let aim = if direction.length_squared() > 0.0 {
-                direction.normalize()
-            } else {
-                hit.normal
-            };
-            if super::light::spot_admits(aim, *angle_deg, -dir) {
+            if super::light::spot_lights(*direction, hit.normal, *angle_deg, -dir) {
                 shaded.base += *radiance * ap.color * scale;
             }
         }

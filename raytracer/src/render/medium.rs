@@ -30,10 +30,11 @@ use std::f64::consts::PI;
 use serde::{Deserialize, Serialize};
 
 use super::light::PreparedLight;
-use super::material::{intens, RayTask, Request, ShadeContext, ShadowBundle, Surface, FTINY};
+use super::material::{intens, RayTask, Request, ShadeContext, ShadowBundle, Surface};
 use super::options::RenderOptions;
 use super::rng::{child_seed, Rng};
 use crate::geometry::Vec3;
+use crate::geometry::FTINY;
 use crate::scene::{Color, Material, MaterialId, Scene};
 
 /// Radiance's `FHUGE`: the length of a ray that hits nothing.
@@ -43,8 +44,7 @@ pub const MAX_SCATTER_SAMPLES: usize = 16;
 /// Most mists with light sources a scene may have (a ray carries the set of
 /// those it is inside as bits).
 pub const MAX_SCATTER_MISTS: usize = 64;
-/// Radiance's `MAXSLIST`: most sources one mist may name.
-pub const MAX_MIST_SOURCES: usize = 32;
+pub use crate::scene::MAX_MIST_SOURCES;
 
 /// Where a ray travels besides its extinction: Radiance's `r->albedo`,
 /// `r->gecc` and `r->slights`.

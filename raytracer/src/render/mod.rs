@@ -28,7 +28,7 @@ pub mod light;
 pub mod material;
 pub mod medium;
 pub mod options;
-pub mod rng;
+pub use crate::geometry::rng;
 pub mod sequential;
 pub mod stats;
 pub mod virtual_source;

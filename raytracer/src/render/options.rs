@@ -7,6 +7,10 @@ use crate::{Error, Result};
 
 /// Most ambient bounces accepted (`-ab`).
 pub const MAX_AMBIENT_BOUNCES: u32 = 8;
+
+/// Largest accepted image side, and pixel count.
+pub const MAX_SIDE: usize = 1 << 16;
+pub const MAX_PIXELS: usize = 1 << 28;
 /// Most hemisphere rays per record (`-ad`, `-as`).
 pub const MAX_AMBIENT_DIVISIONS: u32 = 1 << 16;
 /// Most primary rays per pixel (`-pn`).
@@ -547,11 +551,10 @@ impl RenderOptions {
                 self.pn
             )));
         }
-        if self.ps == 0 || self.ps as usize > super::sequential::MAX_SIDE {
+        if self.ps == 0 || self.ps as usize > MAX_SIDE {
             return Err(Error::Usage(format!(
                 "-ps {}: pixel sample spacing must be between 1 and {}",
-                self.ps,
-                super::sequential::MAX_SIDE
+                self.ps, MAX_SIDE
             )));
         }
         non_negative("pt", self.pt)?;

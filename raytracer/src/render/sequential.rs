@@ -12,20 +12,19 @@ use super::caster::{BvhCaster, OctreeCaster, RayCaster};
 use super::direct::{estimate_hit_ratios, run_shadow_bundle, Contribution};
 use super::effects::EffectsReport;
 use super::light::{prepare_lights_relayed, PreparedLight};
-use super::material::{shade, RayKind, RayTask, Request, ShadeContext, FTINY};
+use super::material::{shade, RayKind, RayTask, Request, ShadeContext};
 use super::medium::{self, Media};
 use super::options::RenderOptions;
 use super::rng::{child_seed, pixel_seed, Rng};
 use super::stats::{EffectTimes, RayCounts, RenderStats, Timings};
 use crate::accel::{Bvh, Octree, OctreeParams};
+use crate::geometry::FTINY;
 use crate::geometry::{Ray, Vec3};
 use crate::image::Film;
 use crate::scene::{Color, LightKind, Material, MaterialId, Scene};
 use crate::{Error, Result};
 
-/// Largest accepted image side, and pixel count.
-pub const MAX_SIDE: usize = 1 << 16;
-pub const MAX_PIXELS: usize = 1 << 28;
+pub use super::options::{MAX_PIXELS, MAX_SIDE};
 
 /// Maps image coordinates to primary rays: `x` in [0, 1] left to right,
 /// `y` in [0, 1] **bottom to top** (Radiance's convention). Returns the
@@ -47,11 +46,36 @@ impl Camera for crate::scene::View {
     }
 }
 
-/// A rectangle of pixels: columns `x`, rows `y` (row 0 at the top).
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// A rectangle of pixels `[x0, x1) x [y0, y1)` (row 0 at the top): a
+/// region rendered at once, or a tile of the parallel renderer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Region {
-    pub x: Range<usize>,
-    pub y: Range<usize>,
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+impl Region {
+    /// The region of columns `x` and rows `y` (each below `u32::MAX`).
+    pub fn new(x: Range<usize>, y: Range<usize>) -> Region {
+        Region {
+            x0: x.start as u32,
+            y0: y.start as u32,
+            x1: x.end as u32,
+            y1: y.end as u32,
+        }
+    }
+
+    /// The columns `x0..x1`.
+    pub fn xs(&self) -> Range<usize> {
+        self.x0 as usize..self.x1 as usize
+    }
+
+    /// The rows `y0..y1`.
+    pub fn ys(&self) -> Range<usize> {
+        self.y0 as usize..self.y1 as usize
+    }
 }
 
 /// Per-thread working memory and tallies: reused buffers (so tracing does
@@ -146,9 +170,8 @@ pub struct Renderer<'s> {
     options: RenderOptions,
     octree: Octree,
     /// The hierarchy and its build time: built with the octree by the
-    /// constructors for rendering, on first use for a renderer that only
-    /// shades for the octree-distributed parallel renderer
-    /// ([`Renderer::for_partition`]).
+    /// constructors for rendering, on first use for a renderer whose rays
+    /// go through the octree's cells ([`Renderer::shared_lazy_bvh`]).
     bvh: OnceLock<(Bvh, f64)>,
     lights: Vec<PreparedLight>,
     sky: Vec<SkySource>,
@@ -183,10 +206,9 @@ impl<'s> Renderer<'s> {
         Renderer::build(SceneRef::Shared(scene), options, params, true)
     }
 
-    /// [`Renderer::shared`] for the octree-distributed parallel renderer,
-    /// whose rays go through the octree's cells: the hierarchy is built
-    /// only if something asks for it.
-    pub fn for_partition(
+    /// [`Renderer::shared`] for a caller whose rays go through the octree's
+    /// cells: the hierarchy is built only if something asks for it.
+    pub fn shared_lazy_bvh(
         scene: Arc<Scene>,
         options: RenderOptions,
         params: &OctreeParams,
@@ -714,16 +736,16 @@ impl<'s> Renderer<'s> {
     ) {
         if self.options.ps > 1 {
             self.grid(width, height).fill_region(
-                region.x.clone(),
-                region.y.clone(),
+                region.xs(),
+                region.ys(),
                 &mut None,
                 &mut |x, y| self.pixel(camera, width, height, x, y, st),
                 &mut |x, y, c| film.set(x, y, c),
             );
             return;
         }
-        for y in region.y.clone() {
-            for x in region.x.clone() {
+        for y in region.ys() {
+            for x in region.xs() {
                 let c = self.pixel(camera, width, height, x, y, st);
                 film.set(x, y, c);
             }
@@ -773,8 +795,10 @@ impl<'s> Renderer<'s> {
                 width,
                 height,
                 &Region {
-                    x: 0..width,
-                    y: y..y + 1,
+                    x0: 0,
+                    y0: y as u32,
+                    x1: width as u32,
+                    y1: y as u32 + 1,
                 },
                 &mut film,
                 &mut st,

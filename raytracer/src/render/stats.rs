@@ -59,7 +59,7 @@ impl RayCounts {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Timings {
     pub octree_build_s: f64,
-    /// Building the hierarchy rays are traced through within a processor.
+    /// Building the hierarchy rays are traced through.
     #[serde(default)]
     pub bvh_build_s: f64,
     /// Wall-clock time of the pixel loop.

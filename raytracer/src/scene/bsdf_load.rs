@@ -7,7 +7,7 @@ use std::sync::Arc;
 use super::build::Builder;
 use super::model::{Color, Material};
 use super::rad::RawPrim;
-use crate::render::bsdf::KlemsData;
+use crate::scene::klems::KlemsData;
 use crate::{Error, Result};
 
 impl Builder {
@@ -38,7 +38,7 @@ impl Builder {
         if thick {
             let t = &p.strs[0];
             match t.parse::<f64>() {
-                Ok(v) if v.abs() <= crate::render::material::FTINY => {}
+                Ok(v) if v.abs() <= crate::geometry::FTINY => {}
                 _ => {
                     return Err(Error::parse(
                         p.loc.clone(),

@@ -550,7 +550,7 @@ impl Builder {
                 }
             }
             "mist" => {
-                Self::counts(p, 0..=crate::render::medium::MAX_MIST_SOURCES)?;
+                Self::counts(p, 0..=crate::scene::MAX_MIST_SOURCES)?;
                 Self::reals(
                     p,
                     &[0, 3, 6, 7],
@@ -585,8 +585,7 @@ impl Builder {
                 Self::reals(p, &[n], meaning)?;
                 // aniso.c refuses these ("roughness too small"): the
                 // Gaussian has no specular limit.
-                if !(r[4] > crate::render::material::FTINY && r[5] > crate::render::material::FTINY)
-                {
+                if !(r[4] > crate::geometry::FTINY && r[5] > crate::geometry::FTINY) {
                     return Err(Error::parse(
                         p.loc.clone(),
                         format!(

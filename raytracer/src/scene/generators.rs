@@ -134,7 +134,7 @@ pub(crate) fn run_genprism(
     } else {
         let path = find_file(first, loc, &exp.search_path)
             .ok_or_else(|| err(format!("cannot open vertex file '{first}'")))?;
-        let bytes = crate::scene::input::read_input(&path, crate::scene::input::MAX_INPUT_BYTES)
+        let bytes = crate::input::read_input(&path, crate::input::MAX_INPUT_BYTES)
             .map_err(|e| err(format!("cannot read vertex file '{}': {e}", path.display())))?;
         // Like fscanf("%lf %lf"): pairs of numbers up to the first thing
         // that is not one.
@@ -462,16 +462,13 @@ pub(crate) fn run_genrev(
                 } else {
                     let path = find_file(arg, loc, &exp.search_path)
                         .ok_or_else(|| err(format!("cannot find function file '{arg}'")))?;
-                    let text = crate::scene::input::read_input(
-                        &path,
-                        crate::scene::input::MAX_INPUT_BYTES,
-                    )
-                    .map_err(|e| {
-                        err(format!(
-                            "cannot read function file '{}': {e}",
-                            path.display()
-                        ))
-                    })?;
+                    let text = crate::input::read_input(&path, crate::input::MAX_INPUT_BYTES)
+                        .map_err(|e| {
+                            err(format!(
+                                "cannot read function file '{}': {e}",
+                                path.display()
+                            ))
+                        })?;
                     lib.define(
                         g,
                         &String::from_utf8_lossy(&text),

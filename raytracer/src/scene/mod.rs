@@ -15,7 +15,7 @@ mod build;
 mod genbox;
 pub mod generate;
 mod generators;
-pub mod input;
+pub mod klems;
 mod model;
 mod modifiers;
 mod obj;
@@ -28,6 +28,7 @@ mod xform;
 
 use std::path::Path;
 
+pub use crate::input;
 pub use model::*;
 pub use view::{View, ViewType};
 

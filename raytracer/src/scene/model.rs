@@ -1,23 +1,12 @@
 //! Scene model: objects, materials and light sources, independent of file format.
 
-use crate::geometry::{Aabb, Shape, Vec3};
+use crate::geometry::{Aabb, Vec3};
 use crate::SourceLoc;
 
-/// RGB radiometric colour (Radiance's units: watts/sr/m^2 per channel).
-pub type Color = glam::DVec3;
+pub use crate::geometry::{Color, MaterialId, Object, ObjectId};
 
-/// Index into [`Scene::materials`].
-pub type MaterialId = u32;
-/// Index into [`Scene::objects`].
-pub type ObjectId = u32;
-
-/// A named surface: one Radiance primitive (or one OBJ face group).
-#[derive(Debug, Clone)]
-pub struct Object {
-    pub name: String,
-    pub shape: Shape,
-    pub material: MaterialId,
-}
+/// Radiance's `MAXSLIST`: most sources one mist may name.
+pub const MAX_MIST_SOURCES: usize = 32;
 
 /// Surface materials, after Radiance. Parameters keep Radiance's meaning.
 #[derive(Debug, Clone, PartialEq)]
@@ -277,7 +266,7 @@ pub struct Scene {
     pub clip_bits: Vec<u64>,
     /// Loaded BSDF files (`BSDF`, `aBSDF`), shared by the materials that
     /// name them (empty for most scenes).
-    pub bsdfs: Vec<std::sync::Arc<crate::render::bsdf::KlemsData>>,
+    pub bsdfs: Vec<std::sync::Arc<crate::scene::klems::KlemsData>>,
 }
 
 impl Scene {

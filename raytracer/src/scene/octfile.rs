@@ -53,8 +53,8 @@ pub(crate) struct OctreeFile {
 /// Reads an octree's contents. `from` is where it was named (for the error
 /// if it cannot be read).
 pub(crate) fn read_octree(path: &Path, from: Option<&SourceLoc>) -> Result<OctreeContents> {
-    let data = crate::scene::input::read_input(path, crate::scene::input::MAX_INPUT_BYTES)
-        .map_err(|e| match from {
+    let data =
+        crate::input::read_input(path, crate::input::MAX_INPUT_BYTES).map_err(|e| match from {
             Some(loc) => Error::parse(
                 loc.clone(),
                 format!("cannot read octree file '{}': {e}", path.display()),

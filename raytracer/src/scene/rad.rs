@@ -209,14 +209,16 @@ impl Expander {
         from: Option<&SourceLoc>,
         out: &mut Vec<RawPrim>,
     ) -> Result<()> {
-        let bytes = crate::scene::input::read_input(path, crate::scene::input::MAX_INPUT_BYTES)
-            .map_err(|e| match from {
-                Some(loc) => Error::parse(
-                    loc.clone(),
-                    format!("cannot read scene file '{}': {e}", path.display()),
-                ),
-                None => Error::io(path, e),
-            })?;
+        let bytes =
+            crate::input::read_input(path, crate::input::MAX_INPUT_BYTES).map_err(
+                |e| match from {
+                    Some(loc) => Error::parse(
+                        loc.clone(),
+                        format!("cannot read scene file '{}': {e}", path.display()),
+                    ),
+                    None => Error::io(path, e),
+                },
+            )?;
         // Bytes that are not UTF-8 (Latin-1 comments, names) do not
         // reject a file: Radiance reads bytes.
         let text = String::from_utf8_lossy(&bytes);

@@ -80,8 +80,8 @@ pub(crate) struct RtmTriangle {
 /// Reads a compiled mesh. `from` is where it was named (for the error if
 /// it cannot be read).
 pub(crate) fn read_rtm(path: &Path, from: Option<&SourceLoc>) -> Result<RtmMesh> {
-    let data = crate::scene::input::read_input(path, crate::scene::input::MAX_INPUT_BYTES)
-        .map_err(|e| match from {
+    let data =
+        crate::input::read_input(path, crate::input::MAX_INPUT_BYTES).map_err(|e| match from {
             Some(loc) => Error::parse(
                 loc.clone(),
                 format!("cannot read mesh file '{}': {e}", path.display()),

@@ -54,26 +54,20 @@ pub fn write_all(dir: impl AsRef<Path>, seed: u64) -> std::io::Result<()> {
     Ok(())
 }
 
-/// SplitMix64: a tiny, portable, seedable generator (same numbers everywhere).
+/// The renderer's SplitMix64 ([`crate::geometry::rng::Rng`]) seeded as the
+/// generators always were (`seed ^ GOLDEN`): same numbers everywhere.
 #[derive(Debug, Clone)]
-pub(crate) struct Rng(u64);
+pub(crate) struct Rng(crate::geometry::rng::Rng);
 
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        Rng(seed ^ 0x9e37_79b9_7f4a_7c15)
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
+        use crate::geometry::rng::{Rng, GOLDEN};
+        Self(Rng::new(seed ^ GOLDEN))
     }
 
     /// Uniform in `[0, 1)`.
     pub fn f(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        self.0.next_f64()
     }
 
     /// Uniform in `[a, b)`.

@@ -21,7 +21,7 @@ use std::collections::BTreeSet;
 use crate::geometry::Shape;
 use crate::scene::{Object, ObjectId};
 
-use super::{NodeId, Octree};
+use crate::accel::{NodeId, Octree};
 
 /// An assignment of the octree's leaves to processors.
 #[derive(Debug, Clone, PartialEq)]

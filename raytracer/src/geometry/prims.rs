@@ -14,12 +14,12 @@
 //! length, direction and slope computed once, with the expressions the
 //! test would use); other shapes are tested through [`Shape`] as before.
 
-use crate::geometry::robust::diff_of_products;
+use super::robust::diff_of_products;
+use super::shape::{Object, ObjectId};
 use crate::geometry::{
     intersect_cone_consts, intersect_sphere, sphere_normal, ConeConsts, PreparedRay, Shape,
     ShapeHit, Vec3,
 };
-use crate::scene::{Object, ObjectId};
 
 /// Two triangles: `v[vertex][axis][lane]`.
 #[derive(Debug, Clone, Copy)]

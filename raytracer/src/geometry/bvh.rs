@@ -1,11 +1,9 @@
-//! A bounding volume hierarchy for the rays one processor traces through
-//! the geometry it holds.
+//! A bounding volume hierarchy over a set of objects.
 //!
-//! The octree stays what the paper made it: the partition of the scene into
-//! cells that processors own, and the structure a migrating ray's progress
-//! is counted in. Within one processor, for rays whose whole path is local
-//! (the sequential renderer, a replicated scene, the shared geometry of
-//! instances), this hierarchy answers the same queries with fewer steps: a
+//! The octree stays what the paper made it: the division of the scene into
+//! cells, and the structure a resumable query's progress is counted in. For
+//! rays whose whole path is in one set of objects (the sequential renderer,
+//! a whole scene, the shared geometry of instances), this hierarchy answers the same queries with fewer steps: a
 //! binary tree built with the surface area heuristic, each node holding its
 //! two children's boxes so that both are tested at once, two
 //! double-precision lanes side by side.
@@ -20,12 +18,28 @@
 //! component gives an infinite inverse; the `0 * inf` NaN of a ray exactly
 //! on a box plane leaves that axis unconstrained).
 
-use super::prims::{Prims, Tester};
-use crate::geometry::robust::next_up;
-use crate::geometry::{Aabb, PreparedRay, Ray, ShapeHit, Vec3};
-use crate::scene::{Object, ObjectId};
+use serde::{Deserialize, Serialize};
 
-use super::Hit;
+use super::prims::{Prims, Tester};
+use super::robust::next_up;
+use super::shape::{Object, ObjectId, ShapeHit};
+use super::{Aabb, PreparedRay, Ray, Vec3};
+
+/// Nearest intersection found by a hierarchy (the octree's or a [`Bvh`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Hit {
+    /// Distance along the ray.
+    pub t: f64,
+    /// `ray.at(t)`.
+    pub point: Vec3,
+    /// Unit geometric normal, oriented by the shape (not towards the ray).
+    pub normal: Vec3,
+    /// The top-level object hit.
+    pub object: ObjectId,
+    /// For instances: index of the hit object in the instance's geometry (its
+    /// material is the one that shades the hit).
+    pub inner: Option<u32>,
+}
 
 /// Largest number of objects in a leaf.
 const MAX_LEAF: usize = 8;
@@ -365,8 +379,8 @@ impl Bvh {
 
     /// Nearest hit with `tmin < t < tmax` among `objects` (the slice the
     /// hierarchy was built over). Equal distances resolve to the smaller
-    /// object id, like [`super::intersect_brute_force`] and
-    /// [`super::Octree::intersect`].
+    /// object id, like [`crate::accel::intersect_brute_force`] and
+    /// [`crate::accel::Octree::intersect`].
     pub fn intersect(&self, objects: &[Object], ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         let pre = PreparedRay::new(ray);
         let test = Tester::new(&self.prims, objects, &pre);

@@ -4,8 +4,10 @@
 //! every secondary task gets a seed derived from its parent's seed and its
 //! index among the parent's requests. So the numbers a ray or shadow bundle
 //! uses depend only on *which* ray it is, never on the order in which work
-//! was done: any split of the image into tiles, threads or processors gives
-//! the same picture bit for bit.
+//! was done: any split of the work gives the same picture bit for bit.
+//!
+//! The one SplitMix64 of the renderer: the scene generators
+//! (`scene::generate`) draw from it too, with their own seeding.
 
 /// SplitMix64's finaliser: a bijective 64-bit mix with good avalanche.
 #[inline]
@@ -15,7 +17,8 @@ pub fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-const GOLDEN: u64 = 0x9e37_79b9_7f4a_7c15;
+/// SplitMix64's increment (the golden ratio in 64 bits).
+pub const GOLDEN: u64 = 0x9e37_79b9_7f4a_7c15;
 
 /// Seed of the stream for pixel (x, y) of a render with `seed`.
 #[inline]
