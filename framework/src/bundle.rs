@@ -12,7 +12,7 @@ use std::collections::VecDeque;
 use crate::clock::Time;
 use crate::config::BundleConfig;
 use crate::flow::Credits;
-use crate::message::{is_credit_limited, Addr, Class, Msg, Packet, HEADER_BYTES};
+use crate::protocol::{is_credit_limited, Addr, Class, Msg, Packet, HEADER_BYTES};
 use crate::workload::Workload;
 
 struct Lane<W: Workload> {

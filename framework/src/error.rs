@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use thiserror::Error;
 
-use crate::message::Addr;
+use crate::protocol::Addr;
 
 /// A configuration that cannot be run.
 #[derive(Clone, Debug, PartialEq, Eq, Error)]

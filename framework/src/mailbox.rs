@@ -7,7 +7,7 @@
 
 use std::collections::VecDeque;
 
-use crate::message::Class;
+use crate::protocol::Class;
 
 /// Priority mailbox holding items of type `T` (the processor stores incoming
 /// messages with their sender; tests use plain values).

@@ -38,8 +38,8 @@ use crate::config::Config;
 use crate::error::RunError;
 use crate::flow::{CreditLedger, InputBuffer};
 use crate::mailbox::Mailbox;
-use crate::message::{is_credit_limited, Addr, DdEnvelope, Incoming, Msg, Packet};
 use crate::processor::Step;
+use crate::protocol::{is_credit_limited, Addr, DdEnvelope, Incoming, Msg, Packet};
 use crate::stats::{ProcStats, State};
 use crate::workload::Workload;
 

@@ -132,7 +132,7 @@ pub enum Target {
 /// What a processor knows when it places a child task.
 #[derive(Clone, Copy, Debug)]
 pub struct PlaceCtx {
-    /// The origin of the task's root (see [`crate::message::DdEnvelope`]).
+    /// The origin of the task's root (see [`crate::protocol::DdEnvelope`]).
     pub origin: Option<usize>,
     /// This processor's load now (queued tasks).
     pub load: u32,

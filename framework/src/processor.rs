@@ -29,13 +29,13 @@ use crate::config::Config;
 use crate::error::RunError;
 use crate::flow::{CreditLedger, InputBuffer};
 use crate::mailbox::Mailbox;
-use crate::message::{
-    is_credit_limited, Addr, Class, DdEnvelope, DpEnvelope, Incoming, Msg, Packet,
-};
 use crate::policy::{PlaceCtx, Placer, Target};
+use crate::protocol::{
+    is_credit_limited, Addr, Class, DdEnvelope, DpEnvelope, DpOutcome, Incoming, Msg, Packet,
+};
 use crate::stats::{ProcStats, State};
 use crate::store::{Admission, DataStore, Directory, ReadyTask};
-use crate::workload::{Ctx, DpOutcome, Workload};
+use crate::workload::{Ctx, Workload};
 
 /// What one [`Processor::step`] (or [`crate::master::Master::step`]) did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::cache::CacheCounters;
 use crate::clock::Time;
-use crate::message::{Addr, Class};
+use crate::protocol::{Addr, Class};
 
 /// What a processor is doing; time is accounted per state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]

@@ -16,13 +16,9 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use crate::cache::ByteLru;
-use crate::message::DdEnvelope;
-use crate::workload::{ByteSize, DataView, Placement, Workload};
-
-/// Maps keyed by data id, looked up on every cell a task touches: a fast
-/// non-cryptographic hash (the one `lru` uses) instead of SipHash.
-pub type IdMap<K, V> = HashMap<K, V, lru::DefaultHasher>;
+use crate::cache::{ByteLru, IdMap};
+use crate::protocol::{DdEnvelope, Placement};
+use crate::workload::{ByteSize, DataView, Workload};
 
 /// The replicated ownership directory: data id -> (owner, bytes).
 #[derive(Clone, Debug)]

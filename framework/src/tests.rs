@@ -11,7 +11,7 @@ use proptest::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::bundle::Outbox;
-use crate::message::{Addr, Class, DdEnvelope, Msg, Packet};
+use crate::protocol::{Addr, Class, DdEnvelope, Msg, Packet};
 use crate::runtime::RunReport;
 use crate::{
     run_sequential, run_threads, BundleConfig, ByteSize, Config, Ctx, DataView, DpOutcome,

@@ -12,11 +12,10 @@ use std::fmt::Debug;
 use std::hash::Hash;
 
 use serde::de::DeserializeOwned;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
-use crate::cache::ByteLru;
-use crate::message::Addr;
-use crate::store::IdMap;
+use crate::cache::{ByteLru, IdMap};
+use crate::protocol::{Addr, DpOutcome, Placement};
 
 /// Size of a value in bytes as the framework should account for it (memory
 /// high-water marks, cache budget, message sizes). It need not be exact, but it
@@ -30,30 +29,6 @@ pub trait ByteSize {
 /// sendable between threads and (for the later MPI runtime) serialisable.
 pub trait Payload: Clone + Debug + Send + Sync + Serialize + DeserializeOwned + 'static {}
 impl<T: Clone + Debug + Send + Sync + Serialize + DeserializeOwned + 'static> Payload for T {}
-
-/// Where one data item lives: the replicated ownership directory is built from
-/// a list of these (see [`Workload::placement`]).
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Placement<Id> {
-    /// The data id.
-    pub id: Id,
-    /// The processor that holds the item permanently (its "resident" copy).
-    pub owner: usize,
-    /// The item's size in bytes; the directory knows sizes before an item is
-    /// fetched so that a processor can decide whether a task's data fits its
-    /// cache before asking for it.
-    pub bytes: u64,
-}
-
-/// What happened to a data-parallel task after [`Workload::execute_dp`].
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum DpOutcome<T> {
-    /// The task is complete (it may have emitted results and new tasks).
-    Finished,
-    /// The task needs data that is not local; it is sent to the owner of
-    /// [`Workload::route_dp`]'s answer for this (updated) task.
-    Migrate(T),
-}
 
 /// The application. All associated types travel in messages, hence the serde
 /// bounds.

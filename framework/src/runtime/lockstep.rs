@@ -14,8 +14,8 @@ use std::sync::Arc;
 use super::{assemble, Node, RunReport, Runtime};
 use crate::config::Config;
 use crate::error::RunError;
-use crate::message::{Addr, Packet};
 use crate::processor::Step;
+use crate::protocol::{Addr, Packet};
 use crate::workload::Workload;
 
 /// The lockstep runtime with its interleaving seed.

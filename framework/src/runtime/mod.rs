@@ -29,8 +29,8 @@ use crate::clock::Time;
 use crate::config::Config;
 use crate::error::RunError;
 use crate::master::Master;
-use crate::message::{Addr, Packet};
 use crate::processor::{Processor, Step};
+use crate::protocol::{Addr, Packet};
 use crate::stats::{ProcStats, RunStats, State};
 use crate::workload::Workload;
 

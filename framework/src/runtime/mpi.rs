@@ -66,8 +66,8 @@ use crate::clock::{Clock, WallClock};
 use crate::config::Config;
 use crate::error::RunError;
 use crate::master::Master;
-use crate::message::{Addr, Class, Packet};
 use crate::processor::{Processor, Step};
+use crate::protocol::{Addr, Class, Packet};
 use crate::stats::{ProcStats, RankTraffic, State};
 use crate::workload::Workload;
 
@@ -843,7 +843,7 @@ fn mpi_thread(ready: Sender<Result<World, String>>, cmds: Receiver<Cmd>, events:
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::message::Msg;
+    use crate::protocol::Msg;
     use crate::tests::Mini;
 
     fn packet() -> Packet<Mini> {

@@ -7,16 +7,17 @@
 
 use std::collections::VecDeque;
 
-use crate::store::IdMap;
+use crate::cache::IdMap;
 use std::sync::Arc;
 
 use super::{RunReport, Runtime};
 use crate::clock::{Clock, WallClock};
 use crate::config::Config;
 use crate::error::{ConfigError, RunError};
-use crate::message::Addr;
+use crate::protocol::Addr;
+use crate::protocol::DpOutcome;
 use crate::stats::{ProcStats, RunStats, State};
-use crate::workload::{Ctx, DataView, DpOutcome, Workload};
+use crate::workload::{Ctx, DataView, Workload};
 
 /// The sequential reference runtime.
 #[derive(Clone, Copy, Debug, Default)]

@@ -34,8 +34,8 @@ use super::{assemble, Node, RunReport, Runtime};
 use crate::clock::Time;
 use crate::config::Config;
 use crate::error::RunError;
-use crate::message::{Addr, Class, Packet};
 use crate::processor::Step;
+use crate::protocol::{Addr, Class, Packet};
 use crate::stats::{State, StateTimes};
 use crate::workload::Workload;
 

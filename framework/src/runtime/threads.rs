@@ -19,8 +19,8 @@ use super::{assemble, Node, RunReport, Runtime};
 use crate::clock::{Clock, WallClock};
 use crate::config::Config;
 use crate::error::RunError;
-use crate::message::{Addr, Packet};
 use crate::processor::Step;
+use crate::protocol::{Addr, Packet};
 use crate::stats::{ProcStats, State};
 use crate::workload::Workload;
 
