@@ -316,6 +316,18 @@ impl Blocks {
     }
 }
 
+hybrid_sched::work_kinds! {
+    /// The work [`Blocks`] counts.
+    pub enum BlocksWork {
+        /// Blocks named by data selection.
+        Select = "select",
+        /// Checksum units of demand-driven tasks.
+        Checksum = "checksum",
+        /// Checksum units of data-parallel walks.
+        Hop = "hop",
+    }
+}
+
 impl Workload for Blocks {
     type DataId = u32;
     type DataItem = Block;
@@ -323,6 +335,7 @@ impl Workload for Blocks {
     type DpTask = BlockWalk;
     type Result = BlockResult;
     type Accumulator = BlocksAcc;
+    type Work = BlocksWork;
 
     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
         (0..self.params.blocks)
@@ -352,7 +365,7 @@ impl Workload for Blocks {
 
     fn select_data(&self, task: &BlockTask, ctx: &mut Ctx<Self>) -> Vec<u32> {
         let ids = self.selection(task);
-        ctx.charge("select", ids.len() as u64);
+        ctx.charge(BlocksWork::Select, ids.len() as u64);
         ids
     }
 
@@ -362,7 +375,7 @@ impl Workload for Blocks {
             let block = data
                 .get(&id)
                 .expect("the framework provides all selected data");
-            ctx.charge("checksum", self.units(block));
+            ctx.charge(BlocksWork::Checksum, self.units(block));
             acc = self.fold(acc, id, block);
         }
         self.finish_dd(&task, acc, ctx);
@@ -401,7 +414,7 @@ impl Workload for Blocks {
             let Some(block) = data.get(&id) else {
                 return DpOutcome::Migrate(task);
             };
-            ctx.charge("hop", self.units(block));
+            ctx.charge(BlocksWork::Hop, self.units(block));
             *acc = self.fold(*acc, id, block);
             *pos += 1;
         }

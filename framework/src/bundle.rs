@@ -54,6 +54,7 @@ impl<W: Workload> Default for Lane<W> {
 /// # #[serde(crate = "hybrid_sched::serde")]
 /// # struct Walk { next: u32, end: u32, acc: u64 }
 /// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
+/// # hybrid_sched::work_kinds! { enum PairsWork { Select = "select" } }
 /// # struct Pairs;
 /// # impl Workload for Pairs {
 /// #     type DataId = u32;
@@ -62,6 +63,7 @@ impl<W: Workload> Default for Lane<W> {
 /// #     type DpTask = Walk;
 /// #     type Result = Num;
 /// #     type Accumulator = u64;
+/// #     type Work = PairsWork;
 /// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
 /// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
 /// #     }
@@ -70,7 +72,7 @@ impl<W: Workload> Default for Lane<W> {
 /// #     }
 /// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
 /// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
-/// #         ctx.charge("select", 1);
+/// #         ctx.charge(PairsWork::Select, 1);
 /// #         vec![t.0, t.0 + 1]
 /// #     }
 /// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
@@ -127,7 +129,7 @@ impl<W: Workload> Default for Lane<W> {
 /// assert_eq!(out.take_ready()[0].items.len(), 2);
 /// assert!(out.is_empty());
 /// ```
-pub struct Outbox<W: Workload> {
+pub(crate) struct Outbox<W: Workload> {
     me: Addr,
     procs: usize,
     bundle: BundleConfig,
@@ -142,7 +144,7 @@ pub struct Outbox<W: Workload> {
 
 impl<W: Workload> Outbox<W> {
     /// Outbox of `me` in a run with `procs` workers.
-    pub fn new(me: Addr, procs: usize, bundle: BundleConfig, credits_per_link: u32) -> Self {
+    pub(crate) fn new(me: Addr, procs: usize, bundle: BundleConfig, credits_per_link: u32) -> Self {
         let slots = procs + 1;
         let max_age = u64::try_from(bundle.max_age.as_nanos()).unwrap_or(u64::MAX);
         Outbox {
@@ -159,7 +161,7 @@ impl<W: Workload> Outbox<W> {
     }
 
     /// Queues `msg` for `to`. Urgent messages become packets immediately.
-    pub fn push(&mut self, to: Addr, msg: Msg<W>, now: Time) {
+    pub(crate) fn push(&mut self, to: Addr, msg: Msg<W>, now: Time) {
         let class = msg.class();
         if !is_credit_limited(self.me, class) {
             self.ready.push(Packet::single(self.me, to, msg));
@@ -176,7 +178,7 @@ impl<W: Workload> Outbox<W> {
     }
 
     /// Credits came back from `from`; lanes towards it may move again.
-    pub fn grant(&mut self, from: Addr, credits: u32, now: Time) {
+    pub(crate) fn grant(&mut self, from: Addr, credits: u32, now: Time) {
         let slot = from.slot(self.procs);
         self.credits.grant(slot, credits);
         for class in Class::ALL {
@@ -185,7 +187,7 @@ impl<W: Workload> Outbox<W> {
     }
 
     /// Sends every lane that is due; with `flush`, every lane that has credit.
-    pub fn pump(&mut self, now: Time, flush: bool) {
+    pub(crate) fn pump(&mut self, now: Time, flush: bool) {
         if self.backlog == 0 {
             return;
         }
@@ -241,32 +243,35 @@ impl<W: Workload> Outbox<W> {
     }
 
     /// Packets ready to transmit, in the order they became ready.
-    pub fn take_ready(&mut self) -> Vec<Packet<W>> {
+    pub(crate) fn take_ready(&mut self) -> Vec<Packet<W>> {
         std::mem::take(&mut self.ready)
     }
 
     /// Whether packets are ready to transmit.
-    pub fn has_ready(&self) -> bool {
+    #[cfg(test)]
+    pub(crate) fn has_ready(&self) -> bool {
         !self.ready.is_empty()
     }
 
     /// Messages waiting in lanes (for a bundle or for credit).
-    pub fn backlog(&self) -> usize {
+    pub(crate) fn backlog(&self) -> usize {
         self.backlog
     }
 
     /// Most messages ever waiting in lanes.
-    pub fn backlog_high_water(&self) -> usize {
+    pub(crate) fn backlog_high_water(&self) -> usize {
         self.backlog_high_water
     }
 
     /// Whether nothing at all is waiting to go out.
-    pub fn is_empty(&self) -> bool {
+    #[cfg(test)]
+    pub(crate) fn is_empty(&self) -> bool {
         self.backlog == 0 && self.ready.is_empty()
     }
 
     /// Credits available towards `to` (for tests and diagnostics).
-    pub fn credits_towards(&self, to: Addr) -> u32 {
+    #[cfg(test)]
+    pub(crate) fn credits_towards(&self, to: Addr) -> u32 {
         self.credits.available(to.slot(self.procs))
     }
 }

@@ -52,7 +52,7 @@ struct Wave {
 }
 
 /// The master actor. See the module documentation.
-pub struct Master<W: Workload> {
+pub(crate) struct Master<W: Workload> {
     procs: usize,
     workload: Arc<W>,
     roots: VecDeque<W::DdTask>,
@@ -74,7 +74,7 @@ pub struct Master<W: Workload> {
 
 impl<W: Workload> Master<W> {
     /// The master of a run with `config.procs` workers.
-    pub fn new(workload: Arc<W>, config: &Config) -> Self {
+    pub(crate) fn new(workload: Arc<W>, config: &Config) -> Self {
         let procs = config.procs;
         let credits = config.credits_per_link as u32;
         Master {
@@ -98,23 +98,13 @@ impl<W: Workload> Master<W> {
         }
     }
 
-    /// Statistics so far.
-    pub fn stats(&self) -> &ProcStats {
-        &self.stats
-    }
-
     /// Adds `ns` to the time spent in `state`.
-    pub fn account(&mut self, state: State, ns: Time) {
+    pub(crate) fn account(&mut self, state: State, ns: Time) {
         self.stats.time_ns.add(state, ns);
     }
 
-    /// Whether termination has been declared.
-    pub fn is_finished(&self) -> bool {
-        self.finished
-    }
-
     /// A packet arrived.
-    pub fn deliver(&mut self, packet: Packet<W>, _now: Time) {
+    pub(crate) fn deliver(&mut self, packet: Packet<W>, _now: Time) {
         self.stats
             .received
             .record(packet.class, packet.items.len(), packet.bytes);
@@ -142,7 +132,7 @@ impl<W: Workload> Master<W> {
     }
 
     /// Handles one message, or, with none left, does the idle duties.
-    pub fn step(&mut self, now: Time) -> Result<Step, RunError> {
+    pub(crate) fn step(&mut self, now: Time) -> Result<Step, RunError> {
         if self.finished {
             return Ok(Step::Finished);
         }
@@ -299,7 +289,7 @@ impl<W: Workload> Master<W> {
     }
 
     /// Packets to transmit now.
-    pub fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
+    pub(crate) fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
         self.outbox.pump(now, false);
         let packets = self.outbox.take_ready();
         for p in &packets {
@@ -309,7 +299,7 @@ impl<W: Workload> Master<W> {
     }
 
     /// Ends the run: the master's accumulator and statistics.
-    pub fn finish(mut self) -> (W::Accumulator, ProcStats) {
+    pub(crate) fn finish(mut self) -> (W::Accumulator, ProcStats) {
         self.stats.memory.input_buffer_items = self.inbuf.high_water_items;
         self.stats.memory.input_buffer_bytes = self.inbuf.high_water_bytes;
         self.stats.memory.mailbox_items = self.mailbox.high_water();

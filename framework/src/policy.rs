@@ -2,15 +2,15 @@
 //! shadow tasks spawned by workers).
 //!
 //! A policy is chosen at run time ([`Policy`] implements `FromStr`). The
-//! per-processor [`Placer`] turns it into a decision for each child.
+//! per-processor `Placer` turns it into a decision for each child.
 //!
 //! `LoadAware` goes beyond the paper (its first open problem: scheduling with
 //! global load information that scales). Every packet carries its sender's
 //! load (queued tasks), so each processor keeps a slightly stale view of the
 //! others' loads at no extra message cost, and no central actor is involved.
-//! A child stays local unless this processor holds more than [`LOAD_SLACK`]
+//! A child stays local unless this processor holds more than `LOAD_SLACK`
 //! queued tasks and another processor was last seen with at most
-//! [`LOAD_IDLE`]: then it goes to that processor, whose estimate is raised by
+//! `LOAD_IDLE`: then it goes to that processor, whose estimate is raised by
 //! one so that a burst of children spreads over several idle processors
 //! instead of herding onto one. Shedding only to (nearly) idle processors
 //! matters: a moved shadow task must fetch its cells again at the receiver,
@@ -60,9 +60,9 @@ pub enum Policy {
 
 /// `LoadAware` sends children away only while it holds more than this many
 /// queued tasks itself ...
-pub const LOAD_SLACK: u32 = 32;
+pub(crate) const LOAD_SLACK: u32 = 32;
 /// ... and only to a processor last known to hold at most this many.
-pub const LOAD_IDLE: u32 = 1;
+pub(crate) const LOAD_IDLE: u32 = 1;
 
 impl Policy {
     /// Every policy, in documentation order.
@@ -120,7 +120,7 @@ impl FromStr for Policy {
 
 /// Where a child task goes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Target {
+pub(crate) enum Target {
     /// This processor's own queue.
     Local,
     /// The master's pool.
@@ -131,7 +131,7 @@ pub enum Target {
 
 /// What a processor knows when it places a child task.
 #[derive(Clone, Copy, Debug)]
-pub struct PlaceCtx {
+pub(crate) struct PlaceCtx {
     /// The origin of the task's root (see [`crate::protocol::DdEnvelope`]).
     pub origin: Option<usize>,
     /// This processor's load now (queued tasks).
@@ -167,7 +167,7 @@ pub struct PlaceCtx {
 /// assert_eq!(la.place(busy), Target::Proc(3));
 /// ```
 #[derive(Clone, Debug)]
-pub struct Placer {
+pub(crate) struct Placer {
     policy: Policy,
     me: usize,
     procs: usize,
@@ -178,7 +178,7 @@ pub struct Placer {
 
 impl Placer {
     /// Placement for processor `me` of `procs`.
-    pub fn new(policy: Policy, me: usize, procs: usize) -> Self {
+    pub(crate) fn new(policy: Policy, me: usize, procs: usize) -> Self {
         Placer {
             policy,
             me,
@@ -189,24 +189,20 @@ impl Placer {
     }
 
     /// Load information about processor `p` arrived (piggybacked).
-    pub fn observe(&mut self, p: usize, load: u32) {
+    pub(crate) fn observe(&mut self, p: usize, load: u32) {
         if let Some(l) = self.loads.get_mut(p) {
             *l = load;
         }
     }
 
     /// The loads this placer believes in.
-    pub fn loads(&self) -> &[u32] {
+    #[cfg(test)]
+    pub(crate) fn loads(&self) -> &[u32] {
         &self.loads
     }
 
-    /// The policy.
-    pub fn policy(&self) -> Policy {
-        self.policy
-    }
-
     /// Decides where one child task goes.
-    pub fn place(&mut self, ctx: PlaceCtx) -> Target {
+    pub(crate) fn place(&mut self, ctx: PlaceCtx) -> Target {
         let to = |p: usize, me: usize| {
             if p == me {
                 Target::Local

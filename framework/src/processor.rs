@@ -35,11 +35,11 @@ use crate::protocol::{
 };
 use crate::stats::{ProcStats, State};
 use crate::store::{Admission, DataStore, Directory, ReadyTask};
-use crate::workload::{Ctx, Workload};
+use crate::workload::{Ctx, WorkKind, Workload};
 
 /// What one [`Processor::step`] (or [`crate::master::Master::step`]) did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Step {
+pub(crate) enum Step {
     /// Did some work, accounted to this state.
     Worked(State),
     /// Nothing to do until a packet arrives.
@@ -49,7 +49,7 @@ pub enum Step {
 }
 
 /// A worker processor. See the module documentation.
-pub struct Processor<W: Workload> {
+pub(crate) struct Processor<W: Workload> {
     id: usize,
     addr: Addr,
     procs: usize,
@@ -71,10 +71,10 @@ pub struct Processor<W: Workload> {
     terminated: bool,
     basic_sent: u64,
     basic_received: u64,
-    last_charges: Vec<(&'static str, u64)>,
-    /// Work charged since the last flush into `stats.work` (kinds matched
-    /// by pointer first: no string comparisons on the hot path).
-    pending_work: Vec<(&'static str, u64)>,
+    last_charges: Vec<(W::Work, u64)>,
+    /// Work charged since the last flush into `stats.work` (kept by kind:
+    /// no string look-ups on the hot path).
+    pending_work: Vec<(W::Work, u64)>,
     /// A drained hook context whose buffers are reused by the next hook (a
     /// tile emits thousands of tasks; fresh vectors grew into fresh pages
     /// every time).
@@ -85,7 +85,7 @@ pub struct Processor<W: Workload> {
 impl<W: Workload> Processor<W> {
     /// Worker `id` of `config.procs`, loading its partition from the workload.
     /// The configuration must already be valid.
-    pub fn new(id: usize, workload: Arc<W>, config: &Config) -> Result<Self, RunError> {
+    pub(crate) fn new(id: usize, workload: Arc<W>, config: &Config) -> Result<Self, RunError> {
         let procs = config.procs;
         let placement_err = |m: String| RunError::Config(crate::ConfigError::Placement(m));
         let dir = Directory::build(workload.placement(procs), procs).map_err(placement_err)?;
@@ -122,20 +122,9 @@ impl<W: Workload> Processor<W> {
         })
     }
 
-    /// This processor's index.
-    pub fn id(&self) -> usize {
-        self.id
-    }
-
     /// This processor's address.
-    pub fn addr(&self) -> Addr {
+    pub(crate) fn addr(&self) -> Addr {
         self.addr
-    }
-
-    /// Statistics so far.
-    pub fn stats(&mut self) -> &ProcStats {
-        self.flush_work();
-        &self.stats
     }
 
     fn flush_work(&mut self) {
@@ -143,28 +132,18 @@ impl<W: Workload> Processor<W> {
         self.pending_work.clear();
     }
 
-    /// The accumulator results are merged into.
-    pub fn accumulator(&self) -> &W::Accumulator {
-        &self.acc
-    }
-
-    /// The data store (for inspection).
-    pub fn store(&self) -> &DataStore<W> {
-        &self.store
-    }
-
     /// Work charged during the last step (the simulator's cost model input).
-    pub fn last_charges(&self) -> &[(&'static str, u64)] {
+    pub(crate) fn last_charges(&self) -> &[(W::Work, u64)] {
         &self.last_charges
     }
 
     /// Adds `ns` to the time spent in `state` (the runtime measures).
-    pub fn account(&mut self, state: State, ns: Time) {
+    pub(crate) fn account(&mut self, state: State, ns: Time) {
         self.stats.time_ns.add(state, ns);
     }
 
     /// The state to account time to while blocked waiting for a packet.
-    pub fn blocked_state(&self) -> State {
+    pub(crate) fn blocked_state(&self) -> State {
         if self.store.waiting_len() > 0 || !self.deferred.is_empty() {
             State::WaitingData
         } else {
@@ -172,15 +151,9 @@ impl<W: Workload> Processor<W> {
         }
     }
 
-    /// Whether the master's termination message has arrived (the next
-    /// [`Processor::step`] returns [`Step::Finished`]).
-    pub fn is_finished(&self) -> bool {
-        self.terminated
-    }
-
     /// Passive: holds no work at all, so it can only become active again by
     /// receiving a basic message (the termination-detection premise).
-    pub fn is_passive(&self) -> bool {
+    pub(crate) fn is_passive(&self) -> bool {
         self.mailbox.is_empty()
             && self.ready.is_empty()
             && self.deferred.is_empty()
@@ -189,7 +162,7 @@ impl<W: Workload> Processor<W> {
     }
 
     /// A packet arrived.
-    pub fn deliver(&mut self, packet: Packet<W>, now: Time) {
+    pub(crate) fn deliver(&mut self, packet: Packet<W>, now: Time) {
         self.stats
             .received
             .record(packet.class, packet.items.len(), packet.bytes);
@@ -239,7 +212,7 @@ impl<W: Workload> Processor<W> {
     }
 
     /// Does one unit of work (see the module documentation).
-    pub fn step(&mut self, now: Time) -> Result<Step, RunError> {
+    pub(crate) fn step(&mut self, now: Time) -> Result<Step, RunError> {
         if self.terminated {
             return Ok(Step::Finished);
         }
@@ -571,7 +544,7 @@ impl<W: Workload> Processor<W> {
     }
 
     /// Packets to transmit now (bundles that became due by age included).
-    pub fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
+    pub(crate) fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
         self.outbox.pump(now, false);
         let mut packets = self.outbox.take_ready();
         let load = self.load();
@@ -586,7 +559,7 @@ impl<W: Workload> Processor<W> {
     }
 
     /// Tasks queued here: the load piggybacked on every packet.
-    pub fn load(&self) -> u32 {
+    pub(crate) fn load(&self) -> u32 {
         (self.mailbox.len_of(Class::DataParallel)
             + self.mailbox.len_of(Class::DemandDriven)
             + self.ready.len()
@@ -603,7 +576,7 @@ impl<W: Workload> Processor<W> {
     }
 
     /// Ends the run for this processor: its accumulator and statistics.
-    pub fn finish(mut self) -> (W::Accumulator, ProcStats) {
+    pub(crate) fn finish(mut self) -> (W::Accumulator, ProcStats) {
         self.flush_work();
         let m = &mut self.stats.memory;
         m.resident_bytes = self.store.resident_bytes();
@@ -619,24 +592,13 @@ impl<W: Workload> Processor<W> {
     }
 }
 
-/// Adds `units` of `kind` to `acc`: the same `&'static str` is found by
-/// address, an equal string from elsewhere by value. Hooks charge their
-/// kinds in much the same order every time, so the search by address
-/// starts after the entry `hint` found last (usually a hit at once); the
-/// returned index is the next hint.
+/// Adds `units` of `kind` to `acc`. Hooks charge their kinds in much the
+/// same order every time, so the search starts after the entry `hint`
+/// found last (usually a hit at once); the returned index is the next hint.
 #[inline]
-fn add_charge(
-    acc: &mut Vec<(&'static str, u64)>,
-    hint: usize,
-    kind: &'static str,
-    units: u64,
-) -> usize {
+fn add_charge<K: WorkKind>(acc: &mut Vec<(K, u64)>, hint: usize, kind: K, units: u64) -> usize {
     let n = acc.len();
-    let same_ptr = |k: &&str| std::ptr::eq(k.as_ptr(), kind.as_ptr()) && k.len() == kind.len();
-    let i = (0..n)
-        .map(|d| (hint + d) % n)
-        .find(|&j| same_ptr(&acc[j].0))
-        .or_else(|| acc.iter().position(|(k, _)| *k == kind));
+    let i = (0..n).map(|d| (hint + d) % n).find(|&j| acc[j].0 == kind);
     match i {
         Some(i) => {
             acc[i].1 = acc[i].1.saturating_add(units);

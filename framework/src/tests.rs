@@ -155,6 +155,14 @@ impl Mini {
     }
 }
 
+crate::work_kinds! {
+    /// What the test workloads count.
+    pub(crate) enum MiniWork {
+        Select = "select",
+        Work = "work",
+    }
+}
+
 impl Workload for Mini {
     type DataId = u32;
     type DataItem = Item;
@@ -162,6 +170,7 @@ impl Workload for Mini {
     type DpTask = Walk;
     type Result = Res;
     type Accumulator = Acc;
+    type Work = MiniWork;
 
     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
         (0..self.items)
@@ -193,7 +202,7 @@ impl Workload for Mini {
             .collect()
     }
     fn select_data(&self, t: &Task, ctx: &mut Ctx<Self>) -> Vec<u32> {
-        ctx.charge("select", 1);
+        ctx.charge(MiniWork::Select, 1);
         self.selection(t)
     }
     fn execute_dd(&self, t: Task, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
@@ -201,7 +210,7 @@ impl Workload for Mini {
         for id in self.selection(&t) {
             acc = Self::fold(acc, id, data.get(&id).expect("selected data is present"));
         }
-        ctx.charge("work", 1);
+        ctx.charge(MiniWork::Work, 1);
         self.finish_dd(&t, acc, ctx);
     }
     fn to_data_parallel(&self, t: Task, ctx: &mut Ctx<Self>) {
@@ -409,6 +418,7 @@ fn workload_contract_violations_are_errors_not_hangs() {
         type DpTask = Walk;
         type Result = Res;
         type Accumulator = Acc;
+        type Work = MiniWork;
         fn placement(&self, p: usize) -> Vec<Placement<u32>> {
             self.0.placement(p)
         }
@@ -419,7 +429,7 @@ fn workload_contract_violations_are_errors_not_hangs() {
             self.0.root_tasks(p)
         }
         fn select_data(&self, t: &Task, c: &mut Ctx<Self>) -> Vec<u32> {
-            c.charge("select", 1);
+            c.charge(MiniWork::Select, 1);
             self.0.selection(t)
         }
         fn execute_dd(&self, _t: Task, _d: &DataView<'_, Self>, c: &mut Ctx<Self>) {
@@ -463,6 +473,7 @@ fn inconsistent_placement_is_a_config_error() {
         type DpTask = Walk;
         type Result = Res;
         type Accumulator = Acc;
+        type Work = MiniWork;
         fn placement(&self, p: usize) -> Vec<Placement<u32>> {
             let mut v = self.0.placement(p);
             v[0].owner = p + 3; // out of range

@@ -5,7 +5,7 @@
 //! in-process channels (MPI, a file for replay) can carry it unchanged.
 //!
 //! This file holds the types that do not depend on a workload (and that the
-//! [`crate::Workload`] trait names); [`message`] holds the messages, which
+//! [`crate::Workload`] trait names); `message.rs` holds the messages, which
 //! carry a workload's tasks, data and results.
 
 mod message;
@@ -97,7 +97,7 @@ impl Class {
 }
 
 /// Where one data item lives: the replicated ownership directory is built from
-/// a list of these (see [`Workload::placement`]).
+/// a list of these (see [`crate::Workload::placement`]).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Placement<Id> {
     /// The data id.
@@ -110,12 +110,12 @@ pub struct Placement<Id> {
     pub bytes: u64,
 }
 
-/// What happened to a data-parallel task after [`Workload::execute_dp`].
+/// What happened to a data-parallel task after [`crate::Workload::execute_dp`].
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum DpOutcome<T> {
     /// The task is complete (it may have emitted results and new tasks).
     Finished,
     /// The task needs data that is not local; it is sent to the owner of
-    /// [`Workload::route_dp`]'s answer for this (updated) task.
+    /// [`crate::Workload::route_dp`]'s answer for this (updated) task.
     Migrate(T),
 }

@@ -89,6 +89,7 @@ impl Rng {
 /// # #[serde(crate = "hybrid_sched::serde")]
 /// # struct Walk { next: u32, end: u32, acc: u64 }
 /// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
+/// # hybrid_sched::work_kinds! { enum PairsWork { Select = "select" } }
 /// # struct Pairs;
 /// # impl Workload for Pairs {
 /// #     type DataId = u32;
@@ -97,6 +98,7 @@ impl Rng {
 /// #     type DpTask = Walk;
 /// #     type Result = Num;
 /// #     type Accumulator = u64;
+/// #     type Work = PairsWork;
 /// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
 /// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
 /// #     }
@@ -105,7 +107,7 @@ impl Rng {
 /// #     }
 /// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
 /// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
-/// #         ctx.charge("select", 1);
+/// #         ctx.charge(PairsWork::Select, 1);
 /// #         vec![t.0, t.0 + 1]
 /// #     }
 /// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {

@@ -8,10 +8,10 @@
 //! * `mpi` (feature `mpi`): one processor per MPI rank, the master on
 //!   rank 0.
 //!
-//! A runtime needs only the [`Node`] interface: `deliver`, `step`,
+//! A runtime needs only the `Node` interface: `deliver`, `step`,
 //! `take_packets`, `account`, `blocked_state`. A discrete-event simulator
 //! drives exactly the same calls with virtual time (charging the work reported
-//! by [`Node::last_charges`] through a cost model), and an MPI runtime with
+//! by `Node::last_charges` through a cost model), and an MPI runtime with
 //! one node per rank.
 
 pub mod lockstep;
@@ -78,7 +78,7 @@ pub trait Runtime {
 
 /// Any actor: the master or a worker. Runtimes hold a `Vec<Node<W>>` indexed
 /// by [`Addr::slot`].
-pub enum Node<W: Workload> {
+pub(crate) enum Node<W: Workload> {
     /// The master.
     Master(Box<Master<W>>),
     /// A worker.
@@ -87,7 +87,7 @@ pub enum Node<W: Workload> {
 
 impl<W: Workload> Node<W> {
     /// Builds every actor of a run: workers `0..procs`, then the master.
-    pub fn build_all(workload: &Arc<W>, config: &Config) -> Result<Vec<Node<W>>, RunError> {
+    pub(crate) fn build_all(workload: &Arc<W>, config: &Config) -> Result<Vec<Node<W>>, RunError> {
         config.validate()?;
         let mut nodes = Vec::with_capacity(config.procs + 1);
         for p in 0..config.procs {
@@ -105,7 +105,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// The actor's address.
-    pub fn addr(&self) -> Addr {
+    pub(crate) fn addr(&self) -> Addr {
         match self {
             Node::Master(_) => Addr::Master,
             Node::Worker(p) => p.addr(),
@@ -113,7 +113,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// A packet arrived.
-    pub fn deliver(&mut self, packet: Packet<W>, now: Time) {
+    pub(crate) fn deliver(&mut self, packet: Packet<W>, now: Time) {
         match self {
             Node::Master(m) => m.deliver(packet, now),
             Node::Worker(p) => p.deliver(packet, now),
@@ -121,7 +121,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// One unit of work.
-    pub fn step(&mut self, now: Time) -> Result<Step, RunError> {
+    pub(crate) fn step(&mut self, now: Time) -> Result<Step, RunError> {
         match self {
             Node::Master(m) => m.step(now),
             Node::Worker(p) => p.step(now),
@@ -129,7 +129,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// Packets to transmit.
-    pub fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
+    pub(crate) fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
         match self {
             Node::Master(m) => m.take_packets(now),
             Node::Worker(p) => p.take_packets(now),
@@ -137,7 +137,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// Adds time to a state.
-    pub fn account(&mut self, state: State, ns: Time) {
+    pub(crate) fn account(&mut self, state: State, ns: Time) {
         match self {
             Node::Master(m) => m.account(state, ns),
             Node::Worker(p) => p.account(state, ns),
@@ -145,7 +145,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// State to account blocked time to.
-    pub fn blocked_state(&self) -> State {
+    pub(crate) fn blocked_state(&self) -> State {
         match self {
             Node::Master(_) => State::Idle,
             Node::Worker(p) => p.blocked_state(),
@@ -153,7 +153,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// Work charged in the last step (empty for the master).
-    pub fn last_charges(&self) -> &[(&'static str, u64)] {
+    pub(crate) fn last_charges(&self) -> &[(W::Work, u64)] {
         match self {
             Node::Master(_) => &[],
             Node::Worker(p) => p.last_charges(),
@@ -161,7 +161,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// Accumulator and statistics at the end of the run.
-    pub fn finish(self) -> (W::Accumulator, ProcStats) {
+    pub(crate) fn finish(self) -> (W::Accumulator, ProcStats) {
         match self {
             Node::Master(m) => (*m).finish(),
             Node::Worker(p) => (*p).finish(),

@@ -7,7 +7,7 @@
 //! finalisation, abort) happens on one dedicated thread per rank, the *MPI
 //! thread*; MPI is initialised with [`mpi::Threading::Funneled`], which is
 //! all that needs. The *processor loop* on the calling thread drives the
-//! rank's actors with exactly the [`Node`] calls the threads runtime makes
+//! rank's actors with exactly the `Node` calls the threads runtime makes
 //! (`deliver`, `step`, `take_packets`, `account`, `blocked_state`, `finish`)
 //! and talks to the MPI thread through std channels: it hands over encoded
 //! packets and receives encoded packets. On rank 0 the master and processor

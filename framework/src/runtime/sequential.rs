@@ -65,6 +65,7 @@ impl Runtime for Sequential {
 /// # #[serde(crate = "hybrid_sched::serde")]
 /// # struct Walk { next: u32, end: u32, acc: u64 }
 /// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
+/// # hybrid_sched::work_kinds! { enum PairsWork { Select = "select" } }
 /// # struct Pairs;
 /// # impl Workload for Pairs {
 /// #     type DataId = u32;
@@ -73,6 +74,7 @@ impl Runtime for Sequential {
 /// #     type DpTask = Walk;
 /// #     type Result = Num;
 /// #     type Accumulator = u64;
+/// #     type Work = PairsWork;
 /// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
 /// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
 /// #     }
@@ -81,7 +83,7 @@ impl Runtime for Sequential {
 /// #     }
 /// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
 /// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
-/// #         ctx.charge("select", 1);
+/// #         ctx.charge(PairsWork::Select, 1);
 /// #         vec![t.0, t.0 + 1]
 /// #     }
 /// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
@@ -115,7 +117,7 @@ impl Runtime for Sequential {
 /// // simulator's cost model): five data selections, one unit each.
 /// let mut selected = 0;
 /// run_sequential_observed(&Pairs, 2, &mut |charges, _ns| {
-///     selected += charges.iter().filter(|(kind, _)| *kind == "select").map(|(_, n)| n).sum::<u64>();
+///     selected += charges.iter().filter(|(kind, _)| *kind == PairsWork::Select).map(|(_, n)| n).sum::<u64>();
 /// })
 /// .unwrap();
 /// assert_eq!(selected, 5);
@@ -125,7 +127,7 @@ pub fn run_sequential<W: Workload>(workload: &W, procs: usize) -> Result<RunRepo
 }
 
 /// Called with each step's charged work and its wall-clock nanoseconds.
-pub type StepObserver<'a> = dyn FnMut(&[(&'static str, u64)], u64) + 'a;
+pub type StepObserver<'a, K> = dyn FnMut(&[(K, u64)], u64) + 'a;
 
 /// [`run_sequential`], calling `observe(charges, ns)` after every task step
 /// with the work it charged and the wall-clock nanoseconds it took: the
@@ -133,7 +135,7 @@ pub type StepObserver<'a> = dyn FnMut(&[(&'static str, u64)], u64) + 'a;
 pub fn run_sequential_observed<W: Workload>(
     workload: &W,
     procs: usize,
-    observe: &mut StepObserver<'_>,
+    observe: &mut StepObserver<'_, W::Work>,
 ) -> Result<RunReport<W>, RunError> {
     if procs == 0 {
         return Err(ConfigError::NoProcessors.into());

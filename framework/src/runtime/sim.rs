@@ -1,8 +1,8 @@
 //! A deterministic discrete-event simulation of a cluster.
 //!
-//! The same [`Node`] state machines as every other runtime run in virtual
+//! The same `Node` state machines as every other runtime run in virtual
 //! time. Nothing is measured: a step's duration comes from a [`CostModel`]
-//! applied to the work the step charged ([`Node::last_charges`]), and a
+//! applied to the work the step charged (`Node::last_charges`), and a
 //! packet's journey from a [`Network`] model:
 //!
 //! * the sender's CPU pays a software overhead per packet plus a cost per
@@ -33,18 +33,20 @@ use serde::{Deserialize, Serialize};
 use super::{assemble, Node, RunReport, Runtime};
 use crate::clock::Time;
 use crate::config::Config;
-use crate::error::RunError;
+use crate::error::{ConfigError, RunError};
 use crate::processor::Step;
 use crate::protocol::{Addr, Class, Packet};
 use crate::stats::{State, StateTimes};
-use crate::workload::Workload;
+use crate::workload::{WorkKind, Workload};
 
 /// Compute costs in nanoseconds of this machine's CPU; the network's
 /// `cpu_scale` turns them into the simulated machine's. (Message overheads
 /// are given in the simulated machine's time already, in [`Network`].)
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CostModel {
-    /// Cost of one charged unit of each work kind ([`crate::Ctx::charge`]).
+    /// Cost of one charged unit of each work kind ([`crate::Ctx::charge`]),
+    /// by [`WorkKind::name`]. A run rejects names its workload does not
+    /// declare ([`CostModel::check`]).
     pub unit_ns: BTreeMap<String, f64>,
     /// Cost of a unit of a kind missing from `unit_ns`.
     pub default_unit_ns: f64,
@@ -69,15 +71,37 @@ impl Default for CostModel {
 }
 
 impl CostModel {
+    /// Sets the cost of one unit of `kind`.
+    pub fn with_unit<K: WorkKind>(mut self, kind: K, ns: f64) -> Self {
+        self.unit_ns.insert(kind.name().to_string(), ns);
+        self
+    }
+
+    /// Checks that every kind named in `unit_ns` is one of `K`'s (a
+    /// misspelt name would otherwise cost nothing, silently).
+    pub fn check<K: WorkKind>(&self) -> Result<(), ConfigError> {
+        match self.unit_ns.keys().find(|k| K::from_name(k).is_none()) {
+            Some(k) => Err(ConfigError::UnknownWorkKind {
+                name: k.clone(),
+                known: K::ALL
+                    .iter()
+                    .map(|k| k.name())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            }),
+            None => Ok(()),
+        }
+    }
+
     /// Nanoseconds of this machine for `charges`.
-    pub fn cost(&self, charges: &[(&'static str, u64)]) -> f64 {
+    pub fn cost<K: WorkKind>(&self, charges: &[(K, u64)]) -> f64 {
         charges
             .iter()
             .map(|&(kind, units)| {
                 units as f64
                     * self
                         .unit_ns
-                        .get(kind)
+                        .get(kind.name())
                         .copied()
                         .unwrap_or(self.default_unit_ns)
             })
@@ -359,6 +383,7 @@ impl Rng {
 /// # #[serde(crate = "hybrid_sched::serde")]
 /// # struct Walk { next: u32, end: u32, acc: u64 }
 /// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
+/// # hybrid_sched::work_kinds! { enum PairsWork { Select = "select" } }
 /// # struct Pairs;
 /// # impl Workload for Pairs {
 /// #     type DataId = u32;
@@ -367,6 +392,7 @@ impl Rng {
 /// #     type DpTask = Walk;
 /// #     type Result = Num;
 /// #     type Accumulator = u64;
+/// #     type Work = PairsWork;
 /// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
 /// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
 /// #     }
@@ -375,7 +401,7 @@ impl Rng {
 /// #     }
 /// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
 /// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
-/// #         ctx.charge("select", 1);
+/// #         ctx.charge(PairsWork::Select, 1);
 /// #         vec![t.0, t.0 + 1]
 /// #     }
 /// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
@@ -427,6 +453,7 @@ pub fn run_sim<W: Workload>(
             "simulated network needs a positive bandwidth and cpu scale".into(),
         ));
     }
+    sim.cost.check::<W::Work>()?;
     let mut nodes: Vec<Option<Node<W>>> = Node::build_all(&workload, config)?
         .into_iter()
         .map(Some)

@@ -206,7 +206,7 @@ pub fn calibrate(
         steps = 0;
         run_sequential_observed(&wl2, 2, &mut |charges, ns| {
             for &(kind, units) in charges {
-                if let Some(i) = UNIT_NS.iter().position(|(k, _)| *k == kind) {
+                if let Some(i) = UNIT_NS.iter().position(|(k, _)| *k == kind.name()) {
                     x[i] += units as f64;
                 }
             }
@@ -361,7 +361,10 @@ mod tests {
             work::SHADOW_BUNDLES,
         ];
         for (k, _) in UNIT_NS {
-            assert!(names.contains(&k), "{k} is not a work kind");
+            assert!(
+                names.iter().any(|n| n.name() == k),
+                "{k} is not a work kind"
+            );
         }
         assert_eq!(model().unit_ns.len(), UNIT_NS.len());
     }

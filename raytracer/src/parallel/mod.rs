@@ -211,11 +211,11 @@ pub struct ParallelRender {
 
 impl ParallelRender {
     /// A counted work total over all processors (see [`workload::work`]).
-    pub fn work(&self, kind: &str) -> u64 {
+    pub fn work(&self, kind: workload::work::Work) -> u64 {
         self.stats
             .procs
             .iter()
-            .map(|p| p.work.get(kind).copied().unwrap_or(0))
+            .map(|p| p.work.get(kind.name()).copied().unwrap_or(0))
             .sum()
     }
 }
