@@ -35,100 +35,7 @@ impl<W: Workload> Default for Lane<W> {
 ///
 /// The workload is the crate-level example's (`Num` is its result type).
 ///
-/// ```rust
-/// # use std::sync::Arc;
-/// # use hybrid_sched::serde::{Deserialize, Serialize};
-/// # use hybrid_sched::{Addr, ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};
-/// # // The crate-level example's workload: six numbers 1..=6 over the processors;
-/// # // demand-driven task `Pair(i)` adds items i and i + 1, data-parallel `Walk`
-/// # // adds items `next..end` by migrating to their owners.
-/// # #[derive(Clone, Debug, Serialize, Deserialize)]
-/// # #[serde(crate = "hybrid_sched::serde")]
-/// # struct Num(u64);
-/// # impl ByteSize for Num { fn byte_size(&self) -> usize { 8 } }
-/// # #[derive(Clone, Debug, Serialize, Deserialize)]
-/// # #[serde(crate = "hybrid_sched::serde")]
-/// # struct Pair(u32);
-/// # impl ByteSize for Pair { fn byte_size(&self) -> usize { 4 } }
-/// # #[derive(Clone, Debug, Serialize, Deserialize)]
-/// # #[serde(crate = "hybrid_sched::serde")]
-/// # struct Walk { next: u32, end: u32, acc: u64 }
-/// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
-/// # hybrid_sched::work_kinds! { enum PairsWork { Select = "select" } }
-/// # struct Pairs;
-/// # impl Workload for Pairs {
-/// #     type DataId = u32;
-/// #     type DataItem = Num;
-/// #     type DdTask = Pair;
-/// #     type DpTask = Walk;
-/// #     type Result = Num;
-/// #     type Accumulator = u64;
-/// #     type Work = PairsWork;
-/// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
-/// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
-/// #     }
-/// #     fn load_partition(&self, proc: usize, procs: usize) -> Vec<(u32, Num)> {
-/// #         (0..6u32).filter(|&i| i as usize % procs == proc).map(|i| (i, Num(u64::from(i) + 1))).collect()
-/// #     }
-/// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
-/// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
-/// #         ctx.charge(PairsWork::Select, 1);
-/// #         vec![t.0, t.0 + 1]
-/// #     }
-/// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
-/// #         let sum = data.get(&t.0).unwrap().0 + data.get(&(t.0 + 1)).unwrap().0;
-/// #         ctx.emit_result(Addr::Master, Num(sum));
-/// #     }
-/// #     fn to_data_parallel(&self, t: Pair, ctx: &mut Ctx<Self>) {
-/// #         ctx.spawn_dp(Walk { next: t.0, end: t.0 + 2, acc: 0 });
-/// #     }
-/// #     fn route_dp(&self, w: &Walk) -> Option<u32> { (w.next < w.end).then_some(w.next) }
-/// #     fn execute_dp(&self, mut w: Walk, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) -> DpOutcome<Walk> {
-/// #         while w.next < w.end {
-/// #             let Some(item) = data.get(&w.next) else { return DpOutcome::Migrate(w) };
-/// #             w.acc += item.0;
-/// #             w.next += 1;
-/// #         }
-/// #         ctx.emit_result(Addr::Master, Num(w.acc));
-/// #         DpOutcome::Finished
-/// #     }
-/// #     fn merge(&self, acc: &mut u64, r: Num) { *acc += r.0; }
-/// # }
-/// use hybrid_sched::bundle::Outbox;
-/// use hybrid_sched::{BundleConfig, Class, Msg};
-///
-/// // Processor 0 of 2: bundles of up to 3 messages, 4 credits per receiver.
-/// let bundle = BundleConfig { max_items: 3, ..BundleConfig::default() };
-/// let mut out = Outbox::<Pairs>::new(Addr::Proc(0), 2, bundle, 4);
-/// let to = Addr::Proc(1);
-///
-/// // A data request leaves at once, alone; results wait for a bundle of three.
-/// out.push(to, Msg::DataRequest(vec![1]), 0);
-/// for v in 0..3 {
-///     out.push(to, Msg::Result(Num(v)), 0);
-/// }
-/// let packets = out.take_ready();
-/// assert_eq!(packets.len(), 2);
-/// assert_eq!((packets[0].class, packets[0].items.len()), (Class::Data, 1));
-/// assert_eq!((packets[1].class, packets[1].items.len()), (Class::Result, 3));
-///
-/// // Each result used a credit: one is left towards processor 1, so of the
-/// // next bundle only one message leaves; the others wait (nothing blocks,
-/// // nothing is dropped).
-/// assert_eq!(out.credits_towards(to), 1);
-/// for v in 3..6 {
-///     out.push(to, Msg::Result(Num(v)), 0);
-/// }
-/// assert_eq!(out.take_ready()[0].items.len(), 1);
-/// assert_eq!(out.backlog(), 2);
-///
-/// // The receiver consumed them and gave credits back; a flush (the sender
-/// // ran out of work) sends the rest without waiting for a full bundle.
-/// out.grant(to, 3, 0);
-/// out.pump(0, true);
-/// assert_eq!(out.take_ready()[0].items.len(), 2);
-/// assert!(out.is_empty());
-/// ```
+/// (Example: the unit test `outbox_bundles_and_credits`.)
 pub(crate) struct Outbox<W: Workload> {
     me: Addr,
     procs: usize,
@@ -273,5 +180,53 @@ impl<W: Workload> Outbox<W> {
     #[cfg(test)]
     pub(crate) fn credits_towards(&self, to: Addr) -> u32 {
         self.credits.available(to.slot(self.procs))
+    }
+}
+
+#[cfg(test)]
+mod example {
+    use super::*;
+    use crate::tests::{Mini, Res};
+
+    /// Formerly the type's documentation example.
+    #[test]
+    fn outbox_bundles_and_credits() {
+        // Processor 0 of 2: bundles of up to 3 messages, 4 credits per receiver.
+        let bundle = BundleConfig {
+            max_items: 3,
+            ..BundleConfig::default()
+        };
+        let mut out = Outbox::<Mini>::new(Addr::Proc(0), 2, bundle, 4);
+        let to = Addr::Proc(1);
+
+        // A data request leaves at once, alone; results wait for a bundle of three.
+        out.push(to, Msg::DataRequest(vec![1]), 0);
+        for v in 0..3 {
+            out.push(to, Msg::Result(Res { key: v, value: v }), 0);
+        }
+        let packets = out.take_ready();
+        assert_eq!(packets.len(), 2);
+        assert_eq!((packets[0].class, packets[0].items.len()), (Class::Data, 1));
+        assert_eq!(
+            (packets[1].class, packets[1].items.len()),
+            (Class::Result, 3)
+        );
+
+        // Each result used a credit: one is left towards processor 1, so of the
+        // next bundle only one message leaves; the others wait (nothing blocks,
+        // nothing is dropped).
+        assert_eq!(out.credits_towards(to), 1);
+        for v in 3..6 {
+            out.push(to, Msg::Result(Res { key: v, value: v }), 0);
+        }
+        assert_eq!(out.take_ready()[0].items.len(), 1);
+        assert_eq!(out.backlog(), 2);
+
+        // The receiver consumed them and gave credits back; a flush (the sender
+        // ran out of work) sends the rest without waiting for a full bundle.
+        out.grant(to, 3, 0);
+        out.pump(0, true);
+        assert_eq!(out.take_ready()[0].items.len(), 2);
+        assert!(out.is_empty());
     }
 }

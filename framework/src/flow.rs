@@ -47,30 +47,7 @@ impl Credits {
 /// Credits go back in batches (half a window at a time) to keep control
 /// traffic small, and all at once when the receiver runs out of work.
 ///
-/// # Example
-///
-/// ```rust
-/// use hybrid_sched::flow::{CreditLedger, Credits};
-///
-/// // One sender with 4 credits towards one receiver (slot 0 on both sides).
-/// let mut sender = Credits::new(1, 4);
-/// let mut receiver = CreditLedger::new(1, 4);
-/// sender.consume(0, 4); // four results sent: no credit left
-/// assert_eq!(sender.available(0), 0);
-///
-/// // The receiver returns credits half a window (2) at a time ...
-/// receiver.consumed(0);
-/// assert!(receiver.take_due(false).is_empty());
-/// receiver.consumed(0);
-/// for (slot, n) in receiver.take_due(false) {
-///     sender.grant(slot, n);
-/// }
-/// assert_eq!(sender.available(0), 2);
-/// // ... and everything it owes when it runs out of work.
-/// receiver.consumed(0);
-/// assert_eq!(receiver.take_due(true), [(0, 1)]);
-/// assert!(!receiver.any_owed());
-/// ```
+/// (Example: the unit test `credit_round_trip`.)
 #[derive(Clone, Debug)]
 pub(crate) struct CreditLedger {
     owed: Vec<u32>,
@@ -176,5 +153,33 @@ mod tests {
         b.add(1);
         assert_eq!((b.items, b.bytes), (2, 6));
         assert_eq!((b.high_water_items, b.high_water_bytes), (2, 15));
+    }
+}
+
+#[cfg(test)]
+mod example {
+    use super::*;
+
+    /// Formerly the type's documentation example.
+    #[test]
+    fn credit_round_trip() {
+        // One sender with 4 credits towards one receiver (slot 0 on both sides).
+        let mut sender = Credits::new(1, 4);
+        let mut receiver = CreditLedger::new(1, 4);
+        sender.consume(0, 4); // four results sent: no credit left
+        assert_eq!(sender.available(0), 0);
+
+        // The receiver returns credits half a window (2) at a time ...
+        receiver.consumed(0);
+        assert!(receiver.take_due(false).is_empty());
+        receiver.consumed(0);
+        for (slot, n) in receiver.take_due(false) {
+            sender.grant(slot, n);
+        }
+        assert_eq!(sender.available(0), 2);
+        // ... and everything it owes when it runs out of work.
+        receiver.consumed(0);
+        assert_eq!(receiver.take_due(true), [(0, 1)]);
+        assert!(!receiver.any_owed());
     }
 }

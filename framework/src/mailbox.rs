@@ -12,23 +12,7 @@ use crate::protocol::Class;
 /// Priority mailbox holding items of type `T` (the processor stores incoming
 /// messages with their sender; tests use plain values).
 ///
-/// # Example
-///
-/// ```rust
-/// use hybrid_sched::{Class, Mailbox};
-///
-/// let mut mailbox = Mailbox::new();
-/// mailbox.push(Class::DemandDriven, "tile 1");
-/// mailbox.push(Class::DemandDriven, "tile 2");
-/// mailbox.push(Class::Result, "pixels");
-/// mailbox.push(Class::Data, "data request");
-/// assert_eq!(mailbox.peek_class(), Some(Class::Data));
-///
-/// // The highest class first, arrival order within a class.
-/// let order: Vec<&str> = std::iter::from_fn(|| mailbox.pop().map(|(_, m)| m)).collect();
-/// assert_eq!(order, ["data request", "pixels", "tile 1", "tile 2"]);
-/// assert_eq!(mailbox.high_water(), 4);
-/// ```
+/// (Example: the unit test `mailbox_order`.)
 #[derive(Debug)]
 pub(crate) struct Mailbox<T> {
     queues: [VecDeque<T>; 5],
@@ -145,5 +129,26 @@ mod tests {
                 prop_assert_eq!(m.len(), model.iter().map(|q| q.len()).sum::<usize>());
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod example {
+    use super::*;
+
+    /// Formerly the type's documentation example.
+    #[test]
+    fn mailbox_order() {
+        let mut mailbox = Mailbox::new();
+        mailbox.push(Class::DemandDriven, "tile 1");
+        mailbox.push(Class::DemandDriven, "tile 2");
+        mailbox.push(Class::Result, "pixels");
+        mailbox.push(Class::Data, "data request");
+        assert_eq!(mailbox.peek_class(), Some(Class::Data));
+
+        // The highest class first, arrival order within a class.
+        let order: Vec<&str> = std::iter::from_fn(|| mailbox.pop().map(|(_, m)| m)).collect();
+        assert_eq!(order, ["data request", "pixels", "tile 1", "tile 2"]);
+        assert_eq!(mailbox.high_water(), 4);
     }
 }

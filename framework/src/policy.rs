@@ -140,32 +140,7 @@ pub(crate) struct PlaceCtx {
 
 /// A processor's placement state for its policy.
 ///
-/// # Example
-///
-/// ```rust
-/// use hybrid_sched::policy::{PlaceCtx, Placer, Target};
-/// use hybrid_sched::Policy;
-///
-/// // Processor 1 of 4 places a child whose root ran on processor 3.
-/// let ctx = PlaceCtx { origin: Some(3), load: 0 };
-/// assert_eq!(Placer::new(Policy::Local, 1, 4).place(ctx), Target::Local);
-/// assert_eq!(Placer::new(Policy::ViaMaster, 1, 4).place(ctx), Target::Master);
-/// assert_eq!(Placer::new(Policy::ToOrigin, 1, 4).place(ctx), Target::Proc(3));
-/// let mut rr = Placer::new(Policy::RoundRobin, 1, 4);
-/// let dealt: Vec<Target> = (0..4).map(|_| rr.place(ctx)).collect();
-/// assert_eq!(dealt, [Target::Proc(2), Target::Proc(3), Target::Proc(0), Target::Local]);
-///
-/// // Load-aware sheds work only while busy, and only to an idle processor.
-/// let mut la = Placer::new(Policy::LoadAware, 1, 4);
-/// for p in [0, 2, 3] {
-///     la.observe(p, 10);
-/// }
-/// let busy = PlaceCtx { origin: None, load: 100 };
-/// assert_eq!(la.place(busy), Target::Local); // nobody is idle
-/// la.observe(3, 0);
-/// assert_eq!(la.place(PlaceCtx { load: 5, ..busy }), Target::Local); // not busy
-/// assert_eq!(la.place(busy), Target::Proc(3));
-/// ```
+/// (Example: the unit test `placer_decisions`.)
 #[derive(Clone, Debug)]
 pub(crate) struct Placer {
     policy: Policy,
@@ -323,5 +298,54 @@ mod tests {
             Placer::new(Policy::LoadAware, 0, 1).place(at(99)),
             Target::Local
         );
+    }
+}
+
+#[cfg(test)]
+mod example {
+    use super::*;
+
+    /// Formerly the type's documentation example.
+    #[test]
+    fn placer_decisions() {
+        // Processor 1 of 4 places a child whose root ran on processor 3.
+        let ctx = PlaceCtx {
+            origin: Some(3),
+            load: 0,
+        };
+        assert_eq!(Placer::new(Policy::Local, 1, 4).place(ctx), Target::Local);
+        assert_eq!(
+            Placer::new(Policy::ViaMaster, 1, 4).place(ctx),
+            Target::Master
+        );
+        assert_eq!(
+            Placer::new(Policy::ToOrigin, 1, 4).place(ctx),
+            Target::Proc(3)
+        );
+        let mut rr = Placer::new(Policy::RoundRobin, 1, 4);
+        let dealt: Vec<Target> = (0..4).map(|_| rr.place(ctx)).collect();
+        assert_eq!(
+            dealt,
+            [
+                Target::Proc(2),
+                Target::Proc(3),
+                Target::Proc(0),
+                Target::Local
+            ]
+        );
+
+        // Load-aware sheds work only while busy, and only to an idle processor.
+        let mut la = Placer::new(Policy::LoadAware, 1, 4);
+        for p in [0, 2, 3] {
+            la.observe(p, 10);
+        }
+        let busy = PlaceCtx {
+            origin: None,
+            load: 100,
+        };
+        assert_eq!(la.place(busy), Target::Local); // nobody is idle
+        la.observe(3, 0);
+        assert_eq!(la.place(PlaceCtx { load: 5, ..busy }), Target::Local); // not busy
+        assert_eq!(la.place(busy), Target::Proc(3));
     }
 }

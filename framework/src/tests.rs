@@ -90,8 +90,8 @@ impl ByteSize for Walk {
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub(crate) struct Res {
-    key: u64,
-    value: u64,
+    pub(crate) key: u64,
+    pub(crate) value: u64,
 }
 impl ByteSize for Res {
     fn byte_size(&self) -> usize {
