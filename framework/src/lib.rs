@@ -163,8 +163,7 @@ mod tests;
 /// `#[serde(crate = "hybrid_sched::serde")]`.
 pub use serde;
 
-pub use cache::ByteLru;
-pub use cache::IdMap;
+pub use cache::{ByteLru, IdMap};
 pub use clock::{Clock, Time, WallClock};
 pub use config::{BundleConfig, Config};
 pub use error::{ConfigError, RunError};
@@ -172,8 +171,8 @@ pub use policy::Policy;
 pub use protocol::{Addr, Class, DpOutcome, Msg, Packet, Placement};
 pub use runtime::lockstep::{run_lockstep, Lockstep};
 pub use runtime::sequential::{run_sequential, run_sequential_observed, Sequential};
-pub use runtime::sim::{run_sim, CostModel, Network, Sim, Timeline};
+pub use runtime::sim::{run_sim, CostModel, Network, Sim};
 pub use runtime::threads::{run_threads, Threads};
-pub use runtime::{RunReport, Runtime};
+pub use runtime::{Extras, RunReport, Runtime, Timeline};
 pub use stats::{ProcStats, RankTraffic, RunStats, State};
 pub use workload::{ByteSize, Ctx, DataView, NoWork, WorkKind, Workload};

@@ -634,13 +634,14 @@ mod sim {
                             .with_policy(policy)
                             .with_cache_bytes(cache)
                             .with_credits(2);
-                        let (r, tl) = run_sim(Arc::new(w.clone()), &cfg, &sim(net))
+                        let r = run_sim(Arc::new(w.clone()), &cfg, &sim(net))
                             .unwrap_or_else(|e| panic!("{procs} procs, {policy}: {e}"));
                         check_against_sequential(&w, &r);
                         // Every actor's states cover the whole run exactly.
                         for p in r.stats.procs.iter().chain([&r.stats.master]) {
                             assert_eq!(p.time_ns.total(), r.stats.elapsed_ns, "{}", p.addr);
                         }
+                        let tl = r.timeline().unwrap();
                         let tl_total: u64 = tl.actors[0].iter().map(|s| s.total()).sum();
                         assert_eq!(tl_total, r.stats.elapsed_ns);
                     }
@@ -659,7 +660,8 @@ mod sim {
         s.network.jitter = 0.5;
         s.seed = 7;
         let run = |s: &Sim| {
-            let (r, tl) = run_sim(Arc::new(w.clone()), &cfg, s).unwrap();
+            let r = run_sim(Arc::new(w.clone()), &cfg, s).unwrap();
+            let tl = r.timeline().unwrap();
             (
                 serde_json::to_string(&r.stats).unwrap(),
                 serde_json::to_string(&tl).unwrap(),
@@ -683,7 +685,6 @@ mod sim {
         let elapsed = |net: Network| {
             run_sim(Arc::new(w.clone()), &cfg, &sim(net))
                 .unwrap()
-                .0
                 .stats
                 .elapsed_ns
         };
@@ -710,7 +711,7 @@ mod sim {
             link_setup_ns: 0.0,
             ..Network::ten_gbe()
         };
-        let (r, _) = run_sim(Arc::new(w.clone()), &Config::new(1), &sim(net)).unwrap();
+        let r = run_sim(Arc::new(w.clone()), &Config::new(1), &sim(net)).unwrap();
         let p = &r.stats.procs[0];
         let folds = p.work.get("work").copied().unwrap_or(0) as f64;
         assert!(folds > 0.0);

@@ -37,16 +37,13 @@ impl Lockstep {
     }
 }
 
-impl Runtime for Lockstep {
+#[async_trait::async_trait]
+impl<W: Workload> Runtime<W> for Lockstep {
     fn name(&self) -> &'static str {
         "lockstep"
     }
 
-    fn run<W: Workload>(
-        &self,
-        workload: Arc<W>,
-        config: &Config,
-    ) -> Result<RunReport<W>, RunError> {
+    async fn run(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
         run_lockstep(workload, config, self.seed, self.max_rounds)
     }
 }

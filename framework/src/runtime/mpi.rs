@@ -61,7 +61,7 @@ use mpi::topology::{Communicator, SimpleCommunicator};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
-use super::{assemble, Node, RunReport};
+use super::{assemble, Extras, Node, RunReport, Runtime};
 use crate::clock::{Clock, WallClock};
 use crate::config::Config;
 use crate::error::RunError;
@@ -102,13 +102,20 @@ pub struct World {
     pub size: usize,
 }
 
-/// What [`run_mpi`] returns on rank 0.
-#[derive(Debug)]
-pub struct MpiReport<W: Workload> {
-    /// Accumulators and statistics of every actor of every rank.
-    pub report: RunReport<W>,
-    /// Wire traffic per rank (index = rank).
-    pub ranks: Vec<RankTraffic>,
+/// The MPI runtime: one processor per rank, the master on rank 0. MPI must
+/// be running ([`init`]); a process runs one MPI job.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Mpi;
+
+#[async_trait::async_trait]
+impl<W: Workload> Runtime<W> for Mpi {
+    fn name(&self) -> &'static str {
+        "mpi"
+    }
+
+    async fn run(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
+        run_mpi(workload, config)
+    }
 }
 
 /// Processor loop -> MPI thread.
@@ -215,13 +222,12 @@ pub fn abort(code: i32) -> ! {
 /// Runs `workload` with this rank's actors: processor `rank`, and on rank 0
 /// the master too. `config.procs` must equal the number of ranks.
 ///
-/// Returns the assembled report on rank 0 and `None` on every other rank.
+/// Returns the assembled report on rank 0, with the traffic per rank in
+/// [`Extras::Ranks`]; every other rank returns an empty report marked
+/// [`Extras::NotRoot`].
 /// On success MPI is finalised (an MPI job runs once per process); on error
 /// it keeps running so that the caller can print the error and [`abort`].
-pub fn run_mpi<W: Workload>(
-    workload: Arc<W>,
-    config: &Config,
-) -> Result<Option<MpiReport<W>>, RunError> {
+pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
     config.validate()?;
     let mut guard = phase();
     let Phase::Running(session) = &mut *guard else {
@@ -255,7 +261,9 @@ pub fn run_mpi<W: Workload>(
     finish(session, finish_by)?;
     *guard = Phase::Finalized;
     if world.rank != 0 {
-        return Ok(None);
+        let mut report = assemble("mpi", world.size, Vec::new(), elapsed);
+        report.extras = Extras::NotRoot { rank: world.rank };
+        return Ok(report);
     }
     let mut all = finished;
     let mut ranks = vec![traffic];
@@ -263,10 +271,9 @@ pub fn run_mpi<W: Workload>(
         all.extend(f.nodes);
         ranks.push(f.traffic);
     }
-    Ok(Some(MpiReport {
-        report: assemble("mpi", world.size, all, elapsed),
-        ranks,
-    }))
+    let mut report = assemble("mpi", world.size, all, elapsed);
+    report.extras = Extras::Ranks(ranks);
+    Ok(report)
 }
 
 /// Ends the run: completes every send, meets every rank at a barrier,

@@ -23,16 +23,13 @@ use crate::workload::{Ctx, DataView, Workload};
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Sequential;
 
-impl Runtime for Sequential {
+#[async_trait::async_trait]
+impl<W: Workload> Runtime<W> for Sequential {
     fn name(&self) -> &'static str {
         "sequential"
     }
 
-    fn run<W: Workload>(
-        &self,
-        workload: Arc<W>,
-        config: &Config,
-    ) -> Result<RunReport<W>, RunError> {
+    async fn run(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
         config.validate()?;
         run_sequential(&*workload, config.procs)
     }
@@ -221,5 +218,6 @@ pub fn run_sequential_observed<W: Workload>(
             master: ProcStats::new(Addr::Master),
             elapsed_ns,
         },
+        extras: Default::default(),
     })
 }

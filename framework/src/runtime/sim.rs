@@ -19,10 +19,11 @@
 //! same statistics, byte for byte. The optional latency jitter draws from a
 //! seeded generator and keeps that property.
 //!
-//! Besides the usual [`RunReport`] (with virtual times in its statistics)
-//! [`run_sim`] returns a [`Timeline`]: for every actor, the time spent in
-//! each [`State`] per time bucket, from which "processors clipping over
-//! time", "idle over time" and similar figures are drawn.
+//! Besides the usual results and statistics (with virtual times) the
+//! report carries a [`Timeline`] ([`RunReport::timeline`]): for every
+//! actor, the time spent in each [`State`] per time bucket, from which
+//! "processors clipping over time", "idle over time" and similar figures
+//! are drawn.
 
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BinaryHeap, HashSet};
@@ -30,13 +31,14 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use super::{assemble, Node, RunReport, Runtime};
+use super::Timeline;
+use super::{assemble, Extras, Node, RunReport, Runtime};
 use crate::clock::Time;
 use crate::config::Config;
 use crate::error::{ConfigError, RunError};
 use crate::processor::Step;
 use crate::protocol::{Addr, Class, Packet};
-use crate::stats::{State, StateTimes};
+use crate::stats::State;
 use crate::workload::{WorkKind, Workload};
 
 /// Compute costs in nanoseconds of this machine's CPU; the network's
@@ -196,105 +198,6 @@ impl Network {
     }
 }
 
-/// Most buckets a [`Timeline`] keeps (it coarsens beyond).
-pub const MAX_BUCKETS: usize = 4096;
-
-/// Time per [`State`] per bucket for every actor (workers, then the master).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Timeline {
-    /// Bucket width in virtual nanoseconds.
-    pub bucket_ns: u64,
-    /// `actors[slot][bucket]`.
-    pub actors: Vec<Vec<StateTimes>>,
-    /// Traffic sent per actor and bucket, in bytes, per class index
-    /// ([`Class::index`]).
-    pub sent_bytes: Vec<Vec<[u64; 5]>>,
-}
-
-impl Timeline {
-    fn new(actors: usize, bucket_ns: u64) -> Self {
-        Timeline {
-            bucket_ns: bucket_ns.max(1),
-            actors: vec![Vec::new(); actors],
-            sent_bytes: vec![Vec::new(); actors],
-        }
-    }
-
-    /// Makes sure time `t` falls in one of at most [`MAX_BUCKETS`] buckets,
-    /// doubling the bucket width (merging neighbours) as often as needed.
-    fn fit(&mut self, t: Time) {
-        while t / self.bucket_ns >= MAX_BUCKETS as u64 {
-            self.bucket_ns *= 2;
-            for row in &mut self.actors {
-                *row = row
-                    .chunks(2)
-                    .map(|c| {
-                        let mut m = c[0];
-                        if let Some(b) = c.get(1) {
-                            for s in State::ALL {
-                                m.add(s, b.get(s));
-                            }
-                        }
-                        m
-                    })
-                    .collect();
-            }
-            for row in &mut self.sent_bytes {
-                *row = row
-                    .chunks(2)
-                    .map(|c| {
-                        let mut m = c[0];
-                        if let Some(b) = c.get(1) {
-                            for (x, y) in m.iter_mut().zip(b) {
-                                *x += y;
-                            }
-                        }
-                        m
-                    })
-                    .collect();
-            }
-        }
-    }
-
-    fn add(&mut self, slot: usize, state: State, mut t0: Time, t1: Time) {
-        if t1 <= t0 {
-            return;
-        }
-        self.fit(t1 - 1);
-        let b = self.bucket_ns;
-        let row = &mut self.actors[slot];
-        while t0 < t1 {
-            let k = (t0 / b) as usize;
-            let end = ((k as u64 + 1) * b).min(t1);
-            if row.len() <= k {
-                row.resize(k + 1, StateTimes::default());
-            }
-            row[k].add(state, end - t0);
-            t0 = end;
-        }
-    }
-
-    fn sent(&mut self, slot: usize, class: Class, at: Time, bytes: usize) {
-        self.fit(at);
-        let k = (at / self.bucket_ns) as usize;
-        let row = &mut self.sent_bytes[slot];
-        if row.len() <= k {
-            row.resize(k + 1, [0; 5]);
-        }
-        row[k][class.index()] += bytes as u64;
-    }
-
-    /// Number of buckets covering the run.
-    pub fn buckets(&self) -> usize {
-        self.actors.iter().map(Vec::len).max().unwrap_or(0)
-    }
-
-    /// Time of `state` in bucket `k` of actor `slot`.
-    pub fn get(&self, slot: usize, k: usize, state: State) -> u64 {
-        self.actors[slot].get(k).map_or(0, |t| t.get(state))
-    }
-}
-
 /// The simulator: a cost model, a network and a seed.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Sim {
@@ -303,7 +206,7 @@ pub struct Sim {
     /// Seed of the latency jitter.
     pub seed: u64,
     /// Initial timeline bucket width in virtual ns (`None`: 10 µs); the
-    /// timeline doubles it whenever the run outgrows [`MAX_BUCKETS`].
+    /// timeline doubles it whenever the run outgrows [`MAX_BUCKETS`](super::MAX_BUCKETS).
     pub bucket_ns: Option<u64>,
     /// Give up after this many events (a livelock guard).
     pub max_events: u64,
@@ -322,17 +225,14 @@ impl Sim {
     }
 }
 
-impl Runtime for Sim {
+#[async_trait::async_trait]
+impl<W: Workload> Runtime<W> for Sim {
     fn name(&self) -> &'static str {
         "sim"
     }
 
-    fn run<W: Workload>(
-        &self,
-        workload: Arc<W>,
-        config: &Config,
-    ) -> Result<RunReport<W>, RunError> {
-        run_sim(workload, config, self).map(|(r, _)| r)
+    async fn run(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
+        run_sim(workload, config, self)
     }
 }
 
@@ -427,18 +327,18 @@ impl Rng {
 ///
 /// let config = Config::new(2).with_cache_bytes(Some(16));
 /// let fast = Sim::new(CostModel::default(), Network::preset("10gbe").unwrap());
-/// let (report, timeline) = run_sim(Arc::new(Pairs), &config, &fast).unwrap();
+/// let report = run_sim(Arc::new(Pairs), &config, &fast).unwrap();
 /// assert_eq!(report.master, 35);
 /// assert_eq!(report.stats.runtime, "sim");
-/// assert!(timeline.buckets() > 0);
+/// assert!(report.timeline().unwrap().buckets() > 0);
 ///
 /// // Virtual time: the same inputs give the same statistics, byte for byte.
-/// let (again, _) = run_sim(Arc::new(Pairs), &config, &fast).unwrap();
+/// let again = run_sim(Arc::new(Pairs), &config, &fast).unwrap();
 /// assert_eq!(again.stats, report.stats);
 ///
 /// // The paper's machine computes and communicates far more slowly.
 /// let slow = Sim::new(CostModel::default(), Network::parsytec_cc());
-/// let (old, _) = run_sim(Arc::new(Pairs), &config, &slow).unwrap();
+/// let old = run_sim(Arc::new(Pairs), &config, &slow).unwrap();
 /// assert_eq!(old.master, 35);
 /// assert!(old.stats.elapsed_ns > report.stats.elapsed_ns);
 /// ```
@@ -446,7 +346,7 @@ pub fn run_sim<W: Workload>(
     workload: Arc<W>,
     config: &Config,
     sim: &Sim,
-) -> Result<(RunReport<W>, Timeline), RunError> {
+) -> Result<RunReport<W>, RunError> {
     let net = &sim.network;
     if !(net.bandwidth > 0.0 && net.cpu_scale > 0.0) {
         return Err(RunError::Runtime(
@@ -632,5 +532,7 @@ pub fn run_sim<W: Workload>(
             timeline.add(slot, State::Idle, total.min(end), end);
         }
     }
-    Ok((assemble("sim", procs, finished, end), timeline))
+    let mut report = assemble("sim", procs, finished, end);
+    report.extras = Extras::Timeline(timeline);
+    Ok(report)
 }

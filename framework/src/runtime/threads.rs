@@ -28,23 +28,40 @@ use crate::workload::Workload;
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Threads;
 
-impl Runtime for Threads {
+#[async_trait::async_trait]
+impl<W: Workload> Runtime<W> for Threads {
     fn name(&self) -> &'static str {
         "threads"
     }
 
-    fn run<W: Workload>(
-        &self,
-        workload: Arc<W>,
-        config: &Config,
-    ) -> Result<RunReport<W>, RunError> {
+    /// Runs on a tokio runtime of its own, on a thread of its own, and
+    /// awaits the end: the caller's executor (tokio's, of either flavour,
+    /// or any other) is never blocked, and the run gets its configured
+    /// threads whatever the caller's runtime has.
+    async fn run(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
+        let config = config.clone();
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        std::thread::Builder::new()
+            .name("hybrid-sched".into())
+            .spawn(move || {
+                let _ = tx.send(run_threads(workload, &config));
+            })
+            .map_err(|e| RunError::Runtime(format!("cannot start the run's thread: {e}")))?;
+        rx.await
+            .map_err(|_| RunError::Runtime("the run's thread panicked".into()))?
+    }
+
+    fn run_blocking(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
         run_threads(workload, config)
     }
 }
 
 /// Runs `workload` on a fresh tokio multi-thread runtime with one actor per
 /// processor plus the master. Blocks until termination is detected, an actor
-/// fails, or the configured time limit passes.
+/// fails, or the configured time limit passes. Called inside a tokio
+/// runtime, it runs on a thread of its own (tokio cannot start a runtime
+/// inside a runtime) and blocks the calling thread until the end; an async
+/// caller awaits [`Threads`]' [`Runtime::run`] instead.
 ///
 /// # Example
 ///
@@ -132,6 +149,16 @@ pub fn run_threads<W: Workload>(
     workload: Arc<W>,
     config: &Config,
 ) -> Result<RunReport<W>, RunError> {
+    if tokio::runtime::Handle::try_current().is_ok() {
+        return std::thread::scope(|s| {
+            std::thread::Builder::new()
+                .name("hybrid-sched".into())
+                .spawn_scoped(s, || run_threads(workload, config))
+                .map_err(|e| RunError::Runtime(format!("cannot start the run's thread: {e}")))?
+                .join()
+                .map_err(|_| RunError::Runtime("the run's thread panicked".into()))?
+        });
+    }
     let nodes = Node::build_all(&workload, config)?;
     // By default one thread per core. (An extra thread for the mostly
     // sleeping master was measured slower on 2 cores: the master then waits

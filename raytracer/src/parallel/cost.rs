@@ -268,7 +268,7 @@ pub fn calibrate(
     let config = Config::new(1);
     let t0 = Instant::now();
     let report = Threads
-        .run(wl.clone(), &config)
+        .run_blocking(wl.clone(), &config)
         .map_err(|e| Error::Other(format!("calibration run failed: {e}")))?;
     let threads_s = t0.elapsed().as_secs_f64();
     let st = &report.stats.procs[0];
