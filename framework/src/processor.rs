@@ -334,7 +334,7 @@ impl<W: Workload> Processor<W> {
     fn select(&mut self, mut env: DdEnvelope<W>, now: Time) -> Result<(), String> {
         // The processor that runs a root task is the origin of its family.
         let origin = *env.origin.get_or_insert(self.id);
-        let mut ctx = self.new_ctx();
+        let mut ctx = self.new_ctx(Some(origin));
         let ids = {
             let local = self.store.view();
             self.workload.select_data_in(&env.task, &local, &mut ctx)
@@ -355,7 +355,7 @@ impl<W: Workload> Processor<W> {
     fn execute_dd(&mut self, task: ReadyTask<W>, now: Time) -> Result<(), String> {
         let ReadyTask { env, pinned } = task;
         let origin = env.origin;
-        let mut ctx = self.new_ctx();
+        let mut ctx = self.new_ctx(origin);
         {
             let view = self.store.view();
             self.workload.execute_dd(env.task, &view, &mut ctx);
@@ -393,7 +393,7 @@ impl<W: Workload> Processor<W> {
             Admission::TooBig(env) => {
                 self.stats.tasks.fallbacks += 1;
                 debug!(proc = self.id, task = ?env.task, "data exceeds cache budget: data-parallel fallback");
-                let mut ctx = self.new_ctx();
+                let mut ctx = self.new_ctx(env.origin);
                 self.workload.to_data_parallel(env.task, &mut ctx);
                 self.dispatch(ctx, env.origin, now)?;
             }
@@ -403,7 +403,7 @@ impl<W: Workload> Processor<W> {
 
     fn execute_dp(&mut self, env: DpEnvelope<W>, now: Time) -> Result<(), String> {
         let origin = env.origin;
-        let mut ctx = self.new_ctx();
+        let mut ctx = self.new_ctx(origin);
         let (outcome, touched) = {
             let view = self.store.view();
             let outcome = self.workload.execute_dp(env.task, &view, &mut ctx);
@@ -437,11 +437,16 @@ impl<W: Workload> Processor<W> {
         self.dispatch(ctx, origin, now)
     }
 
-    /// A context for the next hook: the spare one's buffers, or new ones.
-    fn new_ctx(&mut self) -> Ctx<W> {
-        self.spare_ctx
+    /// A context for the next hook of a task descending from `origin`'s
+    /// root (this processor's when unknown): the spare one's buffers, or
+    /// new ones.
+    fn new_ctx(&mut self, origin: Option<usize>) -> Ctx<W> {
+        let mut ctx = self
+            .spare_ctx
             .take()
-            .unwrap_or_else(|| Ctx::new(self.id, self.procs))
+            .unwrap_or_else(|| Ctx::new(self.id, self.procs));
+        ctx.origin = origin.unwrap_or(self.id);
+        ctx
     }
 
     /// Schedules everything a hook emitted and records its charged work;

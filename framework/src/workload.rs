@@ -300,6 +300,7 @@ pub trait Workload: Send + Sync + Sized + 'static {
 pub struct Ctx<W: Workload> {
     proc: usize,
     procs: usize,
+    pub(crate) origin: usize,
     pub(crate) charges: Vec<(W::Work, u64)>,
     pub(crate) dd: Vec<W::DdTask>,
     pub(crate) dp: Vec<W::DpTask>,
@@ -307,11 +308,13 @@ pub struct Ctx<W: Workload> {
 }
 
 impl<W: Workload> Ctx<W> {
-    /// A context for processor `proc` of `procs`.
+    /// A context for processor `proc` of `procs`, for a root task (the
+    /// origin is `proc`).
     pub fn new(proc: usize, procs: usize) -> Self {
         Ctx {
             proc,
             procs,
+            origin: proc,
             charges: Vec::new(),
             dd: Vec::new(),
             dp: Vec::new(),
@@ -331,6 +334,21 @@ impl<W: Workload> Ctx<W> {
     /// depend on it (see the [`Workload`] contract).
     pub fn proc_id(&self) -> usize {
         self.proc
+    }
+
+    /// The processor that ran the root task this task descends from (its
+    /// data selection): where a family of tasks started, for instance the
+    /// owner of a tile's pixels. For a root task, the running processor.
+    /// Tracked by the framework, so tasks need not carry it.
+    pub fn origin(&self) -> usize {
+        self.origin
+    }
+
+    /// The same context, for a task descending from `origin`'s root (for
+    /// calling hooks by hand; runtimes set it themselves).
+    pub fn with_origin(mut self, origin: usize) -> Self {
+        self.origin = origin;
+        self
     }
 
     /// Number of worker processors in the run.
