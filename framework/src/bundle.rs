@@ -11,7 +11,7 @@ use std::collections::VecDeque;
 
 use crate::clock::Time;
 use crate::config::BundleConfig;
-use crate::flow::Credits;
+use crate::flow::{CreditLedger, Credits, InputBuffer};
 use crate::protocol::{is_credit_limited, Addr, Class, Msg, Packet, HEADER_BYTES};
 use crate::workload::Workload;
 
@@ -44,6 +44,10 @@ pub(crate) struct Outbox<W: Workload> {
     /// `lanes[dest_slot][class]`; only credit-limited classes are used.
     lanes: Vec<[Lane<W>; 5]>,
     credits: Credits,
+    /// Credits owed to senders for consumed messages (the receiving side
+    /// of flow control), and the input buffer they bound.
+    ledger: CreditLedger,
+    inbuf: InputBuffer,
     ready: Vec<Packet<W>>,
     backlog: usize,
     backlog_high_water: usize,
@@ -61,10 +65,45 @@ impl<W: Workload> Outbox<W> {
             max_age,
             lanes: (0..slots).map(|_| Default::default()).collect(),
             credits: Credits::new(slots, credits_per_link),
+            ledger: CreditLedger::new(slots, credits_per_link),
+            inbuf: InputBuffer::default(),
             ready: Vec::new(),
             backlog: 0,
             backlog_high_water: 0,
         }
+    }
+
+    /// A message of `class` from `from` arrived: whether it is
+    /// credit-limited (it then counts in the input buffer until
+    /// [`Outbox::consumed`]).
+    pub(crate) fn arrived(&mut self, from: Addr, class: Class, bytes: usize) -> bool {
+        let credited = is_credit_limited(from, class);
+        if credited {
+            self.inbuf.add(bytes);
+        }
+        credited
+    }
+
+    /// A credit-limited message of `bytes` from `from` was consumed: its
+    /// credit goes back with the next batch that is due.
+    pub(crate) fn consumed(&mut self, from: Addr, bytes: usize, now: Time) {
+        self.inbuf.remove(bytes);
+        self.ledger.consumed(from.slot(self.procs));
+        self.return_credits(false, now);
+    }
+
+    /// Sends the credits that are due; with `flush`, every owed one (the
+    /// actor ran out of work).
+    pub(crate) fn return_credits(&mut self, flush: bool, now: Time) {
+        for (slot, n) in self.ledger.take_due(flush) {
+            self.push(Addr::from_slot(slot, self.procs), Msg::Credit(n), now);
+        }
+    }
+
+    /// Most credit-limited messages and bytes ever held in the input
+    /// buffer.
+    pub(crate) fn input_high_water(&self) -> (usize, usize) {
+        (self.inbuf.high_water_items, self.inbuf.high_water_bytes)
     }
 
     /// Queues `msg` for `to`. Urgent messages become packets immediately.

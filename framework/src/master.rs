@@ -36,10 +36,9 @@ use crate::bundle::Outbox;
 use crate::clock::Time;
 use crate::config::Config;
 use crate::error::RunError;
-use crate::flow::{CreditLedger, InputBuffer};
 use crate::mailbox::Mailbox;
 use crate::processor::Step;
-use crate::protocol::{is_credit_limited, Addr, DdEnvelope, Incoming, Msg, Packet};
+use crate::protocol::{Addr, DdEnvelope, Incoming, Msg, Packet};
 use crate::stats::{ProcStats, State};
 use crate::workload::Workload;
 
@@ -60,8 +59,6 @@ pub(crate) struct Master<W: Workload> {
     parked: VecDeque<usize>,
     mailbox: Mailbox<Incoming<W>>,
     outbox: Outbox<W>,
-    ledger: CreditLedger,
-    inbuf: InputBuffer,
     acc: W::Accumulator,
     stats: ProcStats,
     basic_sent: u64,
@@ -84,8 +81,6 @@ impl<W: Workload> Master<W> {
             parked: VecDeque::new(),
             mailbox: Mailbox::new(),
             outbox: Outbox::new(Addr::Master, procs, config.bundle.clone(), credits),
-            ledger: CreditLedger::new(procs + 1, credits),
-            inbuf: InputBuffer::default(),
             acc: W::Accumulator::default(),
             stats: ProcStats::new(Addr::Master),
             basic_sent: 0,
@@ -115,10 +110,7 @@ impl<W: Workload> Master<W> {
             }
             let class = msg.class();
             let bytes = msg.byte_size();
-            let credited = is_credit_limited(from, class);
-            if credited {
-                self.inbuf.add(bytes);
-            }
+            let credited = self.outbox.arrived(from, class, bytes);
             self.mailbox.push(
                 class,
                 Incoming {
@@ -137,7 +129,7 @@ impl<W: Workload> Master<W> {
             return Ok(Step::Finished);
         }
         let Some((_, inc)) = self.mailbox.pop() else {
-            self.return_credits(true, now);
+            self.outbox.return_credits(true, now);
             self.maybe_start_wave(now);
             return Ok(Step::Idle);
         };
@@ -206,15 +198,7 @@ impl<W: Workload> Master<W> {
     /// A credit-limited message from `from` is consumed. Pooled tasks stay in
     /// the input buffer until handed out, so the pool is bounded by credits.
     fn consume(&mut self, from: Addr, bytes: usize, now: Time) {
-        self.inbuf.remove(bytes);
-        self.ledger.consumed(from.slot(self.procs));
-        self.return_credits(false, now);
-    }
-
-    fn return_credits(&mut self, flush: bool, now: Time) {
-        for (slot, n) in self.ledger.take_due(flush) {
-            self.send(Addr::from_slot(slot, self.procs), Msg::Credit(n), now);
-        }
+        self.outbox.consumed(from, bytes, now);
     }
 
     fn send(&mut self, to: Addr, msg: Msg<W>, now: Time) {
@@ -300,8 +284,10 @@ impl<W: Workload> Master<W> {
 
     /// Ends the run: the master's accumulator and statistics.
     pub(crate) fn finish(mut self) -> (W::Accumulator, ProcStats) {
-        self.stats.memory.input_buffer_items = self.inbuf.high_water_items;
-        self.stats.memory.input_buffer_bytes = self.inbuf.high_water_bytes;
+        (
+            self.stats.memory.input_buffer_items,
+            self.stats.memory.input_buffer_bytes,
+        ) = self.outbox.input_high_water();
         self.stats.memory.mailbox_items = self.mailbox.high_water();
         (self.acc, self.stats)
     }

@@ -27,12 +27,9 @@ use crate::bundle::Outbox;
 use crate::clock::Time;
 use crate::config::Config;
 use crate::error::RunError;
-use crate::flow::{CreditLedger, InputBuffer};
 use crate::mailbox::Mailbox;
 use crate::policy::{PlaceCtx, Placer, Target};
-use crate::protocol::{
-    is_credit_limited, Addr, Class, DdEnvelope, DpEnvelope, DpOutcome, Incoming, Msg, Packet,
-};
+use crate::protocol::{Addr, Class, DdEnvelope, DpEnvelope, DpOutcome, Incoming, Msg, Packet};
 use crate::stats::{ProcStats, State};
 use crate::store::{Admission, DataStore, Directory, ReadyTask};
 use crate::workload::{Ctx, WorkKind, Workload};
@@ -59,8 +56,6 @@ pub(crate) struct Processor<W: Workload> {
     deferred: VecDeque<(DdEnvelope<W>, Vec<W::DataId>)>,
     store: DataStore<W>,
     outbox: Outbox<W>,
-    ledger: CreditLedger,
-    inbuf: InputBuffer,
     placer: Placer,
     acc: W::Accumulator,
     stats: ProcStats,
@@ -102,8 +97,6 @@ impl<W: Workload> Processor<W> {
             deferred: VecDeque::new(),
             store,
             outbox: Outbox::new(addr, procs, config.bundle.clone(), credits),
-            ledger: CreditLedger::new(procs + 1, credits),
-            inbuf: InputBuffer::default(),
             placer: Placer::new(config.policy, id, procs),
             acc: W::Accumulator::default(),
             stats: ProcStats::new(addr),
@@ -184,10 +177,7 @@ impl<W: Workload> Processor<W> {
                 msg => {
                     let class = msg.class();
                     let bytes = msg.byte_size();
-                    let credited = is_credit_limited(from, class);
-                    if credited {
-                        self.inbuf.add(bytes);
-                    }
+                    let credited = self.outbox.arrived(from, class, bytes);
                     if let Msg::Dd(env) = &msg {
                         if env.handout {
                             self.requested_work = false;
@@ -262,7 +252,7 @@ impl<W: Workload> Processor<W> {
 
     fn handle(&mut self, inc: Incoming<W>, now: Time) -> Result<State, String> {
         if inc.credited {
-            self.consume_credit(inc.from, inc.bytes, now);
+            self.outbox.consumed(inc.from, inc.bytes, now);
         }
         match inc.msg {
             Msg::DataRequest(ids) => {
@@ -292,18 +282,6 @@ impl<W: Workload> Processor<W> {
                 Ok(State::Selecting)
             }
             other => Err(format!("unexpected message {other:?} from {}", inc.from)),
-        }
-    }
-
-    fn consume_credit(&mut self, from: Addr, bytes: usize, now: Time) {
-        self.inbuf.remove(bytes);
-        self.ledger.consumed(from.slot(self.procs));
-        self.return_credits(false, now);
-    }
-
-    fn return_credits(&mut self, flush: bool, now: Time) {
-        for (slot, n) in self.ledger.take_due(flush) {
-            self.send(Addr::from_slot(slot, self.procs), Msg::Credit(n), now);
         }
     }
 
@@ -530,7 +508,7 @@ impl<W: Workload> Processor<W> {
         // latency, so everything with credit goes now, and all owed credits
         // go back.
         self.outbox.pump(now, true);
-        self.return_credits(true, now);
+        self.outbox.return_credits(true, now);
         if !self.requested_work && self.room_for_more_waiting() {
             self.requested_work = true;
             self.send(Addr::Master, Msg::WorkRequest, now);
@@ -587,8 +565,7 @@ impl<W: Workload> Processor<W> {
         m.resident_bytes = self.store.resident_bytes();
         m.cached_bytes = self.store.cache().high_water();
         (m.waiting_tasks, m.waiting_task_bytes) = self.store.waiting_high_water();
-        m.input_buffer_items = self.inbuf.high_water_items;
-        m.input_buffer_bytes = self.inbuf.high_water_bytes;
+        (m.input_buffer_items, m.input_buffer_bytes) = self.outbox.input_high_water();
         m.mailbox_items = self.mailbox.high_water();
         m.queued_tasks = self.queued_high_water;
         m.send_backlog = self.outbox.backlog_high_water();
