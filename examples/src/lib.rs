@@ -15,13 +15,8 @@ use hybrid_sched::{
 };
 use serde::{Deserialize, Serialize};
 
-/// SplitMix64: a tiny, good-enough deterministic mixer.
-pub fn mix(mut x: u64) -> u64 {
-    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    x ^ (x >> 31)
-}
+/// SplitMix64's mixer: a tiny, good-enough deterministic hash.
+pub use hybrid_sched::rng::mix;
 
 /// How blocks are spread over processors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

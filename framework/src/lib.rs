@@ -150,6 +150,7 @@ mod master;
 pub mod policy;
 mod processor;
 pub mod protocol;
+pub mod rng;
 pub mod runtime;
 pub mod stats;
 mod store;

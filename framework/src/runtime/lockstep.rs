@@ -16,6 +16,7 @@ use crate::config::Config;
 use crate::error::RunError;
 use crate::processor::Step;
 use crate::protocol::{Addr, Packet};
+use crate::rng::SplitMix64;
 use crate::workload::Workload;
 
 /// The lockstep runtime with its interleaving seed.
@@ -45,19 +46,6 @@ impl<W: Workload> Runtime<W> for Lockstep {
 
     async fn run(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
         run_lockstep(workload, config, self.seed, self.max_rounds)
-    }
-}
-
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        // SplitMix64.
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
     }
 }
 
@@ -143,17 +131,17 @@ pub fn run_lockstep<W: Workload>(
 ) -> Result<RunReport<W>, RunError> {
     let mut nodes = Node::build_all(&workload, config)?;
     let procs = config.procs;
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix64::new(seed);
     let mut net: VecDeque<Packet<W>> = VecDeque::new();
     let mut done = vec![false; nodes.len()];
     let mut now = 0u64;
     for _ in 0..max_rounds {
-        now += 1 + rng.next() % 500_000;
+        now += 1 + rng.next_u64() % 500_000;
         let mut held: HashSet<(Addr, Addr)> = HashSet::new();
         let mut keep = VecDeque::with_capacity(net.len());
         while let Some(p) = net.pop_front() {
             let link = (p.from, p.to);
-            if held.contains(&link) || rng.next() % 2 == 0 {
+            if held.contains(&link) || rng.next_u64() % 2 == 0 {
                 held.insert(link);
                 keep.push_back(p);
                 continue;
@@ -177,7 +165,7 @@ pub fn run_lockstep<W: Workload>(
             if done[slot] {
                 continue;
             }
-            for _ in 0..=rng.next() % 3 {
+            for _ in 0..=rng.next_u64() % 3 {
                 let step = node.step(now)?;
                 net.extend(node.take_packets(now));
                 match step {

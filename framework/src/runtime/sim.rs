@@ -38,6 +38,7 @@ use crate::config::Config;
 use crate::error::{ConfigError, RunError};
 use crate::processor::Step;
 use crate::protocol::{Addr, Class, Packet};
+use crate::rng::SplitMix64;
 use crate::stats::State;
 use crate::workload::{WorkKind, Workload};
 
@@ -244,19 +245,6 @@ enum Event {
     Arrive(u64),
 }
 
-struct Rng(u64);
-
-impl Rng {
-    fn unit(&mut self) -> f64 {
-        // SplitMix64, top 53 bits.
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// Runs `workload` in the simulator; returns the report (virtual times)
 /// and the timeline.
 ///
@@ -375,7 +363,7 @@ pub fn run_sim<W: Workload>(
     let mut links: HashSet<(usize, usize)> = HashSet::new();
     let mut finished: Vec<_> = Vec::with_capacity(n);
     let mut done = vec![false; n];
-    let mut rng = Rng(sim.seed ^ 0x5151_5EED);
+    let mut rng = SplitMix64::new(sim.seed ^ 0x5151_5EED);
     let mut timeline = Timeline::new(n, sim.bucket_ns.unwrap_or(10_000));
     let mut end = 0 as Time;
 
@@ -481,7 +469,7 @@ pub fn run_sim<W: Workload>(
                     out_free[slot] = depart + tx;
                     let mut lat = net.latency_ns;
                     if net.jitter > 0.0 {
-                        lat *= 1.0 + net.jitter * rng.unit();
+                        lat *= 1.0 + net.jitter * rng.next_f64();
                     }
                     if links.insert((slot, dst)) {
                         lat += net.link_setup_ns;
