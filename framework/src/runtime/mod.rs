@@ -143,9 +143,9 @@ impl<W: Workload> std::fmt::Debug for RunReport<W> {
 /// #     type Result = Num;
 /// #     type Accumulator = u64;
 /// #     type Work = NoWork;
-/// #     fn placement(&self) -> Vec<Placement<u32>> { Vec::new() }
-/// #     fn load_partition(&self, _proc: usize) -> Vec<(u32, Num)> { Vec::new() }
-/// #     fn root_tasks(&self) -> Vec<Num> { (1..=4).map(Num).collect() }
+/// #     fn placement(&self, _procs: usize) -> Vec<Placement<u32>> { Vec::new() }
+/// #     fn load_partition(&self, _proc: usize, _procs: usize) -> Vec<(u32, Num)> { Vec::new() }
+/// #     fn root_tasks(&self, _procs: usize) -> Vec<Num> { (1..=4).map(Num).collect() }
 /// #     fn select_data(&self, _t: &Num, _ctx: &mut Ctx<Self>) -> Vec<u32> { Vec::new() }
 /// #     fn execute_dd(&self, t: Num, _d: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
 /// #         ctx.emit_result(Addr::Master, t);

@@ -12,6 +12,7 @@
 mod messages;
 mod runs;
 mod runtime_api;
+mod semantics;
 mod sim;
 
 use std::collections::BTreeMap;
