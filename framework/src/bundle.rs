@@ -12,7 +12,8 @@ use std::collections::VecDeque;
 use crate::clock::Time;
 use crate::config::BundleConfig;
 use crate::flow::{CreditLedger, Credits, InputBuffer};
-use crate::protocol::{is_credit_limited, Addr, Class, Msg, Packet, HEADER_BYTES};
+use crate::protocol::message::{is_credit_limited, Msg, Packet, HEADER_BYTES};
+use crate::protocol::{Addr, Class};
 use crate::workload::Workload;
 
 struct Lane<W: Workload> {

@@ -1,7 +1,7 @@
 //! Flow control: credits per link and input-buffer accounting.
 //!
 //! Every worker may have at most `credits_per_link` credit-limited messages
-//! (results and tasks, see [`crate::protocol::is_credit_limited`]) sent to one
+//! (results and tasks, see `is_credit_limited`) sent to one
 //! receiver and not yet consumed there. The receiver returns credits as it
 //! consumes them (merges a result, starts a task, hands a pooled task out).
 //! A sender never blocks: messages without credit wait in its outbox, and it

@@ -38,7 +38,8 @@ use crate::config::Config;
 use crate::error::RunError;
 use crate::mailbox::Mailbox;
 use crate::processor::Step;
-use crate::protocol::{Addr, DdEnvelope, Incoming, Msg, Packet};
+use crate::protocol::message::{DdEnvelope, Incoming, Msg, Packet};
+use crate::protocol::Addr;
 use crate::stats::{ProcStats, State};
 use crate::workload::Workload;
 

@@ -132,7 +132,7 @@ pub(crate) enum Target {
 /// What a processor knows when it places a child task.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PlaceCtx {
-    /// The origin of the task's root (see [`crate::protocol::DdEnvelope`]).
+    /// The origin of the task's root (see [`crate::protocol::message::DdEnvelope`]).
     pub origin: Option<usize>,
     /// This processor's load now (queued tasks).
     pub load: u32,

@@ -17,7 +17,8 @@
 use std::collections::{BTreeMap, HashMap};
 
 use crate::cache::{ByteLru, IdMap};
-use crate::protocol::{DdEnvelope, Placement};
+use crate::protocol::message::DdEnvelope;
+use crate::protocol::Placement;
 use crate::workload::{ByteSize, DataView, Workload};
 
 /// The replicated ownership directory: data id -> (owner, bytes).

@@ -197,7 +197,7 @@ impl<W: Workload> Packet<W> {
 /// Pushed task and result traffic from workers is; urgent traffic is not, and
 /// neither are the master's hand-outs (each answers a work request, so at most
 /// one per worker is ever in flight).
-pub fn is_credit_limited(from: Addr, class: Class) -> bool {
+pub(crate) fn is_credit_limited(from: Addr, class: Class) -> bool {
     matches!(from, Addr::Proc(_)) && !class.is_urgent()
 }
 

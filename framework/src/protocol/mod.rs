@@ -5,17 +5,14 @@
 //! in-process channels (MPI, a file for replay) can carry it unchanged.
 //!
 //! This file holds the types that do not depend on a workload (and that the
-//! [`crate::Workload`] trait names); `message.rs` holds the messages, which
+//! [`crate::Workload`] trait names); [`message`] holds the messages, which
 //! carry a workload's tasks, data and results.
 
-mod message;
+pub mod message;
 
 use std::fmt;
 
 use serde::{Deserialize, Serialize};
-
-pub(crate) use self::message::{is_credit_limited, Incoming};
-pub use self::message::{DdEnvelope, DpEnvelope, Msg, Packet, HEADER_BYTES};
 
 /// Address of an actor: the master or worker processor `i` (`0..procs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]

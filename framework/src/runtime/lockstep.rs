@@ -15,7 +15,8 @@ use super::{assemble, Node, RunReport, Runtime};
 use crate::config::Config;
 use crate::error::RunError;
 use crate::processor::Step;
-use crate::protocol::{Addr, Packet};
+use crate::protocol::message::Packet;
+use crate::protocol::Addr;
 use crate::rng::SplitMix64;
 use crate::workload::Workload;
 

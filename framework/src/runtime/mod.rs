@@ -37,7 +37,8 @@ use crate::config::Config;
 use crate::error::RunError;
 use crate::master::Master;
 use crate::processor::{Processor, Step};
-use crate::protocol::{Addr, Packet};
+use crate::protocol::message::Packet;
+use crate::protocol::Addr;
 use crate::stats::{ProcStats, RankTraffic, RunStats, State};
 use crate::workload::Workload;
 

@@ -20,7 +20,8 @@ use crate::clock::{Clock, WallClock};
 use crate::config::Config;
 use crate::error::RunError;
 use crate::processor::Step;
-use crate::protocol::{Addr, Packet};
+use crate::protocol::message::Packet;
+use crate::protocol::Addr;
 use crate::stats::{ProcStats, State};
 use crate::workload::Workload;
 

@@ -22,7 +22,8 @@ use proptest::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::bundle::Outbox;
-use crate::protocol::{Addr, Class, DdEnvelope, Msg, Packet};
+use crate::protocol::message::{DdEnvelope, Msg, Packet};
+use crate::protocol::{Addr, Class};
 use crate::runtime::RunReport;
 use crate::{
     run_sequential, run_threads, BundleConfig, ByteSize, Config, Ctx, DataView, DpOutcome,

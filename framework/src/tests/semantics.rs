@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::processor::{Processor, Step};
-use crate::protocol::DpEnvelope;
+use crate::protocol::message::DpEnvelope;
 use crate::stats::State;
 
 /// §3: control, data and results first; then a demand-driven task whose
@@ -85,9 +85,8 @@ fn progress_under_hot_spot_single_credit_and_tight_caches() {
                     .with_policy(policy)
                     .with_cache_bytes(cache)
                     .with_credits(1);
-                let r = run_lockstep(Arc::new(w.clone()), &cfg, seed).unwrap_or_else(|e| {
-                    panic!("{policy}, cache {cache:?}, seed {seed}: {e}")
-                });
+                let r = run_lockstep(Arc::new(w.clone()), &cfg, seed)
+                    .unwrap_or_else(|e| panic!("{policy}, cache {cache:?}, seed {seed}: {e}"));
                 check_against_sequential(&w, &r);
                 if cache == Some(1) {
                     assert!(r.stats.sum(|p| p.tasks.fallbacks) > 0);

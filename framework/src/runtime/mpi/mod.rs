@@ -58,7 +58,8 @@ use crate::config::Config;
 use crate::error::RunError;
 use crate::master::Master;
 use crate::processor::{Processor, Step};
-use crate::protocol::{Addr, Class, Packet};
+use crate::protocol::message::Packet;
+use crate::protocol::{Addr, Class};
 use crate::runtime::{assemble, Extras, Node, RunReport, Runtime};
 use crate::stats::{ProcStats, RankTraffic, State};
 use crate::workload::Workload;
@@ -473,7 +474,7 @@ impl<'s, W: Workload> RankLoop<'s, W> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::protocol::Msg;
+    use crate::protocol::message::Msg;
     use crate::tests::Mini;
 
     fn packet() -> Packet<Mini> {

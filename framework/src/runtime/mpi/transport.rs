@@ -17,7 +17,7 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
 use crate::error::RunError;
-use crate::protocol::Packet;
+use crate::protocol::message::Packet;
 use crate::workload::Workload;
 
 /// MPI tag of a packet.
