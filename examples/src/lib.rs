@@ -15,13 +15,8 @@ use hybrid_sched::{
 };
 use serde::{Deserialize, Serialize};
 
-/// SplitMix64: a tiny, good-enough deterministic mixer.
-pub fn mix(mut x: u64) -> u64 {
-    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    x ^ (x >> 31)
-}
+/// SplitMix64's mixer: a tiny, good-enough deterministic hash.
+pub use hybrid_sched::rng::mix;
 
 /// How blocks are spread over processors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -316,6 +311,18 @@ impl Blocks {
     }
 }
 
+hybrid_sched::work_kinds! {
+    /// The work [`Blocks`] counts.
+    pub enum BlocksWork {
+        /// Blocks named by data selection.
+        Select = "select",
+        /// Checksum units of demand-driven tasks.
+        Checksum = "checksum",
+        /// Checksum units of data-parallel walks.
+        Hop = "hop",
+    }
+}
+
 impl Workload for Blocks {
     type DataId = u32;
     type DataItem = Block;
@@ -323,6 +330,7 @@ impl Workload for Blocks {
     type DpTask = BlockWalk;
     type Result = BlockResult;
     type Accumulator = BlocksAcc;
+    type Work = BlocksWork;
 
     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
         (0..self.params.blocks)
@@ -352,7 +360,7 @@ impl Workload for Blocks {
 
     fn select_data(&self, task: &BlockTask, ctx: &mut Ctx<Self>) -> Vec<u32> {
         let ids = self.selection(task);
-        ctx.charge("select", ids.len() as u64);
+        ctx.charge(BlocksWork::Select, ids.len() as u64);
         ids
     }
 
@@ -362,7 +370,7 @@ impl Workload for Blocks {
             let block = data
                 .get(&id)
                 .expect("the framework provides all selected data");
-            ctx.charge("checksum", self.units(block));
+            ctx.charge(BlocksWork::Checksum, self.units(block));
             acc = self.fold(acc, id, block);
         }
         self.finish_dd(&task, acc, ctx);
@@ -401,7 +409,7 @@ impl Workload for Blocks {
             let Some(block) = data.get(&id) else {
                 return DpOutcome::Migrate(task);
             };
-            ctx.charge("hop", self.units(block));
+            ctx.charge(BlocksWork::Hop, self.units(block));
             *acc = self.fold(*acc, id, block);
             *pos += 1;
         }

@@ -11,8 +11,9 @@ use std::collections::VecDeque;
 
 use crate::clock::Time;
 use crate::config::BundleConfig;
-use crate::flow::Credits;
-use crate::message::{is_credit_limited, Addr, Class, Msg, Packet, HEADER_BYTES};
+use crate::flow::{CreditLedger, Credits, InputBuffer};
+use crate::protocol::message::{is_credit_limited, Msg, Packet, HEADER_BYTES};
+use crate::protocol::{Addr, Class};
 use crate::workload::Workload;
 
 struct Lane<W: Workload> {
@@ -35,99 +36,8 @@ impl<W: Workload> Default for Lane<W> {
 ///
 /// The workload is the crate-level example's (`Num` is its result type).
 ///
-/// ```rust
-/// # use std::sync::Arc;
-/// # use hybrid_sched::serde::{Deserialize, Serialize};
-/// # use hybrid_sched::{Addr, ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};
-/// # // The crate-level example's workload: six numbers 1..=6 over the processors;
-/// # // demand-driven task `Pair(i)` adds items i and i + 1, data-parallel `Walk`
-/// # // adds items `next..end` by migrating to their owners.
-/// # #[derive(Clone, Debug, Serialize, Deserialize)]
-/// # #[serde(crate = "hybrid_sched::serde")]
-/// # struct Num(u64);
-/// # impl ByteSize for Num { fn byte_size(&self) -> usize { 8 } }
-/// # #[derive(Clone, Debug, Serialize, Deserialize)]
-/// # #[serde(crate = "hybrid_sched::serde")]
-/// # struct Pair(u32);
-/// # impl ByteSize for Pair { fn byte_size(&self) -> usize { 4 } }
-/// # #[derive(Clone, Debug, Serialize, Deserialize)]
-/// # #[serde(crate = "hybrid_sched::serde")]
-/// # struct Walk { next: u32, end: u32, acc: u64 }
-/// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
-/// # struct Pairs;
-/// # impl Workload for Pairs {
-/// #     type DataId = u32;
-/// #     type DataItem = Num;
-/// #     type DdTask = Pair;
-/// #     type DpTask = Walk;
-/// #     type Result = Num;
-/// #     type Accumulator = u64;
-/// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
-/// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
-/// #     }
-/// #     fn load_partition(&self, proc: usize, procs: usize) -> Vec<(u32, Num)> {
-/// #         (0..6u32).filter(|&i| i as usize % procs == proc).map(|i| (i, Num(u64::from(i) + 1))).collect()
-/// #     }
-/// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
-/// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
-/// #         ctx.charge("select", 1);
-/// #         vec![t.0, t.0 + 1]
-/// #     }
-/// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
-/// #         let sum = data.get(&t.0).unwrap().0 + data.get(&(t.0 + 1)).unwrap().0;
-/// #         ctx.emit_result(Addr::Master, Num(sum));
-/// #     }
-/// #     fn to_data_parallel(&self, t: Pair, ctx: &mut Ctx<Self>) {
-/// #         ctx.spawn_dp(Walk { next: t.0, end: t.0 + 2, acc: 0 });
-/// #     }
-/// #     fn route_dp(&self, w: &Walk) -> Option<u32> { (w.next < w.end).then_some(w.next) }
-/// #     fn execute_dp(&self, mut w: Walk, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) -> DpOutcome<Walk> {
-/// #         while w.next < w.end {
-/// #             let Some(item) = data.get(&w.next) else { return DpOutcome::Migrate(w) };
-/// #             w.acc += item.0;
-/// #             w.next += 1;
-/// #         }
-/// #         ctx.emit_result(Addr::Master, Num(w.acc));
-/// #         DpOutcome::Finished
-/// #     }
-/// #     fn merge(&self, acc: &mut u64, r: Num) { *acc += r.0; }
-/// # }
-/// use hybrid_sched::bundle::Outbox;
-/// use hybrid_sched::{BundleConfig, Class, Msg};
-///
-/// // Processor 0 of 2: bundles of up to 3 messages, 4 credits per receiver.
-/// let bundle = BundleConfig { max_items: 3, ..BundleConfig::default() };
-/// let mut out = Outbox::<Pairs>::new(Addr::Proc(0), 2, bundle, 4);
-/// let to = Addr::Proc(1);
-///
-/// // A data request leaves at once, alone; results wait for a bundle of three.
-/// out.push(to, Msg::DataRequest(vec![1]), 0);
-/// for v in 0..3 {
-///     out.push(to, Msg::Result(Num(v)), 0);
-/// }
-/// let packets = out.take_ready();
-/// assert_eq!(packets.len(), 2);
-/// assert_eq!((packets[0].class, packets[0].items.len()), (Class::Data, 1));
-/// assert_eq!((packets[1].class, packets[1].items.len()), (Class::Result, 3));
-///
-/// // Each result used a credit: one is left towards processor 1, so of the
-/// // next bundle only one message leaves; the others wait (nothing blocks,
-/// // nothing is dropped).
-/// assert_eq!(out.credits_towards(to), 1);
-/// for v in 3..6 {
-///     out.push(to, Msg::Result(Num(v)), 0);
-/// }
-/// assert_eq!(out.take_ready()[0].items.len(), 1);
-/// assert_eq!(out.backlog(), 2);
-///
-/// // The receiver consumed them and gave credits back; a flush (the sender
-/// // ran out of work) sends the rest without waiting for a full bundle.
-/// out.grant(to, 3, 0);
-/// out.pump(0, true);
-/// assert_eq!(out.take_ready()[0].items.len(), 2);
-/// assert!(out.is_empty());
-/// ```
-pub struct Outbox<W: Workload> {
+/// (Example: the unit test `outbox_bundles_and_credits`.)
+pub(crate) struct Outbox<W: Workload> {
     me: Addr,
     procs: usize,
     bundle: BundleConfig,
@@ -135,6 +45,10 @@ pub struct Outbox<W: Workload> {
     /// `lanes[dest_slot][class]`; only credit-limited classes are used.
     lanes: Vec<[Lane<W>; 5]>,
     credits: Credits,
+    /// Credits owed to senders for consumed messages (the receiving side
+    /// of flow control), and the input buffer they bound.
+    ledger: CreditLedger,
+    inbuf: InputBuffer,
     ready: Vec<Packet<W>>,
     backlog: usize,
     backlog_high_water: usize,
@@ -142,7 +56,7 @@ pub struct Outbox<W: Workload> {
 
 impl<W: Workload> Outbox<W> {
     /// Outbox of `me` in a run with `procs` workers.
-    pub fn new(me: Addr, procs: usize, bundle: BundleConfig, credits_per_link: u32) -> Self {
+    pub(crate) fn new(me: Addr, procs: usize, bundle: BundleConfig, credits_per_link: u32) -> Self {
         let slots = procs + 1;
         let max_age = u64::try_from(bundle.max_age.as_nanos()).unwrap_or(u64::MAX);
         Outbox {
@@ -152,14 +66,49 @@ impl<W: Workload> Outbox<W> {
             max_age,
             lanes: (0..slots).map(|_| Default::default()).collect(),
             credits: Credits::new(slots, credits_per_link),
+            ledger: CreditLedger::new(slots, credits_per_link),
+            inbuf: InputBuffer::default(),
             ready: Vec::new(),
             backlog: 0,
             backlog_high_water: 0,
         }
     }
 
+    /// A message of `class` from `from` arrived: whether it is
+    /// credit-limited (it then counts in the input buffer until
+    /// [`Outbox::consumed`]).
+    pub(crate) fn arrived(&mut self, from: Addr, class: Class, bytes: usize) -> bool {
+        let credited = is_credit_limited(from, class);
+        if credited {
+            self.inbuf.add(bytes);
+        }
+        credited
+    }
+
+    /// A credit-limited message of `bytes` from `from` was consumed: its
+    /// credit goes back with the next batch that is due.
+    pub(crate) fn consumed(&mut self, from: Addr, bytes: usize, now: Time) {
+        self.inbuf.remove(bytes);
+        self.ledger.consumed(from.slot(self.procs));
+        self.return_credits(false, now);
+    }
+
+    /// Sends the credits that are due; with `flush`, every owed one (the
+    /// actor ran out of work).
+    pub(crate) fn return_credits(&mut self, flush: bool, now: Time) {
+        for (slot, n) in self.ledger.take_due(flush) {
+            self.push(Addr::from_slot(slot, self.procs), Msg::Credit(n), now);
+        }
+    }
+
+    /// Most credit-limited messages and bytes ever held in the input
+    /// buffer.
+    pub(crate) fn input_high_water(&self) -> (usize, usize) {
+        (self.inbuf.high_water_items, self.inbuf.high_water_bytes)
+    }
+
     /// Queues `msg` for `to`. Urgent messages become packets immediately.
-    pub fn push(&mut self, to: Addr, msg: Msg<W>, now: Time) {
+    pub(crate) fn push(&mut self, to: Addr, msg: Msg<W>, now: Time) {
         let class = msg.class();
         if !is_credit_limited(self.me, class) {
             self.ready.push(Packet::single(self.me, to, msg));
@@ -176,7 +125,7 @@ impl<W: Workload> Outbox<W> {
     }
 
     /// Credits came back from `from`; lanes towards it may move again.
-    pub fn grant(&mut self, from: Addr, credits: u32, now: Time) {
+    pub(crate) fn grant(&mut self, from: Addr, credits: u32, now: Time) {
         let slot = from.slot(self.procs);
         self.credits.grant(slot, credits);
         for class in Class::ALL {
@@ -185,7 +134,7 @@ impl<W: Workload> Outbox<W> {
     }
 
     /// Sends every lane that is due; with `flush`, every lane that has credit.
-    pub fn pump(&mut self, now: Time, flush: bool) {
+    pub(crate) fn pump(&mut self, now: Time, flush: bool) {
         if self.backlog == 0 {
             return;
         }
@@ -241,32 +190,83 @@ impl<W: Workload> Outbox<W> {
     }
 
     /// Packets ready to transmit, in the order they became ready.
-    pub fn take_ready(&mut self) -> Vec<Packet<W>> {
+    pub(crate) fn take_ready(&mut self) -> Vec<Packet<W>> {
         std::mem::take(&mut self.ready)
     }
 
     /// Whether packets are ready to transmit.
-    pub fn has_ready(&self) -> bool {
+    #[cfg(test)]
+    pub(crate) fn has_ready(&self) -> bool {
         !self.ready.is_empty()
     }
 
     /// Messages waiting in lanes (for a bundle or for credit).
-    pub fn backlog(&self) -> usize {
+    pub(crate) fn backlog(&self) -> usize {
         self.backlog
     }
 
     /// Most messages ever waiting in lanes.
-    pub fn backlog_high_water(&self) -> usize {
+    pub(crate) fn backlog_high_water(&self) -> usize {
         self.backlog_high_water
     }
 
     /// Whether nothing at all is waiting to go out.
-    pub fn is_empty(&self) -> bool {
+    #[cfg(test)]
+    pub(crate) fn is_empty(&self) -> bool {
         self.backlog == 0 && self.ready.is_empty()
     }
 
     /// Credits available towards `to` (for tests and diagnostics).
-    pub fn credits_towards(&self, to: Addr) -> u32 {
+    #[cfg(test)]
+    pub(crate) fn credits_towards(&self, to: Addr) -> u32 {
         self.credits.available(to.slot(self.procs))
+    }
+}
+
+#[cfg(test)]
+mod example {
+    use super::*;
+    use crate::tests::{Mini, Res};
+
+    /// Formerly the type's documentation example.
+    #[test]
+    fn outbox_bundles_and_credits() {
+        // Processor 0 of 2: bundles of up to 3 messages, 4 credits per receiver.
+        let bundle = BundleConfig {
+            max_items: 3,
+            ..BundleConfig::default()
+        };
+        let mut out = Outbox::<Mini>::new(Addr::Proc(0), 2, bundle, 4);
+        let to = Addr::Proc(1);
+
+        // A data request leaves at once, alone; results wait for a bundle of three.
+        out.push(to, Msg::DataRequest(vec![1]), 0);
+        for v in 0..3 {
+            out.push(to, Msg::Result(Res { key: v, value: v }), 0);
+        }
+        let packets = out.take_ready();
+        assert_eq!(packets.len(), 2);
+        assert_eq!((packets[0].class, packets[0].items.len()), (Class::Data, 1));
+        assert_eq!(
+            (packets[1].class, packets[1].items.len()),
+            (Class::Result, 3)
+        );
+
+        // Each result used a credit: one is left towards processor 1, so of the
+        // next bundle only one message leaves; the others wait (nothing blocks,
+        // nothing is dropped).
+        assert_eq!(out.credits_towards(to), 1);
+        for v in 3..6 {
+            out.push(to, Msg::Result(Res { key: v, value: v }), 0);
+        }
+        assert_eq!(out.take_ready()[0].items.len(), 1);
+        assert_eq!(out.backlog(), 2);
+
+        // The receiver consumed them and gave credits back; a flush (the sender
+        // ran out of work) sends the rest without waiting for a full bundle.
+        out.grant(to, 3, 0);
+        out.pump(0, true);
+        assert_eq!(out.take_ready()[0].items.len(), 2);
+        assert!(out.is_empty());
     }
 }

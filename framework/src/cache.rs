@@ -12,10 +12,15 @@
 //! reserved <= budget` holds at all times: the budget is never exceeded,
 //! not even transiently.
 
+use std::collections::HashMap;
 use std::hash::Hash;
 
 use lru::LruCache;
 use serde::{Deserialize, Serialize};
+
+/// Maps keyed by data id, looked up on every cell a task touches: a fast
+/// non-cryptographic hash (the one `lru` uses) instead of SipHash.
+pub type IdMap<K, V> = HashMap<K, V, lru::DefaultHasher>;
 
 /// Cache counters (also part of the processor statistics).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use thiserror::Error;
 
-use crate::message::Addr;
+use crate::protocol::Addr;
 
 /// A configuration that cannot be run.
 #[derive(Clone, Debug, PartialEq, Eq, Error)]
@@ -61,6 +61,14 @@ pub enum ConfigError {
     /// An unknown scheduling policy name.
     #[error("unknown scheduling policy '{0}' (expected one of: local, via-master, to-origin, round-robin)")]
     UnknownPolicy(String),
+    /// A cost model names a work kind the workload does not declare.
+    #[error("the cost model names work kind '{name}', which the workload does not declare (its kinds: {known})")]
+    UnknownWorkKind {
+        /// The unknown name.
+        name: String,
+        /// The workload's kinds.
+        known: String,
+    },
     /// The workload's data placement is inconsistent.
     #[error("inconsistent workload data placement: {0}")]
     Placement(String),

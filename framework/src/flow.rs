@@ -1,7 +1,7 @@
 //! Flow control: credits per link and input-buffer accounting.
 //!
 //! Every worker may have at most `credits_per_link` credit-limited messages
-//! (results and tasks, see [`crate::message::is_credit_limited`]) sent to one
+//! (results and tasks, see `is_credit_limited`) sent to one
 //! receiver and not yet consumed there. The receiver returns credits as it
 //! consumes them (merges a result, starts a task, hands a pooled task out).
 //! A sender never blocks: messages without credit wait in its outbox, and it
@@ -14,31 +14,31 @@ use serde::{Deserialize, Serialize};
 
 /// Sender side: credits available towards each destination slot.
 #[derive(Clone, Debug)]
-pub struct Credits {
+pub(crate) struct Credits {
     available: Vec<u32>,
 }
 
 impl Credits {
     /// `per_link` credits towards each of `slots` destinations.
-    pub fn new(slots: usize, per_link: u32) -> Self {
+    pub(crate) fn new(slots: usize, per_link: u32) -> Self {
         Credits {
             available: vec![per_link; slots],
         }
     }
 
     /// Credits available towards `slot`.
-    pub fn available(&self, slot: usize) -> u32 {
+    pub(crate) fn available(&self, slot: usize) -> u32 {
         self.available[slot]
     }
 
     /// Uses `n` credits towards `slot`.
-    pub fn consume(&mut self, slot: usize, n: u32) {
+    pub(crate) fn consume(&mut self, slot: usize, n: u32) {
         debug_assert!(self.available[slot] >= n, "credit underflow");
         self.available[slot] -= n;
     }
 
     /// `n` credits came back from `slot`.
-    pub fn grant(&mut self, slot: usize, n: u32) {
+    pub(crate) fn grant(&mut self, slot: usize, n: u32) {
         self.available[slot] += n;
     }
 }
@@ -47,39 +47,16 @@ impl Credits {
 /// Credits go back in batches (half a window at a time) to keep control
 /// traffic small, and all at once when the receiver runs out of work.
 ///
-/// # Example
-///
-/// ```rust
-/// use hybrid_sched::flow::{CreditLedger, Credits};
-///
-/// // One sender with 4 credits towards one receiver (slot 0 on both sides).
-/// let mut sender = Credits::new(1, 4);
-/// let mut receiver = CreditLedger::new(1, 4);
-/// sender.consume(0, 4); // four results sent: no credit left
-/// assert_eq!(sender.available(0), 0);
-///
-/// // The receiver returns credits half a window (2) at a time ...
-/// receiver.consumed(0);
-/// assert!(receiver.take_due(false).is_empty());
-/// receiver.consumed(0);
-/// for (slot, n) in receiver.take_due(false) {
-///     sender.grant(slot, n);
-/// }
-/// assert_eq!(sender.available(0), 2);
-/// // ... and everything it owes when it runs out of work.
-/// receiver.consumed(0);
-/// assert_eq!(receiver.take_due(true), [(0, 1)]);
-/// assert!(!receiver.any_owed());
-/// ```
+/// (Example: the unit test `credit_round_trip`.)
 #[derive(Clone, Debug)]
-pub struct CreditLedger {
+pub(crate) struct CreditLedger {
     owed: Vec<u32>,
     batch: u32,
 }
 
 impl CreditLedger {
     /// Ledger for `slots` senders with `per_link` credits each.
-    pub fn new(slots: usize, per_link: u32) -> Self {
+    pub(crate) fn new(slots: usize, per_link: u32) -> Self {
         CreditLedger {
             owed: vec![0; slots],
             batch: per_link.div_ceil(2).max(1),
@@ -87,12 +64,12 @@ impl CreditLedger {
     }
 
     /// One message from `slot` was consumed.
-    pub fn consumed(&mut self, slot: usize) {
+    pub(crate) fn consumed(&mut self, slot: usize) {
         self.owed[slot] += 1;
     }
 
     /// Credits to return now: those that reached a batch, or all when `flush`.
-    pub fn take_due(&mut self, flush: bool) -> Vec<(usize, u32)> {
+    pub(crate) fn take_due(&mut self, flush: bool) -> Vec<(usize, u32)> {
         let mut due = Vec::new();
         for (slot, owed) in self.owed.iter_mut().enumerate() {
             if *owed > 0 && (flush || *owed >= self.batch) {
@@ -104,7 +81,8 @@ impl CreditLedger {
     }
 
     /// Whether any credit is owed.
-    pub fn any_owed(&self) -> bool {
+    #[cfg(test)]
+    pub(crate) fn any_owed(&self) -> bool {
         self.owed.iter().any(|&o| o > 0)
     }
 }
@@ -112,7 +90,7 @@ impl CreditLedger {
 /// Current size and high-water mark of the credit-limited part of an input
 /// buffer (messages received, not yet consumed).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct InputBuffer {
+pub(crate) struct InputBuffer {
     /// Messages held now.
     pub items: usize,
     /// Bytes held now.
@@ -125,7 +103,7 @@ pub struct InputBuffer {
 
 impl InputBuffer {
     /// A message arrived.
-    pub fn add(&mut self, bytes: usize) {
+    pub(crate) fn add(&mut self, bytes: usize) {
         self.items += 1;
         self.bytes += bytes;
         self.high_water_items = self.high_water_items.max(self.items);
@@ -133,7 +111,7 @@ impl InputBuffer {
     }
 
     /// A message was consumed.
-    pub fn remove(&mut self, bytes: usize) {
+    pub(crate) fn remove(&mut self, bytes: usize) {
         self.items -= 1;
         self.bytes -= bytes;
     }
@@ -175,5 +153,33 @@ mod tests {
         b.add(1);
         assert_eq!((b.items, b.bytes), (2, 6));
         assert_eq!((b.high_water_items, b.high_water_bytes), (2, 15));
+    }
+}
+
+#[cfg(test)]
+mod example {
+    use super::*;
+
+    /// Formerly the type's documentation example.
+    #[test]
+    fn credit_round_trip() {
+        // One sender with 4 credits towards one receiver (slot 0 on both sides).
+        let mut sender = Credits::new(1, 4);
+        let mut receiver = CreditLedger::new(1, 4);
+        sender.consume(0, 4); // four results sent: no credit left
+        assert_eq!(sender.available(0), 0);
+
+        // The receiver returns credits half a window (2) at a time ...
+        receiver.consumed(0);
+        assert!(receiver.take_due(false).is_empty());
+        receiver.consumed(0);
+        for (slot, n) in receiver.take_due(false) {
+            sender.grant(slot, n);
+        }
+        assert_eq!(sender.available(0), 2);
+        // ... and everything it owes when it runs out of work.
+        receiver.consumed(0);
+        assert_eq!(receiver.take_due(true), [(0, 1)]);
+        assert!(!receiver.any_owed());
     }
 }

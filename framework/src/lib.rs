@@ -6,14 +6,16 @@
 //! fetching (and caching) its small data set, incoherent work runs
 //! *data-parallel* by migrating to the processors that own its data.
 //!
-//! * An application implements [`Workload`].
-//! * Each processor is a [`Processor`] state machine (private state, a priority
-//!   [`Mailbox`], a [`DataStore`] with a byte-budgeted LRU [`ByteLru`] cache);
-//!   the [`Master`] hands out root tasks and detects termination.
-//! * A runtime moves [`Packet`]s between them: [`run_threads`] (tokio) or
-//!   [`run_sequential`] (the reference), or one processor per MPI rank
-//!   (`runtime::mpi`, feature `mpi`); a simulator can drive the same state
-//!   machines through [`runtime::Node`].
+//! * An application implements [`Workload`]: its data, its two kinds of task,
+//!   its results and the [`WorkKind`]s of work it charges.
+//! * Each processor is an actor with private state, a priority mailbox and a
+//!   data store with a byte-budgeted LRU cache ([`ByteLru`]); the master
+//!   hands out root tasks and detects termination. They exchange the
+//!   messages of [`protocol`].
+//! * A [`Runtime`] moves the messages between them: [`Threads`] (tokio),
+//!   [`Sequential`] (the reference), [`Lockstep`] (seeded interleavings),
+//!   [`Sim`] (a simulated cluster in virtual time) or one processor per MPI
+//!   rank (`runtime::mpi`, feature `mpi`). All return a [`RunReport`].
 //!
 //! See `SEMANTICS.md` for the guarantees and the book chapter for a tutorial.
 //!
@@ -58,6 +60,11 @@
 //!     fn byte_size(&self) -> usize { 16 }
 //! }
 //!
+//! hybrid_sched::work_kinds! {
+//!     /// The work this workload counts (see `Ctx::charge`).
+//!     enum PairsWork { Select = "select" }
+//! }
+//!
 //! struct Pairs;
 //!
 //! impl Workload for Pairs {
@@ -67,6 +74,7 @@
 //!     type DpTask = Walk;
 //!     type Result = Num;
 //!     type Accumulator = u64;
+//!     type Work = PairsWork;
 //!
 //!     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
 //!         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
@@ -78,7 +86,7 @@
 //!         (0..5).map(Pair).collect()
 //!     }
 //!     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
-//!         ctx.charge("select", 1);
+//!         ctx.charge(PairsWork::Select, 1);
 //!         vec![t.0, t.0 + 1]
 //!     }
 //!     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
@@ -131,20 +139,21 @@
 //! assert_eq!(report.stats.sum(|p| p.data_items_requested), 0);
 //! ```
 
-pub mod bundle;
+mod bundle;
 pub mod cache;
 pub mod clock;
 pub mod config;
 pub mod error;
-pub mod flow;
-pub mod mailbox;
-pub mod master;
-pub mod message;
+mod flow;
+mod mailbox;
+mod master;
 pub mod policy;
-pub mod processor;
+mod processor;
+pub mod protocol;
+pub mod rng;
 pub mod runtime;
 pub mod stats;
-pub mod store;
+mod store;
 pub mod workload;
 
 #[cfg(test)]
@@ -155,20 +164,17 @@ mod tests;
 /// `#[serde(crate = "hybrid_sched::serde")]`.
 pub use serde;
 
-pub use cache::ByteLru;
+pub use cache::{ByteLru, IdMap};
 pub use clock::{Clock, Time, WallClock};
 pub use config::{BundleConfig, Config};
 pub use error::{ConfigError, RunError};
-pub use mailbox::Mailbox;
-pub use master::Master;
-pub use message::{Addr, Class, Msg, Packet};
 pub use policy::Policy;
-pub use processor::{Processor, Step};
+pub use protocol::message::{Msg, Packet};
+pub use protocol::{Addr, Class, DpOutcome, Placement};
 pub use runtime::lockstep::{run_lockstep, Lockstep};
 pub use runtime::sequential::{run_sequential, run_sequential_observed, Sequential};
-pub use runtime::sim::{run_sim, CostModel, Network, Sim, Timeline};
+pub use runtime::sim::{run_sim, CostModel, Network, Sim};
 pub use runtime::threads::{run_threads, Threads};
-pub use runtime::{Node, RunReport, Runtime};
+pub use runtime::{Extras, RunReport, Runtime, Timeline};
 pub use stats::{ProcStats, RankTraffic, RunStats, State};
-pub use store::{DataStore, IdMap};
-pub use workload::{ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};
+pub use workload::{ByteSize, Ctx, DataView, NoWork, WorkKind, Workload};

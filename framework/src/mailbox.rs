@@ -7,30 +7,14 @@
 
 use std::collections::VecDeque;
 
-use crate::message::Class;
+use crate::protocol::Class;
 
 /// Priority mailbox holding items of type `T` (the processor stores incoming
 /// messages with their sender; tests use plain values).
 ///
-/// # Example
-///
-/// ```rust
-/// use hybrid_sched::{Class, Mailbox};
-///
-/// let mut mailbox = Mailbox::new();
-/// mailbox.push(Class::DemandDriven, "tile 1");
-/// mailbox.push(Class::DemandDriven, "tile 2");
-/// mailbox.push(Class::Result, "pixels");
-/// mailbox.push(Class::Data, "data request");
-/// assert_eq!(mailbox.peek_class(), Some(Class::Data));
-///
-/// // The highest class first, arrival order within a class.
-/// let order: Vec<&str> = std::iter::from_fn(|| mailbox.pop().map(|(_, m)| m)).collect();
-/// assert_eq!(order, ["data request", "pixels", "tile 1", "tile 2"]);
-/// assert_eq!(mailbox.high_water(), 4);
-/// ```
+/// (Example: the unit test `mailbox_order`.)
 #[derive(Debug)]
-pub struct Mailbox<T> {
+pub(crate) struct Mailbox<T> {
     queues: [VecDeque<T>; 5],
     len: usize,
     high_water: usize,
@@ -48,68 +32,56 @@ impl<T> Default for Mailbox<T> {
 
 impl<T> Mailbox<T> {
     /// An empty mailbox.
-    pub fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self::default()
     }
 
     /// Queues `item` in `class`.
-    pub fn push(&mut self, class: Class, item: T) {
+    pub(crate) fn push(&mut self, class: Class, item: T) {
         self.queues[class.index()].push_back(item);
         self.len += 1;
         self.high_water = self.high_water.max(self.len);
     }
 
-    /// Queues `item` at the front of `class` (it is taken next within its
-    /// class).
-    pub fn push_front(&mut self, class: Class, item: T) {
-        self.queues[class.index()].push_front(item);
-        self.len += 1;
-        self.high_water = self.high_water.max(self.len);
-    }
-
     /// Takes the oldest item of the highest-priority non-empty class.
-    pub fn pop(&mut self) -> Option<(Class, T)> {
+    pub(crate) fn pop(&mut self) -> Option<(Class, T)> {
         let class = self.peek_class()?;
         self.pop_class(class).map(|t| (class, t))
     }
 
     /// Takes the oldest item of `class`.
-    pub fn pop_class(&mut self, class: Class) -> Option<T> {
+    pub(crate) fn pop_class(&mut self, class: Class) -> Option<T> {
         let item = self.queues[class.index()].pop_front()?;
         self.len -= 1;
         Some(item)
     }
 
     /// The class [`Mailbox::pop`] would return from.
-    pub fn peek_class(&self) -> Option<Class> {
+    pub(crate) fn peek_class(&self) -> Option<Class> {
         Class::ALL
             .into_iter()
             .find(|c| !self.queues[c.index()].is_empty())
     }
 
     /// Items queued in `class`.
-    pub fn len_of(&self, class: Class) -> usize {
+    pub(crate) fn len_of(&self, class: Class) -> usize {
         self.queues[class.index()].len()
     }
 
     /// Items queued in total.
-    pub fn len(&self) -> usize {
+    #[cfg(test)]
+    pub(crate) fn len(&self) -> usize {
         self.len
     }
 
     /// Whether nothing is queued.
-    pub fn is_empty(&self) -> bool {
+    pub(crate) fn is_empty(&self) -> bool {
         self.len == 0
     }
 
     /// Most items ever queued at once.
-    pub fn high_water(&self) -> usize {
+    pub(crate) fn high_water(&self) -> usize {
         self.high_water
-    }
-
-    /// Iterates over the items of `class`, oldest first.
-    pub fn iter_class(&self, class: Class) -> impl Iterator<Item = &T> {
-        self.queues[class.index()].iter()
     }
 }
 
@@ -157,5 +129,26 @@ mod tests {
                 prop_assert_eq!(m.len(), model.iter().map(|q| q.len()).sum::<usize>());
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod example {
+    use super::*;
+
+    /// Formerly the type's documentation example.
+    #[test]
+    fn mailbox_order() {
+        let mut mailbox = Mailbox::new();
+        mailbox.push(Class::DemandDriven, "tile 1");
+        mailbox.push(Class::DemandDriven, "tile 2");
+        mailbox.push(Class::Result, "pixels");
+        mailbox.push(Class::Data, "data request");
+        assert_eq!(mailbox.peek_class(), Some(Class::Data));
+
+        // The highest class first, arrival order within a class.
+        let order: Vec<&str> = std::iter::from_fn(|| mailbox.pop().map(|(_, m)| m)).collect();
+        assert_eq!(order, ["data request", "pixels", "tile 1", "tile 2"]);
+        assert_eq!(mailbox.high_water(), 4);
     }
 }

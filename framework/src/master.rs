@@ -36,10 +36,10 @@ use crate::bundle::Outbox;
 use crate::clock::Time;
 use crate::config::Config;
 use crate::error::RunError;
-use crate::flow::{CreditLedger, InputBuffer};
 use crate::mailbox::Mailbox;
-use crate::message::{is_credit_limited, Addr, DdEnvelope, Incoming, Msg, Packet};
 use crate::processor::Step;
+use crate::protocol::message::{DdEnvelope, Incoming, Msg, Packet};
+use crate::protocol::Addr;
 use crate::stats::{ProcStats, State};
 use crate::workload::Workload;
 
@@ -52,7 +52,7 @@ struct Wave {
 }
 
 /// The master actor. See the module documentation.
-pub struct Master<W: Workload> {
+pub(crate) struct Master<W: Workload> {
     procs: usize,
     workload: Arc<W>,
     roots: VecDeque<W::DdTask>,
@@ -60,8 +60,6 @@ pub struct Master<W: Workload> {
     parked: VecDeque<usize>,
     mailbox: Mailbox<Incoming<W>>,
     outbox: Outbox<W>,
-    ledger: CreditLedger,
-    inbuf: InputBuffer,
     acc: W::Accumulator,
     stats: ProcStats,
     basic_sent: u64,
@@ -74,7 +72,7 @@ pub struct Master<W: Workload> {
 
 impl<W: Workload> Master<W> {
     /// The master of a run with `config.procs` workers.
-    pub fn new(workload: Arc<W>, config: &Config) -> Self {
+    pub(crate) fn new(workload: Arc<W>, config: &Config) -> Self {
         let procs = config.procs;
         let credits = config.credits_per_link as u32;
         Master {
@@ -84,8 +82,6 @@ impl<W: Workload> Master<W> {
             parked: VecDeque::new(),
             mailbox: Mailbox::new(),
             outbox: Outbox::new(Addr::Master, procs, config.bundle.clone(), credits),
-            ledger: CreditLedger::new(procs + 1, credits),
-            inbuf: InputBuffer::default(),
             acc: W::Accumulator::default(),
             stats: ProcStats::new(Addr::Master),
             basic_sent: 0,
@@ -98,23 +94,13 @@ impl<W: Workload> Master<W> {
         }
     }
 
-    /// Statistics so far.
-    pub fn stats(&self) -> &ProcStats {
-        &self.stats
-    }
-
     /// Adds `ns` to the time spent in `state`.
-    pub fn account(&mut self, state: State, ns: Time) {
+    pub(crate) fn account(&mut self, state: State, ns: Time) {
         self.stats.time_ns.add(state, ns);
     }
 
-    /// Whether termination has been declared.
-    pub fn is_finished(&self) -> bool {
-        self.finished
-    }
-
     /// A packet arrived.
-    pub fn deliver(&mut self, packet: Packet<W>, _now: Time) {
+    pub(crate) fn deliver(&mut self, packet: Packet<W>, _now: Time) {
         self.stats
             .received
             .record(packet.class, packet.items.len(), packet.bytes);
@@ -125,10 +111,7 @@ impl<W: Workload> Master<W> {
             }
             let class = msg.class();
             let bytes = msg.byte_size();
-            let credited = is_credit_limited(from, class);
-            if credited {
-                self.inbuf.add(bytes);
-            }
+            let credited = self.outbox.arrived(from, class, bytes);
             self.mailbox.push(
                 class,
                 Incoming {
@@ -142,12 +125,12 @@ impl<W: Workload> Master<W> {
     }
 
     /// Handles one message, or, with none left, does the idle duties.
-    pub fn step(&mut self, now: Time) -> Result<Step, RunError> {
+    pub(crate) fn step(&mut self, now: Time) -> Result<Step, RunError> {
         if self.finished {
             return Ok(Step::Finished);
         }
         let Some((_, inc)) = self.mailbox.pop() else {
-            self.return_credits(true, now);
+            self.outbox.return_credits(true, now);
             self.maybe_start_wave(now);
             return Ok(Step::Idle);
         };
@@ -216,15 +199,7 @@ impl<W: Workload> Master<W> {
     /// A credit-limited message from `from` is consumed. Pooled tasks stay in
     /// the input buffer until handed out, so the pool is bounded by credits.
     fn consume(&mut self, from: Addr, bytes: usize, now: Time) {
-        self.inbuf.remove(bytes);
-        self.ledger.consumed(from.slot(self.procs));
-        self.return_credits(false, now);
-    }
-
-    fn return_credits(&mut self, flush: bool, now: Time) {
-        for (slot, n) in self.ledger.take_due(flush) {
-            self.send(Addr::from_slot(slot, self.procs), Msg::Credit(n), now);
-        }
+        self.outbox.consumed(from, bytes, now);
     }
 
     fn send(&mut self, to: Addr, msg: Msg<W>, now: Time) {
@@ -299,7 +274,7 @@ impl<W: Workload> Master<W> {
     }
 
     /// Packets to transmit now.
-    pub fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
+    pub(crate) fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
         self.outbox.pump(now, false);
         let packets = self.outbox.take_ready();
         for p in &packets {
@@ -309,9 +284,11 @@ impl<W: Workload> Master<W> {
     }
 
     /// Ends the run: the master's accumulator and statistics.
-    pub fn finish(mut self) -> (W::Accumulator, ProcStats) {
-        self.stats.memory.input_buffer_items = self.inbuf.high_water_items;
-        self.stats.memory.input_buffer_bytes = self.inbuf.high_water_bytes;
+    pub(crate) fn finish(mut self) -> (W::Accumulator, ProcStats) {
+        (
+            self.stats.memory.input_buffer_items,
+            self.stats.memory.input_buffer_bytes,
+        ) = self.outbox.input_high_water();
         self.stats.memory.mailbox_items = self.mailbox.high_water();
         (self.acc, self.stats)
     }

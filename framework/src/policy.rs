@@ -2,15 +2,15 @@
 //! shadow tasks spawned by workers).
 //!
 //! A policy is chosen at run time ([`Policy`] implements `FromStr`). The
-//! per-processor [`Placer`] turns it into a decision for each child.
+//! per-processor `Placer` turns it into a decision for each child.
 //!
 //! `LoadAware` goes beyond the paper (its first open problem: scheduling with
 //! global load information that scales). Every packet carries its sender's
 //! load (queued tasks), so each processor keeps a slightly stale view of the
 //! others' loads at no extra message cost, and no central actor is involved.
-//! A child stays local unless this processor holds more than [`LOAD_SLACK`]
+//! A child stays local unless this processor holds more than `LOAD_SLACK`
 //! queued tasks and another processor was last seen with at most
-//! [`LOAD_IDLE`]: then it goes to that processor, whose estimate is raised by
+//! `LOAD_IDLE`: then it goes to that processor, whose estimate is raised by
 //! one so that a burst of children spreads over several idle processors
 //! instead of herding onto one. Shedding only to (nearly) idle processors
 //! matters: a moved shadow task must fetch its cells again at the receiver,
@@ -60,9 +60,9 @@ pub enum Policy {
 
 /// `LoadAware` sends children away only while it holds more than this many
 /// queued tasks itself ...
-pub const LOAD_SLACK: u32 = 32;
+pub(crate) const LOAD_SLACK: u32 = 32;
 /// ... and only to a processor last known to hold at most this many.
-pub const LOAD_IDLE: u32 = 1;
+pub(crate) const LOAD_IDLE: u32 = 1;
 
 impl Policy {
     /// Every policy, in documentation order.
@@ -120,7 +120,7 @@ impl FromStr for Policy {
 
 /// Where a child task goes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Target {
+pub(crate) enum Target {
     /// This processor's own queue.
     Local,
     /// The master's pool.
@@ -131,8 +131,8 @@ pub enum Target {
 
 /// What a processor knows when it places a child task.
 #[derive(Clone, Copy, Debug)]
-pub struct PlaceCtx {
-    /// The origin of the task's root (see [`crate::message::DdEnvelope`]).
+pub(crate) struct PlaceCtx {
+    /// The origin of the task's root (see [`crate::protocol::message::DdEnvelope`]).
     pub origin: Option<usize>,
     /// This processor's load now (queued tasks).
     pub load: u32,
@@ -140,34 +140,9 @@ pub struct PlaceCtx {
 
 /// A processor's placement state for its policy.
 ///
-/// # Example
-///
-/// ```rust
-/// use hybrid_sched::policy::{PlaceCtx, Placer, Target};
-/// use hybrid_sched::Policy;
-///
-/// // Processor 1 of 4 places a child whose root ran on processor 3.
-/// let ctx = PlaceCtx { origin: Some(3), load: 0 };
-/// assert_eq!(Placer::new(Policy::Local, 1, 4).place(ctx), Target::Local);
-/// assert_eq!(Placer::new(Policy::ViaMaster, 1, 4).place(ctx), Target::Master);
-/// assert_eq!(Placer::new(Policy::ToOrigin, 1, 4).place(ctx), Target::Proc(3));
-/// let mut rr = Placer::new(Policy::RoundRobin, 1, 4);
-/// let dealt: Vec<Target> = (0..4).map(|_| rr.place(ctx)).collect();
-/// assert_eq!(dealt, [Target::Proc(2), Target::Proc(3), Target::Proc(0), Target::Local]);
-///
-/// // Load-aware sheds work only while busy, and only to an idle processor.
-/// let mut la = Placer::new(Policy::LoadAware, 1, 4);
-/// for p in [0, 2, 3] {
-///     la.observe(p, 10);
-/// }
-/// let busy = PlaceCtx { origin: None, load: 100 };
-/// assert_eq!(la.place(busy), Target::Local); // nobody is idle
-/// la.observe(3, 0);
-/// assert_eq!(la.place(PlaceCtx { load: 5, ..busy }), Target::Local); // not busy
-/// assert_eq!(la.place(busy), Target::Proc(3));
-/// ```
+/// (Example: the unit test `placer_decisions`.)
 #[derive(Clone, Debug)]
-pub struct Placer {
+pub(crate) struct Placer {
     policy: Policy,
     me: usize,
     procs: usize,
@@ -178,7 +153,7 @@ pub struct Placer {
 
 impl Placer {
     /// Placement for processor `me` of `procs`.
-    pub fn new(policy: Policy, me: usize, procs: usize) -> Self {
+    pub(crate) fn new(policy: Policy, me: usize, procs: usize) -> Self {
         Placer {
             policy,
             me,
@@ -189,24 +164,20 @@ impl Placer {
     }
 
     /// Load information about processor `p` arrived (piggybacked).
-    pub fn observe(&mut self, p: usize, load: u32) {
+    pub(crate) fn observe(&mut self, p: usize, load: u32) {
         if let Some(l) = self.loads.get_mut(p) {
             *l = load;
         }
     }
 
     /// The loads this placer believes in.
-    pub fn loads(&self) -> &[u32] {
+    #[cfg(test)]
+    pub(crate) fn loads(&self) -> &[u32] {
         &self.loads
     }
 
-    /// The policy.
-    pub fn policy(&self) -> Policy {
-        self.policy
-    }
-
     /// Decides where one child task goes.
-    pub fn place(&mut self, ctx: PlaceCtx) -> Target {
+    pub(crate) fn place(&mut self, ctx: PlaceCtx) -> Target {
         let to = |p: usize, me: usize| {
             if p == me {
                 Target::Local
@@ -327,5 +298,54 @@ mod tests {
             Placer::new(Policy::LoadAware, 0, 1).place(at(99)),
             Target::Local
         );
+    }
+}
+
+#[cfg(test)]
+mod example {
+    use super::*;
+
+    /// Formerly the type's documentation example.
+    #[test]
+    fn placer_decisions() {
+        // Processor 1 of 4 places a child whose root ran on processor 3.
+        let ctx = PlaceCtx {
+            origin: Some(3),
+            load: 0,
+        };
+        assert_eq!(Placer::new(Policy::Local, 1, 4).place(ctx), Target::Local);
+        assert_eq!(
+            Placer::new(Policy::ViaMaster, 1, 4).place(ctx),
+            Target::Master
+        );
+        assert_eq!(
+            Placer::new(Policy::ToOrigin, 1, 4).place(ctx),
+            Target::Proc(3)
+        );
+        let mut rr = Placer::new(Policy::RoundRobin, 1, 4);
+        let dealt: Vec<Target> = (0..4).map(|_| rr.place(ctx)).collect();
+        assert_eq!(
+            dealt,
+            [
+                Target::Proc(2),
+                Target::Proc(3),
+                Target::Proc(0),
+                Target::Local
+            ]
+        );
+
+        // Load-aware sheds work only while busy, and only to an idle processor.
+        let mut la = Placer::new(Policy::LoadAware, 1, 4);
+        for p in [0, 2, 3] {
+            la.observe(p, 10);
+        }
+        let busy = PlaceCtx {
+            origin: None,
+            load: 100,
+        };
+        assert_eq!(la.place(busy), Target::Local); // nobody is idle
+        la.observe(3, 0);
+        assert_eq!(la.place(PlaceCtx { load: 5, ..busy }), Target::Local); // not busy
+        assert_eq!(la.place(busy), Target::Proc(3));
     }
 }

@@ -27,19 +27,17 @@ use crate::bundle::Outbox;
 use crate::clock::Time;
 use crate::config::Config;
 use crate::error::RunError;
-use crate::flow::{CreditLedger, InputBuffer};
 use crate::mailbox::Mailbox;
-use crate::message::{
-    is_credit_limited, Addr, Class, DdEnvelope, DpEnvelope, Incoming, Msg, Packet,
-};
 use crate::policy::{PlaceCtx, Placer, Target};
+use crate::protocol::message::{DdEnvelope, DpEnvelope, Incoming, Msg, Packet};
+use crate::protocol::{Addr, Class, DpOutcome};
 use crate::stats::{ProcStats, State};
 use crate::store::{Admission, DataStore, Directory, ReadyTask};
-use crate::workload::{Ctx, DpOutcome, Workload};
+use crate::workload::{Ctx, WorkKind, Workload};
 
 /// What one [`Processor::step`] (or [`crate::master::Master::step`]) did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Step {
+pub(crate) enum Step {
     /// Did some work, accounted to this state.
     Worked(State),
     /// Nothing to do until a packet arrives.
@@ -49,7 +47,7 @@ pub enum Step {
 }
 
 /// A worker processor. See the module documentation.
-pub struct Processor<W: Workload> {
+pub(crate) struct Processor<W: Workload> {
     id: usize,
     addr: Addr,
     procs: usize,
@@ -59,8 +57,6 @@ pub struct Processor<W: Workload> {
     deferred: VecDeque<(DdEnvelope<W>, Vec<W::DataId>)>,
     store: DataStore<W>,
     outbox: Outbox<W>,
-    ledger: CreditLedger,
-    inbuf: InputBuffer,
     placer: Placer,
     acc: W::Accumulator,
     stats: ProcStats,
@@ -71,10 +67,10 @@ pub struct Processor<W: Workload> {
     terminated: bool,
     basic_sent: u64,
     basic_received: u64,
-    last_charges: Vec<(&'static str, u64)>,
-    /// Work charged since the last flush into `stats.work` (kinds matched
-    /// by pointer first: no string comparisons on the hot path).
-    pending_work: Vec<(&'static str, u64)>,
+    last_charges: Vec<(W::Work, u64)>,
+    /// Work charged since the last flush into `stats.work` (kept by kind:
+    /// no string look-ups on the hot path).
+    pending_work: Vec<(W::Work, u64)>,
     /// A drained hook context whose buffers are reused by the next hook (a
     /// tile emits thousands of tasks; fresh vectors grew into fresh pages
     /// every time).
@@ -85,7 +81,7 @@ pub struct Processor<W: Workload> {
 impl<W: Workload> Processor<W> {
     /// Worker `id` of `config.procs`, loading its partition from the workload.
     /// The configuration must already be valid.
-    pub fn new(id: usize, workload: Arc<W>, config: &Config) -> Result<Self, RunError> {
+    pub(crate) fn new(id: usize, workload: Arc<W>, config: &Config) -> Result<Self, RunError> {
         let procs = config.procs;
         let placement_err = |m: String| RunError::Config(crate::ConfigError::Placement(m));
         let dir = Directory::build(workload.placement(procs), procs).map_err(placement_err)?;
@@ -102,8 +98,6 @@ impl<W: Workload> Processor<W> {
             deferred: VecDeque::new(),
             store,
             outbox: Outbox::new(addr, procs, config.bundle.clone(), credits),
-            ledger: CreditLedger::new(procs + 1, credits),
-            inbuf: InputBuffer::default(),
             placer: Placer::new(config.policy, id, procs),
             acc: W::Accumulator::default(),
             stats: ProcStats::new(addr),
@@ -122,20 +116,9 @@ impl<W: Workload> Processor<W> {
         })
     }
 
-    /// This processor's index.
-    pub fn id(&self) -> usize {
-        self.id
-    }
-
     /// This processor's address.
-    pub fn addr(&self) -> Addr {
+    pub(crate) fn addr(&self) -> Addr {
         self.addr
-    }
-
-    /// Statistics so far.
-    pub fn stats(&mut self) -> &ProcStats {
-        self.flush_work();
-        &self.stats
     }
 
     fn flush_work(&mut self) {
@@ -143,28 +126,18 @@ impl<W: Workload> Processor<W> {
         self.pending_work.clear();
     }
 
-    /// The accumulator results are merged into.
-    pub fn accumulator(&self) -> &W::Accumulator {
-        &self.acc
-    }
-
-    /// The data store (for inspection).
-    pub fn store(&self) -> &DataStore<W> {
-        &self.store
-    }
-
     /// Work charged during the last step (the simulator's cost model input).
-    pub fn last_charges(&self) -> &[(&'static str, u64)] {
+    pub(crate) fn last_charges(&self) -> &[(W::Work, u64)] {
         &self.last_charges
     }
 
     /// Adds `ns` to the time spent in `state` (the runtime measures).
-    pub fn account(&mut self, state: State, ns: Time) {
+    pub(crate) fn account(&mut self, state: State, ns: Time) {
         self.stats.time_ns.add(state, ns);
     }
 
     /// The state to account time to while blocked waiting for a packet.
-    pub fn blocked_state(&self) -> State {
+    pub(crate) fn blocked_state(&self) -> State {
         if self.store.waiting_len() > 0 || !self.deferred.is_empty() {
             State::WaitingData
         } else {
@@ -172,15 +145,9 @@ impl<W: Workload> Processor<W> {
         }
     }
 
-    /// Whether the master's termination message has arrived (the next
-    /// [`Processor::step`] returns [`Step::Finished`]).
-    pub fn is_finished(&self) -> bool {
-        self.terminated
-    }
-
     /// Passive: holds no work at all, so it can only become active again by
     /// receiving a basic message (the termination-detection premise).
-    pub fn is_passive(&self) -> bool {
+    pub(crate) fn is_passive(&self) -> bool {
         self.mailbox.is_empty()
             && self.ready.is_empty()
             && self.deferred.is_empty()
@@ -189,7 +156,7 @@ impl<W: Workload> Processor<W> {
     }
 
     /// A packet arrived.
-    pub fn deliver(&mut self, packet: Packet<W>, now: Time) {
+    pub(crate) fn deliver(&mut self, packet: Packet<W>, now: Time) {
         self.stats
             .received
             .record(packet.class, packet.items.len(), packet.bytes);
@@ -211,10 +178,7 @@ impl<W: Workload> Processor<W> {
                 msg => {
                     let class = msg.class();
                     let bytes = msg.byte_size();
-                    let credited = is_credit_limited(from, class);
-                    if credited {
-                        self.inbuf.add(bytes);
-                    }
+                    let credited = self.outbox.arrived(from, class, bytes);
                     if let Msg::Dd(env) = &msg {
                         if env.handout {
                             self.requested_work = false;
@@ -239,7 +203,7 @@ impl<W: Workload> Processor<W> {
     }
 
     /// Does one unit of work (see the module documentation).
-    pub fn step(&mut self, now: Time) -> Result<Step, RunError> {
+    pub(crate) fn step(&mut self, now: Time) -> Result<Step, RunError> {
         if self.terminated {
             return Ok(Step::Finished);
         }
@@ -289,7 +253,7 @@ impl<W: Workload> Processor<W> {
 
     fn handle(&mut self, inc: Incoming<W>, now: Time) -> Result<State, String> {
         if inc.credited {
-            self.consume_credit(inc.from, inc.bytes, now);
+            self.outbox.consumed(inc.from, inc.bytes, now);
         }
         match inc.msg {
             Msg::DataRequest(ids) => {
@@ -322,18 +286,6 @@ impl<W: Workload> Processor<W> {
         }
     }
 
-    fn consume_credit(&mut self, from: Addr, bytes: usize, now: Time) {
-        self.inbuf.remove(bytes);
-        self.ledger.consumed(from.slot(self.procs));
-        self.return_credits(false, now);
-    }
-
-    fn return_credits(&mut self, flush: bool, now: Time) {
-        for (slot, n) in self.ledger.take_due(flush) {
-            self.send(Addr::from_slot(slot, self.procs), Msg::Credit(n), now);
-        }
-    }
-
     fn send(&mut self, to: Addr, msg: Msg<W>, now: Time) {
         // Basic messages are counted when handed to the outbox: a message in
         // the backlog is "sent" for termination detection, which can only
@@ -361,7 +313,7 @@ impl<W: Workload> Processor<W> {
     fn select(&mut self, mut env: DdEnvelope<W>, now: Time) -> Result<(), String> {
         // The processor that runs a root task is the origin of its family.
         let origin = *env.origin.get_or_insert(self.id);
-        let mut ctx = self.new_ctx();
+        let mut ctx = self.new_ctx(Some(origin));
         let ids = {
             let local = self.store.view();
             self.workload.select_data_in(&env.task, &local, &mut ctx)
@@ -382,7 +334,7 @@ impl<W: Workload> Processor<W> {
     fn execute_dd(&mut self, task: ReadyTask<W>, now: Time) -> Result<(), String> {
         let ReadyTask { env, pinned } = task;
         let origin = env.origin;
-        let mut ctx = self.new_ctx();
+        let mut ctx = self.new_ctx(origin);
         {
             let view = self.store.view();
             self.workload.execute_dd(env.task, &view, &mut ctx);
@@ -420,7 +372,7 @@ impl<W: Workload> Processor<W> {
             Admission::TooBig(env) => {
                 self.stats.tasks.fallbacks += 1;
                 debug!(proc = self.id, task = ?env.task, "data exceeds cache budget: data-parallel fallback");
-                let mut ctx = self.new_ctx();
+                let mut ctx = self.new_ctx(env.origin);
                 self.workload.to_data_parallel(env.task, &mut ctx);
                 self.dispatch(ctx, env.origin, now)?;
             }
@@ -430,7 +382,7 @@ impl<W: Workload> Processor<W> {
 
     fn execute_dp(&mut self, env: DpEnvelope<W>, now: Time) -> Result<(), String> {
         let origin = env.origin;
-        let mut ctx = self.new_ctx();
+        let mut ctx = self.new_ctx(origin);
         let (outcome, touched) = {
             let view = self.store.view();
             let outcome = self.workload.execute_dp(env.task, &view, &mut ctx);
@@ -464,11 +416,16 @@ impl<W: Workload> Processor<W> {
         self.dispatch(ctx, origin, now)
     }
 
-    /// A context for the next hook: the spare one's buffers, or new ones.
-    fn new_ctx(&mut self) -> Ctx<W> {
-        self.spare_ctx
+    /// A context for the next hook of a task descending from `origin`'s
+    /// root (this processor's when unknown): the spare one's buffers, or
+    /// new ones.
+    fn new_ctx(&mut self, origin: Option<usize>) -> Ctx<W> {
+        let mut ctx = self
+            .spare_ctx
             .take()
-            .unwrap_or_else(|| Ctx::new(self.id, self.procs))
+            .unwrap_or_else(|| Ctx::new(self.id, self.procs));
+        ctx.origin = origin.unwrap_or(self.id);
+        ctx
     }
 
     /// Schedules everything a hook emitted and records its charged work;
@@ -552,7 +509,7 @@ impl<W: Workload> Processor<W> {
         // latency, so everything with credit goes now, and all owed credits
         // go back.
         self.outbox.pump(now, true);
-        self.return_credits(true, now);
+        self.outbox.return_credits(true, now);
         if !self.requested_work && self.room_for_more_waiting() {
             self.requested_work = true;
             self.send(Addr::Master, Msg::WorkRequest, now);
@@ -571,7 +528,7 @@ impl<W: Workload> Processor<W> {
     }
 
     /// Packets to transmit now (bundles that became due by age included).
-    pub fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
+    pub(crate) fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
         self.outbox.pump(now, false);
         let mut packets = self.outbox.take_ready();
         let load = self.load();
@@ -586,7 +543,7 @@ impl<W: Workload> Processor<W> {
     }
 
     /// Tasks queued here: the load piggybacked on every packet.
-    pub fn load(&self) -> u32 {
+    pub(crate) fn load(&self) -> u32 {
         (self.mailbox.len_of(Class::DataParallel)
             + self.mailbox.len_of(Class::DemandDriven)
             + self.ready.len()
@@ -603,14 +560,13 @@ impl<W: Workload> Processor<W> {
     }
 
     /// Ends the run for this processor: its accumulator and statistics.
-    pub fn finish(mut self) -> (W::Accumulator, ProcStats) {
+    pub(crate) fn finish(mut self) -> (W::Accumulator, ProcStats) {
         self.flush_work();
         let m = &mut self.stats.memory;
         m.resident_bytes = self.store.resident_bytes();
         m.cached_bytes = self.store.cache().high_water();
         (m.waiting_tasks, m.waiting_task_bytes) = self.store.waiting_high_water();
-        m.input_buffer_items = self.inbuf.high_water_items;
-        m.input_buffer_bytes = self.inbuf.high_water_bytes;
+        (m.input_buffer_items, m.input_buffer_bytes) = self.outbox.input_high_water();
         m.mailbox_items = self.mailbox.high_water();
         m.queued_tasks = self.queued_high_water;
         m.send_backlog = self.outbox.backlog_high_water();
@@ -619,24 +575,13 @@ impl<W: Workload> Processor<W> {
     }
 }
 
-/// Adds `units` of `kind` to `acc`: the same `&'static str` is found by
-/// address, an equal string from elsewhere by value. Hooks charge their
-/// kinds in much the same order every time, so the search by address
-/// starts after the entry `hint` found last (usually a hit at once); the
-/// returned index is the next hint.
+/// Adds `units` of `kind` to `acc`. Hooks charge their kinds in much the
+/// same order every time, so the search starts after the entry `hint`
+/// found last (usually a hit at once); the returned index is the next hint.
 #[inline]
-fn add_charge(
-    acc: &mut Vec<(&'static str, u64)>,
-    hint: usize,
-    kind: &'static str,
-    units: u64,
-) -> usize {
+fn add_charge<K: WorkKind>(acc: &mut Vec<(K, u64)>, hint: usize, kind: K, units: u64) -> usize {
     let n = acc.len();
-    let same_ptr = |k: &&str| std::ptr::eq(k.as_ptr(), kind.as_ptr()) && k.len() == kind.len();
-    let i = (0..n)
-        .map(|d| (hint + d) % n)
-        .find(|&j| same_ptr(&acc[j].0))
-        .or_else(|| acc.iter().position(|(k, _)| *k == kind));
+    let i = (0..n).map(|d| (hint + d) % n).find(|&j| acc[j].0 == kind);
     match i {
         Some(i) => {
             acc[i].1 = acc[i].1.saturating_add(units);

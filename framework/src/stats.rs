@@ -6,7 +6,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::cache::CacheCounters;
 use crate::clock::Time;
-use crate::message::{Addr, Class};
+use crate::protocol::{Addr, Class};
+use crate::workload::WorkKind;
 
 /// What a processor is doing; time is accounted per state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -275,8 +276,9 @@ impl ProcStats {
     }
 
     /// Adds counted work.
-    pub fn charge(&mut self, charges: &[(&'static str, u64)]) {
+    pub fn charge<K: WorkKind>(&mut self, charges: &[(K, u64)]) {
         for &(kind, units) in charges {
+            let kind = kind.name();
             // Look up before inserting: no allocation on the hot path.
             match self.work.get_mut(kind) {
                 Some(e) => *e = e.saturating_add(units),
@@ -319,6 +321,7 @@ impl ProcStats {
 /// # #[serde(crate = "hybrid_sched::serde")]
 /// # struct Walk { next: u32, end: u32, acc: u64 }
 /// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
+/// # hybrid_sched::work_kinds! { enum PairsWork { Select = "select" } }
 /// # struct Pairs;
 /// # impl Workload for Pairs {
 /// #     type DataId = u32;
@@ -327,6 +330,7 @@ impl ProcStats {
 /// #     type DpTask = Walk;
 /// #     type Result = Num;
 /// #     type Accumulator = u64;
+/// #     type Work = PairsWork;
 /// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
 /// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
 /// #     }
@@ -335,7 +339,7 @@ impl ProcStats {
 /// #     }
 /// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
 /// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
-/// #         ctx.charge("select", 1);
+/// #         ctx.charge(PairsWork::Select, 1);
 /// #         vec![t.0, t.0 + 1]
 /// #     }
 /// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {

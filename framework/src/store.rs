@@ -16,23 +16,20 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use crate::cache::ByteLru;
-use crate::message::DdEnvelope;
-use crate::workload::{ByteSize, DataView, Placement, Workload};
-
-/// Maps keyed by data id, looked up on every cell a task touches: a fast
-/// non-cryptographic hash (the one `lru` uses) instead of SipHash.
-pub type IdMap<K, V> = HashMap<K, V, lru::DefaultHasher>;
+use crate::cache::{ByteLru, IdMap};
+use crate::protocol::message::DdEnvelope;
+use crate::protocol::Placement;
+use crate::workload::{ByteSize, DataView, Workload};
 
 /// The replicated ownership directory: data id -> (owner, bytes).
 #[derive(Clone, Debug)]
-pub struct Directory<Id> {
+pub(crate) struct Directory<Id> {
     map: IdMap<Id, (usize, u64)>,
 }
 
 impl<Id: std::hash::Hash + Eq + Clone + std::fmt::Debug> Directory<Id> {
     /// Builds the directory, rejecting duplicate ids and owners out of range.
-    pub fn build(placement: Vec<Placement<Id>>, procs: usize) -> Result<Self, String> {
+    pub(crate) fn build(placement: Vec<Placement<Id>>, procs: usize) -> Result<Self, String> {
         let mut map = IdMap::with_capacity_and_hasher(placement.len(), Default::default());
         for p in placement {
             if p.owner >= procs {
@@ -49,31 +46,21 @@ impl<Id: std::hash::Hash + Eq + Clone + std::fmt::Debug> Directory<Id> {
     }
 
     /// Owner of `id`.
-    pub fn owner(&self, id: &Id) -> Option<usize> {
+    pub(crate) fn owner(&self, id: &Id) -> Option<usize> {
         self.map.get(id).map(|&(o, _)| o)
     }
 
     /// Size of `id` in bytes.
-    pub fn bytes(&self, id: &Id) -> Option<u64> {
+    pub(crate) fn bytes(&self, id: &Id) -> Option<u64> {
         self.map.get(id).map(|&(_, b)| b)
-    }
-
-    /// Number of ids.
-    pub fn len(&self) -> usize {
-        self.map.len()
-    }
-
-    /// Whether the directory is empty.
-    pub fn is_empty(&self) -> bool {
-        self.map.is_empty()
     }
 }
 
 /// Data items with their ids, as carried by a data reply.
-pub type Items<W> = Vec<(<W as Workload>::DataId, <W as Workload>::DataItem)>;
+pub(crate) type Items<W> = Vec<(<W as Workload>::DataId, <W as Workload>::DataItem)>;
 
 /// Key of a task in the waiting table.
-pub type TaskKey = u64;
+pub(crate) type TaskKey = u64;
 
 struct WaitingTask<W: Workload> {
     env: DdEnvelope<W>,
@@ -88,7 +75,7 @@ struct InFlight {
 }
 
 /// A demand-driven task whose data is all local (its cached items pinned).
-pub struct ReadyTask<W: Workload> {
+pub(crate) struct ReadyTask<W: Workload> {
     /// The task.
     pub env: DdEnvelope<W>,
     /// Non-resident ids pinned for it; release them after execution.
@@ -96,7 +83,7 @@ pub struct ReadyTask<W: Workload> {
 }
 
 /// Outcome of [`DataStore::admit`].
-pub enum Admission<W: Workload> {
+pub(crate) enum Admission<W: Workload> {
     /// All data is local; run it.
     Ready(ReadyTask<W>),
     /// Registered as waiting; send these requests (owner, ids).
@@ -110,7 +97,7 @@ pub enum Admission<W: Workload> {
 }
 
 /// The data store of one processor. See the module documentation.
-pub struct DataStore<W: Workload> {
+pub(crate) struct DataStore<W: Workload> {
     me: usize,
     resident: IdMap<W::DataId, W::DataItem>,
     resident_bytes: u64,
@@ -126,7 +113,7 @@ pub struct DataStore<W: Workload> {
 
 impl<W: Workload> DataStore<W> {
     /// A store for processor `me` holding `resident`, checked against `dir`.
-    pub fn new(
+    pub(crate) fn new(
         me: usize,
         resident: Vec<(W::DataId, W::DataItem)>,
         dir: Directory<W::DataId>,
@@ -182,54 +169,54 @@ impl<W: Workload> DataStore<W> {
     }
 
     /// The directory.
-    pub fn directory(&self) -> &Directory<W::DataId> {
+    pub(crate) fn directory(&self) -> &Directory<W::DataId> {
         &self.dir
     }
 
     /// The cache.
-    pub fn cache(&self) -> &ByteLru<W::DataId, W::DataItem> {
+    pub(crate) fn cache(&self) -> &ByteLru<W::DataId, W::DataItem> {
         &self.cache
     }
 
     /// Bytes of resident data.
-    pub fn resident_bytes(&self) -> u64 {
+    pub(crate) fn resident_bytes(&self) -> u64 {
         self.resident_bytes
     }
 
     /// Whether `id` is resident or cached.
-    pub fn is_local(&self, id: &W::DataId) -> bool {
+    pub(crate) fn is_local(&self, id: &W::DataId) -> bool {
         self.resident.contains_key(id) || self.cache.contains(id)
     }
 
     /// A read-only view of local data for a hook.
-    pub fn view(&self) -> DataView<'_, W> {
+    pub(crate) fn view(&self) -> DataView<'_, W> {
         DataView::new(&self.resident, Some(&self.cache))
     }
 
     /// Refreshes LRU recency of cached items a hook used (counted as hits).
-    pub fn touch(&mut self, ids: &[W::DataId]) {
+    pub(crate) fn touch(&mut self, ids: &[W::DataId]) {
         for id in ids {
             self.cache.touch(id);
         }
     }
 
     /// Counts a cache miss (a data-parallel task leaving for missing data).
-    pub fn record_miss(&mut self) {
+    pub(crate) fn record_miss(&mut self) {
         self.cache.record_miss();
     }
 
     /// Tasks waiting for data.
-    pub fn waiting_len(&self) -> usize {
+    pub(crate) fn waiting_len(&self) -> usize {
         self.waiting.len()
     }
 
     /// (count, bytes) high-water marks of waiting tasks.
-    pub fn waiting_high_water(&self) -> (usize, usize) {
+    pub(crate) fn waiting_high_water(&self) -> (usize, usize) {
         (self.waiting_high_water, self.waiting_bytes_high_water)
     }
 
     /// Copies of resident items for a data request.
-    pub fn serve(&self, ids: &[W::DataId]) -> Result<Items<W>, String> {
+    pub(crate) fn serve(&self, ids: &[W::DataId]) -> Result<Items<W>, String> {
         ids.iter()
             .map(|id| match self.resident.get(id) {
                 Some(item) => Ok((id.clone(), item.clone())),
@@ -242,7 +229,7 @@ impl<W: Workload> DataStore<W> {
     }
 
     /// Admits a demand-driven task whose selection returned `ids`.
-    pub fn admit(
+    pub(crate) fn admit(
         &mut self,
         env: DdEnvelope<W>,
         mut ids: Vec<W::DataId>,
@@ -335,7 +322,7 @@ impl<W: Workload> DataStore<W> {
 
     /// Stores the items of a data reply and returns the tasks it completed,
     /// in the order they were admitted.
-    pub fn on_reply(&mut self, items: Items<W>) -> Result<Vec<ReadyTask<W>>, String> {
+    pub(crate) fn on_reply(&mut self, items: Items<W>) -> Result<Vec<ReadyTask<W>>, String> {
         let mut woken = Vec::new();
         for (id, item) in items {
             let Some(f) = self.in_flight.remove(&id) else {
@@ -368,7 +355,7 @@ impl<W: Workload> DataStore<W> {
     }
 
     /// Releases the pins of a task that has run.
-    pub fn release(&mut self, pinned: &[W::DataId]) {
+    pub(crate) fn release(&mut self, pinned: &[W::DataId]) {
         for id in pinned {
             self.cache.unpin(id);
         }

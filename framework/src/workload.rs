@@ -12,11 +12,10 @@ use std::fmt::Debug;
 use std::hash::Hash;
 
 use serde::de::DeserializeOwned;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
-use crate::cache::ByteLru;
-use crate::message::Addr;
-use crate::store::IdMap;
+use crate::cache::{ByteLru, IdMap};
+use crate::protocol::{Addr, DpOutcome, Placement};
 
 /// Size of a value in bytes as the framework should account for it (memory
 /// high-water marks, cache budget, message sizes). It need not be exact, but it
@@ -31,28 +30,77 @@ pub trait ByteSize {
 pub trait Payload: Clone + Debug + Send + Sync + Serialize + DeserializeOwned + 'static {}
 impl<T: Clone + Debug + Send + Sync + Serialize + DeserializeOwned + 'static> Payload for T {}
 
-/// Where one data item lives: the replicated ownership directory is built from
-/// a list of these (see [`Workload::placement`]).
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Placement<Id> {
-    /// The data id.
-    pub id: Id,
-    /// The processor that holds the item permanently (its "resident" copy).
-    pub owner: usize,
-    /// The item's size in bytes; the directory knows sizes before an item is
-    /// fetched so that a processor can decide whether a task's data fits its
-    /// cache before asking for it.
-    pub bytes: u64,
+/// The kinds of counted work a workload charges ([`Ctx::charge`]): a small
+/// enum, usually declared with [`crate::work_kinds!`]. Statistics and the
+/// simulator's cost model name each kind by [`WorkKind::name`]; a cost
+/// model that names a kind the workload does not declare is rejected when
+/// the simulation starts, so a misspelt name cannot silently cost nothing.
+pub trait WorkKind: Copy + Eq + Ord + Hash + Debug + Send + Sync + 'static {
+    /// Every kind, in declaration order.
+    const ALL: &'static [Self];
+    /// The name used in statistics, reports and cost models (e.g.
+    /// `"trace.leaves"`).
+    fn name(self) -> &'static str;
+
+    /// The kind called `name`, if there is one.
+    fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.iter().copied().find(|k| k.name() == name)
+    }
 }
 
-/// What happened to a data-parallel task after [`Workload::execute_dp`].
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum DpOutcome<T> {
-    /// The task is complete (it may have emitted results and new tasks).
-    Finished,
-    /// The task needs data that is not local; it is sent to the owner of
-    /// [`Workload::route_dp`]'s answer for this (updated) task.
-    Migrate(T),
+/// Declares an enum of work kinds and implements [`WorkKind`] for it, each
+/// variant with its name:
+///
+/// ```rust
+/// hybrid_sched::work_kinds! {
+///     /// What the workload counts.
+///     pub enum Work {
+///         /// Cells visited by data selection.
+///         Select = "select",
+///         Add = "add",
+///     }
+/// }
+/// use hybrid_sched::WorkKind;
+/// assert_eq!(Work::ALL, [Work::Select, Work::Add]);
+/// assert_eq!(Work::Add.name(), "add");
+/// assert_eq!(Work::from_name("select"), Some(Work::Select));
+/// ```
+#[macro_export]
+macro_rules! work_kinds {
+    (
+        $(#[$meta:meta])*
+        $vis:vis enum $name:ident {
+            $($(#[$vmeta:meta])* $variant:ident = $label:literal),* $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+        $vis enum $name {
+            $($(#[$vmeta])* $variant),*
+        }
+
+        impl $name {
+            /// The kind's name, as statistics and cost models know it.
+            #[allow(dead_code)]
+            $vis fn name(self) -> &'static str {
+                match self {
+                    $($name::$variant => $label),*
+                }
+            }
+        }
+
+        impl $crate::WorkKind for $name {
+            const ALL: &'static [Self] = &[$($name::$variant),*];
+            fn name(self) -> &'static str {
+                $name::name(self)
+            }
+        }
+    };
+}
+
+work_kinds! {
+    /// For workloads that charge no work: no kinds at all.
+    pub enum NoWork {}
 }
 
 /// The application. All associated types travel in messages, hence the serde
@@ -92,6 +140,7 @@ pub enum DpOutcome<T> {
 /// # #[serde(crate = "hybrid_sched::serde")]
 /// # struct Walk { next: u32, end: u32, acc: u64 }
 /// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
+/// # hybrid_sched::work_kinds! { enum PairsWork { Select = "select" } }
 /// # struct Pairs;
 /// # impl Workload for Pairs {
 /// #     type DataId = u32;
@@ -100,6 +149,7 @@ pub enum DpOutcome<T> {
 /// #     type DpTask = Walk;
 /// #     type Result = Num;
 /// #     type Accumulator = u64;
+/// #     type Work = PairsWork;
 /// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
 /// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
 /// #     }
@@ -108,7 +158,7 @@ pub enum DpOutcome<T> {
 /// #     }
 /// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
 /// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
-/// #         ctx.charge("select", 1);
+/// #         ctx.charge(PairsWork::Select, 1);
 /// #         vec![t.0, t.0 + 1]
 /// #     }
 /// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
@@ -140,7 +190,7 @@ pub enum DpOutcome<T> {
 /// // Demand-driven: data selection names everything the task will read (the
 /// // processor fetches what is not local before it calls `execute_dd`).
 /// assert_eq!(Pairs.select_data(&Pair(2), &mut ctx), [2, 3]);
-/// assert_eq!(ctx.charges(), [("select", 1)]);
+/// assert_eq!(ctx.charges(), [(PairsWork::Select, 1)]);
 ///
 /// // Data-parallel: a walk over items 2 and 3 runs as far as the local data
 /// // allows, then asks to migrate towards the owner of the item it needs next.
@@ -174,6 +224,9 @@ pub trait Workload: Send + Sync + Sized + 'static {
     type Result: Payload + ByteSize;
     /// The per-processor merge target for results (e.g. a processor's pixels).
     type Accumulator: Clone + Debug + Default + Send + Serialize + DeserializeOwned + 'static;
+    /// The kinds of work hooks charge ([`Ctx::charge`]); [`NoWork`] for
+    /// none.
+    type Work: WorkKind;
 
     /// The replicated ownership directory for a run on `procs` processors.
     fn placement(&self, procs: usize) -> Vec<Placement<Self::DataId>>;
@@ -238,13 +291,6 @@ pub trait Workload: Send + Sync + Sized + 'static {
     fn merge(&self, acc: &mut Self::Accumulator, result: Self::Result);
 }
 
-/// Equal work kinds; kinds are usually the same static strings, so the
-/// addresses are compared first.
-#[inline]
-pub(crate) fn same_kind(a: &str, b: &str) -> bool {
-    (std::ptr::eq(a.as_ptr(), b.as_ptr()) && a.len() == b.len()) || a == b
-}
-
 /// The hook context: everything a hook may do besides reading data.
 ///
 /// Emitted work is collected here and scheduled by the framework after the
@@ -254,18 +300,21 @@ pub(crate) fn same_kind(a: &str, b: &str) -> bool {
 pub struct Ctx<W: Workload> {
     proc: usize,
     procs: usize,
-    pub(crate) charges: Vec<(&'static str, u64)>,
+    pub(crate) origin: usize,
+    pub(crate) charges: Vec<(W::Work, u64)>,
     pub(crate) dd: Vec<W::DdTask>,
     pub(crate) dp: Vec<W::DpTask>,
     pub(crate) results: Vec<(Addr, W::Result)>,
 }
 
 impl<W: Workload> Ctx<W> {
-    /// A context for processor `proc` of `procs`.
+    /// A context for processor `proc` of `procs`, for a root task (the
+    /// origin is `proc`).
     pub fn new(proc: usize, procs: usize) -> Self {
         Ctx {
             proc,
             procs,
+            origin: proc,
             charges: Vec::new(),
             dd: Vec::new(),
             dp: Vec::new(),
@@ -287,17 +336,32 @@ impl<W: Workload> Ctx<W> {
         self.proc
     }
 
+    /// The processor that ran the root task this task descends from (its
+    /// data selection): where a family of tasks started, for instance the
+    /// owner of a tile's pixels. For a root task, the running processor.
+    /// Tracked by the framework, so tasks need not carry it.
+    pub fn origin(&self) -> usize {
+        self.origin
+    }
+
+    /// The same context, for a task descending from `origin`'s root (for
+    /// calling hooks by hand; runtimes set it themselves).
+    pub fn with_origin(mut self, origin: usize) -> Self {
+        self.origin = origin;
+        self
+    }
+
     /// Number of worker processors in the run.
     pub fn procs(&self) -> usize {
         self.procs
     }
 
-    /// Records `units` of counted work of kind `kind` (e.g. "intersect",
-    /// "clip"). The simulator turns these into virtual time with a cost model;
-    /// all runtimes report them in the statistics.
-    pub fn charge(&mut self, kind: &'static str, units: u64) {
-        // Kinds are usually the same static strings: compare addresses first.
-        if let Some(entry) = self.charges.iter_mut().find(|(k, _)| same_kind(k, kind)) {
+    /// Records `units` of counted work of kind `kind` (e.g. intersections,
+    /// clipped nodes). The simulator turns these into virtual time with a
+    /// cost model; all runtimes report them in the statistics, by
+    /// [`WorkKind::name`].
+    pub fn charge(&mut self, kind: W::Work, units: u64) {
+        if let Some(entry) = self.charges.iter_mut().find(|(k, _)| *k == kind) {
             entry.1 = entry.1.saturating_add(units);
         } else {
             self.charges.push((kind, units));
@@ -320,7 +384,7 @@ impl<W: Workload> Ctx<W> {
     }
 
     /// The work charged since the context was created or last drained.
-    pub fn charges(&self) -> &[(&'static str, u64)] {
+    pub fn charges(&self) -> &[(W::Work, u64)] {
         &self.charges
     }
 

@@ -14,8 +14,10 @@ use std::sync::Arc;
 use super::{assemble, Node, RunReport, Runtime};
 use crate::config::Config;
 use crate::error::RunError;
-use crate::message::{Addr, Packet};
 use crate::processor::Step;
+use crate::protocol::message::Packet;
+use crate::protocol::Addr;
+use crate::rng::SplitMix64;
 use crate::workload::Workload;
 
 /// The lockstep runtime with its interleaving seed.
@@ -37,30 +39,14 @@ impl Lockstep {
     }
 }
 
-impl Runtime for Lockstep {
+#[async_trait::async_trait]
+impl<W: Workload> Runtime<W> for Lockstep {
     fn name(&self) -> &'static str {
         "lockstep"
     }
 
-    fn run<W: Workload>(
-        &self,
-        workload: Arc<W>,
-        config: &Config,
-    ) -> Result<RunReport<W>, RunError> {
+    async fn run(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
         run_lockstep(workload, config, self.seed, self.max_rounds)
-    }
-}
-
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        // SplitMix64.
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
     }
 }
 
@@ -89,6 +75,7 @@ impl Rng {
 /// # #[serde(crate = "hybrid_sched::serde")]
 /// # struct Walk { next: u32, end: u32, acc: u64 }
 /// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
+/// # hybrid_sched::work_kinds! { enum PairsWork { Select = "select" } }
 /// # struct Pairs;
 /// # impl Workload for Pairs {
 /// #     type DataId = u32;
@@ -97,6 +84,7 @@ impl Rng {
 /// #     type DpTask = Walk;
 /// #     type Result = Num;
 /// #     type Accumulator = u64;
+/// #     type Work = PairsWork;
 /// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
 /// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
 /// #     }
@@ -105,7 +93,7 @@ impl Rng {
 /// #     }
 /// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
 /// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
-/// #         ctx.charge("select", 1);
+/// #         ctx.charge(PairsWork::Select, 1);
 /// #         vec![t.0, t.0 + 1]
 /// #     }
 /// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
@@ -144,17 +132,17 @@ pub fn run_lockstep<W: Workload>(
 ) -> Result<RunReport<W>, RunError> {
     let mut nodes = Node::build_all(&workload, config)?;
     let procs = config.procs;
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix64::new(seed);
     let mut net: VecDeque<Packet<W>> = VecDeque::new();
     let mut done = vec![false; nodes.len()];
     let mut now = 0u64;
     for _ in 0..max_rounds {
-        now += 1 + rng.next() % 500_000;
+        now += 1 + rng.next_u64() % 500_000;
         let mut held: HashSet<(Addr, Addr)> = HashSet::new();
         let mut keep = VecDeque::with_capacity(net.len());
         while let Some(p) = net.pop_front() {
             let link = (p.from, p.to);
-            if held.contains(&link) || rng.next() % 2 == 0 {
+            if held.contains(&link) || rng.next_u64() % 2 == 0 {
                 held.insert(link);
                 keep.push_back(p);
                 continue;
@@ -178,7 +166,7 @@ pub fn run_lockstep<W: Workload>(
             if done[slot] {
                 continue;
             }
-            for _ in 0..=rng.next() % 3 {
+            for _ in 0..=rng.next_u64() % 3 {
                 let step = node.step(now)?;
                 net.extend(node.take_packets(now));
                 match step {

@@ -1,17 +1,21 @@
 //! Runtimes move packets between actors and call their state machines.
+//! Every runtime implements the one [`Runtime`] interface and returns a
+//! [`RunReport`], whose [`Extras`] carry what only it produces.
 //!
 //! * [`threads`]: one tokio task per actor on a multi-thread runtime.
 //! * [`sequential`]: the reference: every task on one processor, all data
 //!   local, no messages.
 //! * [`lockstep`]: deterministic, single-threaded, seeded interleavings of
 //!   all actors (for tests and debugging).
+//! * [`sim`]: a deterministic discrete-event simulation of a cluster in
+//!   virtual time (its report carries a [`Timeline`]).
 //! * `mpi` (feature `mpi`): one processor per MPI rank, the master on
-//!   rank 0.
+//!   rank 0 (its report carries the traffic per rank).
 //!
-//! A runtime needs only the [`Node`] interface: `deliver`, `step`,
+//! A runtime needs only the `Node` interface: `deliver`, `step`,
 //! `take_packets`, `account`, `blocked_state`. A discrete-event simulator
 //! drives exactly the same calls with virtual time (charging the work reported
-//! by [`Node::last_charges`] through a cost model), and an MPI runtime with
+//! by `Node::last_charges` through a cost model), and an MPI runtime with
 //! one node per rank.
 
 pub mod lockstep;
@@ -20,8 +24,11 @@ pub mod mpi;
 pub mod sequential;
 pub mod sim;
 pub mod threads;
+mod timeline;
 
+use std::future::Future;
 use std::sync::Arc;
+use std::task::{Context, Poll, Wake, Waker};
 
 use serde::{Deserialize, Serialize};
 
@@ -29,10 +36,13 @@ use crate::clock::Time;
 use crate::config::Config;
 use crate::error::RunError;
 use crate::master::Master;
-use crate::message::{Addr, Packet};
 use crate::processor::{Processor, Step};
-use crate::stats::{ProcStats, RunStats, State};
+use crate::protocol::message::Packet;
+use crate::protocol::Addr;
+use crate::stats::{ProcStats, RankTraffic, RunStats, State};
 use crate::workload::Workload;
+
+pub use self::timeline::{Timeline, MAX_BUCKETS};
 
 /// What a run produced: merged results per actor, and statistics.
 #[derive(Serialize, Deserialize)]
@@ -44,6 +54,27 @@ pub struct RunReport<W: Workload> {
     pub master: W::Accumulator,
     /// Statistics.
     pub stats: RunStats,
+    /// What only this runtime produces (not serialised).
+    #[serde(skip)]
+    pub extras: Extras,
+}
+
+/// What a runtime reports besides results and statistics.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Extras {
+    /// Nothing more (threads, sequential, lockstep).
+    #[default]
+    None,
+    /// The simulator's time per state and bucket ([`sim::Sim`]).
+    Timeline(Timeline),
+    /// MPI, rank 0: wire traffic per rank (index = rank).
+    Ranks(Vec<RankTraffic>),
+    /// MPI, any other rank: this rank's actors finished; results and
+    /// statistics are in rank 0's report (this one holds none).
+    NotRoot {
+        /// This rank.
+        rank: usize,
+    },
 }
 
 impl<W: Workload> RunReport<W> {
@@ -54,6 +85,28 @@ impl<W: Workload> RunReport<W> {
             Addr::Proc(p) => &self.procs[p],
         }
     }
+
+    /// The simulator's timeline ([`Extras::Timeline`]).
+    pub fn timeline(&self) -> Option<&Timeline> {
+        match &self.extras {
+            Extras::Timeline(t) => Some(t),
+            _ => None,
+        }
+    }
+
+    /// MPI's traffic per rank, on rank 0 ([`Extras::Ranks`]).
+    pub fn ranks(&self) -> Option<&[RankTraffic]> {
+        match &self.extras {
+            Extras::Ranks(r) => Some(r),
+            _ => None,
+        }
+    }
+
+    /// Whether this report holds the run's results: false only on MPI
+    /// ranks other than 0 ([`Extras::NotRoot`]).
+    pub fn is_root(&self) -> bool {
+        !matches!(self.extras, Extras::NotRoot { .. })
+    }
 }
 
 impl<W: Workload> std::fmt::Debug for RunReport<W> {
@@ -62,23 +115,105 @@ impl<W: Workload> std::fmt::Debug for RunReport<W> {
             .field("procs", &self.procs)
             .field("master", &self.master)
             .field("stats", &self.stats)
+            .field("extras", &self.extras)
             .finish()
     }
 }
 
-/// Something that can run a workload.
-pub trait Runtime {
+/// Something that can run a workload: the one interface of every runtime.
+///
+/// Object safe (`Box<dyn Runtime<W>>`) and async: a tokio application
+/// awaits [`Runtime::run`]; other callers use [`Runtime::run_blocking`],
+/// which works inside or outside a tokio runtime.
+///
+/// ```rust
+/// # use std::sync::Arc;
+/// # use hybrid_sched::serde::{Deserialize, Serialize};
+/// # use hybrid_sched::{Addr, ByteSize, Ctx, DataView, DpOutcome, NoWork, Placement, Workload};
+/// # #[derive(Clone, Debug, Serialize, Deserialize)]
+/// # #[serde(crate = "hybrid_sched::serde")]
+/// # struct Num(u64);
+/// # impl ByteSize for Num { fn byte_size(&self) -> usize { 8 } }
+/// # /// Each root task sends its number to the master; no data.
+/// # struct Count;
+/// # impl Workload for Count {
+/// #     type DataId = u32;
+/// #     type DataItem = Num;
+/// #     type DdTask = Num;
+/// #     type DpTask = Num;
+/// #     type Result = Num;
+/// #     type Accumulator = u64;
+/// #     type Work = NoWork;
+/// #     fn placement(&self, _procs: usize) -> Vec<Placement<u32>> { Vec::new() }
+/// #     fn load_partition(&self, _proc: usize, _procs: usize) -> Vec<(u32, Num)> { Vec::new() }
+/// #     fn root_tasks(&self, _procs: usize) -> Vec<Num> { (1..=4).map(Num).collect() }
+/// #     fn select_data(&self, _t: &Num, _ctx: &mut Ctx<Self>) -> Vec<u32> { Vec::new() }
+/// #     fn execute_dd(&self, t: Num, _d: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
+/// #         ctx.emit_result(Addr::Master, t);
+/// #     }
+/// #     fn to_data_parallel(&self, _t: Num, _ctx: &mut Ctx<Self>) {}
+/// #     fn route_dp(&self, _w: &Num) -> Option<u32> { None }
+/// #     fn execute_dp(&self, _w: Num, _d: &DataView<'_, Self>, _c: &mut Ctx<Self>) -> DpOutcome<Num> {
+/// #         DpOutcome::Finished
+/// #     }
+/// #     fn merge(&self, acc: &mut u64, r: Num) { *acc += r.0; }
+/// # }
+/// use hybrid_sched::{Config, CostModel, Lockstep, Network, Runtime, Sequential, Sim, Threads};
+///
+/// let runtimes: Vec<Box<dyn Runtime<Count>>> = vec![
+///     Box::new(Threads),
+///     Box::new(Sequential),
+///     Box::new(Lockstep::new(7)),
+///     Box::new(Sim::new(CostModel::default(), Network::ten_gbe())),
+/// ];
+/// for rt in &runtimes {
+///     let report = rt.run_blocking(Arc::new(Count), &Config::new(2)).unwrap();
+///     assert_eq!(report.master, 10, "{}", rt.name());
+///     assert_eq!(report.timeline().is_some(), rt.name() == "sim");
+/// }
+/// ```
+#[async_trait::async_trait]
+pub trait Runtime<W: Workload>: Send + Sync {
     /// A short name for reports ("threads", "sequential", ...).
     fn name(&self) -> &'static str;
 
     /// Runs `workload` under `config` to completion.
-    fn run<W: Workload>(&self, workload: Arc<W>, config: &Config)
-        -> Result<RunReport<W>, RunError>;
+    async fn run(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError>;
+
+    /// [`Runtime::run`] for callers that are not async; it may be called
+    /// inside a tokio runtime as well (it blocks the calling thread).
+    fn run_blocking(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
+        block_on(self.run(workload, config))
+    }
+}
+
+/// Polls `future` to completion on the calling thread, parking between
+/// polls. Needs no tokio context: the runtimes' futures either complete at
+/// once or wait for a runtime-independent channel.
+pub(crate) fn block_on<F: Future>(future: F) -> F::Output {
+    struct Unpark(std::thread::Thread);
+    impl Wake for Unpark {
+        fn wake(self: Arc<Self>) {
+            self.0.unpark();
+        }
+        fn wake_by_ref(self: &Arc<Self>) {
+            self.0.unpark();
+        }
+    }
+    let waker = Waker::from(Arc::new(Unpark(std::thread::current())));
+    let mut cx = Context::from_waker(&waker);
+    let mut future = std::pin::pin!(future);
+    loop {
+        if let Poll::Ready(out) = future.as_mut().poll(&mut cx) {
+            return out;
+        }
+        std::thread::park();
+    }
 }
 
 /// Any actor: the master or a worker. Runtimes hold a `Vec<Node<W>>` indexed
 /// by [`Addr::slot`].
-pub enum Node<W: Workload> {
+pub(crate) enum Node<W: Workload> {
     /// The master.
     Master(Box<Master<W>>),
     /// A worker.
@@ -87,7 +222,7 @@ pub enum Node<W: Workload> {
 
 impl<W: Workload> Node<W> {
     /// Builds every actor of a run: workers `0..procs`, then the master.
-    pub fn build_all(workload: &Arc<W>, config: &Config) -> Result<Vec<Node<W>>, RunError> {
+    pub(crate) fn build_all(workload: &Arc<W>, config: &Config) -> Result<Vec<Node<W>>, RunError> {
         config.validate()?;
         let mut nodes = Vec::with_capacity(config.procs + 1);
         for p in 0..config.procs {
@@ -105,7 +240,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// The actor's address.
-    pub fn addr(&self) -> Addr {
+    pub(crate) fn addr(&self) -> Addr {
         match self {
             Node::Master(_) => Addr::Master,
             Node::Worker(p) => p.addr(),
@@ -113,7 +248,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// A packet arrived.
-    pub fn deliver(&mut self, packet: Packet<W>, now: Time) {
+    pub(crate) fn deliver(&mut self, packet: Packet<W>, now: Time) {
         match self {
             Node::Master(m) => m.deliver(packet, now),
             Node::Worker(p) => p.deliver(packet, now),
@@ -121,7 +256,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// One unit of work.
-    pub fn step(&mut self, now: Time) -> Result<Step, RunError> {
+    pub(crate) fn step(&mut self, now: Time) -> Result<Step, RunError> {
         match self {
             Node::Master(m) => m.step(now),
             Node::Worker(p) => p.step(now),
@@ -129,7 +264,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// Packets to transmit.
-    pub fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
+    pub(crate) fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
         match self {
             Node::Master(m) => m.take_packets(now),
             Node::Worker(p) => p.take_packets(now),
@@ -137,7 +272,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// Adds time to a state.
-    pub fn account(&mut self, state: State, ns: Time) {
+    pub(crate) fn account(&mut self, state: State, ns: Time) {
         match self {
             Node::Master(m) => m.account(state, ns),
             Node::Worker(p) => p.account(state, ns),
@@ -145,7 +280,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// State to account blocked time to.
-    pub fn blocked_state(&self) -> State {
+    pub(crate) fn blocked_state(&self) -> State {
         match self {
             Node::Master(_) => State::Idle,
             Node::Worker(p) => p.blocked_state(),
@@ -153,7 +288,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// Work charged in the last step (empty for the master).
-    pub fn last_charges(&self) -> &[(&'static str, u64)] {
+    pub(crate) fn last_charges(&self) -> &[(W::Work, u64)] {
         match self {
             Node::Master(_) => &[],
             Node::Worker(p) => p.last_charges(),
@@ -161,7 +296,7 @@ impl<W: Workload> Node<W> {
     }
 
     /// Accumulator and statistics at the end of the run.
-    pub fn finish(self) -> (W::Accumulator, ProcStats) {
+    pub(crate) fn finish(self) -> (W::Accumulator, ProcStats) {
         match self {
             Node::Master(m) => (*m).finish(),
             Node::Worker(p) => (*p).finish(),
@@ -203,5 +338,6 @@ pub(crate) fn assemble<W: Workload>(
             master: master_stats,
             elapsed_ns,
         },
+        extras: Extras::None,
     }
 }

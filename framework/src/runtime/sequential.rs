@@ -7,31 +7,29 @@
 
 use std::collections::VecDeque;
 
-use crate::store::IdMap;
+use crate::cache::IdMap;
 use std::sync::Arc;
 
 use super::{RunReport, Runtime};
 use crate::clock::{Clock, WallClock};
 use crate::config::Config;
 use crate::error::{ConfigError, RunError};
-use crate::message::Addr;
+use crate::protocol::Addr;
+use crate::protocol::DpOutcome;
 use crate::stats::{ProcStats, RunStats, State};
-use crate::workload::{Ctx, DataView, DpOutcome, Workload};
+use crate::workload::{Ctx, DataView, Workload};
 
 /// The sequential reference runtime.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Sequential;
 
-impl Runtime for Sequential {
+#[async_trait::async_trait]
+impl<W: Workload> Runtime<W> for Sequential {
     fn name(&self) -> &'static str {
         "sequential"
     }
 
-    fn run<W: Workload>(
-        &self,
-        workload: Arc<W>,
-        config: &Config,
-    ) -> Result<RunReport<W>, RunError> {
+    async fn run(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
         config.validate()?;
         run_sequential(&*workload, config.procs)
     }
@@ -64,6 +62,7 @@ impl Runtime for Sequential {
 /// # #[serde(crate = "hybrid_sched::serde")]
 /// # struct Walk { next: u32, end: u32, acc: u64 }
 /// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
+/// # hybrid_sched::work_kinds! { enum PairsWork { Select = "select" } }
 /// # struct Pairs;
 /// # impl Workload for Pairs {
 /// #     type DataId = u32;
@@ -72,6 +71,7 @@ impl Runtime for Sequential {
 /// #     type DpTask = Walk;
 /// #     type Result = Num;
 /// #     type Accumulator = u64;
+/// #     type Work = PairsWork;
 /// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
 /// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
 /// #     }
@@ -80,7 +80,7 @@ impl Runtime for Sequential {
 /// #     }
 /// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
 /// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
-/// #         ctx.charge("select", 1);
+/// #         ctx.charge(PairsWork::Select, 1);
 /// #         vec![t.0, t.0 + 1]
 /// #     }
 /// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
@@ -114,7 +114,7 @@ impl Runtime for Sequential {
 /// // simulator's cost model): five data selections, one unit each.
 /// let mut selected = 0;
 /// run_sequential_observed(&Pairs, 2, &mut |charges, _ns| {
-///     selected += charges.iter().filter(|(kind, _)| *kind == "select").map(|(_, n)| n).sum::<u64>();
+///     selected += charges.iter().filter(|(kind, _)| *kind == PairsWork::Select).map(|(_, n)| n).sum::<u64>();
 /// })
 /// .unwrap();
 /// assert_eq!(selected, 5);
@@ -124,7 +124,7 @@ pub fn run_sequential<W: Workload>(workload: &W, procs: usize) -> Result<RunRepo
 }
 
 /// Called with each step's charged work and its wall-clock nanoseconds.
-pub type StepObserver<'a> = dyn FnMut(&[(&'static str, u64)], u64) + 'a;
+pub type StepObserver<'a, K> = dyn FnMut(&[(K, u64)], u64) + 'a;
 
 /// [`run_sequential`], calling `observe(charges, ns)` after every task step
 /// with the work it charged and the wall-clock nanoseconds it took: the
@@ -132,7 +132,7 @@ pub type StepObserver<'a> = dyn FnMut(&[(&'static str, u64)], u64) + 'a;
 pub fn run_sequential_observed<W: Workload>(
     workload: &W,
     procs: usize,
-    observe: &mut StepObserver<'_>,
+    observe: &mut StepObserver<'_, W::Work>,
 ) -> Result<RunReport<W>, RunError> {
     if procs == 0 {
         return Err(ConfigError::NoProcessors.into());
@@ -218,5 +218,6 @@ pub fn run_sequential_observed<W: Workload>(
             master: ProcStats::new(Addr::Master),
             elapsed_ns,
         },
+        extras: Default::default(),
     })
 }

@@ -1,8 +1,8 @@
 //! A deterministic discrete-event simulation of a cluster.
 //!
-//! The same [`Node`] state machines as every other runtime run in virtual
+//! The same `Node` state machines as every other runtime run in virtual
 //! time. Nothing is measured: a step's duration comes from a [`CostModel`]
-//! applied to the work the step charged ([`Node::last_charges`]), and a
+//! applied to the work the step charged (`Node::last_charges`), and a
 //! packet's journey from a [`Network`] model:
 //!
 //! * the sender's CPU pays a software overhead per packet plus a cost per
@@ -19,10 +19,11 @@
 //! same statistics, byte for byte. The optional latency jitter draws from a
 //! seeded generator and keeps that property.
 //!
-//! Besides the usual [`RunReport`] (with virtual times in its statistics)
-//! [`run_sim`] returns a [`Timeline`]: for every actor, the time spent in
-//! each [`State`] per time bucket, from which "processors clipping over
-//! time", "idle over time" and similar figures are drawn.
+//! Besides the usual results and statistics (with virtual times) the
+//! report carries a [`Timeline`] ([`RunReport::timeline`]): for every
+//! actor, the time spent in each [`State`] per time bucket, from which
+//! "processors clipping over time", "idle over time" and similar figures
+//! are drawn.
 
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BinaryHeap, HashSet};
@@ -30,21 +31,26 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use super::{assemble, Node, RunReport, Runtime};
+use super::Timeline;
+use super::{assemble, Extras, Node, RunReport, Runtime};
 use crate::clock::Time;
 use crate::config::Config;
-use crate::error::RunError;
-use crate::message::{Addr, Class, Packet};
+use crate::error::{ConfigError, RunError};
 use crate::processor::Step;
-use crate::stats::{State, StateTimes};
-use crate::workload::Workload;
+use crate::protocol::message::Packet;
+use crate::protocol::{Addr, Class};
+use crate::rng::SplitMix64;
+use crate::stats::State;
+use crate::workload::{WorkKind, Workload};
 
 /// Compute costs in nanoseconds of this machine's CPU; the network's
 /// `cpu_scale` turns them into the simulated machine's. (Message overheads
 /// are given in the simulated machine's time already, in [`Network`].)
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CostModel {
-    /// Cost of one charged unit of each work kind ([`crate::Ctx::charge`]).
+    /// Cost of one charged unit of each work kind ([`crate::Ctx::charge`]),
+    /// by [`WorkKind::name`]. A run rejects names its workload does not
+    /// declare ([`CostModel::check`]).
     pub unit_ns: BTreeMap<String, f64>,
     /// Cost of a unit of a kind missing from `unit_ns`.
     pub default_unit_ns: f64,
@@ -69,15 +75,37 @@ impl Default for CostModel {
 }
 
 impl CostModel {
+    /// Sets the cost of one unit of `kind`.
+    pub fn with_unit<K: WorkKind>(mut self, kind: K, ns: f64) -> Self {
+        self.unit_ns.insert(kind.name().to_string(), ns);
+        self
+    }
+
+    /// Checks that every kind named in `unit_ns` is one of `K`'s (a
+    /// misspelt name would otherwise cost nothing, silently).
+    pub fn check<K: WorkKind>(&self) -> Result<(), ConfigError> {
+        match self.unit_ns.keys().find(|k| K::from_name(k).is_none()) {
+            Some(k) => Err(ConfigError::UnknownWorkKind {
+                name: k.clone(),
+                known: K::ALL
+                    .iter()
+                    .map(|k| k.name())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            }),
+            None => Ok(()),
+        }
+    }
+
     /// Nanoseconds of this machine for `charges`.
-    pub fn cost(&self, charges: &[(&'static str, u64)]) -> f64 {
+    pub fn cost<K: WorkKind>(&self, charges: &[(K, u64)]) -> f64 {
         charges
             .iter()
             .map(|&(kind, units)| {
                 units as f64
                     * self
                         .unit_ns
-                        .get(kind)
+                        .get(kind.name())
                         .copied()
                         .unwrap_or(self.default_unit_ns)
             })
@@ -172,105 +200,6 @@ impl Network {
     }
 }
 
-/// Most buckets a [`Timeline`] keeps (it coarsens beyond).
-pub const MAX_BUCKETS: usize = 4096;
-
-/// Time per [`State`] per bucket for every actor (workers, then the master).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Timeline {
-    /// Bucket width in virtual nanoseconds.
-    pub bucket_ns: u64,
-    /// `actors[slot][bucket]`.
-    pub actors: Vec<Vec<StateTimes>>,
-    /// Traffic sent per actor and bucket, in bytes, per class index
-    /// ([`Class::index`]).
-    pub sent_bytes: Vec<Vec<[u64; 5]>>,
-}
-
-impl Timeline {
-    fn new(actors: usize, bucket_ns: u64) -> Self {
-        Timeline {
-            bucket_ns: bucket_ns.max(1),
-            actors: vec![Vec::new(); actors],
-            sent_bytes: vec![Vec::new(); actors],
-        }
-    }
-
-    /// Makes sure time `t` falls in one of at most [`MAX_BUCKETS`] buckets,
-    /// doubling the bucket width (merging neighbours) as often as needed.
-    fn fit(&mut self, t: Time) {
-        while t / self.bucket_ns >= MAX_BUCKETS as u64 {
-            self.bucket_ns *= 2;
-            for row in &mut self.actors {
-                *row = row
-                    .chunks(2)
-                    .map(|c| {
-                        let mut m = c[0];
-                        if let Some(b) = c.get(1) {
-                            for s in State::ALL {
-                                m.add(s, b.get(s));
-                            }
-                        }
-                        m
-                    })
-                    .collect();
-            }
-            for row in &mut self.sent_bytes {
-                *row = row
-                    .chunks(2)
-                    .map(|c| {
-                        let mut m = c[0];
-                        if let Some(b) = c.get(1) {
-                            for (x, y) in m.iter_mut().zip(b) {
-                                *x += y;
-                            }
-                        }
-                        m
-                    })
-                    .collect();
-            }
-        }
-    }
-
-    fn add(&mut self, slot: usize, state: State, mut t0: Time, t1: Time) {
-        if t1 <= t0 {
-            return;
-        }
-        self.fit(t1 - 1);
-        let b = self.bucket_ns;
-        let row = &mut self.actors[slot];
-        while t0 < t1 {
-            let k = (t0 / b) as usize;
-            let end = ((k as u64 + 1) * b).min(t1);
-            if row.len() <= k {
-                row.resize(k + 1, StateTimes::default());
-            }
-            row[k].add(state, end - t0);
-            t0 = end;
-        }
-    }
-
-    fn sent(&mut self, slot: usize, class: Class, at: Time, bytes: usize) {
-        self.fit(at);
-        let k = (at / self.bucket_ns) as usize;
-        let row = &mut self.sent_bytes[slot];
-        if row.len() <= k {
-            row.resize(k + 1, [0; 5]);
-        }
-        row[k][class.index()] += bytes as u64;
-    }
-
-    /// Number of buckets covering the run.
-    pub fn buckets(&self) -> usize {
-        self.actors.iter().map(Vec::len).max().unwrap_or(0)
-    }
-
-    /// Time of `state` in bucket `k` of actor `slot`.
-    pub fn get(&self, slot: usize, k: usize, state: State) -> u64 {
-        self.actors[slot].get(k).map_or(0, |t| t.get(state))
-    }
-}
-
 /// The simulator: a cost model, a network and a seed.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Sim {
@@ -279,7 +208,7 @@ pub struct Sim {
     /// Seed of the latency jitter.
     pub seed: u64,
     /// Initial timeline bucket width in virtual ns (`None`: 10 µs); the
-    /// timeline doubles it whenever the run outgrows [`MAX_BUCKETS`].
+    /// timeline doubles it whenever the run outgrows [`MAX_BUCKETS`](super::MAX_BUCKETS).
     pub bucket_ns: Option<u64>,
     /// Give up after this many events (a livelock guard).
     pub max_events: u64,
@@ -298,17 +227,14 @@ impl Sim {
     }
 }
 
-impl Runtime for Sim {
+#[async_trait::async_trait]
+impl<W: Workload> Runtime<W> for Sim {
     fn name(&self) -> &'static str {
         "sim"
     }
 
-    fn run<W: Workload>(
-        &self,
-        workload: Arc<W>,
-        config: &Config,
-    ) -> Result<RunReport<W>, RunError> {
-        run_sim(workload, config, self).map(|(r, _)| r)
+    async fn run(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
+        run_sim(workload, config, self)
     }
 }
 
@@ -318,19 +244,6 @@ enum Event {
     Run(usize),
     /// Packet number `id` reaches its receiver.
     Arrive(u64),
-}
-
-struct Rng(u64);
-
-impl Rng {
-    fn unit(&mut self) -> f64 {
-        // SplitMix64, top 53 bits.
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
 }
 
 /// Runs `workload` in the simulator; returns the report (virtual times)
@@ -359,6 +272,7 @@ impl Rng {
 /// # #[serde(crate = "hybrid_sched::serde")]
 /// # struct Walk { next: u32, end: u32, acc: u64 }
 /// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
+/// # hybrid_sched::work_kinds! { enum PairsWork { Select = "select" } }
 /// # struct Pairs;
 /// # impl Workload for Pairs {
 /// #     type DataId = u32;
@@ -367,6 +281,7 @@ impl Rng {
 /// #     type DpTask = Walk;
 /// #     type Result = Num;
 /// #     type Accumulator = u64;
+/// #     type Work = PairsWork;
 /// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
 /// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
 /// #     }
@@ -375,7 +290,7 @@ impl Rng {
 /// #     }
 /// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
 /// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
-/// #         ctx.charge("select", 1);
+/// #         ctx.charge(PairsWork::Select, 1);
 /// #         vec![t.0, t.0 + 1]
 /// #     }
 /// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
@@ -401,18 +316,18 @@ impl Rng {
 ///
 /// let config = Config::new(2).with_cache_bytes(Some(16));
 /// let fast = Sim::new(CostModel::default(), Network::preset("10gbe").unwrap());
-/// let (report, timeline) = run_sim(Arc::new(Pairs), &config, &fast).unwrap();
+/// let report = run_sim(Arc::new(Pairs), &config, &fast).unwrap();
 /// assert_eq!(report.master, 35);
 /// assert_eq!(report.stats.runtime, "sim");
-/// assert!(timeline.buckets() > 0);
+/// assert!(report.timeline().unwrap().buckets() > 0);
 ///
 /// // Virtual time: the same inputs give the same statistics, byte for byte.
-/// let (again, _) = run_sim(Arc::new(Pairs), &config, &fast).unwrap();
+/// let again = run_sim(Arc::new(Pairs), &config, &fast).unwrap();
 /// assert_eq!(again.stats, report.stats);
 ///
 /// // The paper's machine computes and communicates far more slowly.
 /// let slow = Sim::new(CostModel::default(), Network::parsytec_cc());
-/// let (old, _) = run_sim(Arc::new(Pairs), &config, &slow).unwrap();
+/// let old = run_sim(Arc::new(Pairs), &config, &slow).unwrap();
 /// assert_eq!(old.master, 35);
 /// assert!(old.stats.elapsed_ns > report.stats.elapsed_ns);
 /// ```
@@ -420,13 +335,14 @@ pub fn run_sim<W: Workload>(
     workload: Arc<W>,
     config: &Config,
     sim: &Sim,
-) -> Result<(RunReport<W>, Timeline), RunError> {
+) -> Result<RunReport<W>, RunError> {
     let net = &sim.network;
     if !(net.bandwidth > 0.0 && net.cpu_scale > 0.0) {
         return Err(RunError::Runtime(
             "simulated network needs a positive bandwidth and cpu scale".into(),
         ));
     }
+    sim.cost.check::<W::Work>()?;
     let mut nodes: Vec<Option<Node<W>>> = Node::build_all(&workload, config)?
         .into_iter()
         .map(Some)
@@ -448,7 +364,7 @@ pub fn run_sim<W: Workload>(
     let mut links: HashSet<(usize, usize)> = HashSet::new();
     let mut finished: Vec<_> = Vec::with_capacity(n);
     let mut done = vec![false; n];
-    let mut rng = Rng(sim.seed ^ 0x5151_5EED);
+    let mut rng = SplitMix64::new(sim.seed ^ 0x5151_5EED);
     let mut timeline = Timeline::new(n, sim.bucket_ns.unwrap_or(10_000));
     let mut end = 0 as Time;
 
@@ -554,7 +470,7 @@ pub fn run_sim<W: Workload>(
                     out_free[slot] = depart + tx;
                     let mut lat = net.latency_ns;
                     if net.jitter > 0.0 {
-                        lat *= 1.0 + net.jitter * rng.unit();
+                        lat *= 1.0 + net.jitter * rng.next_f64();
                     }
                     if links.insert((slot, dst)) {
                         lat += net.link_setup_ns;
@@ -605,5 +521,7 @@ pub fn run_sim<W: Workload>(
             timeline.add(slot, State::Idle, total.min(end), end);
         }
     }
-    Ok((assemble("sim", procs, finished, end), timeline))
+    let mut report = assemble("sim", procs, finished, end);
+    report.extras = Extras::Timeline(timeline);
+    Ok(report)
 }

@@ -19,8 +19,9 @@ use super::{assemble, Node, RunReport, Runtime};
 use crate::clock::{Clock, WallClock};
 use crate::config::Config;
 use crate::error::RunError;
-use crate::message::{Addr, Packet};
 use crate::processor::Step;
+use crate::protocol::message::Packet;
+use crate::protocol::Addr;
 use crate::stats::{ProcStats, State};
 use crate::workload::Workload;
 
@@ -28,23 +29,40 @@ use crate::workload::Workload;
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Threads;
 
-impl Runtime for Threads {
+#[async_trait::async_trait]
+impl<W: Workload> Runtime<W> for Threads {
     fn name(&self) -> &'static str {
         "threads"
     }
 
-    fn run<W: Workload>(
-        &self,
-        workload: Arc<W>,
-        config: &Config,
-    ) -> Result<RunReport<W>, RunError> {
+    /// Runs on a tokio runtime of its own, on a thread of its own, and
+    /// awaits the end: the caller's executor (tokio's, of either flavour,
+    /// or any other) is never blocked, and the run gets its configured
+    /// threads whatever the caller's runtime has.
+    async fn run(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
+        let config = config.clone();
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        std::thread::Builder::new()
+            .name("hybrid-sched".into())
+            .spawn(move || {
+                let _ = tx.send(run_threads(workload, &config));
+            })
+            .map_err(|e| RunError::Runtime(format!("cannot start the run's thread: {e}")))?;
+        rx.await
+            .map_err(|_| RunError::Runtime("the run's thread panicked".into()))?
+    }
+
+    fn run_blocking(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
         run_threads(workload, config)
     }
 }
 
 /// Runs `workload` on a fresh tokio multi-thread runtime with one actor per
 /// processor plus the master. Blocks until termination is detected, an actor
-/// fails, or the configured time limit passes.
+/// fails, or the configured time limit passes. Called inside a tokio
+/// runtime, it runs on a thread of its own (tokio cannot start a runtime
+/// inside a runtime) and blocks the calling thread until the end; an async
+/// caller awaits [`Threads`]' [`Runtime::run`] instead.
 ///
 /// # Example
 ///
@@ -69,6 +87,7 @@ impl Runtime for Threads {
 /// # #[serde(crate = "hybrid_sched::serde")]
 /// # struct Walk { next: u32, end: u32, acc: u64 }
 /// # impl ByteSize for Walk { fn byte_size(&self) -> usize { 16 } }
+/// # hybrid_sched::work_kinds! { enum PairsWork { Select = "select" } }
 /// # struct Pairs;
 /// # impl Workload for Pairs {
 /// #     type DataId = u32;
@@ -77,6 +96,7 @@ impl Runtime for Threads {
 /// #     type DpTask = Walk;
 /// #     type Result = Num;
 /// #     type Accumulator = u64;
+/// #     type Work = PairsWork;
 /// #     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
 /// #         (0..6).map(|id| Placement { id, owner: id as usize % procs, bytes: 8 }).collect()
 /// #     }
@@ -85,7 +105,7 @@ impl Runtime for Threads {
 /// #     }
 /// #     fn root_tasks(&self, _procs: usize) -> Vec<Pair> { (0..5).map(Pair).collect() }
 /// #     fn select_data(&self, t: &Pair, ctx: &mut Ctx<Self>) -> Vec<u32> {
-/// #         ctx.charge("select", 1);
+/// #         ctx.charge(PairsWork::Select, 1);
 /// #         vec![t.0, t.0 + 1]
 /// #     }
 /// #     fn execute_dd(&self, t: Pair, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
@@ -130,6 +150,16 @@ pub fn run_threads<W: Workload>(
     workload: Arc<W>,
     config: &Config,
 ) -> Result<RunReport<W>, RunError> {
+    if tokio::runtime::Handle::try_current().is_ok() {
+        return std::thread::scope(|s| {
+            std::thread::Builder::new()
+                .name("hybrid-sched".into())
+                .spawn_scoped(s, || run_threads(workload, config))
+                .map_err(|e| RunError::Runtime(format!("cannot start the run's thread: {e}")))?
+                .join()
+                .map_err(|_| RunError::Runtime("the run's thread panicked".into()))?
+        });
+    }
     let nodes = Node::build_all(&workload, config)?;
     // By default one thread per core. (An extra thread for the mostly
     // sleeping master was measured slower on 2 cores: the master then waits

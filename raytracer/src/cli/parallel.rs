@@ -146,7 +146,7 @@ pub fn summary(r: &ParallelRender) -> String {
         let t = &p.time_ns;
         let total = t.total();
         let comm = t.get(State::Sending) + t.get(State::Receiving) + t.get(State::ServingData);
-        let w = |k: &str| p.work.get(k).copied().unwrap_or(0);
+        let w = |k: work::Work| p.work.get(k.name()).copied().unwrap_or(0);
         let rays = w(work::RAYS_PRIMARY)
             + w(work::RAYS_REFLECTION)
             + w(work::RAYS_REFRACTION)

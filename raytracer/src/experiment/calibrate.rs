@@ -155,7 +155,7 @@ pub fn calibrate(
         steps = 0;
         run_sequential_observed(&wl2, 2, &mut |charges, ns| {
             for &(kind, units) in charges {
-                if let Some(i) = UNIT_NS.iter().position(|(k, _)| *k == kind) {
+                if let Some(i) = UNIT_NS.iter().position(|(k, _)| *k == kind.name()) {
                     x[i] += units as f64;
                 }
             }
@@ -217,7 +217,7 @@ pub fn calibrate(
     let config = Config::new(1);
     let t0 = Instant::now();
     let report = Threads
-        .run(wl.clone(), &config)
+        .run_blocking(wl.clone(), &config)
         .map_err(|e| Error::Other(format!("calibration run failed: {e}")))?;
     let threads_s = t0.elapsed().as_secs_f64();
     let st = &report.stats.procs[0];

@@ -176,7 +176,7 @@ impl Ctx<'_> {
             WorkloadOptions::default(),
         );
         let report = Sequential
-            .run(Arc::new(wl), &hybrid_sched::Config::new(1))
+            .run_blocking(Arc::new(wl), &hybrid_sched::Config::new(1))
             .map_err(|e| Error::Other(format!("sequential run failed: {e}")))?;
         let model = cost::model();
         let ns: f64 = report.stats.procs[0]

@@ -24,7 +24,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use hybrid_sched::{
-    run_sim, Config, Network, Policy, RankTraffic, RunReport, RunStats, Runtime, Sequential, Sim,
+    Config, Extras, Network, Policy, RankTraffic, RunReport, RunStats, Runtime, Sequential, Sim,
     Threads, Timeline,
 };
 use serde::Serialize;
@@ -216,11 +216,11 @@ pub struct ParallelRender {
 
 impl ParallelRender {
     /// A counted work total over all processors (see [`workload::work`]).
-    pub fn work(&self, kind: &str) -> u64 {
+    pub fn work(&self, kind: workload::work::Work) -> u64 {
         self.stats
             .procs
             .iter()
-            .map(|p| p.work.get(kind).copied().unwrap_or(0))
+            .map(|p| p.work.get(kind.name()).copied().unwrap_or(0))
             .sum()
     }
 }
@@ -311,15 +311,25 @@ pub fn render_parallel_with_progress(
     let failed = |e: hybrid_sched::RunError| Error::Other(format!("parallel render failed: {e}"));
     let mut timeline = None;
     let (report, ranks): (RunReport<RtWorkload>, Vec<RankTraffic>) = match popts.runtime {
-        RuntimeKind::Threads => (Threads.run(wl.clone(), &config).map_err(failed)?, vec![]),
-        RuntimeKind::Sequential => (Sequential.run(wl.clone(), &config).map_err(failed)?, vec![]),
+        RuntimeKind::Threads => (
+            Threads.run_blocking(wl.clone(), &config).map_err(failed)?,
+            vec![],
+        ),
+        RuntimeKind::Sequential => (
+            Sequential
+                .run_blocking(wl.clone(), &config)
+                .map_err(failed)?,
+            vec![],
+        ),
         RuntimeKind::Sim => {
             let mut sim = Sim::new(cost::model(), popts.network.clone());
             sim.seed = popts.sim_seed;
             // Virtual time has no wall-clock limit.
             config.time_limit = None;
-            let (r, t) = run_sim(wl.clone(), &config, &sim).map_err(failed)?;
-            timeline = Some(t);
+            let mut r = sim.run_blocking(wl.clone(), &config).map_err(failed)?;
+            if let Extras::Timeline(t) = std::mem::take(&mut r.extras) {
+                timeline = Some(t);
+            }
             (r, vec![])
         }
         RuntimeKind::Mpi => match run_mpi(wl.clone(), &config)? {
@@ -415,9 +425,13 @@ fn run_mpi(
     wl: Arc<RtWorkload>,
     config: &Config,
 ) -> Result<Option<(RunReport<RtWorkload>, Vec<RankTraffic>)>> {
-    let out = hybrid_sched::runtime::mpi::run_mpi(wl, config)
+    let mut out = hybrid_sched::runtime::mpi::Mpi
+        .run_blocking(wl, config)
         .map_err(|e| Error::Other(format!("parallel render failed: {e}")))?;
-    Ok(out.map(|m| (m.report, m.ranks)))
+    match std::mem::take(&mut out.extras) {
+        Extras::Ranks(ranks) => Ok(Some((out, ranks))),
+        _ => Ok(None),
+    }
 }
 
 #[cfg(not(feature = "mpi"))]

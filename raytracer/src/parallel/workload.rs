@@ -196,36 +196,68 @@ impl ByteSize for DpTask {
 
 /// Work-unit names charged to the framework's statistics.
 pub mod work {
-    pub static CLIP_NODES: &str = "clip.nodes";
-    pub static CLIP_MISSES: &str = "clip.misses";
-    /// Shadow bundles that reused a cell's selection (option `clip_cache`).
-    pub static CLIP_REUSED: &str = "clip.reused";
-    /// Of those, bundles whose whole selection was local already: nothing
-    /// to select or pin (option `clip_cache`).
-    pub static CLIP_ALL_LOCAL: &str = "clip.all_local";
-    pub static RAYS_PRIMARY: &str = "rays.primary";
-    pub static RAYS_REFLECTION: &str = "rays.reflection";
-    pub static RAYS_REFRACTION: &str = "rays.refraction";
-    pub static RAYS_PASS_THROUGH: &str = "rays.pass_through";
-    pub static RAYS_AMBIENT: &str = "rays.ambient";
-    pub static RAYS_SPAWNED: &str = "rays.spawned";
-    pub static RAYS_RETIRED: &str = "rays.retired";
-    pub static SHADOW_BUNDLES: &str = "shadow.bundles";
-    pub static SHADOW_BUNDLES_DP: &str = "shadow.bundles_dp";
-    pub static SHADOW_SPAWNED: &str = "shadow.spawned";
-    pub static SHADOW_RETIRED: &str = "shadow.retired";
-    pub static SHADOW_PATCHES: &str = "shadow.patches";
-    pub static SHADOW_TESTED: &str = "shadow.tested";
-    pub static SHADOW_ESTIMATED: &str = "shadow.estimated";
-    pub static SHADOW_UNOCCLUDED: &str = "shadow.unoccluded";
-    pub static SHADOW_SEGMENTS: &str = "shadow.transparent_segments";
-    pub static SHADOW_RESTARTS: &str = "shadow.restarts";
-    /// Non-empty octree leaves entered by traversals (octree steps).
-    pub static TRACE_LEAVES: &str = "trace.leaves";
-    /// Objects listed in those leaves (intersection tests, counting an
-    /// object once per leaf; an any-hit query may stop earlier).
-    pub static TRACE_OBJECTS: &str = "trace.objects";
-    pub static SHADE: &str = "shade";
+    hybrid_sched::work_kinds! {
+        /// Every kind of work the renderer charges, by its name in the
+        /// statistics and the cost model.
+        pub enum Work {
+            ClipNodes = "clip.nodes",
+            ClipMisses = "clip.misses",
+            /// Shadow bundles that reused a cell's selection (option `clip_cache`).
+            ClipReused = "clip.reused",
+            /// Of those, bundles whose whole selection was local already: nothing
+            /// to select or pin (option `clip_cache`).
+            ClipAllLocal = "clip.all_local",
+            RaysPrimary = "rays.primary",
+            RaysReflection = "rays.reflection",
+            RaysRefraction = "rays.refraction",
+            RaysPassThrough = "rays.pass_through",
+            RaysAmbient = "rays.ambient",
+            RaysSpawned = "rays.spawned",
+            RaysRetired = "rays.retired",
+            ShadowBundles = "shadow.bundles",
+            ShadowBundlesDp = "shadow.bundles_dp",
+            ShadowSpawned = "shadow.spawned",
+            ShadowRetired = "shadow.retired",
+            ShadowPatches = "shadow.patches",
+            ShadowTested = "shadow.tested",
+            ShadowEstimated = "shadow.estimated",
+            ShadowUnoccluded = "shadow.unoccluded",
+            ShadowSegments = "shadow.transparent_segments",
+            ShadowRestarts = "shadow.restarts",
+            /// Non-empty octree leaves entered by traversals (octree steps).
+            TraceLeaves = "trace.leaves",
+            /// Objects listed in those leaves (intersection tests, counting an
+            /// object once per leaf; an any-hit query may stop earlier).
+            TraceObjects = "trace.objects",
+            Shade = "shade",
+        }
+    }
+
+    // The kinds under their names as constants.
+    pub const CLIP_NODES: Work = Work::ClipNodes;
+    pub const CLIP_MISSES: Work = Work::ClipMisses;
+    pub const CLIP_REUSED: Work = Work::ClipReused;
+    pub const CLIP_ALL_LOCAL: Work = Work::ClipAllLocal;
+    pub const RAYS_PRIMARY: Work = Work::RaysPrimary;
+    pub const RAYS_REFLECTION: Work = Work::RaysReflection;
+    pub const RAYS_REFRACTION: Work = Work::RaysRefraction;
+    pub const RAYS_PASS_THROUGH: Work = Work::RaysPassThrough;
+    pub const RAYS_AMBIENT: Work = Work::RaysAmbient;
+    pub const RAYS_SPAWNED: Work = Work::RaysSpawned;
+    pub const RAYS_RETIRED: Work = Work::RaysRetired;
+    pub const SHADOW_BUNDLES: Work = Work::ShadowBundles;
+    pub const SHADOW_BUNDLES_DP: Work = Work::ShadowBundlesDp;
+    pub const SHADOW_SPAWNED: Work = Work::ShadowSpawned;
+    pub const SHADOW_RETIRED: Work = Work::ShadowRetired;
+    pub const SHADOW_PATCHES: Work = Work::ShadowPatches;
+    pub const SHADOW_TESTED: Work = Work::ShadowTested;
+    pub const SHADOW_ESTIMATED: Work = Work::ShadowEstimated;
+    pub const SHADOW_UNOCCLUDED: Work = Work::ShadowUnoccluded;
+    pub const SHADOW_SEGMENTS: Work = Work::ShadowSegments;
+    pub const SHADOW_RESTARTS: Work = Work::ShadowRestarts;
+    pub const TRACE_LEAVES: Work = Work::TraceLeaves;
+    pub const TRACE_OBJECTS: Work = Work::TraceObjects;
+    pub const SHADE: Work = Work::Shade;
 }
 
 /// Knobs of the parallel renderer that are not the framework's.
@@ -970,6 +1002,7 @@ impl Workload for RtWorkload {
     type DpTask = DpTask;
     type Result = RtResult;
     type Accumulator = PixelTrees;
+    type Work = work::Work;
 
     fn placement(&self, procs: usize) -> Vec<Placement<NodeId>> {
         self.owner_table(procs)

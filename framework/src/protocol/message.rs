@@ -1,92 +1,12 @@
-//! Addresses, priority classes and the messages processors exchange.
-//!
-//! Everything here is `serde`-serialisable so that a transport other than
-//! in-process channels (MPI, a file for replay) can carry it unchanged.
+//! Messages and envelopes: what travels between actors, carrying a
+//! workload's tasks, data and results.
 
 use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use crate::protocol::{Addr, Class};
 use crate::workload::{ByteSize, Workload};
-
-/// Address of an actor: the master or worker processor `i` (`0..procs`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-pub enum Addr {
-    /// The master: hands out root tasks, detects termination, gathers results.
-    Master,
-    /// Worker processor `i`.
-    Proc(usize),
-}
-
-impl Addr {
-    /// Dense index: workers `0..procs`, the master `procs`.
-    pub fn slot(self, procs: usize) -> usize {
-        match self {
-            Addr::Proc(i) => i,
-            Addr::Master => procs,
-        }
-    }
-
-    /// Inverse of [`Addr::slot`].
-    pub fn from_slot(slot: usize, procs: usize) -> Addr {
-        if slot == procs {
-            Addr::Master
-        } else {
-            Addr::Proc(slot)
-        }
-    }
-}
-
-impl fmt::Display for Addr {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Addr::Master => write!(f, "master"),
-            Addr::Proc(i) => write!(f, "p{i}"),
-        }
-    }
-}
-
-/// Message priority classes, highest first (the derive order is the priority
-/// order). Control traffic is tiny and unblocks others (credits, probes), data
-/// requests/replies are what waiting tasks wait for, results free memory at the
-/// sender, and data-parallel work is preferred over demand-driven work because
-/// it is bound to its data while demand-driven work can go anywhere.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-pub enum Class {
-    /// Credits, work requests, termination probes, termination.
-    Control,
-    /// Data requests and replies.
-    Data,
-    /// Results travelling to their destination.
-    Result,
-    /// Migrating data-parallel tasks.
-    DataParallel,
-    /// Demand-driven tasks (root hand-outs and policy-placed children).
-    DemandDriven,
-}
-
-impl Class {
-    /// All classes, highest priority first.
-    pub const ALL: [Class; 5] = [
-        Class::Control,
-        Class::Data,
-        Class::Result,
-        Class::DataParallel,
-        Class::DemandDriven,
-    ];
-
-    /// Position in [`Class::ALL`].
-    pub fn index(self) -> usize {
-        self as usize
-    }
-
-    /// Urgent classes are sent at once, unbundled, and are never held back by
-    /// flow control (data traffic must never wait for task traffic, or a
-    /// waiting task could deadlock against a full input buffer).
-    pub fn is_urgent(self) -> bool {
-        matches!(self, Class::Control | Class::Data)
-    }
-}
 
 /// A demand-driven task in transit.
 #[derive(Serialize, Deserialize)]
@@ -277,7 +197,7 @@ impl<W: Workload> Packet<W> {
 /// Pushed task and result traffic from workers is; urgent traffic is not, and
 /// neither are the master's hand-outs (each answers a work request, so at most
 /// one per worker is ever in flight).
-pub fn is_credit_limited(from: Addr, class: Class) -> bool {
+pub(crate) fn is_credit_limited(from: Addr, class: Class) -> bool {
     matches!(from, Addr::Proc(_)) && !class.is_urgent()
 }
 

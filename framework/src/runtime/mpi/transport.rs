@@ -1,0 +1,403 @@
+//! The MPI transport: the dedicated MPI thread, the session the processor
+//! loop talks to it through, and the wire format of packets.
+
+use std::collections::VecDeque;
+use std::os::raw::{c_int, c_void};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
+use std::sync::{Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use mpi::collective::CommunicatorCollectives;
+use mpi::ffi;
+use mpi::point_to_point::{MatchedReceiveVec, Source};
+use mpi::raw::AsRaw;
+use mpi::topology::{Communicator, SimpleCommunicator};
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+
+use crate::error::RunError;
+use crate::protocol::message::Packet;
+use crate::workload::Workload;
+
+/// MPI tag of a packet.
+pub const TAG_PACKET: i32 = 1;
+/// MPI tag of a rank's final report (to rank 0).
+pub const TAG_FINAL: i32 = 2;
+
+/// Shortest and longest idle wait of the MPI thread between polls. The
+/// longest bounds the latency an idle rank adds to every message (a data
+/// request and its reply each pay it): on the studio scene at -np 2 a 1 ms
+/// cap made the run about 20% slower than this one.
+const MIN_BACKOFF: Duration = Duration::from_micros(20);
+const MAX_BACKOFF: Duration = Duration::from_micros(100);
+/// The cap with a single rank: nothing arrives from elsewhere, commands wake
+/// the thread anyway.
+const MAX_BACKOFF_ALONE: Duration = Duration::from_millis(10);
+/// Messages received per turn of the MPI thread before it looks at its sends.
+const RECEIVES_PER_TURN: usize = 64;
+
+/// This process's place in the MPI job.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct World {
+    /// This rank.
+    pub rank: usize,
+    /// Number of ranks (= worker processors).
+    pub size: usize,
+}
+
+/// Processor loop -> MPI thread.
+pub(crate) enum Cmd {
+    Send { to: usize, tag: i32, bytes: Vec<u8> },
+    Finish { deadline: Instant },
+    Abort(i32),
+}
+
+/// MPI thread -> processor loop.
+pub(crate) enum Event {
+    Received {
+        from: usize,
+        tag: i32,
+        bytes: Vec<u8>,
+    },
+    /// Every send completed and every rank reached the final barrier.
+    Done,
+    Failed(String),
+}
+
+pub(crate) struct Session {
+    pub(crate) world: World,
+    pub(crate) cmds: Sender<Cmd>,
+    pub(crate) events: Receiver<Event>,
+    pub(crate) thread: Option<JoinHandle<()>>,
+}
+
+pub(crate) enum Phase {
+    NotStarted,
+    Running(Session),
+    Finalized,
+}
+
+static PHASE: Mutex<Phase> = Mutex::new(Phase::NotStarted);
+
+pub(crate) fn phase() -> MutexGuard<'static, Phase> {
+    PHASE.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+pub(crate) fn runtime_err(msg: impl Into<String>) -> RunError {
+    RunError::Runtime(msg.into())
+}
+
+/// Starts MPI on its dedicated thread (once per process; later calls return
+/// the same [`World`]).
+pub fn init() -> Result<World, RunError> {
+    let mut guard = phase();
+    match &*guard {
+        Phase::Running(s) => return Ok(s.world),
+        Phase::Finalized => {
+            return Err(runtime_err(
+                "MPI has already been finalised in this process: it runs once per process",
+            ))
+        }
+        Phase::NotStarted => {}
+    }
+    let (ready_tx, ready_rx) = mpsc::channel();
+    let (cmd_tx, cmd_rx) = mpsc::channel();
+    let (ev_tx, ev_rx) = mpsc::channel();
+    let thread = std::thread::Builder::new()
+        .name("mpi".into())
+        .spawn(move || mpi_thread(ready_tx, cmd_rx, ev_tx))
+        .map_err(|e| runtime_err(format!("cannot start the MPI thread: {e}")))?;
+    let world = match ready_rx.recv() {
+        Ok(Ok(world)) => world,
+        Ok(Err(msg)) => return Err(runtime_err(msg)),
+        Err(_) => return Err(runtime_err("the MPI thread stopped while initialising MPI")),
+    };
+    *guard = Phase::Running(Session {
+        world,
+        cmds: cmd_tx,
+        events: ev_rx,
+        thread: Some(thread),
+    });
+    Ok(world)
+}
+
+/// The [`World`] while MPI runs in this process (after [`init`], before the
+/// end of a successful [`run_mpi`]).
+pub fn world() -> Option<World> {
+    match &*PHASE.try_lock().ok()? {
+        Phase::Running(s) => Some(s.world),
+        _ => None,
+    }
+}
+
+/// Ends the whole job after an error: `MPI_Abort` with `code` (every rank
+/// stops, `mpirun` exits non-zero) while MPI runs, else a plain exit.
+/// Print the error first.
+pub fn abort(code: i32) -> ! {
+    let code = if code == 0 { 1 } else { code };
+    if let Ok(guard) = PHASE.try_lock() {
+        if let Phase::Running(s) = &*guard {
+            if s.cmds.send(Cmd::Abort(code)).is_ok() {
+                // MPI_Abort ends this process from the MPI thread.
+                std::thread::sleep(Duration::from_secs(30));
+            }
+        }
+    }
+    std::process::exit(code)
+}
+
+/// Ends the run: completes every send, meets every rank at a barrier,
+/// finalises MPI and joins the MPI thread.
+pub(crate) fn finish(session: &mut Session, deadline: Instant) -> Result<(), RunError> {
+    let rank = session.world.rank;
+    let gone = || runtime_err(format!("rank {rank}: the MPI thread stopped unexpectedly"));
+    session
+        .cmds
+        .send(Cmd::Finish { deadline })
+        .map_err(|_| gone())?;
+    loop {
+        match session.events.recv() {
+            Ok(Event::Done) => break,
+            Ok(Event::Failed(msg)) => return Err(runtime_err(format!("rank {rank}: {msg}"))),
+            // Stray control traffic after termination: nobody needs it.
+            Ok(Event::Received { .. }) => {}
+            Err(_) => return Err(gone()),
+        }
+    }
+    if let Some(t) = session.thread.take() {
+        t.join()
+            .map_err(|_| runtime_err(format!("rank {rank}: the MPI thread panicked")))?;
+    }
+    Ok(())
+}
+
+/// Encodes a packet for the wire.
+pub fn encode_packet<W: Workload>(packet: &Packet<W>) -> Result<Vec<u8>, RunError> {
+    postcard::to_stdvec(packet).map_err(|e| {
+        runtime_err(format!(
+            "cannot encode a packet from {} to {}: {e}",
+            packet.from, packet.to
+        ))
+    })
+}
+
+/// Decodes a packet that rank `rank` received from rank `from`; the error
+/// names both ranks and the reason.
+pub fn decode_packet<W: Workload>(
+    bytes: &[u8],
+    from: usize,
+    rank: usize,
+) -> Result<Packet<W>, RunError> {
+    decode(bytes, "packet", from, rank)
+}
+
+pub(crate) fn decode<T: DeserializeOwned>(
+    bytes: &[u8],
+    what: &str,
+    from: usize,
+    rank: usize,
+) -> Result<T, RunError> {
+    let fail = |why: String| {
+        let head: Vec<String> = bytes.iter().take(8).map(|b| format!("{b:02x}")).collect();
+        runtime_err(format!(
+            "rank {rank}: cannot decode a {}-byte {what} message from rank {from} (starting {}): {why}",
+            bytes.len(),
+            head.join(" ")
+        ))
+    };
+    match postcard::take_from_bytes::<T>(bytes) {
+        Ok((value, [])) => Ok(value),
+        Ok((_, rest)) => Err(fail(format!("{} bytes left over", rest.len()))),
+        Err(e) => Err(fail(e.to_string())),
+    }
+}
+
+/// A non-blocking send in flight. Owns its buffer until MPI is done with it.
+struct PendingSend {
+    buf: Vec<u8>,
+    request: ffi::MPI_Request,
+    done: bool,
+}
+
+impl PendingSend {
+    fn start(
+        comm: &SimpleCommunicator,
+        to: usize,
+        tag: i32,
+        buf: Vec<u8>,
+    ) -> Result<PendingSend, String> {
+        let count = c_int::try_from(buf.len())
+            .map_err(|_| format!("a {}-byte message is too large for MPI", buf.len()))?;
+        let dest = c_int::try_from(to).map_err(|_| format!("rank {to} is out of range"))?;
+        // SAFETY: MPI reads `count` bytes from the buffer until the request
+        // completes. The buffer's heap storage does not move when the Vec
+        // moves, and it is owned by the returned value, which is tested until
+        // completion before it is dropped (and leaks the buffer if dropped
+        // early, see `Drop`).
+        let mut request = unsafe { ffi::RSMPI_REQUEST_NULL };
+        let rc = unsafe {
+            ffi::MPI_Isend(
+                buf.as_ptr() as *const c_void as *mut c_void,
+                count,
+                ffi::RSMPI_UINT8_T,
+                dest,
+                tag,
+                comm.as_raw(),
+                &mut request,
+            )
+        };
+        if rc != ffi::MPI_SUCCESS as c_int {
+            return Err(format!("MPI_Isend to rank {to} failed with code {rc}"));
+        }
+        Ok(PendingSend {
+            buf,
+            request,
+            done: false,
+        })
+    }
+
+    /// Whether the send has completed.
+    fn test(&mut self) -> bool {
+        if !self.done {
+            let mut flag: c_int = 0;
+            // SAFETY: a valid request from MPI_Isend, not yet completed.
+            unsafe {
+                ffi::MPI_Test(&mut self.request, &mut flag, ffi::RSMPI_STATUS_IGNORE);
+            }
+            self.done = flag != 0;
+        }
+        self.done
+    }
+}
+
+impl Drop for PendingSend {
+    fn drop(&mut self) {
+        if !self.done {
+            // MPI may still read the buffer: never free it.
+            std::mem::forget(std::mem::take(&mut self.buf));
+        }
+    }
+}
+
+/// The MPI thread: initialises MPI, moves bytes, finalises MPI.
+pub(crate) fn mpi_thread(
+    ready: Sender<Result<World, String>>,
+    cmds: Receiver<Cmd>,
+    events: Sender<Event>,
+) {
+    let Some((universe, threading)) = mpi::initialize_with_threading(mpi::Threading::Funneled)
+    else {
+        let _ = ready.send(Err("MPI is already initialised in this process".into()));
+        return;
+    };
+    let world = universe.world();
+    let me = World {
+        rank: world.rank() as usize,
+        size: world.size() as usize,
+    };
+    tracing::debug!(
+        rank = me.rank,
+        size = me.size,
+        ?threading,
+        "MPI initialised"
+    );
+    if ready.send(Ok(me)).is_err() {
+        return;
+    }
+    let fail = |msg: String| {
+        // The processor loop reports it; the caller then aborts the job.
+        let _ = events.send(Event::Failed(msg));
+    };
+    let mut pending: Vec<PendingSend> = Vec::new();
+    let mut queued: VecDeque<Cmd> = VecDeque::new();
+    let mut finish_by: Option<Instant> = None;
+    let mut barrier = None;
+    let mut failed = false;
+    let mut backoff = Duration::ZERO;
+    let max_backoff = if me.size == 1 {
+        MAX_BACKOFF_ALONE
+    } else {
+        MAX_BACKOFF
+    };
+    loop {
+        let mut busy = false;
+        loop {
+            let cmd = match queued.pop_front() {
+                Some(c) => c,
+                None => match cmds.try_recv() {
+                    Ok(c) => c,
+                    Err(TryRecvError::Empty) => break,
+                    // The session is gone without finishing: the process is
+                    // ending abnormally. Make sure the job ends with it.
+                    Err(TryRecvError::Disconnected) => world.abort(1),
+                },
+            };
+            busy = true;
+            match cmd {
+                Cmd::Send { to, tag, bytes } => match PendingSend::start(&world, to, tag, bytes) {
+                    Ok(p) => pending.push(p),
+                    Err(msg) if !failed => {
+                        failed = true;
+                        fail(msg);
+                    }
+                    Err(_) => {}
+                },
+                Cmd::Finish { deadline } => finish_by = Some(deadline),
+                Cmd::Abort(code) => world.abort(code),
+            }
+        }
+        for _ in 0..RECEIVES_PER_TURN {
+            let Some(probed) = world.any_process().immediate_matched_probe() else {
+                break;
+            };
+            let (bytes, status) = probed.matched_receive_vec::<u8>();
+            busy = true;
+            let _ = events.send(Event::Received {
+                from: status.source_rank() as usize,
+                tag: status.tag(),
+                bytes,
+            });
+        }
+        let before = pending.len();
+        pending.retain_mut(|p| !p.test());
+        busy |= pending.len() != before;
+        if let Some(deadline) = finish_by {
+            if barrier.is_none() && pending.is_empty() {
+                barrier = Some(world.immediate_barrier());
+            }
+            if let Some(b) = barrier.take() {
+                match b.test() {
+                    Ok(_) => break,
+                    Err(b) => barrier = Some(b),
+                }
+            }
+            if !failed && Instant::now() >= deadline {
+                failed = true;
+                fail(format!(
+                    "waited until the deadline for the other ranks to finish ({} sends outstanding here)",
+                    pending.len()
+                ));
+            }
+        }
+        if busy {
+            backoff = Duration::ZERO;
+        } else {
+            backoff = (backoff * 2).clamp(MIN_BACKOFF, max_backoff);
+            match cmds.recv_timeout(backoff) {
+                Ok(c) => queued.push_back(c),
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => world.abort(1),
+            }
+        }
+    }
+    // Every rank passed the barrier, so every send was received; anything
+    // left is stray control traffic, received so that nothing is pending.
+    while let Some(probed) = world.any_process().immediate_matched_probe() {
+        let _ = probed.matched_receive_vec::<u8>();
+    }
+    let _ = events.send(Event::Done);
+    drop(world);
+    // Dropping the universe calls MPI_Finalize.
+    drop(universe);
+}

@@ -1,0 +1,104 @@
+//! Messages: serialisation and the outbox's bundling and credits.
+
+use super::*;
+
+#[test]
+fn packets_round_trip_through_serde() {
+    let packet: Packet<Mini> = Packet {
+        from: Addr::Proc(1),
+        to: Addr::Master,
+        class: Class::DemandDriven,
+        items: vec![
+            Msg::Dd(DdEnvelope {
+                task: Task { key: 5, depth: 1 },
+                origin: Some(1),
+                handout: false,
+            }),
+            Msg::DataReply(vec![(3, Item(vec![1, 2]))]),
+            Msg::ProbeReply {
+                wave: 2,
+                sent: 10,
+                received: 9,
+            },
+        ],
+        bytes: 100,
+        load: 0,
+    };
+    let json = serde_json::to_string(&packet).expect("serialise");
+    let back: Packet<Mini> = serde_json::from_str(&json).expect("deserialise");
+    assert_eq!(format!("{back:?}"), format!("{packet:?}"));
+}
+
+fn dd(key: u64) -> Msg<Mini> {
+    Msg::Dd(DdEnvelope {
+        task: Task { key, depth: 0 },
+        origin: None,
+        handout: false,
+    })
+}
+
+#[test]
+fn outbox_bundles_by_count_and_flush_and_sends_urgent_at_once() {
+    let bundle = BundleConfig {
+        enabled: true,
+        max_items: 3,
+        max_bytes: 1 << 20,
+        max_age: std::time::Duration::from_secs(1),
+    };
+    let mut out: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, bundle, 100);
+    out.push(Addr::Proc(1), dd(1), 0);
+    out.push(Addr::Proc(1), dd(2), 0);
+    assert!(!out.has_ready(), "not yet a full bundle");
+    out.push(Addr::Proc(1), Msg::DataRequest(vec![4]), 0);
+    let urgent = out.take_ready();
+    assert_eq!(urgent.len(), 1);
+    assert_eq!(urgent[0].class, Class::Data);
+    out.push(Addr::Proc(1), dd(3), 0);
+    let full = out.take_ready();
+    assert_eq!(full.len(), 1);
+    assert_eq!(full[0].items.len(), 3, "one bundle of three");
+    out.push(Addr::Proc(1), dd(4), 10);
+    out.pump(10 + 999_999_999, false);
+    assert!(!out.has_ready(), "younger than max_age");
+    out.pump(10 + 1_000_000_000, false);
+    assert_eq!(out.take_ready().len(), 1, "sent by age");
+    out.push(Addr::Master, dd(5), 0);
+    out.pump(0, true);
+    assert_eq!(out.take_ready().len(), 1, "flushed");
+    assert!(out.is_empty());
+}
+
+#[test]
+fn outbox_holds_messages_without_credit_and_never_drops() {
+    let mut out: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, BundleConfig::default(), 2);
+    for k in 0..5 {
+        out.push(Addr::Proc(1), dd(k), 0);
+    }
+    out.pump(0, true);
+    let first = out.take_ready();
+    assert_eq!(first.iter().map(|p| p.items.len()).sum::<usize>(), 2);
+    assert_eq!(out.backlog(), 3);
+    assert_eq!(out.credits_towards(Addr::Proc(1)), 0);
+    out.pump(0, true);
+    assert!(!out.has_ready(), "no credit, nothing sent");
+    out.grant(Addr::Proc(1), 2, 0);
+    out.pump(0, true);
+    assert_eq!(
+        out.take_ready()
+            .iter()
+            .map(|p| p.items.len())
+            .sum::<usize>(),
+        2
+    );
+    out.grant(Addr::Proc(1), 5, 0);
+    out.pump(0, true);
+    let last = out.take_ready();
+    assert_eq!(last.iter().map(|p| p.items.len()).sum::<usize>(), 1);
+    assert!(out.is_empty());
+    assert_eq!(out.backlog_high_water(), 5);
+    // Data traffic is never credit-limited.
+    for _ in 0..10 {
+        out.push(Addr::Proc(1), Msg::DataRequest(vec![1]), 0);
+    }
+    assert_eq!(out.take_ready().len(), 10);
+}

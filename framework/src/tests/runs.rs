@@ -1,0 +1,229 @@
+//! Whole runs: lockstep and threads against the sequential reference,
+//! termination, flow control, bundling, contract violations.
+
+use super::*;
+
+#[test]
+fn lockstep_matches_sequential_for_all_policies_and_caches() {
+    let w = Mini::default();
+    let item = (24 + 8 * w.words) as u64;
+    for procs in 1..=4 {
+        for policy in Policy::ALL {
+            for cache in [Some(1), Some(2 * item), Some(5 * item), None] {
+                let cfg = Config::new(procs)
+                    .with_policy(policy)
+                    .with_cache_bytes(cache)
+                    .with_credits(2);
+                let r = run_lockstep(Arc::new(w.clone()), &cfg, procs as u64 * 31 + 5)
+                    .unwrap_or_else(|e| panic!("{procs} procs, {policy}, cache {cache:?}: {e}"));
+                check_against_sequential(&w, &r);
+                if cache == Some(1) && procs > 1 {
+                    assert!(
+                        r.stats.sum(|p| p.tasks.fallbacks) > 0,
+                        "tiny cache must use the fallback"
+                    );
+                }
+            }
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+    /// Termination is never premature (every result is present and merged
+    /// exactly once) and never missed, across random interleavings.
+    #[test]
+    fn termination_is_exact_under_random_interleavings(
+        seed in any::<u64>(),
+        procs in 1usize..6,
+        policy in 0usize..4,
+        cache in prop_oneof![Just(None), (1u64..400).prop_map(Some)],
+        credits in 1usize..4,
+        bundling in any::<bool>(),
+        prefetch in any::<bool>(),
+    ) {
+        let w = Mini { seed, ..Mini::default() };
+        let mut cfg = Config::new(procs)
+            .with_policy(Policy::ALL[policy])
+            .with_cache_bytes(cache)
+            .with_credits(credits)
+            .with_bundling(bundling);
+        // Asking for work ahead leaves a request at the master while the
+        // processor is busy: termination must still be exact.
+        cfg.prefetch_work = prefetch;
+        let r = run_lockstep(Arc::new(w.clone()), &cfg, seed ^ 0xABCD).expect("terminates");
+        check_against_sequential(&w, &r);
+    }
+}
+
+#[test]
+fn configs_written_before_prefetch_existed_still_load() {
+    let mut v = serde_json::to_value(Config::new(2)).unwrap();
+    v.as_object_mut().unwrap().remove("prefetch_work");
+    let c: Config = serde_json::from_value(v).unwrap();
+    assert!(c.prefetch_work, "the default asks for work ahead");
+}
+
+#[test]
+fn hotspot_input_buffers_stay_within_credit_bound() {
+    let w = Mini {
+        hotspot: true,
+        roots: 40,
+        hops: 6,
+        ..Mini::default()
+    };
+    for policy in Policy::ALL {
+        let cfg = Config::new(4)
+            .with_policy(policy)
+            .with_cache_bytes(Some(1))
+            .with_credits(2);
+        let r = run_lockstep(Arc::new(w.clone()), &cfg, 3).expect("terminates");
+        check_against_sequential(&w, &r);
+        let bound = cfg.input_buffer_bound();
+        for p in r.stats.procs.iter().chain([&r.stats.master]) {
+            assert!(
+                p.memory.input_buffer_items <= bound,
+                "{policy}: {} held {} > {bound}",
+                p.addr,
+                p.memory.input_buffer_items
+            );
+        }
+        assert!(r.stats.procs[0].memory.input_buffer_items > 0);
+    }
+}
+
+#[test]
+fn bundling_reduces_packets_in_lockstep() {
+    let w = Mini {
+        roots: 40,
+        ..Mini::default()
+    };
+    let run = |bundling: bool| {
+        let cfg = Config::new(4)
+            .with_policy(Policy::RoundRobin)
+            .with_bundling(bundling);
+        let r = run_lockstep(Arc::new(w.clone()), &cfg, 11).expect("terminates");
+        check_against_sequential(&w, &r);
+        r.stats.packets_sent()
+    };
+    let (on, off) = (run(true), run(false));
+    assert!(on < off, "bundled {on} packets, unbundled {off}");
+}
+
+#[test]
+fn threads_runtime_matches_sequential() {
+    let w = Mini::default();
+    for policy in Policy::ALL {
+        let cfg = Config::new(3)
+            .with_policy(policy)
+            .with_cache_bytes(Some(100))
+            .with_time_limit(std::time::Duration::from_secs(60));
+        let r = run_threads(Arc::new(w.clone()), &cfg).expect("runs");
+        check_against_sequential(&w, &r);
+    }
+}
+
+#[test]
+fn workload_contract_violations_are_errors_not_hangs() {
+    /// Claims to need data it already has.
+    #[derive(Clone, Debug)]
+    struct Liar(Mini);
+    impl Workload for Liar {
+        type DataId = u32;
+        type DataItem = Item;
+        type DdTask = Task;
+        type DpTask = Walk;
+        type Result = Res;
+        type Accumulator = Acc;
+        type Work = MiniWork;
+        fn placement(&self, p: usize) -> Vec<Placement<u32>> {
+            self.0.placement(p)
+        }
+        fn load_partition(&self, a: usize, b: usize) -> Vec<(u32, Item)> {
+            self.0.load_partition(a, b)
+        }
+        fn root_tasks(&self, p: usize) -> Vec<Task> {
+            self.0.root_tasks(p)
+        }
+        fn select_data(&self, t: &Task, c: &mut Ctx<Self>) -> Vec<u32> {
+            c.charge(MiniWork::Select, 1);
+            self.0.selection(t)
+        }
+        fn execute_dd(&self, _t: Task, _d: &DataView<'_, Self>, c: &mut Ctx<Self>) {
+            c.spawn_dp(Walk {
+                key: 1,
+                path: vec![0],
+                pos: 0,
+                acc: 0,
+                finish: None,
+            });
+        }
+        fn to_data_parallel(&self, _t: Task, _c: &mut Ctx<Self>) {}
+        fn route_dp(&self, w: &Walk) -> Option<u32> {
+            w.path.first().copied()
+        }
+        fn execute_dp(
+            &self,
+            w: Walk,
+            _d: &DataView<'_, Self>,
+            _c: &mut Ctx<Self>,
+        ) -> DpOutcome<Walk> {
+            DpOutcome::Migrate(w)
+        }
+        fn merge(&self, _a: &mut Acc, _r: Res) {}
+    }
+    let cfg = Config::new(2).with_time_limit(std::time::Duration::from_secs(30));
+    let err = run_threads(Arc::new(Liar(Mini::default())), &cfg).unwrap_err();
+    assert!(err.to_string().contains("which is local"), "{err}");
+    let err = run_sequential(&Liar(Mini::default()), 2).unwrap_err();
+    assert!(err.to_string().contains("migrate"), "{err}");
+}
+
+#[test]
+fn inconsistent_placement_is_a_config_error() {
+    #[derive(Clone, Debug)]
+    struct Bad(Mini);
+    impl Workload for Bad {
+        type DataId = u32;
+        type DataItem = Item;
+        type DdTask = Task;
+        type DpTask = Walk;
+        type Result = Res;
+        type Accumulator = Acc;
+        type Work = MiniWork;
+        fn placement(&self, p: usize) -> Vec<Placement<u32>> {
+            let mut v = self.0.placement(p);
+            v[0].owner = p + 3; // out of range
+            v
+        }
+        fn load_partition(&self, a: usize, b: usize) -> Vec<(u32, Item)> {
+            self.0.load_partition(a, b)
+        }
+        fn root_tasks(&self, p: usize) -> Vec<Task> {
+            self.0.root_tasks(p)
+        }
+        fn select_data(&self, t: &Task, c: &mut Ctx<Self>) -> Vec<u32> {
+            self.0.select_data(t, &mut Ctx::new(c.proc_id(), c.procs()))
+        }
+        fn execute_dd(&self, _t: Task, _d: &DataView<'_, Self>, _c: &mut Ctx<Self>) {}
+        fn to_data_parallel(&self, _t: Task, _c: &mut Ctx<Self>) {}
+        fn route_dp(&self, _w: &Walk) -> Option<u32> {
+            None
+        }
+        fn execute_dp(
+            &self,
+            _w: Walk,
+            _d: &DataView<'_, Self>,
+            _c: &mut Ctx<Self>,
+        ) -> DpOutcome<Walk> {
+            DpOutcome::Finished
+        }
+        fn merge(&self, _a: &mut Acc, _r: Res) {}
+    }
+    let err = run_threads(Arc::new(Bad(Mini::default())), &Config::new(2)).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        text.contains("placement") && text.contains("only 2"),
+        "{text}"
+    );
+}
