@@ -3,9 +3,14 @@
 //! * no import loops: between the files of `framework/src` and of
 //!   `raytracer/src` (file A uses B and B uses A, directly or through a
 //!   chain), and between the renderer's top-level modules (`geometry`,
-//!   `scene`, `accel`, `render`, `parallel`, ...), which sit in layers;
+//!   `scene`, `accel`, `render`, `parallel`, ...), which sit in layers.
+//!   The framework's folders are not layers: `protocol/` holds both the
+//!   vocabulary the `Workload` trait speaks (`Addr`, `Placement`,
+//!   `DpOutcome`, in `protocol/mod.rs`) and the messages generic over a
+//!   workload (`protocol/message.rs`), one on each side of `workload.rs`;
 //! * the physics (`geometry`, `scene`, `accel`, `render`, `modifier`, `cal`,
-//!   `image`) uses neither the parallel renderer nor the framework;
+//!   `image`) uses neither the parallel renderer nor the framework, only
+//!   itself and the crate's `error` and `input` modules;
 //! * no file in `framework/src` or `raytracer/src/parallel` over 600 lines.
 //!
 //! A "use" is any path into the crate a file's code names: `use
@@ -702,7 +707,7 @@ fn shortest_cycle<N: Ord + Clone>(comp: &[N], edges: &BTreeSet<(N, N)>) -> Vec<N
 /// Import loops in the crate at `src`: between files, and between the
 /// top-level modules. Each loop is shown as one shortest cycle, with the
 /// use that makes each step.
-fn import_loops(src: &Path) -> Vec<String> {
+fn import_loops(src: &Path, folders_are_layers: bool) -> Vec<String> {
     let mods = read_crate(src);
     let e = edges(&mods);
     let mut problems = Vec::new();
@@ -751,6 +756,9 @@ fn import_loops(src: &Path) -> Vec<String> {
             p.to_vec()
         }
     });
+    if !folders_are_layers {
+        return problems;
+    }
     check("modules", &|p: &[String]| {
         p.iter().take(1).cloned().collect()
     });
@@ -766,13 +774,13 @@ fn workspace() -> PathBuf {
 
 #[test]
 fn framework_has_no_import_loops() {
-    let problems = import_loops(&workspace().join("framework/src"));
+    let problems = import_loops(&workspace().join("framework/src"), false);
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
 
 #[test]
 fn renderer_has_no_import_loops() {
-    let problems = import_loops(&workspace().join("raytracer/src"));
+    let problems = import_loops(&workspace().join("raytracer/src"), true);
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
 
@@ -790,7 +798,10 @@ fn physics_does_not_use_the_parallel_renderer() {
         let (Some(ta), Some(tb)) = (a.first(), b.first()) else {
             continue;
         };
-        if physics.contains(&ta.as_str()) && !physics.contains(&tb.as_str()) && tb != "error" {
+        if physics.contains(&ta.as_str())
+            && !physics.contains(&tb.as_str())
+            && !["error", "input"].contains(&tb.as_str())
+        {
             bad.push(format!(
                 "{} uses {} ({}:{line})",
                 name(a),
@@ -858,9 +869,13 @@ fn the_checker_sees_loops() {
         "// crate::a::X in a comment\npub fn h() { let _ = \"crate::a::X\"; }\n",
     );
     write("t.rs", "use crate::a::X;\nuse crate::b;\n");
-    assert!(import_loops(&dir).is_empty(), "{:?}", import_loops(&dir));
+    assert!(
+        import_loops(&dir, true).is_empty(),
+        "{:?}",
+        import_loops(&dir, true)
+    );
     write("b.rs", "use crate::a::X;\npub fn h() {}\n");
-    let loops = import_loops(&dir);
+    let loops = import_loops(&dir, true);
     assert_eq!(loops.len(), 2, "{loops:?}");
     assert!(
         loops[0].contains("a::x uses b") && loops[0].contains("b uses a::x"),
@@ -875,7 +890,7 @@ fn the_checker_sees_loops() {
         "mod x;\npub use x::X;\npub fn f() -> x::X { x::X }\n",
     );
     write("a/x.rs", "pub struct X;\nfn g() { super::f(); }\n");
-    let loops = import_loops(&dir);
+    let loops = import_loops(&dir, true);
     assert_eq!(loops.len(), 1, "{loops:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
