@@ -30,7 +30,10 @@ pub mod medium;
 pub mod options;
 pub use crate::geometry::rng;
 pub mod sequential;
+pub mod shading;
 pub mod stats;
+pub mod surface;
+pub mod task;
 pub mod virtual_source;
 
 #[cfg(test)]
