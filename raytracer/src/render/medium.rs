@@ -15,7 +15,7 @@
 //! ambient in-scattering) and the in-scattering of the listed sources,
 //! sampled at `max(1, t / -ms)` (at most [`MAX_SCATTER_SAMPLES`]) points
 //! along the segment. Each in-scattering sample is a shadow bundle
-//! ([`Request::Scatter`]) with a [`ScatterSurface`] that weighs the light
+//! ([`Request::Scatter`](super::shading::Request::Scatter)) with a [`ScatterSurface`] that weighs the light
 //! by the phase function, so the parallel renderers run it like any
 //! other shadow bundle. Shadow rays in a medium lose `exp(-t * ext * (1 -
 //! albedo))` (Radiance counts scattered light as not lost for sources).

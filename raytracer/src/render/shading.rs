@@ -1,6 +1,6 @@
 //! What shading passes around: the requests a shaded point makes
 //! ([`Request`], [`ShadowBundle`]), what it reads ([`ShadeContext`]) and
-//! the [`Emitter`] through which every material routine asks for rays,
+//! the `Emitter` through which every material routine asks for rays,
 //! diffuse inter-reflection and direct light. The routines themselves are
 //! in [`super::material`] and the files of each material family.
 

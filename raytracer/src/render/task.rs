@@ -50,7 +50,7 @@ pub struct RayTask {
     #[serde(default)]
     pub ambient: u32,
     /// Antimatter clip set: the ray passes through surfaces of materials
-    /// whose [`Scene::clip_bit`] it shares (see [`super::clip`]).
+    /// whose [`Scene::clip_bit`](crate::scene::Scene::clip_bit) it shares (see [`super::clip`]).
     #[serde(default)]
     pub clip: u64,
     /// Albedo, eccentricity and scattering sources of the medium the ray
@@ -88,6 +88,6 @@ pub struct Medium {
     /// Henyey-Greenstein eccentricity (0: isotropic).
     pub gecc: f64,
     /// The mists with light sources the ray is inside: bit `k` is the
-    /// mist of slot `k` of [`Media`].
+    /// mist of slot `k` of [`Media`](super::medium::Media).
     pub scatter: u64,
 }
