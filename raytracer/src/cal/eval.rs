@@ -7,8 +7,9 @@ use std::fmt;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::builtins::{self, Builtin};
+use super::library::{loc_of, Context, ExprId, FuncId, Library};
 use super::parser::{BinOp, Callee, Expr, Pos};
-use super::{loc_of, Context, ExprId, FuncId, Inputs, Library};
+use super::Inputs;
 use crate::{Error, SourceLoc};
 
 /// Deepest nesting of user function calls and variable evaluations.
@@ -249,6 +250,14 @@ impl Compiler<'_> {
             cd.range = (start, self.nodes.len() as u32);
         }
         Ok(())
+    }
+}
+impl Library {
+    /// Resolves every name reachable from the expressions and functions
+    /// handed out, and compiles them. An undefined name reachable from them
+    /// is an error naming where it is used.
+    pub fn finish(self) -> crate::Result<Program> {
+        compile(self)
     }
 }
 

@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use super::*;
+use crate::SourceLoc;
 
 fn here() -> SourceLoc {
     SourceLoc::new("scene.rad", 7)

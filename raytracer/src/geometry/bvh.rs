@@ -18,28 +18,10 @@
 //! component gives an infinite inverse; the `0 * inf` NaN of a ray exactly
 //! on a box plane leaves that axis unconstrained).
 
-use serde::{Deserialize, Serialize};
-
 use super::prims::{Prims, Tester};
 use super::robust::next_up;
-use super::shape::{Object, ObjectId, ShapeHit};
+use super::shape::{Hit, InstanceGeometry, Object, ObjectId, ObjectIndex, ShapeHit};
 use super::{Aabb, PreparedRay, Ray, Vec3};
-
-/// Nearest intersection found by a hierarchy (the octree's or a [`Bvh`]).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Hit {
-    /// Distance along the ray.
-    pub t: f64,
-    /// `ray.at(t)`.
-    pub point: Vec3,
-    /// Unit geometric normal, oriented by the shape (not towards the ray).
-    pub normal: Vec3,
-    /// The top-level object hit.
-    pub object: ObjectId,
-    /// For instances: index of the hit object in the instance's geometry (its
-    /// material is the one that shades the hit).
-    pub inner: Option<u32>,
-}
 
 /// Largest number of objects in a leaf.
 const MAX_LEAF: usize = 8;
@@ -498,5 +480,43 @@ impl Bvh {
                 return false;
             }
         }
+    }
+}
+
+impl InstanceGeometry {
+    /// Shared geometry with its own hierarchy ([`Bvh`]) in object space.
+    pub fn new(name: impl Into<String>, objects: Vec<Object>) -> Self {
+        let bounds = objects
+            .iter()
+            .fold(Aabb::EMPTY, |b, o| b.union(o.shape.bounds()));
+        let accel = Box::new(Bvh::build(&objects));
+        Self {
+            name: name.into(),
+            objects,
+            accel,
+            bounds,
+            shading: None,
+        }
+    }
+}
+
+impl ObjectIndex for Bvh {
+    fn intersect(&self, objects: &[Object], ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        Bvh::intersect(self, objects, ray, tmin, tmax)
+    }
+
+    fn occluded(
+        &self,
+        objects: &[Object],
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+        ignore: Option<ObjectId>,
+    ) -> bool {
+        Bvh::occluded(self, objects, ray, tmin, tmax, ignore)
+    }
+
+    fn memory_bytes(&self) -> usize {
+        Bvh::memory_bytes(self)
     }
 }

@@ -18,11 +18,12 @@ mod transform;
 mod triangulate;
 
 pub use aabb::Aabb;
-pub use bvh::{Bvh, BvhStats, Hit};
+pub use bvh::{Bvh, BvhStats};
 pub use ray::{PreparedRay, Ray};
 pub use robust::{offset_origin, offset_origin_scaled, FTINY};
 pub use shape::{
-    Instance, InstanceGeometry, MaterialId, Object, ObjectId, Polygon, Shape, ShapeHit, Transform,
+    Hit, Instance, InstanceGeometry, MaterialId, Object, ObjectId, ObjectIndex, Polygon, Shape,
+    ShapeHit, Transform,
 };
 pub(crate) use shape_impl::sphere_normal;
 pub use shape_impl::{

@@ -7,7 +7,8 @@
 
 use std::sync::Arc;
 
-use super::Bvh;
+use serde::{Deserialize, Serialize};
+
 use super::{Aabb, Ray, Vec3};
 
 /// Index into [`Scene::materials`](crate::scene::Scene::materials).
@@ -95,8 +96,9 @@ pub struct InstanceGeometry {
     pub name: String,
     pub objects: Vec<Object>,
     /// Acceleration structure over `objects`, in object space (a
-    /// hierarchy: an instance's objects are always kept together).
-    pub accel: Bvh,
+    /// hierarchy, the [`Bvh`](super::Bvh): an instance's objects are always
+    /// kept together).
+    pub accel: Box<dyn ObjectIndex>,
     pub bounds: Aabb,
     /// Vertex normals and (u, v) of a Radiance mesh (`.rtm`): its
     /// triangles shade smoothly and patterns see `Lu`, `Lv`.
@@ -119,6 +121,43 @@ pub struct MeshShading {
 pub struct Instance {
     pub geometry: Arc<InstanceGeometry>,
     pub transform: Transform,
+}
+
+/// Nearest intersection found by a hierarchy (the octree's or a [`Bvh`](super::Bvh)).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Hit {
+    /// Distance along the ray.
+    pub t: f64,
+    /// `ray.at(t)`.
+    pub point: Vec3,
+    /// Unit geometric normal, oriented by the shape (not towards the ray).
+    pub normal: Vec3,
+    /// The top-level object hit.
+    pub object: ObjectId,
+    /// For instances: index of the hit object in the instance's geometry (its
+    /// material is the one that shades the hit).
+    pub inner: Option<u32>,
+}
+
+/// A search structure over the objects of an instance's geometry: what
+/// intersecting an instance asks of it. The [`Bvh`](super::Bvh) implements
+/// it; a trait, so that shapes sit below the hierarchy that holds them (an
+/// instance is a shape holding a hierarchy of shapes).
+pub trait ObjectIndex: std::fmt::Debug + Send + Sync {
+    /// Nearest hit with `tmin < t < tmax` among `objects` (the slice the
+    /// structure was built over).
+    fn intersect(&self, objects: &[Object], ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit>;
+    /// True if any object other than `ignore` is hit with `tmin < t < tmax`.
+    fn occluded(
+        &self,
+        objects: &[Object],
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+        ignore: Option<ObjectId>,
+    ) -> bool;
+    /// Heap bytes the structure owns.
+    fn memory_bytes(&self) -> usize;
 }
 
 /// Result of intersecting one shape.

@@ -11,11 +11,8 @@ use std::f64::consts::PI;
 use std::sync::Arc;
 
 use super::robust::{diff_of_products, orthonormal_basis};
-use super::shape::{
-    Instance, InstanceGeometry, MeshShading, Object, Polygon, Shape, ShapeHit, Transform,
-};
+use super::shape::{Instance, InstanceGeometry, MeshShading, Polygon, Shape, ShapeHit, Transform};
 use super::triangulate::{ear_clip, project};
-use super::Bvh;
 use super::{Aabb, PreparedRay, Ray, Vec3};
 
 /// Largest distance of a polygon vertex from the polygon's plane, relative
@@ -589,21 +586,6 @@ impl MeshShading {
 }
 
 impl InstanceGeometry {
-    /// Shared geometry with its own hierarchy ([`Bvh`]) in object space.
-    pub fn new(name: impl Into<String>, objects: Vec<Object>) -> Self {
-        let bounds = objects
-            .iter()
-            .fold(Aabb::EMPTY, |b, o| b.union(o.shape.bounds()));
-        let accel = Bvh::build(&objects);
-        Self {
-            name: name.into(),
-            objects,
-            accel,
-            bounds,
-            shading: None,
-        }
-    }
-
     /// Total surface area of the geometry in object space.
     pub fn area(&self) -> f64 {
         self.objects.iter().map(|o| o.shape.area()).sum()

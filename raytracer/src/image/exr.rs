@@ -8,7 +8,7 @@ use exr::prelude::{
     Encoding, Image, Layer, LayerAttributes, SpecificChannels, Vec2, WritableImage,
 };
 
-use super::{Film, HdrInfo};
+use super::film::{Film, HdrInfo};
 
 /// The layer attribute holding Radiance's view options (`-vtv -vp ...`),
 /// as the `VIEW=` line of an HDR picture does.

@@ -68,3 +68,12 @@ impl Film {
 pub fn brightness(c: Color) -> f64 {
     0.265074126 * c.x + 0.670114631 * c.y + 0.064811243 * c.z
 }
+
+/// Extra information written into an HDR header.
+#[derive(Debug, Clone, Default)]
+pub struct HdrInfo {
+    /// Radiance view options (`-vtv -vp ...`), written as a `VIEW=` line.
+    pub view: Option<String>,
+    /// Software name for the header comment.
+    pub software: Option<String>,
+}

@@ -3,7 +3,7 @@
 
 use std::io::{self, BufRead, Write};
 
-use super::{Film, HdrInfo};
+use super::film::{Film, HdrInfo};
 use crate::geometry::Color;
 
 /// Radiance's shortest and longest run-length encodable scanline.

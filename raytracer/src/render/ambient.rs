@@ -41,9 +41,9 @@ use std::sync::{Arc, RwLock};
 
 use serde::{Deserialize, Serialize};
 
-use super::material::{intens, RayKind, RayTask};
 use super::options::RenderOptions;
 use super::rng::{child_seed, Rng};
+use super::task::{intens, RayKind, RayTask};
 use crate::geometry::robust::orthonormal_basis;
 use crate::geometry::FTINY;
 use crate::geometry::{offset_origin_scaled, Ray, Vec3};

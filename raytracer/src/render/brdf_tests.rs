@@ -11,6 +11,7 @@ use crate::geometry::Ray;
 use crate::render::effects::EffectsReport;
 use crate::render::material::{shade, RayTask, Request, ShadeContext};
 use crate::render::options::RenderOptions;
+use crate::scene::BrdfFamily;
 use crate::scene::{load_with, LoadOptions, Scene};
 
 /// A folder of its own for a test's files.

@@ -17,82 +17,18 @@
 //! XML's "Reflection Back" is Radiance's front reflection and "Reflection
 //! Front" its back reflection (WINDOW's front faces the outside, `-z`).
 
-use std::f64::consts::PI;
+pub use super::surface::KlemsSurface;
 
-use serde::{Deserialize, Serialize};
-
-use super::material::{perturbed_normal, ray_vars, Emitter, RayKind, Surface};
 use super::rng::{child_seed, Rng};
+use super::shading::{perturbed_normal, ray_vars, Emitter};
+use super::surface::Surface;
+use super::task::RayKind;
 use crate::geometry::Vec3;
 use crate::geometry::FTINY;
 use crate::modifier::{Applied, ModifierId};
-use crate::scene::{Color, Scene};
+use crate::scene::Color;
 
 pub use crate::scene::klems::{KlemsBasis, KlemsData, Matrix, Part};
-
-/// What a shadow bundle carries for a BSDF surface (`BSDFDAT`): the file
-/// by index into [`Scene::bsdfs`], the local frame, the view direction in
-/// it and the diffuse colours.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct KlemsSurface {
-    pub data: u32,
-    /// Perturbed normal turned towards the ray.
-    pub pnorm: Vec3,
-    /// Local `x` and `y` axes (`z = x × y` is the unturned normal).
-    pub xloc: Vec3,
-    pub yloc: Vec3,
-    /// Reversed ray in local coordinates.
-    pub vray: Vec3,
-    pub rdiff: Color,
-    pub tdiff: Color,
-    /// Pattern colour (on the non-diffuse transmission).
-    pub pcol: Color,
-    pub scale: f64,
-}
-
-const _: () = assert!(
-    std::mem::size_of::<KlemsSurface>() <= std::mem::size_of::<super::material::NormalBsdf>()
-);
-
-impl KlemsSurface {
-    fn local(&self, v: Vec3) -> Vec3 {
-        Vec3::new(
-            v.dot(self.xloc),
-            v.dot(self.yloc),
-            v.dot(self.xloc.cross(self.yloc)),
-        )
-    }
-
-    /// `dir_bsdf()`: diffuse parts, then the non-diffuse BSDF for light
-    /// from `ldir` seen along the ray, times the projected solid angle.
-    pub fn coefficient(&self, scene: &Scene, ldir: Vec3, omega: f64) -> Color {
-        let mut c = Color::ZERO;
-        let ldot = self.pnorm.dot(ldir);
-        if ldot.abs() <= FTINY {
-            return c;
-        }
-        if ldot > 0.0 {
-            c += self.rdiff * (ldot * omega / PI);
-        } else {
-            c += self.tdiff * (-ldot * omega / PI);
-        }
-        let Some(d) = scene.bsdfs.get(self.data as usize) else {
-            return c * self.scale;
-        };
-        let vsrc = self.local(ldir);
-        if let Some(part) = d.part_for(vsrc, self.vray) {
-            let v = d.value(part, vsrc, self.vray);
-            if v > FTINY {
-                if ldot < 0.0 {
-                    c += self.pcol * (v * -ldot * omega);
-                } else {
-                    c += Color::splat(v * ldot * omega);
-                }
-            }
-        }
-        c * self.scale
-    }
-}
 
 /// The material's reals and orientation (`Material::Bsdf`).
 pub(crate) struct BsdfParams {

@@ -28,13 +28,13 @@
 use serde::{Deserialize, Serialize};
 
 use super::caster::RayCaster;
+use super::light::Relay;
 use super::light::{LightExtent, PatchSample, PreparedLight};
 use super::material::{
     hit_object, intens, shadow_filter, shadow_refraction, ShadeContext, ShadowBundle, Surface,
 };
 use super::medium::{self, Medium};
 use super::rng::Rng;
-use super::virtual_source::Relay;
 use crate::geometry::FTINY;
 use crate::geometry::{offset_origin_scaled, Ray, Vec3};
 use crate::image::brightness;

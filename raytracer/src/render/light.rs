@@ -6,6 +6,11 @@
 //! (at most [`MAX_PATCHES`] patches, Radiance's `MAXSPART`). Each patch
 //! contributes one sample point, at its centre for `-dj 0` and moved
 //! towards a uniformly random point of the patch by the fraction `-dj`.
+//!
+//! A virtual source ([`Virtual`]: the mirrors or prisms relaying a real
+//! source) is a prepared light too, sampled through the real one it holds;
+//! the two are one recursive type and live here. Finding the relays is
+//! [`super::virtual_source`]'s work.
 
 use std::f64::consts::PI;
 
@@ -93,7 +98,7 @@ pub struct PreparedLight {
     pub hit_ratio: f64,
     /// A virtual source: the mirrors relaying a real one
     /// (see [`super::virtual_source`]); `None` for real sources.
-    pub virt: Option<Box<super::virtual_source::Virtual>>,
+    pub virt: Option<Box<Virtual>>,
     /// A spotlight's focal length: the length of its direction vector
     /// (Radiance's `flen`, 0 for other sources). Samples' solid angles are
     /// those of the source seen from `flen` further away.
@@ -210,14 +215,6 @@ pub fn prepare_lights(scene: &Scene) -> (Vec<PreparedLight>, Vec<String>) {
         });
     }
     (out, warnings)
-}
-
-/// [`prepare_lights`] plus the virtual sources planar mirrors make of
-/// them, up to `relays` reflections (`-dr`; see [`super::virtual_source`]).
-pub fn prepare_lights_relayed(scene: &Scene, relays: u32) -> (Vec<PreparedLight>, Vec<String>) {
-    let (mut lights, mut warnings) = prepare_lights(scene);
-    super::virtual_source::add_virtual_lights(scene, &mut lights, relays, &mut warnings);
-    (lights, warnings)
 }
 
 fn polygon_geometry(vertices: &[Vec3], triangles: &[[u32; 3]], normal: Vec3) -> Geometry {
@@ -452,11 +449,7 @@ impl PreparedLight {
 
     /// A virtual copy of this (real) light relayed by `virt`, its samples
     /// lying within `extent`.
-    pub fn relayed(
-        &self,
-        virt: super::virtual_source::Virtual,
-        extent: Option<LightExtent>,
-    ) -> Self {
+    pub fn relayed(&self, virt: Virtual, extent: Option<LightExtent>) -> Self {
         Self {
             object: None,
             extent,
@@ -1016,6 +1009,154 @@ pub fn spot_lights(direction: Vec3, normal: Vec3, angle_deg: f64, to_point: Vec3
 pub fn spot_admits(aim: Vec3, angle_deg: f64, to_point: Vec3) -> bool {
     let half = (0.5 * angle_deg).to_radians();
     aim.dot(to_point) >= half.cos()
+}
+
+/// One mirror plane a virtual source's light is relayed through.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Relay {
+    /// The mirror object (top level).
+    pub object: ObjectId,
+    /// Unit normal of its reflecting (front) side.
+    pub normal: Vec3,
+    /// `normal . x = offset` on the plane.
+    pub offset: f64,
+    /// The mirror's reflectance per channel.
+    pub color: Color,
+    /// For a prism (`prism1`/`prism2`) instead of a mirror: which
+    /// projection of which redirecting functions relays the source.
+    pub redirect: Option<Redirect>,
+}
+
+/// A prism's relay of a distant source: projection `projection` of the
+/// functions `modifier` bends the source's direction by Radiance's shear
+/// `x -> x + (x . plane) shear` (`dir_proj`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Redirect {
+    pub modifier: crate::modifier::ModifierId,
+    pub projection: u8,
+    pub plane: Vec3,
+    pub shear: Vec3,
+}
+
+impl Relay {
+    /// Mirror image of the point `p` (a prism relays distant sources only:
+    /// points stay).
+    #[inline]
+    pub fn point(&self, p: Vec3) -> Vec3 {
+        if self.redirect.is_some() {
+            return p;
+        }
+        p - self.normal * (2.0 * (self.normal.dot(p) - self.offset))
+    }
+
+    /// Mirror image of the direction `d` (a mirror is its own inverse).
+    #[inline]
+    pub fn dir(&self, d: Vec3) -> Vec3 {
+        d - self.normal * (2.0 * self.normal.dot(d))
+    }
+
+    /// A direction towards the real source seen as towards its image.
+    pub(super) fn image_dir(&self, d: Vec3) -> Vec3 {
+        match &self.redirect {
+            None => self.dir(d),
+            Some(r) => (d + r.shear * d.dot(r.plane)).normalize_or_zero(),
+        }
+    }
+
+    /// The inverse of [`Self::image_dir`] (the shear's inverse is
+    /// `y -> y - (y . plane) shear`, as `shear . plane` is 0).
+    fn real_dir(&self, d: Vec3) -> Vec3 {
+        match &self.redirect {
+            None => self.dir(d),
+            Some(r) => (d - r.shear * d.dot(r.plane)).normalize_or_zero(),
+        }
+    }
+}
+
+/// What makes a prepared light virtual.
+#[derive(Debug, Clone)]
+pub struct Virtual {
+    /// The mirrors, in the order a shadow ray meets them.
+    pub relays: Vec<Relay>,
+    /// The real source behind them.
+    pub real: Box<PreparedLight>,
+}
+
+impl Virtual {
+    /// The point whose view of the real source equals `p`'s view of this
+    /// virtual one.
+    pub fn to_real(&self, p: Vec3) -> Vec3 {
+        self.relays.iter().fold(p, |p, r| r.point(p))
+    }
+
+    fn dir_to_real(&self, d: Vec3) -> Vec3 {
+        self.relays.iter().fold(d, |d, r| r.real_dir(d))
+    }
+
+    fn dir_from_real(&self, d: Vec3) -> Vec3 {
+        self.relays.iter().rev().fold(d, |d, r| r.image_dir(d))
+    }
+
+    fn sample_from_real(&self, s: PatchSample) -> PatchSample {
+        PatchSample {
+            dir: self.dir_from_real(s.dir),
+            normal: self.dir_from_real(s.normal),
+            ..s
+        }
+    }
+
+    fn sample_to_real(&self, s: &PatchSample) -> PatchSample {
+        PatchSample {
+            dir: self.dir_to_real(s.dir),
+            normal: self.dir_to_real(s.normal),
+            ..*s
+        }
+    }
+
+    /// See [`PreparedLight::may_reach`]: `p` must be in front of the first
+    /// mirror and its image must see the real source.
+    pub fn may_reach(&self, p: Vec3) -> bool {
+        let Some(first) = self.relays.first() else {
+            return false;
+        };
+        first.normal.dot(p) > first.offset && self.real.may_reach(self.to_real(p))
+    }
+
+    /// See [`PreparedLight::emission`].
+    pub fn emission(&self, from: Vec3, s: &PatchSample) -> Color {
+        self.real
+            .emission(self.to_real(from), &self.sample_to_real(s))
+    }
+
+    /// See [`PreparedLight::rough_sample`].
+    pub fn rough_sample(&self, scene: &Scene, p: Vec3) -> Option<PatchSample> {
+        if !self.may_reach(p) {
+            return None;
+        }
+        self.real
+            .rough_sample(scene, self.to_real(p))
+            .map(|s| self.sample_from_real(s))
+    }
+
+    /// See [`PreparedLight::for_each_patch`].
+    /// (The callback is dynamic: the real light's method is generic over it.)
+    pub fn for_each_patch(
+        &self,
+        scene: &Scene,
+        p: Vec3,
+        ds: f64,
+        dj: f64,
+        rng: &mut Rng,
+        f: &mut dyn FnMut(PatchSample),
+    ) {
+        if !self.may_reach(p) {
+            return;
+        }
+        self.real
+            .for_each_patch(scene, self.to_real(p), ds, dj, rng, |s| {
+                f(self.sample_from_real(s))
+            });
+    }
 }
 
 #[cfg(test)]

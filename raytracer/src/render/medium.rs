@@ -15,7 +15,7 @@
 //! ambient in-scattering) and the in-scattering of the listed sources,
 //! sampled at `max(1, t / -ms)` (at most [`MAX_SCATTER_SAMPLES`]) points
 //! along the segment. Each in-scattering sample is a shadow bundle
-//! ([`Request::Scatter`]) with a [`ScatterSurface`] that weighs the light
+//! ([`Request::Scatter`](super::shading::Request::Scatter)) with a [`ScatterSurface`] that weighs the light
 //! by the phase function, so the parallel renderers run it like any
 //! other shadow bundle. Shadow rays in a medium lose `exp(-t * ext * (1 -
 //! albedo))` (Radiance counts scattered light as not lost for sources).
@@ -25,14 +25,13 @@
 //! sources, so two mists naming the same source (which Radiance's
 //! documentation rules out) keep it until the ray leaves both.
 
-use std::f64::consts::PI;
-
 use serde::{Deserialize, Serialize};
 
 use super::light::PreparedLight;
-use super::material::{intens, RayTask, Request, ShadeContext, ShadowBundle, Surface};
+pub use super::task::Medium;
+
 use super::options::RenderOptions;
-use super::rng::{child_seed, Rng};
+use super::task::{intens, RayTask};
 use crate::geometry::Vec3;
 use crate::geometry::FTINY;
 use crate::scene::{Color, Material, MaterialId, Scene};
@@ -45,19 +44,6 @@ pub const MAX_SCATTER_SAMPLES: usize = 16;
 /// those it is inside as bits).
 pub const MAX_SCATTER_MISTS: usize = 64;
 pub use crate::scene::MAX_MIST_SOURCES;
-
-/// Where a ray travels besides its extinction: Radiance's `r->albedo`,
-/// `r->gecc` and `r->slights`.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Medium {
-    /// Scattering albedo (scattering over extinction).
-    pub albedo: Color,
-    /// Henyey-Greenstein eccentricity (0: isotropic).
-    pub gecc: f64,
-    /// The mists with light sources the ray is inside: bit `k` is the
-    /// mist of slot `k` of [`Media`].
-    pub scatter: u64,
-}
 
 /// What the render knows of its media: the mists that name light sources
 /// and those sources as prepared lights.
@@ -138,7 +124,7 @@ impl Media {
 
     /// The prepared lights the mists in `scatter` name, each once, in slot
     /// order.
-    fn lights_of(&self, scatter: u64, out: &mut Vec<u32>) {
+    pub(super) fn lights_of(&self, scatter: u64, out: &mut Vec<u32>) {
         out.clear();
         for (k, list) in self.sources.iter().enumerate() {
             if scatter & (1u64 << k) != 0 {
@@ -241,7 +227,7 @@ pub fn cross_mist(
 /// Radiance's extinction factor for optical depth `re` (per channel):
 /// 1 at or below FTINY, 0 above 92.
 #[inline]
-fn extinction_factor(re: Color) -> Color {
+pub(super) fn extinction_factor(re: Color) -> Color {
     let f = |x: f64| {
         if x <= FTINY {
             1.0
@@ -317,81 +303,6 @@ pub fn hg_phase(g: f64, cos: f64) -> f64 {
     }
     let d = 1.0 + g * g - 2.0 * g * cos;
     (1.0 - g * g) / (d * d.sqrt())
-}
-
-thread_local! {
-    static SCATTER_LIGHTS: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
-}
-
-/// `srcscatter()`: appends one [`Request::Scatter`] per in-scattering
-/// sample of the segment of `task` of length `t` in medium (`ext`, `med`).
-/// Nothing where the medium does not scatter towards any listed source.
-pub fn scatter_requests(
-    ctx: &ShadeContext,
-    task: &RayTask,
-    ext: Color,
-    med: &Medium,
-    t: f64,
-    out: &mut Vec<Request>,
-) {
-    let opts = ctx.options;
-    if med.scatter == 0
-        || t.is_nan()
-        || t >= FHUGE
-        || med.gecc >= 1.0 - FTINY
-        || intens(ext) <= 1.0 / FHUGE
-        || intens(med.albedo) <= FTINY
-    {
-        return;
-    }
-    let nsamps = if opts.ms <= FTINY {
-        1
-    } else {
-        ((t / opts.ms + 0.5) as usize).clamp(1, MAX_SCATTER_SAMPLES)
-    };
-    let base = ext * med.albedo * (t / (4.0 * PI * nsamps as f64));
-    SCATTER_LIGHTS.with_borrow_mut(|lights| {
-        ctx.media.lights_of(med.scatter, lights);
-        for (i, &light) in lights.iter().enumerate() {
-            for j in 0..nsamps {
-                let seed = child_seed(
-                    task.seed,
-                    0x5ca7_0000 + (i * MAX_SCATTER_SAMPLES + j) as u32,
-                );
-                let mut rng = Rng::new(child_seed(seed, 1));
-                let tj = t * (j as f64 + rng.next_f64()) / nsamps as f64;
-                let cvext = extinction_factor(ext * tj);
-                if intens(cvext) <= FTINY {
-                    break; // too far away
-                }
-                let point = task.ray.origin + task.ray.dir * tj;
-                if !ctx
-                    .lights
-                    .get(light as usize)
-                    .is_some_and(|l| l.may_reach(point))
-                {
-                    continue;
-                }
-                out.push(Request::Scatter(ShadowBundle {
-                    light,
-                    point,
-                    normal: Vec3::ZERO,
-                    offset_scale: point.abs().max_element(),
-                    surface: Surface::Scatter(ScatterSurface {
-                        rdir: task.ray.dir,
-                        gecc: med.gecc,
-                        factor: base * cvext,
-                    }),
-                    reference: 0.0,
-                    weight: task.weight,
-                    seed,
-                    extinction: ext,
-                    medium: *med,
-                    clip: task.clip,
-                }));
-            }
-        }
-    });
 }
 
 #[cfg(test)]

@@ -5,7 +5,10 @@
 //! - [`options`]: [`RenderOptions`] under Radiance's names (`-ds`, `-dt`, ...);
 //! - [`material`]: shading one hit point into local light plus *requests*
 //!   (shadow bundles, reflected and refracted rays), the unit of work the
-//!   parallel renderer schedules;
+//!   parallel renderer schedules; it sits on [`task`] (the ray to shade),
+//!   [`surface`] (how each surface weighs light from a direction) and
+//!   [`shading`] (requests, shadow bundles and the emitter every material
+//!   routine writes through);
 //! - [`ambient`]: diffuse inter-reflection with an irradiance cache (`-ab`);
 //! - [`light`] and [`direct`]: source subdivision and adaptive shadow testing;
 //! - [`medium`]: participating media (`mist`, `-me -ma -mg -ms`);
@@ -30,7 +33,10 @@ pub mod medium;
 pub mod options;
 pub use crate::geometry::rng;
 pub mod sequential;
+pub mod shading;
 pub mod stats;
+pub mod surface;
+pub mod task;
 pub mod virtual_source;
 
 #[cfg(test)]

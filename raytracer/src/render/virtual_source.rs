@@ -28,7 +28,9 @@
 //! shadow rays are redirected by the same functions where they meet the
 //! surface, scaled by their coefficient.
 
-use super::light::{LightExtent, PatchSample, PreparedLight};
+pub use super::light::{Redirect, Relay, Virtual};
+
+use super::light::{prepare_lights, LightExtent, PreparedLight};
 use crate::geometry::{Aabb, Shape, Vec3};
 use crate::scene::{Color, Material, ObjectId, Scene};
 
@@ -39,154 +41,6 @@ const FTINY: f64 = 1e-6;
 /// made of thousands of polygons times many sources would otherwise
 /// explode the light list).
 pub const MAX_VIRTUAL_SOURCES: usize = 4096;
-
-/// One mirror plane a virtual source's light is relayed through.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Relay {
-    /// The mirror object (top level).
-    pub object: ObjectId,
-    /// Unit normal of its reflecting (front) side.
-    pub normal: Vec3,
-    /// `normal . x = offset` on the plane.
-    pub offset: f64,
-    /// The mirror's reflectance per channel.
-    pub color: Color,
-    /// For a prism (`prism1`/`prism2`) instead of a mirror: which
-    /// projection of which redirecting functions relays the source.
-    pub redirect: Option<Redirect>,
-}
-
-/// A prism's relay of a distant source: projection `projection` of the
-/// functions `modifier` bends the source's direction by Radiance's shear
-/// `x -> x + (x . plane) shear` (`dir_proj`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Redirect {
-    pub modifier: crate::modifier::ModifierId,
-    pub projection: u8,
-    pub plane: Vec3,
-    pub shear: Vec3,
-}
-
-impl Relay {
-    /// Mirror image of the point `p` (a prism relays distant sources only:
-    /// points stay).
-    #[inline]
-    pub fn point(&self, p: Vec3) -> Vec3 {
-        if self.redirect.is_some() {
-            return p;
-        }
-        p - self.normal * (2.0 * (self.normal.dot(p) - self.offset))
-    }
-
-    /// Mirror image of the direction `d` (a mirror is its own inverse).
-    #[inline]
-    pub fn dir(&self, d: Vec3) -> Vec3 {
-        d - self.normal * (2.0 * self.normal.dot(d))
-    }
-
-    /// A direction towards the real source seen as towards its image.
-    fn image_dir(&self, d: Vec3) -> Vec3 {
-        match &self.redirect {
-            None => self.dir(d),
-            Some(r) => (d + r.shear * d.dot(r.plane)).normalize_or_zero(),
-        }
-    }
-
-    /// The inverse of [`Self::image_dir`] (the shear's inverse is
-    /// `y -> y - (y . plane) shear`, as `shear . plane` is 0).
-    fn real_dir(&self, d: Vec3) -> Vec3 {
-        match &self.redirect {
-            None => self.dir(d),
-            Some(r) => (d - r.shear * d.dot(r.plane)).normalize_or_zero(),
-        }
-    }
-}
-
-/// What makes a prepared light virtual.
-#[derive(Debug, Clone)]
-pub struct Virtual {
-    /// The mirrors, in the order a shadow ray meets them.
-    pub relays: Vec<Relay>,
-    /// The real source behind them.
-    pub real: Box<PreparedLight>,
-}
-
-impl Virtual {
-    /// The point whose view of the real source equals `p`'s view of this
-    /// virtual one.
-    pub fn to_real(&self, p: Vec3) -> Vec3 {
-        self.relays.iter().fold(p, |p, r| r.point(p))
-    }
-
-    fn dir_to_real(&self, d: Vec3) -> Vec3 {
-        self.relays.iter().fold(d, |d, r| r.real_dir(d))
-    }
-
-    fn dir_from_real(&self, d: Vec3) -> Vec3 {
-        self.relays.iter().rev().fold(d, |d, r| r.image_dir(d))
-    }
-
-    fn sample_from_real(&self, s: PatchSample) -> PatchSample {
-        PatchSample {
-            dir: self.dir_from_real(s.dir),
-            normal: self.dir_from_real(s.normal),
-            ..s
-        }
-    }
-
-    fn sample_to_real(&self, s: &PatchSample) -> PatchSample {
-        PatchSample {
-            dir: self.dir_to_real(s.dir),
-            normal: self.dir_to_real(s.normal),
-            ..*s
-        }
-    }
-
-    /// See [`PreparedLight::may_reach`]: `p` must be in front of the first
-    /// mirror and its image must see the real source.
-    pub fn may_reach(&self, p: Vec3) -> bool {
-        let Some(first) = self.relays.first() else {
-            return false;
-        };
-        first.normal.dot(p) > first.offset && self.real.may_reach(self.to_real(p))
-    }
-
-    /// See [`PreparedLight::emission`].
-    pub fn emission(&self, from: Vec3, s: &PatchSample) -> Color {
-        self.real
-            .emission(self.to_real(from), &self.sample_to_real(s))
-    }
-
-    /// See [`PreparedLight::rough_sample`].
-    pub fn rough_sample(&self, scene: &Scene, p: Vec3) -> Option<PatchSample> {
-        if !self.may_reach(p) {
-            return None;
-        }
-        self.real
-            .rough_sample(scene, self.to_real(p))
-            .map(|s| self.sample_from_real(s))
-    }
-
-    /// See [`PreparedLight::for_each_patch`].
-    /// (The callback is dynamic: the real light's method is generic over it.)
-    pub fn for_each_patch(
-        &self,
-        scene: &Scene,
-        p: Vec3,
-        ds: f64,
-        dj: f64,
-        rng: &mut super::rng::Rng,
-        f: &mut dyn FnMut(PatchSample),
-    ) {
-        if !self.may_reach(p) {
-            return;
-        }
-        self.real
-            .for_each_patch(scene, self.to_real(p), ds, dj, rng, |s| {
-                f(self.sample_from_real(s))
-            });
-    }
-}
 
 /// A planar mirror that can relay sources.
 #[derive(Debug, Clone, Copy)]
@@ -294,6 +148,14 @@ fn mirrors(scene: &Scene, warnings: &mut Vec<String>) -> Vec<Mirror> {
         ));
     }
     out
+}
+
+/// [`prepare_lights`] plus the virtual sources planar mirrors make of
+/// them, up to `relays` reflections (`-dr`; see the module doc).
+pub fn prepare_lights_relayed(scene: &Scene, relays: u32) -> (Vec<PreparedLight>, Vec<String>) {
+    let (mut lights, mut warnings) = prepare_lights(scene);
+    add_virtual_lights(scene, &mut lights, relays, &mut warnings);
+    (lights, warnings)
 }
 
 /// Appends the virtual sources of `lights` (real sources only) through the

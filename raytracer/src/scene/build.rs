@@ -10,9 +10,12 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use super::input::{read_input_text, MAX_INPUT_BYTES};
 use super::model::*;
+use super::modstate::ModState;
+use super::obj::{clean_obj, convert_material, obj_error, MtlSource};
 use super::rad::{Expander, RawPrim};
-use super::xform::{is_surface, parse_instance_xf};
+use super::xform::{is_surface, parse_instance_xf, PATTERNS};
 use crate::geometry::shape::{InstanceGeometry, Shape};
 use crate::geometry::Vec3;
 use crate::modifier::ModifierId;
@@ -33,26 +36,6 @@ pub(super) enum Mod {
     },
 }
 
-/// Pattern, texture and mixture types.
-pub(super) const PATTERNS: &[&str] = &[
-    "brightfunc",
-    "colorfunc",
-    "texfunc",
-    "texdata",
-    "brightdata",
-    "colordata",
-    "colorpict",
-    "brighttext",
-    "colortext",
-    "mixfunc",
-    "mixdata",
-    "mixpict",
-    "mixtext",
-    "specfunc",
-    "specdata",
-    "specpict",
-];
-
 /// Builds a scene from raw primitives (and OBJ objects, see [`super::obj`]).
 pub(crate) struct Builder {
     pub scene: Scene,
@@ -66,7 +49,7 @@ pub(crate) struct Builder {
     /// Vertex data of the mesh being loaded as instance geometry.
     pending_shading: Option<crate::geometry::shape::MeshShading>,
     /// Patterns, textures and mixtures, and what they load.
-    pub(super) mods: super::modifiers::ModState,
+    pub(super) mods: ModState,
     /// Unsupported-type warnings by key: index into `scene.warnings` and count.
     grouped: HashMap<String, (usize, usize)>,
 }
@@ -78,11 +61,11 @@ impl Builder {
             scope: HashMap::new(),
             void_id: None,
             default_id: None,
-            exp: Expander::with_search_path(super::LoadOptions::from_env().search_path),
+            exp: Expander::with_search_path(LoadOptions::from_env().search_path),
             inst_cache: HashMap::new(),
             inst_stack: Vec::new(),
             pending_shading: None,
-            mods: super::modifiers::ModState::new(super::LoadOptions::from_env().search_path),
+            mods: ModState::new(LoadOptions::from_env().search_path),
             grouped: HashMap::new(),
         }
     }
@@ -1090,7 +1073,7 @@ impl Builder {
                 self.add_octree(p, source, &mut objects, false)
             }
             _ if p.ptype == "mesh" => {
-                super::obj::load_obj_into(self, source, overriding, Some(&p.loc), &mut objects)
+                load_obj_into(self, source, overriding, Some(&p.loc), &mut objects)
             }
             _ => {
                 let mut prims = Vec::new();
@@ -1239,14 +1222,14 @@ impl Builder {
 
     /// Loads an OBJ file at top level; its emitting faces become area lights.
     pub fn add_obj_file(&mut self, path: &Path) -> Result<()> {
-        self.add_obj_with(|b, objs| super::obj::load_obj_into(b, path, None, None, objs))
+        self.add_obj_with(|b, objs| load_obj_into(b, path, None, None, objs))
     }
 
     /// Loads OBJ text held in memory at top level; every `mtllib` it names
     /// reads `mtl` (none: a missing library).
     pub fn add_obj_text(&mut self, text: &str, path: &Path, mtl: Option<&str>) -> Result<()> {
         let source = |_: &str| Ok(mtl.map(|t| (path.with_extension("mtl"), t.to_string())));
-        self.add_obj_with(|b, objs| super::obj::load_obj_text(b, text, path, &source, None, objs))
+        self.add_obj_with(|b, objs| load_obj_text(b, text, path, &source, None, objs))
     }
 
     fn add_obj_with(
@@ -1341,4 +1324,175 @@ fn retag(e: Error, prefix: &str) -> Error {
         },
         other => other,
     }
+}
+
+/// How scene files are read.
+#[derive(Debug, Clone, Default)]
+pub struct LoadOptions {
+    /// Where `.cal`, data, picture and font files are searched after the
+    /// naming file's folder (Radiance's `RAYPATH`).
+    pub search_path: Vec<std::path::PathBuf>,
+}
+
+impl LoadOptions {
+    /// The search path from the `RAYPATH` environment variable.
+    pub fn from_env() -> Self {
+        Self {
+            search_path: std::env::var_os("RAYPATH")
+                .map(|v| std::env::split_paths(&v).collect())
+                .unwrap_or_default(),
+        }
+    }
+}
+
+/// Loads an OBJ file's faces into `objects`. Faces without a material get
+/// `default` (when `None`, a grey plastic with a warning). `from` is where a
+/// scene file named it (a Radiance `mesh`), for error messages.
+pub(crate) fn load_obj_into(
+    b: &mut Builder,
+    path: &Path,
+    default: Option<MaterialId>,
+    from: Option<&SourceLoc>,
+    objects: &mut Vec<Object>,
+) -> Result<()> {
+    let text = read_input_text(path, MAX_INPUT_BYTES).map_err(|e| {
+        let why = if e.kind() == std::io::ErrorKind::NotFound {
+            "file not found".to_string()
+        } else {
+            format!("cannot read: {e}")
+        };
+        obj_error(path, from, why)
+    })?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mtl = move |name: &str| {
+        let p = dir.join(name);
+        match read_input_text(&p, MAX_INPUT_BYTES) {
+            Ok(t) => Ok(Some((p, t))),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(e.to_string()),
+        }
+    };
+    load_obj_text(b, &text, path, &mtl, default, objects)
+}
+
+/// [`load_obj_into`] for OBJ text in memory; `mtl` provides the material
+/// libraries it names.
+pub(crate) fn load_obj_text(
+    b: &mut Builder,
+    text: &str,
+    path: &Path,
+    mtl: &MtlSource<'_>,
+    default: Option<MaterialId>,
+    objects: &mut Vec<Object>,
+) -> Result<()> {
+    let clean = clean_obj(text, path, mtl)?;
+    for (loc, w) in &clean.warnings {
+        b.warn(loc, w.clone());
+    }
+    let opts = tobj::LoadOptions {
+        triangulate: false,
+        single_index: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let libs = &clean.mtl;
+    let loaded = tobj::load_obj_buf(&mut clean.obj.as_bytes(), &opts, |p| {
+        let name = p.to_string_lossy();
+        match libs.iter().find(|(n, _)| *n == name) {
+            Some((_, text)) => tobj::load_mtl_buf(&mut text.as_bytes()),
+            None => Err(tobj::LoadError::OpenFileFailed),
+        }
+    });
+    let (models, mtl) = loaded
+        .map_err(|e| Error::parse(SourceLoc::new(path, 0), format!("cannot load OBJ: {e}")))?;
+    let file_loc = SourceLoc::new(path, 0);
+    let mtls = match mtl {
+        Ok(m) => m,
+        Err(e) => {
+            if !clean.mtl.is_empty() {
+                b.warn(
+                    &file_loc,
+                    format!(
+                        "material library could not be loaded ({e}); faces use the default material"
+                    ),
+                );
+            }
+            Vec::new()
+        }
+    };
+    let ids: Vec<MaterialId> = mtls
+        .iter()
+        .map(|m| b.define_material(&m.name, convert_material(m)))
+        .collect();
+    let mut untextured = 0usize;
+    let mut degenerate = 0usize;
+    for model in &models {
+        let mesh = &model.mesh;
+        let material = match mesh.material_id.and_then(|k| ids.get(k)) {
+            Some(&id) => id,
+            None => {
+                untextured += 1;
+                match default {
+                    Some(d) => d,
+                    None => b.default_material(),
+                }
+            }
+        };
+        let nfaces = if mesh.face_arities.is_empty() {
+            mesh.indices.len() / 3
+        } else {
+            mesh.face_arities.len()
+        };
+        let mut start = 0usize;
+        for f in 0..nfaces {
+            let arity = if mesh.face_arities.is_empty() {
+                3
+            } else {
+                mesh.face_arities[f] as usize
+            };
+            let Some(idx) = mesh.indices.get(start..start + arity) else {
+                return Err(Error::parse(
+                    file_loc.clone(),
+                    format!("object '{}': face {f} is truncated", model.name),
+                ));
+            };
+            start += arity;
+            let mut verts = Vec::with_capacity(arity);
+            for &i in idx {
+                let k = 3 * i as usize;
+                let Some(p) = mesh.positions.get(k..k + 3) else {
+                    return Err(Error::parse(
+                        file_loc.clone(),
+                        format!(
+                            "object '{}': face {f} uses vertex {} which does not exist",
+                            model.name,
+                            i + 1
+                        ),
+                    ));
+                };
+                verts.push(Vec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
+            }
+            match Shape::polygon(verts) {
+                Ok(shape) => objects.push(Object {
+                    name: format!("{}.{f}", model.name),
+                    shape,
+                    material,
+                }),
+                Err(_) => degenerate += 1,
+            }
+        }
+    }
+    if untextured > 0 && default.is_none() {
+        b.warn(
+            &file_loc,
+            format!("{untextured} object(s) have no material; using a default grey plastic"),
+        );
+    }
+    if degenerate > 0 {
+        b.warn(
+            &file_loc,
+            format!("{degenerate} degenerate face(s) skipped"),
+        );
+    }
+    Ok(())
 }

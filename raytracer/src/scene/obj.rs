@@ -24,13 +24,10 @@
 
 use std::path::{Path, PathBuf};
 
-use super::build::Builder;
-use super::input::{read_input_text, MAX_INPUT_BYTES};
-use super::model::{Color, Material, MaterialId, Object};
-use crate::geometry::{Shape, Vec3};
+use super::model::{Color, Material};
 use crate::{Error, Result, SourceLoc};
 
-fn obj_error(path: &Path, from: Option<&SourceLoc>, what: String) -> Error {
+pub(super) fn obj_error(path: &Path, from: Option<&SourceLoc>, what: String) -> Error {
     match from {
         Some(loc) => Error::parse(
             loc.clone(),
@@ -212,13 +209,13 @@ pub type MtlSource<'a> =
 /// Checks an OBJ file line by line (errors name `file:line`), reads the
 /// material libraries it names through `mtl`, and returns the cleaned OBJ
 /// text, the cleaned MTL texts by name, and the warnings.
-struct CleanObj {
-    obj: String,
-    mtl: Vec<(String, String)>,
-    warnings: Vec<(SourceLoc, String)>,
+pub(super) struct CleanObj {
+    pub(super) obj: String,
+    pub(super) mtl: Vec<(String, String)>,
+    pub(super) warnings: Vec<(SourceLoc, String)>,
 }
 
-fn clean_obj(text: &str, file: &Path, mtl: &MtlSource<'_>) -> Result<CleanObj> {
+pub(super) fn clean_obj(text: &str, file: &Path, mtl: &MtlSource<'_>) -> Result<CleanObj> {
     let mut out = String::with_capacity(text.len());
     let mut libs: Vec<(String, String)> = Vec::new();
     let mut warnings = Vec::new();
@@ -430,156 +427,4 @@ pub(crate) fn convert_material(m: &tobj::Material) -> Material {
             roughness,
         }
     }
-}
-
-/// Loads an OBJ file's faces into `objects`. Faces without a material get
-/// `default` (when `None`, a grey plastic with a warning). `from` is where a
-/// scene file named it (a Radiance `mesh`), for error messages.
-pub(crate) fn load_obj_into(
-    b: &mut Builder,
-    path: &Path,
-    default: Option<MaterialId>,
-    from: Option<&SourceLoc>,
-    objects: &mut Vec<Object>,
-) -> Result<()> {
-    let text = read_input_text(path, MAX_INPUT_BYTES).map_err(|e| {
-        let why = if e.kind() == std::io::ErrorKind::NotFound {
-            "file not found".to_string()
-        } else {
-            format!("cannot read: {e}")
-        };
-        obj_error(path, from, why)
-    })?;
-    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mtl = move |name: &str| {
-        let p = dir.join(name);
-        match read_input_text(&p, MAX_INPUT_BYTES) {
-            Ok(t) => Ok(Some((p, t))),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-            Err(e) => Err(e.to_string()),
-        }
-    };
-    load_obj_text(b, &text, path, &mtl, default, objects)
-}
-
-/// [`load_obj_into`] for OBJ text in memory; `mtl` provides the material
-/// libraries it names.
-pub(crate) fn load_obj_text(
-    b: &mut Builder,
-    text: &str,
-    path: &Path,
-    mtl: &MtlSource<'_>,
-    default: Option<MaterialId>,
-    objects: &mut Vec<Object>,
-) -> Result<()> {
-    let clean = clean_obj(text, path, mtl)?;
-    for (loc, w) in &clean.warnings {
-        b.warn(loc, w.clone());
-    }
-    let opts = tobj::LoadOptions {
-        triangulate: false,
-        single_index: false,
-        ignore_points: true,
-        ignore_lines: true,
-    };
-    let libs = &clean.mtl;
-    let loaded = tobj::load_obj_buf(&mut clean.obj.as_bytes(), &opts, |p| {
-        let name = p.to_string_lossy();
-        match libs.iter().find(|(n, _)| *n == name) {
-            Some((_, text)) => tobj::load_mtl_buf(&mut text.as_bytes()),
-            None => Err(tobj::LoadError::OpenFileFailed),
-        }
-    });
-    let (models, mtl) = loaded
-        .map_err(|e| Error::parse(SourceLoc::new(path, 0), format!("cannot load OBJ: {e}")))?;
-    let file_loc = SourceLoc::new(path, 0);
-    let mtls = match mtl {
-        Ok(m) => m,
-        Err(e) => {
-            if !clean.mtl.is_empty() {
-                b.warn(
-                    &file_loc,
-                    format!(
-                        "material library could not be loaded ({e}); faces use the default material"
-                    ),
-                );
-            }
-            Vec::new()
-        }
-    };
-    let ids: Vec<MaterialId> = mtls
-        .iter()
-        .map(|m| b.define_material(&m.name, convert_material(m)))
-        .collect();
-    let mut untextured = 0usize;
-    let mut degenerate = 0usize;
-    for model in &models {
-        let mesh = &model.mesh;
-        let material = match mesh.material_id.and_then(|k| ids.get(k)) {
-            Some(&id) => id,
-            None => {
-                untextured += 1;
-                match default {
-                    Some(d) => d,
-                    None => b.default_material(),
-                }
-            }
-        };
-        let nfaces = if mesh.face_arities.is_empty() {
-            mesh.indices.len() / 3
-        } else {
-            mesh.face_arities.len()
-        };
-        let mut start = 0usize;
-        for f in 0..nfaces {
-            let arity = if mesh.face_arities.is_empty() {
-                3
-            } else {
-                mesh.face_arities[f] as usize
-            };
-            let Some(idx) = mesh.indices.get(start..start + arity) else {
-                return Err(Error::parse(
-                    file_loc.clone(),
-                    format!("object '{}': face {f} is truncated", model.name),
-                ));
-            };
-            start += arity;
-            let mut verts = Vec::with_capacity(arity);
-            for &i in idx {
-                let k = 3 * i as usize;
-                let Some(p) = mesh.positions.get(k..k + 3) else {
-                    return Err(Error::parse(
-                        file_loc.clone(),
-                        format!(
-                            "object '{}': face {f} uses vertex {} which does not exist",
-                            model.name,
-                            i + 1
-                        ),
-                    ));
-                };
-                verts.push(Vec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
-            }
-            match Shape::polygon(verts) {
-                Ok(shape) => objects.push(Object {
-                    name: format!("{}.{f}", model.name),
-                    shape,
-                    material,
-                }),
-                Err(_) => degenerate += 1,
-            }
-        }
-    }
-    if untextured > 0 && default.is_none() {
-        b.warn(
-            &file_loc,
-            format!("{untextured} object(s) have no material; using a default grey plastic"),
-        );
-    }
-    if degenerate > 0 {
-        b.warn(
-            &file_loc,
-            format!("{degenerate} degenerate face(s) skipped"),
-        );
-    }
-    Ok(())
 }

@@ -10,7 +10,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::xform::Xf;
+use crate::geometry::Transform;
 use crate::{Error, Result, SourceLoc};
 
 /// Most primitives one load may produce (arrays of arrays can explode; a
@@ -33,7 +33,7 @@ pub(crate) struct RawPrim {
     pub loc: SourceLoc,
     /// Transform applied by enclosing `!xform` commands to an `instance` or
     /// `mesh` (after the transform in its own string arguments).
-    pub post: Option<Xf>,
+    pub post: Option<Transform>,
 }
 
 impl RawPrim {
@@ -345,70 +345,6 @@ impl Expander {
                     "scene expands to more than {MAX_PRIMITIVES} primitives (check array counts)"
                 ),
             ));
-        }
-        Ok(())
-    }
-
-    /// Runs one in-line command (`cmd` without its `!`): a pipeline of
-    /// `genbox`, `genprism`, `genrev` and `xform` stages.
-    fn command(&mut self, cmd: &str, loc: &SourceLoc, out: &mut Vec<RawPrim>) -> Result<()> {
-        let stages = split_command(cmd).map_err(|bad| {
-            Error::parse(
-                loc.clone(),
-                format!(
-                    "command '!{}' uses shell syntax ({bad}); scene files never run shell commands, \
-                     only the built-in genbox, genprism, genrev and xform (optionally piped into xform) \
-                     are understood",
-                    cmd.trim()
-                ),
-            )
-        })?;
-        let mut piped: Option<Vec<RawPrim>> = None;
-        let n = stages.len();
-        for (k, words) in stages.into_iter().enumerate() {
-            let Some(prog) = words.first() else {
-                return Err(Error::parse(loc.clone(), "empty command in pipeline"));
-            };
-            let prog_name = prog.rsplit('/').next().unwrap_or(prog);
-            let mut stage_out = Vec::new();
-            match prog_name {
-                "xform" => {
-                    super::xform::run_xform(self, &words[1..], piped.take(), loc, &mut stage_out)?;
-                }
-                "genbox" if k == 0 => {
-                    super::genbox::run_genbox(self, &words[1..], loc, &mut stage_out)?;
-                }
-                "genprism" if k == 0 => {
-                    super::generators::run_genprism(self, &words[1..], loc, &mut stage_out)?;
-                }
-                "genrev" if k == 0 => {
-                    super::generators::run_genrev(self, &words[1..], loc, &mut stage_out)?;
-                }
-                "genbox" | "genprism" | "genrev" => {
-                    return Err(Error::parse(
-                        loc.clone(),
-                        format!("{prog_name} cannot read from a pipe; put it first"),
-                    ));
-                }
-                _ => {
-                    return Err(Error::parse(
-                        loc.clone(),
-                        format!(
-                            "refusing to run '!{}': scene files never run shell commands; only the built-in \
-                             in-line commands genbox, genprism, genrev and xform are supported (write the generated geometry \
-                             into a file instead)",
-                            cmd.trim()
-                        ),
-                    ));
-                }
-            }
-            if k + 1 == n {
-                for p in stage_out {
-                    out.push(p);
-                }
-            } else {
-                piped = Some(stage_out);
-            }
         }
         Ok(())
     }

@@ -10,6 +10,7 @@ use glam::DVec3;
 
 use super::rad::{Expander, RawPrim};
 use crate::geometry::shape::Transform;
+use crate::geometry::Vec3;
 use crate::{Error, Result, SourceLoc};
 
 /// Transforms are the geometry module's similarity [`Transform`]; these
@@ -299,9 +300,9 @@ pub(crate) fn transform_prim(p: &RawPrim, xf: &Xf, invert: bool) -> Result<RawPr
             q.post = Some(p.post.unwrap_or(Xf::IDENTITY).then(xf));
         }
         "brighttext" | "colortext" | "mixtext" => {
-            super::modifiers::transform_text_reals(&mut q.reals, xf);
+            transform_text_reals(&mut q.reals, xf);
         }
-        t if super::build::PATTERNS.contains(&t) => {
+        t if PATTERNS.contains(&t) => {
             // Radiance's xform appends its transform to a pattern's.
             q.post = Some(p.post.unwrap_or(Xf::IDENTITY).then(xf));
         }
@@ -448,4 +449,41 @@ pub(crate) fn run_xform(
         }
     }
     Ok(())
+}
+
+/// Pattern, texture and mixture types.
+pub(crate) const PATTERNS: &[&str] = &[
+    "brightfunc",
+    "colorfunc",
+    "texfunc",
+    "texdata",
+    "brightdata",
+    "colordata",
+    "colorpict",
+    "brighttext",
+    "colortext",
+    "mixfunc",
+    "mixdata",
+    "mixpict",
+    "mixtext",
+    "specfunc",
+    "specdata",
+    "specpict",
+];
+
+/// Text patterns' placement through `xform` (Radiance's xform moves the
+/// origin and scales and turns the two vectors).
+pub(crate) fn transform_text_reals(reals: &mut [f64], xf: &Xf) {
+    if reals.len() < 9 {
+        return;
+    }
+    let v = |r: &[f64], k: usize| Vec3::new(r[k], r[k + 1], r[k + 2]);
+    let o = xf.point(v(reals, 0));
+    let r = xf.vector(v(reals, 3));
+    let d = xf.vector(v(reals, 6));
+    for (k, w) in [(0, o), (3, r), (6, d)] {
+        reals[k] = w.x;
+        reals[k + 1] = w.y;
+        reals[k + 2] = w.z;
+    }
 }
