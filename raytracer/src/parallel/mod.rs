@@ -15,6 +15,7 @@ pub mod cost;
 pub mod partition;
 pub mod predict;
 pub mod tree;
+pub mod work;
 pub mod workload;
 
 #[cfg(test)]
@@ -30,6 +31,7 @@ use hybrid_sched::{
 use serde::Serialize;
 
 pub use partition::Partition;
+pub use work::Work;
 pub use workload::{CellData, DdTask, Distribution, DpTask, RtWorkload, WorkloadOptions};
 
 use crate::accel::OctreeParams;
@@ -215,8 +217,8 @@ pub struct ParallelRender {
 }
 
 impl ParallelRender {
-    /// A counted work total over all processors (see [`workload::work`]).
-    pub fn work(&self, kind: workload::work::Work) -> u64 {
+    /// A counted work total over all processors (see [`Work`]).
+    pub fn work(&self, kind: Work) -> u64 {
         self.stats
             .procs
             .iter()

@@ -33,6 +33,7 @@ use hybrid_sched::{Addr, ByteSize, Ctx, DataView, DpOutcome, Placement, Workload
 use super::caster::{PartialCaster, Replay};
 use super::partition::{object_bytes, Partition};
 use super::tree::{Child, NodeKey, PixelTrees, Record, RtResult};
+use super::work::Work;
 use crate::accel::{Hit, NodeId, Partial, Pyramid, TraceCursor};
 use crate::geometry::{Aabb, Vec3};
 use crate::render::direct::{run_shadow_bundle, ShadowCounts};
@@ -192,72 +193,6 @@ impl ByteSize for DpTask {
                 }
             }
     }
-}
-
-/// Work-unit names charged to the framework's statistics.
-pub mod work {
-    hybrid_sched::work_kinds! {
-        /// Every kind of work the renderer charges, by its name in the
-        /// statistics and the cost model.
-        pub enum Work {
-            ClipNodes = "clip.nodes",
-            ClipMisses = "clip.misses",
-            /// Shadow bundles that reused a cell's selection (option `clip_cache`).
-            ClipReused = "clip.reused",
-            /// Of those, bundles whose whole selection was local already: nothing
-            /// to select or pin (option `clip_cache`).
-            ClipAllLocal = "clip.all_local",
-            RaysPrimary = "rays.primary",
-            RaysReflection = "rays.reflection",
-            RaysRefraction = "rays.refraction",
-            RaysPassThrough = "rays.pass_through",
-            RaysAmbient = "rays.ambient",
-            RaysSpawned = "rays.spawned",
-            RaysRetired = "rays.retired",
-            ShadowBundles = "shadow.bundles",
-            ShadowBundlesDp = "shadow.bundles_dp",
-            ShadowSpawned = "shadow.spawned",
-            ShadowRetired = "shadow.retired",
-            ShadowPatches = "shadow.patches",
-            ShadowTested = "shadow.tested",
-            ShadowEstimated = "shadow.estimated",
-            ShadowUnoccluded = "shadow.unoccluded",
-            ShadowSegments = "shadow.transparent_segments",
-            ShadowRestarts = "shadow.restarts",
-            /// Non-empty octree leaves entered by traversals (octree steps).
-            TraceLeaves = "trace.leaves",
-            /// Objects listed in those leaves (intersection tests, counting an
-            /// object once per leaf; an any-hit query may stop earlier).
-            TraceObjects = "trace.objects",
-            Shade = "shade",
-        }
-    }
-
-    // The kinds under their names as constants.
-    pub const CLIP_NODES: Work = Work::ClipNodes;
-    pub const CLIP_MISSES: Work = Work::ClipMisses;
-    pub const CLIP_REUSED: Work = Work::ClipReused;
-    pub const CLIP_ALL_LOCAL: Work = Work::ClipAllLocal;
-    pub const RAYS_PRIMARY: Work = Work::RaysPrimary;
-    pub const RAYS_REFLECTION: Work = Work::RaysReflection;
-    pub const RAYS_REFRACTION: Work = Work::RaysRefraction;
-    pub const RAYS_PASS_THROUGH: Work = Work::RaysPassThrough;
-    pub const RAYS_AMBIENT: Work = Work::RaysAmbient;
-    pub const RAYS_SPAWNED: Work = Work::RaysSpawned;
-    pub const RAYS_RETIRED: Work = Work::RaysRetired;
-    pub const SHADOW_BUNDLES: Work = Work::ShadowBundles;
-    pub const SHADOW_BUNDLES_DP: Work = Work::ShadowBundlesDp;
-    pub const SHADOW_SPAWNED: Work = Work::ShadowSpawned;
-    pub const SHADOW_RETIRED: Work = Work::ShadowRetired;
-    pub const SHADOW_PATCHES: Work = Work::ShadowPatches;
-    pub const SHADOW_TESTED: Work = Work::ShadowTested;
-    pub const SHADOW_ESTIMATED: Work = Work::ShadowEstimated;
-    pub const SHADOW_UNOCCLUDED: Work = Work::ShadowUnoccluded;
-    pub const SHADOW_SEGMENTS: Work = Work::ShadowSegments;
-    pub const SHADOW_RESTARTS: Work = Work::ShadowRestarts;
-    pub const TRACE_LEAVES: Work = Work::TraceLeaves;
-    pub const TRACE_OBJECTS: Work = Work::TraceObjects;
-    pub const SHADE: Work = Work::Shade;
 }
 
 /// Knobs of the parallel renderer that are not the framework's.
@@ -588,7 +523,7 @@ impl RtWorkload {
                 });
             }
         }
-        ctx.charge(work::CLIP_NODES, visits);
+        ctx.charge(Work::ClipNodes, visits);
         self.nonempty(leaves)
     }
 
@@ -643,14 +578,14 @@ impl RtWorkload {
         let key = (proc as u32, leaf, b.light);
         let shard = &self.clip_cache[proc % self.clip_cache.len()];
         if let Some(e) = shard.lock().ok()?.get_mut(&key) {
-            ctx.charge(work::CLIP_REUSED, 1);
+            ctx.charge(Work::ClipReused, 1);
             // Only where nothing is ever evicted: a selection left empty
             // pins nothing, so with a budget a cell could leave before the
             // bundle runs.
             if let Some(local) = local.filter(|l| l.keeps_everything()) {
                 if e.all_local || e.leaves.iter().all(|&l| self.held(local, proc, procs, l)) {
                     e.all_local = true;
-                    ctx.charge(work::CLIP_ALL_LOCAL, 1);
+                    ctx.charge(Work::ClipAllLocal, 1);
                     return Some(Vec::new());
                 }
             }
@@ -689,7 +624,7 @@ impl RtWorkload {
                 leaves.push(l);
             }
         });
-        ctx.charge(work::CLIP_NODES, visits);
+        ctx.charge(Work::ClipNodes, visits);
         leaves
     }
 
@@ -783,19 +718,19 @@ impl RtWorkload {
     fn charge_counts(&self, st: &crate::render::TraceState, ctx: &mut Ctx<Self>) {
         let c = &st.counts;
         for (kind, n) in [
-            (work::RAYS_PRIMARY, c.primary),
-            (work::RAYS_REFLECTION, c.reflection),
-            (work::RAYS_REFRACTION, c.refraction),
-            (work::RAYS_PASS_THROUGH, c.pass_through),
+            (Work::RaysPrimary, c.primary),
+            (Work::RaysReflection, c.reflection),
+            (Work::RaysRefraction, c.refraction),
+            (Work::RaysPassThrough, c.pass_through),
         ] {
             ctx.charge(kind, n);
         }
-        ctx.charge(work::SHADOW_BUNDLES, c.shadow.bundles);
-        ctx.charge(work::SHADOW_PATCHES, c.shadow.patches);
-        ctx.charge(work::SHADOW_TESTED, c.shadow.tested);
-        ctx.charge(work::SHADOW_ESTIMATED, c.shadow.estimated);
-        ctx.charge(work::SHADOW_UNOCCLUDED, c.shadow.unoccluded);
-        ctx.charge(work::SHADOW_SEGMENTS, c.shadow.transparent_segments);
+        ctx.charge(Work::ShadowBundles, c.shadow.bundles);
+        ctx.charge(Work::ShadowPatches, c.shadow.patches);
+        ctx.charge(Work::ShadowTested, c.shadow.tested);
+        ctx.charge(Work::ShadowEstimated, c.shadow.estimated);
+        ctx.charge(Work::ShadowUnoccluded, c.shadow.unoccluded);
+        ctx.charge(Work::ShadowSegments, c.shadow.transparent_segments);
     }
 
     /// A traced ray is complete: shade its hit here (or take the sky), send
@@ -810,15 +745,15 @@ impl RtWorkload {
     ) {
         ctx.charge(
             match task.kind {
-                RayKind::Primary => work::RAYS_PRIMARY,
-                RayKind::Reflection => work::RAYS_REFLECTION,
-                RayKind::Refraction => work::RAYS_REFRACTION,
-                RayKind::PassThrough => work::RAYS_PASS_THROUGH,
-                RayKind::Ambient => work::RAYS_AMBIENT,
+                RayKind::Primary => Work::RaysPrimary,
+                RayKind::Reflection => Work::RaysReflection,
+                RayKind::Refraction => Work::RaysRefraction,
+                RayKind::PassThrough => Work::RaysPassThrough,
+                RayKind::Ambient => Work::RaysAmbient,
             },
             1,
         );
-        ctx.charge(work::RAYS_RETIRED, 1);
+        ctx.charge(Work::RaysRetired, 1);
         let dest = Addr::Proc(origin as usize);
         let Some(hit) = hit else {
             let sky = self.renderer.sky_seen(task);
@@ -831,7 +766,7 @@ impl RtWorkload {
             );
             return;
         };
-        ctx.charge(work::SHADE, 1);
+        ctx.charge(Work::Shade, 1);
         let sctx = self.renderer.context();
         let mut requests = Vec::new();
         let shaded = shade(&sctx, task, &hit, &mut requests);
@@ -840,7 +775,7 @@ impl RtWorkload {
             match r {
                 Request::Trace { task: child, coef } => {
                     children.push(Child::Trace(coef));
-                    ctx.charge(work::RAYS_SPAWNED, 1);
+                    ctx.charge(Work::RaysSpawned, 1);
                     ctx.spawn_dp(DpTask::Ray(RayJob {
                         key: key.child(i),
                         origin,
@@ -855,10 +790,10 @@ impl RtWorkload {
                     } else {
                         Child::Shadow
                     });
-                    ctx.charge(work::SHADOW_SPAWNED, 1);
+                    ctx.charge(Work::ShadowSpawned, 1);
                     let key = key.child(i);
                     if self.shadow_goes_dp(&bundle) {
-                        ctx.charge(work::SHADOW_BUNDLES_DP, 1);
+                        ctx.charge(Work::ShadowBundlesDp, 1);
                         ctx.spawn_dp(DpTask::Shadow(ShadowDp {
                             key,
                             origin,
@@ -914,8 +849,8 @@ impl RtWorkload {
                 tests += octree.leaf_objects(l).len() as u64;
                 self.is_local(data, proc, procs, l)
             });
-        ctx.charge(work::TRACE_LEAVES, leaves);
-        ctx.charge(work::TRACE_OBJECTS, tests);
+        ctx.charge(Work::TraceLeaves, leaves);
+        ctx.charge(Work::TraceObjects, tests);
         match partial {
             Partial::Blocked(leaf) => {
                 job.next = Some(leaf);
@@ -940,7 +875,7 @@ impl RtWorkload {
         let octree = self.renderer.octree();
         let objects = &self.renderer.scene().objects;
         if !job.replay.answers.is_empty() || job.replay.cursor != TraceCursor::default() {
-            ctx.charge(work::SHADOW_RESTARTS, 1);
+            ctx.charge(Work::ShadowRestarts, 1);
         }
         let replay = std::mem::take(&mut job.replay);
         let (proc, procs) = (ctx.proc_id(), ctx.procs());
@@ -966,8 +901,8 @@ impl RtWorkload {
             )
         });
         let (leaves, tests) = visits.get();
-        ctx.charge(work::TRACE_LEAVES, leaves);
-        ctx.charge(work::TRACE_OBJECTS, tests);
+        ctx.charge(Work::TraceLeaves, leaves);
+        ctx.charge(Work::TraceObjects, tests);
         if let Some(leaf) = caster.blocked() {
             job.replay = caster.into_replay();
             job.next = Some(leaf);
@@ -986,13 +921,13 @@ impl RtWorkload {
 }
 
 fn charge_shadow(ctx: &mut Ctx<RtWorkload>, c: &ShadowCounts) {
-    ctx.charge(work::SHADOW_RETIRED, 1);
-    ctx.charge(work::SHADOW_BUNDLES, c.bundles);
-    ctx.charge(work::SHADOW_PATCHES, c.patches);
-    ctx.charge(work::SHADOW_TESTED, c.tested);
-    ctx.charge(work::SHADOW_ESTIMATED, c.estimated);
-    ctx.charge(work::SHADOW_UNOCCLUDED, c.unoccluded);
-    ctx.charge(work::SHADOW_SEGMENTS, c.transparent_segments);
+    ctx.charge(Work::ShadowRetired, 1);
+    ctx.charge(Work::ShadowBundles, c.bundles);
+    ctx.charge(Work::ShadowPatches, c.patches);
+    ctx.charge(Work::ShadowTested, c.tested);
+    ctx.charge(Work::ShadowEstimated, c.estimated);
+    ctx.charge(Work::ShadowUnoccluded, c.unoccluded);
+    ctx.charge(Work::ShadowSegments, c.transparent_segments);
 }
 
 impl Workload for RtWorkload {
@@ -1002,7 +937,7 @@ impl Workload for RtWorkload {
     type DpTask = DpTask;
     type Result = RtResult;
     type Accumulator = PixelTrees;
-    type Work = work::Work;
+    type Work = Work;
 
     fn placement(&self, procs: usize) -> Vec<Placement<NodeId>> {
         self.owner_table(procs)
@@ -1082,7 +1017,7 @@ impl Workload for RtWorkload {
                         let Some(task) = self.primary(x, y) else {
                             continue;
                         };
-                        ctx.charge(work::RAYS_SPAWNED, 1);
+                        ctx.charge(Work::RaysSpawned, 1);
                         let job = RayJob {
                             key: NodeKey::root(y * self.width as u32 + x),
                             origin,
@@ -1091,7 +1026,7 @@ impl Workload for RtWorkload {
                             next: None,
                         };
                         if let Some(job) = self.advance_ray(job, data, ctx) {
-                            ctx.charge(work::CLIP_MISSES, 1);
+                            ctx.charge(Work::ClipMisses, 1);
                             ctx.spawn_dp(DpTask::Ray(job));
                         }
                     }
@@ -1106,7 +1041,7 @@ impl Workload for RtWorkload {
                     next: None,
                 };
                 if let Some(job) = self.advance_shadow(job, data, ctx) {
-                    ctx.charge(work::CLIP_MISSES, 1);
+                    ctx.charge(Work::ClipMisses, 1);
                     ctx.spawn_dp(DpTask::Shadow(job));
                 }
             }
@@ -1120,7 +1055,7 @@ impl Workload for RtWorkload {
                 for y in t.y0..t.y1 {
                     for x in t.x0..t.x1 {
                         if let Some(task) = self.primary(x, y) {
-                            ctx.charge(work::RAYS_SPAWNED, 1);
+                            ctx.charge(Work::RaysSpawned, 1);
                             ctx.spawn_dp(DpTask::Ray(RayJob {
                                 key: NodeKey::root(y * self.width as u32 + x),
                                 origin,
@@ -1133,7 +1068,7 @@ impl Workload for RtWorkload {
                 }
             }
             DdTask::Shadow(j) => {
-                ctx.charge(work::SHADOW_BUNDLES_DP, 1);
+                ctx.charge(Work::ShadowBundlesDp, 1);
                 ctx.spawn_dp(DpTask::Shadow(ShadowDp {
                     key: j.key,
                     origin: j.origin,
