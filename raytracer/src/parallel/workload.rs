@@ -122,8 +122,6 @@ pub type Tile = crate::render::Region;
 #[serde(crate = "hybrid_sched::serde")]
 pub struct ShadowJob {
     pub key: NodeKey,
-    /// The processor assembling the pixel.
-    pub origin: u32,
     pub bundle: ShadowBundle,
 }
 
@@ -138,9 +136,15 @@ pub enum DdTask {
     Shadow(ShadowJob),
 }
 
+/// Bytes of the task's origin, which its envelope carries (the framework
+/// tracks it: [`Ctx::origin`]); tasks carried it themselves before, and the
+/// accounting keeps those bytes.
+const ORIGIN_BYTES: usize = 8;
+
 impl ByteSize for DdTask {
     fn byte_size(&self) -> usize {
         std::mem::size_of::<Self>()
+            + ORIGIN_BYTES
             + match self {
                 DdTask::Tile(_) => 0,
                 DdTask::Shadow(j) => 2 * j.key.path.len(),
@@ -153,7 +157,6 @@ impl ByteSize for DdTask {
 #[serde(crate = "hybrid_sched::serde")]
 pub struct RayJob {
     pub key: NodeKey,
-    pub origin: u32,
     pub task: RayTask,
     pub cursor: TraceCursor,
     /// The leaf it needs next (`None`: start wherever it is).
@@ -165,7 +168,6 @@ pub struct RayJob {
 #[serde(crate = "hybrid_sched::serde")]
 pub struct ShadowDp {
     pub key: NodeKey,
-    pub origin: u32,
     pub bundle: ShadowBundle,
     pub replay: Replay,
     pub next: Option<NodeId>,
@@ -185,6 +187,7 @@ pub enum DpTask {
 impl ByteSize for DpTask {
     fn byte_size(&self) -> usize {
         std::mem::size_of::<Self>()
+            + ORIGIN_BYTES
             + match self {
                 DpTask::Ray(j) => 2 * j.key.path.len(),
                 DpTask::Shadow(s) => {
@@ -668,7 +671,7 @@ impl RtWorkload {
     /// sequential kernel does not count them, so a simulated replicated run
     /// prices tracing from the ray counts alone.
     fn trace_tile_whole(&self, t: &Tile, ctx: &mut Ctx<Self>) {
-        let origin = Addr::Proc(ctx.proc_id());
+        let origin = Addr::Proc(ctx.origin());
         let mut st = crate::render::TraceState::default();
         if self.renderer.options().ps > 1 {
             // Adaptive sampling: the tile with its grid cells as apron, so
@@ -735,14 +738,7 @@ impl RtWorkload {
 
     /// A traced ray is complete: shade its hit here (or take the sky), send
     /// the node's record to the pixel's owner, spawn its requests.
-    fn finish_ray(
-        &self,
-        key: NodeKey,
-        origin: u32,
-        task: &RayTask,
-        hit: Option<Hit>,
-        ctx: &mut Ctx<Self>,
-    ) {
+    fn finish_ray(&self, key: NodeKey, task: &RayTask, hit: Option<Hit>, ctx: &mut Ctx<Self>) {
         ctx.charge(
             match task.kind {
                 RayKind::Primary => Work::RaysPrimary,
@@ -754,7 +750,7 @@ impl RtWorkload {
             1,
         );
         ctx.charge(Work::RaysRetired, 1);
-        let dest = Addr::Proc(origin as usize);
+        let dest = Addr::Proc(ctx.origin());
         let Some(hit) = hit else {
             let sky = self.renderer.sky_seen(task);
             ctx.emit_result(
@@ -778,7 +774,6 @@ impl RtWorkload {
                     ctx.charge(Work::RaysSpawned, 1);
                     ctx.spawn_dp(DpTask::Ray(RayJob {
                         key: key.child(i),
-                        origin,
                         task: child,
                         cursor: TraceCursor::default(),
                         next: None,
@@ -796,17 +791,12 @@ impl RtWorkload {
                         ctx.charge(Work::ShadowBundlesDp, 1);
                         ctx.spawn_dp(DpTask::Shadow(ShadowDp {
                             key,
-                            origin,
                             bundle,
                             replay: Replay::default(),
                             next: None,
                         }));
                     } else {
-                        ctx.spawn_dd(DdTask::Shadow(ShadowJob {
-                            key,
-                            origin,
-                            bundle,
-                        }));
+                        ctx.spawn_dd(DdTask::Shadow(ShadowJob { key, bundle }));
                     }
                 }
             }
@@ -858,7 +848,7 @@ impl RtWorkload {
             }
             Partial::Done(hit) => {
                 let task = job.task;
-                self.finish_ray(job.key, job.origin, &task, hit, ctx);
+                self.finish_ray(job.key, &task, hit, ctx);
                 None
             }
         }
@@ -910,7 +900,7 @@ impl RtWorkload {
         }
         charge_shadow(ctx, &counts);
         ctx.emit_result(
-            Addr::Proc(job.origin as usize),
+            Addr::Proc(ctx.origin()),
             RtResult {
                 key: job.key,
                 record: Record::Value(value),
@@ -1011,7 +1001,6 @@ impl Workload for RtWorkload {
         match task {
             DdTask::Tile(t) if self.replicated() => self.trace_tile_whole(&t, ctx),
             DdTask::Tile(t) => {
-                let origin = ctx.proc_id() as u32;
                 for y in t.y0..t.y1 {
                     for x in t.x0..t.x1 {
                         let Some(task) = self.primary(x, y) else {
@@ -1020,7 +1009,6 @@ impl Workload for RtWorkload {
                         ctx.charge(Work::RaysSpawned, 1);
                         let job = RayJob {
                             key: NodeKey::root(y * self.width as u32 + x),
-                            origin,
                             task,
                             cursor: TraceCursor::default(),
                             next: None,
@@ -1035,7 +1023,6 @@ impl Workload for RtWorkload {
             DdTask::Shadow(j) => {
                 let job = ShadowDp {
                     key: j.key,
-                    origin: j.origin,
                     bundle: j.bundle,
                     replay: Replay::default(),
                     next: None,
@@ -1051,14 +1038,12 @@ impl Workload for RtWorkload {
     fn to_data_parallel(&self, task: DdTask, ctx: &mut Ctx<Self>) {
         match task {
             DdTask::Tile(t) => {
-                let origin = ctx.proc_id() as u32;
                 for y in t.y0..t.y1 {
                     for x in t.x0..t.x1 {
                         if let Some(task) = self.primary(x, y) {
                             ctx.charge(Work::RaysSpawned, 1);
                             ctx.spawn_dp(DpTask::Ray(RayJob {
                                 key: NodeKey::root(y * self.width as u32 + x),
-                                origin,
                                 task,
                                 cursor: TraceCursor::default(),
                                 next: None,
@@ -1071,7 +1056,6 @@ impl Workload for RtWorkload {
                 ctx.charge(Work::ShadowBundlesDp, 1);
                 ctx.spawn_dp(DpTask::Shadow(ShadowDp {
                     key: j.key,
-                    origin: j.origin,
                     bundle: j.bundle,
                     replay: Replay::default(),
                     next: None,
@@ -1114,6 +1098,3 @@ impl Workload for RtWorkload {
         }
     }
 }
-
-/// Shared handle type used by the runtimes.
-pub type SharedWorkload = Arc<RtWorkload>;
