@@ -12,8 +12,10 @@
 pub mod ambient;
 pub mod caster;
 pub mod cost;
+pub mod distribution;
 pub mod partition;
 pub mod predict;
+pub mod tasks;
 pub mod tree;
 pub mod work;
 pub mod workload;
@@ -30,9 +32,11 @@ use hybrid_sched::{
 };
 use serde::Serialize;
 
+pub use distribution::Distribution;
 pub use partition::Partition;
+pub use tasks::{CellData, DdTask, DpTask};
 pub use work::Work;
-pub use workload::{CellData, DdTask, Distribution, DpTask, RtWorkload, WorkloadOptions};
+pub use workload::{RtWorkload, WorkloadOptions};
 
 use crate::accel::OctreeParams;
 use crate::image::Film;

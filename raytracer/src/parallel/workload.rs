@@ -28,10 +28,12 @@ use std::collections::{HashMap, HashSet};
 use std::sync::{Arc, Mutex};
 
 use hybrid_sched::serde::{Deserialize, Serialize};
-use hybrid_sched::{Addr, ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};
+use hybrid_sched::{Addr, Ctx, DataView, DpOutcome, Placement, Workload};
 
 use super::caster::{PartialCaster, Replay};
+use super::distribution::Distribution;
 use super::partition::{object_bytes, Partition};
+use super::tasks::{CellData, DdTask, DpTask, RayJob, ShadowDp, ShadowJob, Tile};
 use super::tree::{Child, NodeKey, PixelTrees, Record, RtResult};
 use super::work::Work;
 use crate::accel::{Hit, NodeId, Partial, Pyramid, TraceCursor};
@@ -47,155 +49,6 @@ thread_local! {
     /// thread runs (a fresh one per bundle grew on the hot path).
     static SCRATCH: std::cell::RefCell<Vec<crate::render::direct::Contribution>> =
         const { std::cell::RefCell::new(Vec::new()) };
-}
-
-/// How the octree's objects are spread over the processors.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub enum Distribution {
-    /// The paper's: the octree cut near the root into pieces of equal cost.
-    Octree,
-    /// The worst case: processor 0 holds everything.
-    Worst,
-    /// Beyond the paper: the same cut, with each cell weighted by its
-    /// predicted work (see [`super::predict`]) instead of its objects, so
-    /// processors get equal work rather than equal memory.
-    Predicted,
-    /// Every processor holds the whole scene (under the threads runtime one
-    /// shared copy; under MPI a copy per rank): nothing is selected,
-    /// fetched or cached, only the work is scheduled: tiles on demand, each
-    /// traced whole. The mode for a scene that fits one machine; the others
-    /// emulate or use distributed memory.
-    Replicated,
-}
-
-impl std::str::FromStr for Distribution {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "octree" | "balanced" => Ok(Distribution::Octree),
-            "worst" | "worst-case" | "one" => Ok(Distribution::Worst),
-            "predicted" | "cost-predicted" | "work" => Ok(Distribution::Predicted),
-            "replicated" | "shared" => Ok(Distribution::Replicated),
-            _ => Err(format!(
-                "unknown distribution {s:?}: expected octree, predicted, replicated or worst"
-            )),
-        }
-    }
-}
-
-impl std::fmt::Display for Distribution {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Distribution::Octree => "octree",
-            Distribution::Worst => "worst",
-            Distribution::Predicted => "predicted",
-            Distribution::Replicated => "replicated",
-        })
-    }
-}
-
-/// One octree leaf's objects as a data item. In-process runtimes share the
-/// parsed scene, so the item grants access to the leaf's objects and
-/// carries their size: caches, requests and replies are accounted in the
-/// bytes the objects occupy (an object listed in n leaves counts 1/n in
-/// each).
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub struct CellData {
-    pub leaf: NodeId,
-    pub objects: u32,
-    pub bytes: u64,
-}
-
-impl ByteSize for CellData {
-    fn byte_size(&self) -> usize {
-        self.bytes as usize
-    }
-}
-
-/// A tile: a rectangle of pixels, the renderer's [`Region`](crate::render::Region).
-pub type Tile = crate::render::Region;
-
-/// A shadow bundle scheduled demand-driven.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub struct ShadowJob {
-    pub key: NodeKey,
-    pub bundle: ShadowBundle,
-}
-
-/// Demand-driven tasks. (Tiles are much smaller than shadow bundles, but
-/// there are few of them: boxing the bundle would cost an allocation per
-/// bundle for nothing.)
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub enum DdTask {
-    Tile(Tile),
-    Shadow(ShadowJob),
-}
-
-/// Bytes of the task's origin, which its envelope carries (the framework
-/// tracks it: [`Ctx::origin`]); tasks carried it themselves before, and the
-/// accounting keeps those bytes.
-const ORIGIN_BYTES: usize = 8;
-
-impl ByteSize for DdTask {
-    fn byte_size(&self) -> usize {
-        std::mem::size_of::<Self>()
-            + ORIGIN_BYTES
-            + match self {
-                DdTask::Tile(_) => 0,
-                DdTask::Shadow(j) => 2 * j.key.path.len(),
-            }
-    }
-}
-
-/// A ray migrating cell by cell.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub struct RayJob {
-    pub key: NodeKey,
-    pub task: RayTask,
-    pub cursor: TraceCursor,
-    /// The leaf it needs next (`None`: start wherever it is).
-    pub next: Option<NodeId>,
-}
-
-/// A shadow bundle migrating with its recorded answers.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub struct ShadowDp {
-    pub key: NodeKey,
-    pub bundle: ShadowBundle,
-    pub replay: Replay,
-    pub next: Option<NodeId>,
-}
-
-/// Data-parallel tasks.
-// Both variants travel by value between processors; a shadow bundle carries
-// its medium, and boxing it would cost an allocation per task.
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub enum DpTask {
-    Ray(RayJob),
-    Shadow(ShadowDp),
-}
-
-impl ByteSize for DpTask {
-    fn byte_size(&self) -> usize {
-        std::mem::size_of::<Self>()
-            + ORIGIN_BYTES
-            + match self {
-                DpTask::Ray(j) => 2 * j.key.path.len(),
-                DpTask::Shadow(s) => {
-                    2 * s.key.path.len()
-                        + s.replay.answers.len() * std::mem::size_of::<super::caster::Answer>()
-                }
-            }
-    }
 }
 
 /// Knobs of the parallel renderer that are not the framework's.
