@@ -224,13 +224,13 @@ impl RtWorkload {
         let octree = self.renderer.octree();
         let objects = &self.renderer.scene().objects;
         let t = &job.task;
-        let (proc, procs) = (ctx.proc_id(), ctx.procs());
+        let proc = ctx.proc_id();
         let (mut leaves, mut tests) = (0u64, 0u64);
         let partial =
             octree.intersect_partial(objects, &t.ray, t.tmin, t.tmax, &mut job.cursor, |l| {
                 leaves += 1;
                 tests += octree.leaf_objects(l).len() as u64;
-                self.is_local(data, proc, procs, l)
+                self.is_local(data, proc, l)
             });
         ctx.charge(Work::TraceLeaves, leaves);
         ctx.charge(Work::TraceObjects, tests);
@@ -261,7 +261,7 @@ impl RtWorkload {
             ctx.charge(Work::ShadowRestarts, 1);
         }
         let replay = std::mem::take(&mut job.replay);
-        let (proc, procs) = (ctx.proc_id(), ctx.procs());
+        let proc = ctx.proc_id();
         let visits = std::cell::Cell::new((0u64, 0u64));
         let caster = PartialCaster::new(
             octree,
@@ -269,7 +269,7 @@ impl RtWorkload {
             |l| {
                 let (a, b) = visits.get();
                 visits.set((a + 1, b + octree.leaf_objects(l).len() as u64));
-                self.is_local(data, proc, procs, l)
+                self.is_local(data, proc, l)
             },
             replay,
         );

@@ -20,7 +20,7 @@ impl RtWorkload {
     /// tile's corners (perspective views), else the leaves along every
     /// primary ray.
     pub(super) fn select_tile(&self, t: &Tile, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
-        if self.replicated() || self.all_resident(None, ctx.proc_id(), ctx.procs()) {
+        if self.replicated() || self.all_resident(None, ctx.proc_id()) {
             return Vec::new();
         }
         let octree = self.renderer.octree();
@@ -76,7 +76,7 @@ impl RtWorkload {
             .lights()
             .get(b.light as usize)
             .and_then(|l| l.shadow_bounds(b.point, b.offset_scale));
-        if self.all_resident(bounds, ctx.proc_id(), ctx.procs()) {
+        if self.all_resident(bounds, ctx.proc_id()) {
             return Vec::new();
         }
         if self.opts.clip_cache {
@@ -105,7 +105,7 @@ impl RtWorkload {
     ) -> Option<Vec<NodeId>> {
         let octree = self.renderer.octree();
         let leaf = octree.find_leaf(b.point)?;
-        let (proc, procs) = (ctx.proc_id(), ctx.procs());
+        let proc = ctx.proc_id();
         let key = (proc as u32, leaf, b.light);
         let shard = &self.clip_cache[proc % self.clip_cache.len()];
         if let Some(e) = shard.lock().ok()?.get_mut(&key) {
@@ -114,7 +114,7 @@ impl RtWorkload {
             // pins nothing, so with a budget a cell could leave before the
             // bundle runs.
             if let Some(local) = local.filter(|l| l.keeps_everything()) {
-                if e.all_local || e.leaves.iter().all(|&l| self.held(local, proc, procs, l)) {
+                if e.all_local || e.leaves.iter().all(|&l| self.held(local, proc, l)) {
                     e.all_local = true;
                     ctx.charge(Work::ClipAllLocal, 1);
                     return Some(Vec::new());
@@ -145,10 +145,9 @@ impl RtWorkload {
         let octree = self.renderer.octree();
         let mut leaves = Vec::new();
         let me = ctx.proc_id() as u32;
-        let known = self.partition.procs() as usize == ctx.procs();
         let wanted = |id: NodeId| {
             let o = self.subtree_owner[id as usize];
-            !(known && (o == me || o == EMPTY))
+            !(o == me || o == EMPTY)
         };
         let visits = octree.clip_leaves_where(pyramid, wanted, |l| {
             if !octree.leaf_objects(l).is_empty() {

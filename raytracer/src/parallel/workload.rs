@@ -85,8 +85,6 @@ pub struct RtWorkload {
     /// Per node: the one processor owning every non-empty leaf below it,
     /// [`EMPTY`] if there is none, [`MIXED`] if several own some.
     pub(super) subtree_owner: Vec<u32>,
-    /// Predicted subtree costs ([`Distribution::Predicted`] only).
-    pub(super) predicted: Vec<u64>,
     /// Shadow selections per (processor, cell, light) (option
     /// `clip_cache`), one map per processor so they do not contend.
     pub(super) clip_cache: Vec<Mutex<ClipCache>>,
@@ -165,7 +163,6 @@ impl RtWorkload {
         let subtree_owner = Self::subtree_owners(&renderer, &partition);
         RtWorkload {
             subtree_owner,
-            predicted,
             clip_cache: (0..procs.max(1))
                 .map(|_| Mutex::new(HashMap::new()))
                 .collect(),
@@ -226,8 +223,8 @@ impl RtWorkload {
     /// True if every leaf a bundle confined to `bounds` (`None`: anywhere)
     /// can touch is resident on processor `proc`: its data selection would
     /// fetch nothing, so clipping is skipped.
-    pub(super) fn all_resident(&self, bounds: Option<Aabb>, proc: usize, procs: usize) -> bool {
-        if self.partition.procs() as usize != procs || self.subtree_owner.is_empty() {
+    pub(super) fn all_resident(&self, bounds: Option<Aabb>, proc: usize) -> bool {
+        if self.subtree_owner.is_empty() {
             return false;
         }
         let octree = self.renderer.octree();
@@ -246,6 +243,21 @@ impl RtWorkload {
         }
         let o = self.subtree_owner[node as usize];
         o == EMPTY || o as usize == proc
+    }
+
+    /// The one source of the processor count is the run's
+    /// [`hybrid_sched::Config`]: the workload is built for it
+    /// ([`RtWorkload::new`]'s `procs`), and a run with another count is a
+    /// caller's error, reported here at start-up (the hooks `placement`,
+    /// `load_partition` and `root_tasks`), not served with a second
+    /// partition that could disagree with the first.
+    fn check_procs(&self, procs: usize) {
+        assert_eq!(
+            self.partition.procs() as usize,
+            procs.max(1),
+            "RtWorkload was built for {} processors but runs on {procs}: build it with the Config's procs",
+            self.partition.procs()
+        );
     }
 
     pub fn renderer(&self) -> &Renderer<'static> {
@@ -277,21 +289,11 @@ impl RtWorkload {
 
     /// Leaves as data items: (leaf, owner, bytes); none when replicated.
     fn owner_table(&self, procs: usize) -> Vec<(NodeId, usize, u64)> {
+        self.check_procs(procs);
         if self.replicated() {
             return Vec::new();
         }
-        let fresh;
-        let part = if self.partition.procs() as usize == procs.max(1) {
-            &self.partition
-        } else {
-            fresh = Self::partition_for(
-                &self.renderer,
-                self.opts.distribution,
-                procs,
-                &self.predicted,
-            );
-            &fresh
-        };
+        let part = &self.partition;
         self.cells
             .iter()
             .map(|&(leaf, _, bytes)| (leaf, part.owner(leaf) as usize, bytes))
@@ -299,38 +301,24 @@ impl RtWorkload {
     }
 
     /// Whether `leaf`'s objects are available on processor `proc` (of
-    /// `procs`): resident by the partition (an array lookup) or in the view
+    /// the run's): resident by the partition (an array lookup) or in the view
     /// (cached, or resident under a runtime that holds everything locally).
     #[inline]
-    pub(super) fn is_local(
-        &self,
-        view: &DataView<'_, Self>,
-        proc: usize,
-        procs: usize,
-        leaf: NodeId,
-    ) -> bool {
-        self.owned(proc, procs, leaf) || view.get(&leaf).is_some()
+    pub(super) fn is_local(&self, view: &DataView<'_, Self>, proc: usize, leaf: NodeId) -> bool {
+        self.owned(proc, leaf) || view.get(&leaf).is_some()
     }
 
     /// [`Self::is_local`] without touching the leaf's cache recency.
-    pub(super) fn held(
-        &self,
-        view: &DataView<'_, Self>,
-        proc: usize,
-        procs: usize,
-        leaf: NodeId,
-    ) -> bool {
-        self.owned(proc, procs, leaf) || view.is_local(&leaf)
+    pub(super) fn held(&self, view: &DataView<'_, Self>, proc: usize, leaf: NodeId) -> bool {
+        self.owned(proc, leaf) || view.is_local(&leaf)
     }
 
-    /// Whether `leaf` is resident on processor `proc` (of `procs`) without
+    /// Whether `leaf` is resident on processor `proc` without
     /// asking a view: everything is when replicated, else the partition's
     /// owner (an array lookup).
     #[inline]
-    pub(super) fn owned(&self, proc: usize, procs: usize, leaf: NodeId) -> bool {
-        self.replicated()
-            || (self.partition.procs() as usize == procs
-                && self.partition.owner(leaf) as usize == proc)
+    pub(super) fn owned(&self, proc: usize, leaf: NodeId) -> bool {
+        self.replicated() || self.partition.owner(leaf) as usize == proc
     }
 
     /// The non-empty leaves among `leaves`, each once, in order.
@@ -379,7 +367,8 @@ impl Workload for RtWorkload {
             .collect()
     }
 
-    fn root_tasks(&self, _procs: usize) -> Vec<DdTask> {
+    fn root_tasks(&self, procs: usize) -> Vec<DdTask> {
+        self.check_procs(procs);
         let mut t = self.opts.tile;
         let ps = self.renderer.options().ps as usize;
         if ps > 1 && self.replicated() {
