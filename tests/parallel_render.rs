@@ -523,3 +523,17 @@ fn adaptive_pixel_sampling_equals_sequential_for_every_tiling_and_distribution()
         }
     }
 }
+
+/// The processor count has one source, the run's Config: a workload built
+/// for two processors refuses to be placed on three.
+#[test]
+#[should_panic(expected = "built for 2 processors but runs on 3")]
+fn a_workload_runs_only_on_the_processor_count_it_was_built_for() {
+    use hybrid_rt::parallel::RtWorkload;
+    use hybrid_sched::Workload;
+    let c = case("cornell", 8, 8, RenderOptions::default());
+    let r = Renderer::shared(c.scene.clone(), c.options.clone(), &Default::default()).unwrap();
+    let wl = RtWorkload::new(r, c.view.clone(), c.width, c.height, 2, Default::default());
+    assert_eq!(wl.placement(2).len(), wl.placement(2).len());
+    let _ = wl.placement(3);
+}

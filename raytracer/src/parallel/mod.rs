@@ -1,8 +1,12 @@
 //! The hybrid-scheduled parallel renderer: the paper's system as a
 //! [`hybrid_sched::Workload`] (see [`workload`] for the mapping of tiles,
-//! shadow bundles, migrating rays and cells onto the framework, [`tree`] for
-//! how pixels are assembled exactly, [`caster`] for restartable shadow
-//! bundles).
+//! shadow bundles, migrating rays and cells onto the framework). By concept:
+//! [`tasks`] holds everything that travels between processors, [`work`] the
+//! kinds of work charged, [`distribution`] and [`partition`] who owns which
+//! cell, `selection` and `execute` what a task needs and does, [`tree`]
+//! how pixels are assembled exactly, [`caster`] restartable shadow bundles,
+//! [`cost`] and [`predict`] the simulator's cost model and the predicted
+//! distribution.
 //!
 //! [`render_parallel`] runs it on a chosen runtime and returns the image
 //! with the framework's statistics; the image equals the sequential
