@@ -7,9 +7,10 @@
 
 use hybrid_sched::{Ctx, DataView};
 
+use super::distribution::EMPTY;
 use super::tasks::Tile;
 use super::work::Work;
-use super::workload::{ClipEntry, RtWorkload, EMPTY};
+use super::workload::{ClipEntry, RtWorkload};
 use crate::accel::{NodeId, Pyramid};
 use crate::geometry::Vec3;
 use crate::render::ShadowBundle;

@@ -31,7 +31,7 @@ use hybrid_sched::serde::{Deserialize, Serialize};
 use hybrid_sched::{Ctx, DataView, DpOutcome, Placement, Workload};
 
 use super::caster::Replay;
-use super::distribution::Distribution;
+use super::distribution::{partition_for, subtree_owners, Distribution, EMPTY};
 use super::partition::{object_bytes, Partition};
 use super::tasks::{CellData, DdTask, DpTask, RayJob, ShadowDp, Tile};
 use super::tree::{NodeKey, PixelTrees, RtResult};
@@ -83,7 +83,7 @@ pub struct RtWorkload {
     pub(super) cells: Vec<(NodeId, u32, u64)>,
     pub(super) partition: Partition,
     /// Per node: the one processor owning every non-empty leaf below it,
-    /// [`EMPTY`] if there is none, [`MIXED`] if several own some.
+    /// see [`super::distribution::subtree_owners`].
     pub(super) subtree_owner: Vec<u32>,
     /// Shadow selections per (processor, cell, light) (option
     /// `clip_cache`), one map per processor so they do not contend.
@@ -105,9 +105,6 @@ pub(super) struct ClipEntry {
     /// selection at all.
     pub(super) all_local: bool,
 }
-
-pub(super) const EMPTY: u32 = u32::MAX - 1;
-pub(super) const MIXED: u32 = u32::MAX;
 
 impl RtWorkload {
     /// Counts finished pixels into `counter` as processors assemble them
@@ -159,8 +156,8 @@ impl RtWorkload {
         } else {
             Vec::new()
         };
-        let partition = Self::partition_for(&renderer, opts.distribution, procs, &predicted);
-        let subtree_owner = Self::subtree_owners(&renderer, &partition);
+        let partition = partition_for(&renderer, opts.distribution, procs, &predicted);
+        let subtree_owner = subtree_owners(&renderer, &partition);
         RtWorkload {
             subtree_owner,
             clip_cache: (0..procs.max(1))
@@ -178,46 +175,6 @@ impl RtWorkload {
             partition,
             progress: None,
         }
-    }
-
-    fn partition_for(
-        renderer: &Renderer<'static>,
-        d: Distribution,
-        procs: usize,
-        predicted: &[u64],
-    ) -> Partition {
-        let (octree, objects) = (renderer.octree(), &renderer.scene().objects);
-        let procs = u32::try_from(procs.max(1)).unwrap_or(u32::MAX);
-        match d {
-            // Replicated: the memory cut, for the per-processor report only.
-            Distribution::Octree | Distribution::Replicated => {
-                Partition::new(octree, objects, procs)
-            }
-            Distribution::Worst => Partition::worst_case(octree, objects, procs),
-            Distribution::Predicted => Partition::by_cost(octree, objects, procs, predicted),
-        }
-    }
-
-    fn subtree_owners(renderer: &Renderer<'static>, part: &Partition) -> Vec<u32> {
-        let octree = renderer.octree();
-        let n = octree.node_count();
-        let mut out = vec![EMPTY; n];
-        // Children always have larger ids than their parent.
-        for id in (0..n as NodeId).rev() {
-            out[id as usize] = match octree.children(id) {
-                None if octree.leaf_objects(id).is_empty() => EMPTY,
-                None => part.owner(id),
-                Some(ch) => ch
-                    .iter()
-                    .fold(EMPTY, |acc, &c| match (acc, out[c as usize]) {
-                        (a, EMPTY) => a,
-                        (EMPTY, b) => b,
-                        (a, b) if a == b => a,
-                        _ => MIXED,
-                    }),
-            };
-        }
-        out
     }
 
     /// True if every leaf a bundle confined to `bounds` (`None`: anywhere)
