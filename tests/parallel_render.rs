@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
-use hybrid_rt::parallel::workload::work;
+use hybrid_rt::parallel::Work;
 use hybrid_rt::parallel::{
     render_parallel, CacheSize, Distribution, ParallelOptions, ParallelRender, RuntimeKind,
 };
@@ -81,38 +81,38 @@ fn check(c: &Case, popts: &ParallelOptions) -> ParallelRender {
         "{what}: {differ} pixels differ from the sequential render"
     );
     assert_eq!(
-        out.work(work::RAYS_SPAWNED),
-        out.work(work::RAYS_RETIRED),
+        out.work(Work::RaysSpawned),
+        out.work(Work::RaysRetired),
         "{what}: rays lost"
     );
     assert_eq!(
-        out.work(work::SHADOW_SPAWNED),
-        out.work(work::SHADOW_RETIRED),
+        out.work(Work::ShadowSpawned),
+        out.work(Work::ShadowRetired),
         "{what}: shadow bundles lost"
     );
     let k = &c.counts;
     assert_eq!(
-        out.work(work::RAYS_PRIMARY),
+        out.work(Work::RaysPrimary),
         k.primary,
         "{what}: primary rays"
     );
     assert_eq!(
-        out.work(work::RAYS_REFLECTION),
+        out.work(Work::RaysReflection),
         k.reflection,
         "{what}: reflection rays"
     );
     assert_eq!(
-        out.work(work::RAYS_REFRACTION),
+        out.work(Work::RaysRefraction),
         k.refraction,
         "{what}: refraction rays"
     );
     assert_eq!(
-        out.work(work::SHADOW_TESTED),
+        out.work(Work::ShadowTested),
         k.shadow.tested,
         "{what}: shadow rays"
     );
     assert_eq!(
-        out.work(work::SHADOW_BUNDLES),
+        out.work(Work::ShadowBundles),
         k.shadow.bundles,
         "{what}: shadow bundles"
     );
@@ -221,14 +221,14 @@ fn every_shadow_bundle_data_parallel_and_the_worst_distribution() {
         p.workload.distribution = distribution;
         let out = check(&c, &p);
         assert_eq!(
-            out.work(work::SHADOW_BUNDLES_DP),
-            out.work(work::SHADOW_SPAWNED),
+            out.work(Work::ShadowBundlesDp),
+            out.work(Work::ShadowSpawned),
             "every bundle should have run data-parallel"
         );
         assert!(out.stats.sum(|s| s.tasks.fallbacks) > 0);
         if distribution == Distribution::Octree {
             assert!(
-                out.work(work::SHADOW_RESTARTS) > 0,
+                out.work(Work::ShadowRestarts) > 0,
                 "bundles should have migrated mid-way"
             );
         }
@@ -383,11 +383,11 @@ fn the_clip_cache_selects_enough_for_every_bundle() {
                 p.workload.clip_cache = true;
                 let cached = check(&c, &p);
                 check_bounds(&cached, &format!("{p:?}"));
-                assert_eq!(cached.work(work::CLIP_MISSES), 0, "{p:?}");
-                assert!(cached.work(work::CLIP_REUSED) > 0, "{p:?}");
+                assert_eq!(cached.work(Work::ClipMisses), 0, "{p:?}");
+                assert!(cached.work(Work::ClipReused) > 0, "{p:?}");
                 // Both selected the same cells or more: the same picture, and
                 // no bundle ran short of data.
-                assert_eq!(plain.work(work::CLIP_MISSES), 0);
+                assert_eq!(plain.work(Work::ClipMisses), 0);
             }
         }
     }
@@ -421,7 +421,7 @@ fn the_replicated_distribution_schedules_only_work() {
                     assert_eq!(st.data_items_requested, 0, "{what}");
                     assert_eq!(st.tasks.migrations, 0, "{what}");
                 }
-                assert_eq!(out.work(work::CLIP_NODES), 0, "{what}");
+                assert_eq!(out.work(Work::ClipNodes), 0, "{what}");
                 // Every processor reads the whole scene.
                 for s in &out.procs {
                     assert_eq!(s.resident_objects, c.scene.objects.len(), "{what}");
@@ -496,11 +496,11 @@ fn adaptive_pixel_sampling_equals_sequential_for_every_tiling_and_distribution()
                 let differ = got.iter().zip(&c.pixels).filter(|(a, b)| a != b).count();
                 assert_eq!(differ, 0, "{what}: {differ} pixels differ");
                 assert_eq!(
-                    out.work(work::RAYS_SPAWNED),
-                    out.work(work::RAYS_RETIRED),
+                    out.work(Work::RaysSpawned),
+                    out.work(Work::RaysRetired),
                     "{what}: rays lost"
                 );
-                let primary = out.work(work::RAYS_PRIMARY) as usize;
+                let primary = out.work(Work::RaysPrimary) as usize;
                 if distribution == Distribution::Replicated {
                     // Sampled adaptively too, tiles rounded up to the grid:
                     // the sequential samples, plus at most a tile's shared
@@ -522,4 +522,18 @@ fn adaptive_pixel_sampling_equals_sequential_for_every_tiling_and_distribution()
             }
         }
     }
+}
+
+/// The processor count has one source, the run's Config: a workload built
+/// for two processors refuses to be placed on three.
+#[test]
+#[should_panic(expected = "built for 2 processors but runs on 3")]
+fn a_workload_runs_only_on_the_processor_count_it_was_built_for() {
+    use hybrid_rt::parallel::RtWorkload;
+    use hybrid_sched::Workload;
+    let c = case("cornell", 8, 8, RenderOptions::default());
+    let r = Renderer::shared(c.scene.clone(), c.options.clone(), &Default::default()).unwrap();
+    let wl = RtWorkload::new(r, c.view.clone(), c.width, c.height, 2, Default::default());
+    assert_eq!(wl.placement(2).len(), wl.placement(2).len());
+    let _ = wl.placement(3);
 }

@@ -7,7 +7,7 @@ use hybrid_sched::{Class, Network, Policy, State};
 
 use super::args::ParallelArgs;
 use super::common::usage;
-use crate::parallel::workload::work;
+use crate::parallel::Work;
 use crate::parallel::{ParallelOptions, ParallelRender, RuntimeKind, WorkloadOptions};
 use crate::Result;
 
@@ -146,11 +146,11 @@ pub fn summary(r: &ParallelRender) -> String {
         let t = &p.time_ns;
         let total = t.total();
         let comm = t.get(State::Sending) + t.get(State::Receiving) + t.get(State::ServingData);
-        let w = |k: work::Work| p.work.get(k.name()).copied().unwrap_or(0);
-        let rays = w(work::RAYS_PRIMARY)
-            + w(work::RAYS_REFLECTION)
-            + w(work::RAYS_REFRACTION)
-            + w(work::RAYS_PASS_THROUGH);
+        let w = |k: Work| p.work.get(k.name()).copied().unwrap_or(0);
+        let rays = w(Work::RaysPrimary)
+            + w(Work::RaysReflection)
+            + w(Work::RaysRefraction)
+            + w(Work::RaysPassThrough);
         let sent = p.sent.total();
         let _ = writeln!(
             s,
@@ -166,7 +166,7 @@ pub fn summary(r: &ParallelRender) -> String {
             p.tasks.demand_driven,
             p.tasks.migrations,
             rays,
-            w(work::SHADOW_TESTED),
+            w(Work::ShadowTested),
             p.cache_hit_rate()
                 .map_or("-".to_string(), |h| format!("{:.1}", 100.0 * h)),
             sent.messages,
@@ -184,8 +184,8 @@ pub fn summary(r: &ParallelRender) -> String {
         data_msgs,
         st.sum(|p| p.data_items_requested),
         st.sum(|p| p.tasks.migrations),
-        r.work(work::SHADOW_BUNDLES_DP),
-        r.work(work::CLIP_MISSES),
+        r.work(Work::ShadowBundlesDp),
+        r.work(Work::ClipMisses),
     );
     if let Some(v) = r.simulated_s {
         let _ = writeln!(

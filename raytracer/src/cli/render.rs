@@ -332,14 +332,14 @@ fn run_parallel(
     eprint!("{}", super::parallel::summary(&out));
     write_film(a, &out.film, view, exposure)?;
     {
-        use crate::parallel::workload::work;
+        use crate::parallel::Work;
         let rays = Rays {
-            primary: out.work(work::RAYS_PRIMARY),
-            shadow: out.work(work::SHADOW_TESTED) + out.work(work::SHADOW_SEGMENTS),
-            other: out.work(work::RAYS_REFLECTION)
-                + out.work(work::RAYS_REFRACTION)
-                + out.work(work::RAYS_PASS_THROUGH)
-                + out.work(work::RAYS_AMBIENT),
+            primary: out.work(Work::RaysPrimary),
+            shadow: out.work(Work::ShadowTested) + out.work(Work::ShadowSegments),
+            other: out.work(Work::RaysReflection)
+                + out.work(Work::RaysRefraction)
+                + out.work(Work::RaysPassThrough)
+                + out.work(Work::RaysAmbient),
         };
         eprintln!(
             "{}",

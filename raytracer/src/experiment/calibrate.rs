@@ -12,6 +12,7 @@ use serde::Serialize;
 
 use crate::accel::OctreeParams;
 use crate::parallel::cost::{model, UNIT_NS};
+use crate::parallel::Work;
 use crate::parallel::{RtWorkload, WorkloadOptions};
 use crate::render::{RenderOptions, Renderer};
 use crate::scene::{Scene, View};
@@ -155,7 +156,7 @@ pub fn calibrate(
         steps = 0;
         run_sequential_observed(&wl2, 2, &mut |charges, ns| {
             for &(kind, units) in charges {
-                if let Some(i) = UNIT_NS.iter().position(|(k, _)| *k == kind.name()) {
+                if let Some(i) = UNIT_NS.iter().position(|&(k, _)| k == kind) {
                     x[i] += units as f64;
                 }
             }
@@ -221,11 +222,11 @@ pub fn calibrate(
         .map_err(|e| Error::Other(format!("calibration run failed: {e}")))?;
     let threads_s = t0.elapsed().as_secs_f64();
     let st = &report.stats.procs[0];
-    let units = |k: &str| st.work.get(k).copied().unwrap_or(0) as f64;
+    let units = |k: Work| st.work.get(k.name()).copied().unwrap_or(0) as f64;
     let work_ns: f64 = UNIT_NS
         .iter()
         .enumerate()
-        .map(|(i, (k, _))| units(k) * coef[i])
+        .map(|(i, &(k, _))| units(k) * coef[i])
         .sum();
     let tsteps =
         (st.tasks.selections + st.tasks.demand_driven + st.tasks.data_parallel_steps).max(1) as f64;
@@ -233,14 +234,14 @@ pub fn calibrate(
     let builtin = model();
     let builtin_ns: f64 = UNIT_NS
         .iter()
-        .map(|(k, _)| units(k) * builtin.unit_ns[*k])
+        .map(|&(k, _)| units(k) * builtin.unit_ns[k.name()])
         .sum::<f64>()
         + tsteps * builtin.step_ns;
     Ok(Calibration {
         unit_ns: UNIT_NS
             .iter()
             .enumerate()
-            .map(|(i, (k, _))| (k.to_string(), coef[i]))
+            .map(|(i, (k, _))| (k.name().to_string(), coef[i]))
             .collect(),
         intercept_ns: coef[n - 1],
         step_ns,

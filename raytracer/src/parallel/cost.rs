@@ -2,7 +2,7 @@
 //! with the experiments, in [`crate::experiment::calibrate`].
 //!
 //! A simulated step costs `step_ns` plus, for each work unit the step
-//! charged (see [`super::workload::work`]), its cost in [`model`]. The
+//! charged (see [`Work`]), its cost in [`model`]. The
 //! constants were fitted on the development machine (one core of a shared
 //! 2-core x86-64 VM, release build) by
 //!
@@ -30,18 +30,29 @@
 
 use hybrid_sched::CostModel;
 
+use super::work::Work;
+
 /// The fitted kinds and their built-in costs (ns of the development
 /// machine per unit).
-pub const UNIT_NS: [(&str, f64); 8] = [
-    ("trace.leaves", 20.0),
-    ("trace.objects", 31.0),
-    ("clip.nodes", 28.0),
-    ("shade", 1400.0),
-    ("shadow.patches", 0.0),
-    ("shadow.tested", 0.0),
-    ("rays.spawned", 0.0),
-    ("shadow.bundles", 300.0),
+pub const UNIT_NS: [(Work, f64); 8] = [
+    (Work::TraceLeaves, 20.0),
+    (Work::TraceObjects, 31.0),
+    (Work::ClipNodes, 28.0),
+    (Work::Shade, 1400.0),
+    (Work::ShadowPatches, 0.0),
+    (Work::ShadowTested, 0.0),
+    (Work::RaysSpawned, 0.0),
+    (Work::ShadowBundles, 300.0),
 ];
+
+/// The built-in cost of one unit of `kind` (0 for kinds that are not
+/// fitted: counters that are not work).
+pub fn unit_ns(kind: Work) -> f64 {
+    UNIT_NS
+        .iter()
+        .find(|&&(k, _)| k == kind)
+        .map_or(0.0, |&(_, v)| v)
+}
 
 /// The framework's per-step overhead on the development machine (ns).
 pub const STEP_NS: f64 = 1100.0;
@@ -49,7 +60,10 @@ pub const STEP_NS: f64 = 1100.0;
 /// The built-in cost model (see the module documentation).
 pub fn model() -> CostModel {
     CostModel {
-        unit_ns: UNIT_NS.iter().map(|&(k, v)| (k.to_string(), v)).collect(),
+        unit_ns: UNIT_NS
+            .iter()
+            .map(|&(k, v)| (k.name().to_string(), v))
+            .collect(),
         // Counters that are not work (rays.retired, shadow.spawned, ...).
         default_unit_ns: 0.0,
         step_ns: STEP_NS,
@@ -60,27 +74,18 @@ pub fn model() -> CostModel {
 
 #[cfg(test)]
 mod tests {
-    use super::super::workload::work;
     use super::*;
 
     #[test]
-    fn every_fitted_kind_is_charged_by_the_workload() {
-        let names = [
-            work::TRACE_LEAVES,
-            work::TRACE_OBJECTS,
-            work::CLIP_NODES,
-            work::SHADE,
-            work::SHADOW_PATCHES,
-            work::SHADOW_TESTED,
-            work::RAYS_SPAWNED,
-            work::SHADOW_BUNDLES,
-        ];
-        for (k, _) in UNIT_NS {
-            assert!(
-                names.iter().any(|n| n.name() == k),
-                "{k} is not a work kind"
-            );
+    fn the_model_prices_each_fitted_kind_once_and_only_renderer_kinds() {
+        let m = model();
+        assert_eq!(m.unit_ns.len(), UNIT_NS.len(), "a kind fitted twice");
+        m.check::<Work>()
+            .expect("the model names only the renderer's kinds");
+        for (k, v) in UNIT_NS {
+            assert_eq!(m.unit_ns[k.name()], v);
+            assert_eq!(unit_ns(k), v);
         }
-        assert_eq!(model().unit_ns.len(), UNIT_NS.len());
+        assert_eq!(unit_ns(Work::RaysRetired), 0.0);
     }
 }

@@ -1,8 +1,12 @@
 //! The hybrid-scheduled parallel renderer: the paper's system as a
 //! [`hybrid_sched::Workload`] (see [`workload`] for the mapping of tiles,
-//! shadow bundles, migrating rays and cells onto the framework, [`tree`] for
-//! how pixels are assembled exactly, [`caster`] for restartable shadow
-//! bundles).
+//! shadow bundles, migrating rays and cells onto the framework). By concept:
+//! [`tasks`] holds everything that travels between processors, [`work`] the
+//! kinds of work charged, [`distribution`] and [`partition`] who owns which
+//! cell, `selection` and `execute` what a task needs and does, [`tree`]
+//! how pixels are assembled exactly, [`caster`] restartable shadow bundles,
+//! [`cost`] and [`predict`] the simulator's cost model and the predicted
+//! distribution.
 //!
 //! [`render_parallel`] runs it on a chosen runtime and returns the image
 //! with the framework's statistics; the image equals the sequential
@@ -12,9 +16,14 @@
 pub mod ambient;
 pub mod caster;
 pub mod cost;
+pub mod distribution;
+mod execute;
 pub mod partition;
 pub mod predict;
+mod selection;
+pub mod tasks;
 pub mod tree;
+pub mod work;
 pub mod workload;
 
 #[cfg(test)]
@@ -24,13 +33,16 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use hybrid_sched::{
-    Config, Extras, Network, Policy, RankTraffic, RunReport, RunStats, Runtime, Sequential, Sim,
-    Threads, Timeline,
+    Config, Extras, Network, Policy, RankTraffic, RunStats, Runtime, Sequential, Sim, Threads,
+    Timeline,
 };
 use serde::Serialize;
 
+pub use distribution::Distribution;
 pub use partition::Partition;
-pub use workload::{CellData, DdTask, Distribution, DpTask, RtWorkload, WorkloadOptions};
+pub use tasks::{CellData, DdTask, DpTask};
+pub use work::Work;
+pub use workload::{RtWorkload, WorkloadOptions};
 
 use crate::accel::OctreeParams;
 use crate::image::Film;
@@ -215,8 +227,8 @@ pub struct ParallelRender {
 }
 
 impl ParallelRender {
-    /// A counted work total over all processors (see [`workload::work`]).
-    pub fn work(&self, kind: workload::work::Work) -> u64 {
+    /// A counted work total over all processors (see [`Work`]).
+    pub fn work(&self, kind: Work) -> u64 {
         self.stats
             .procs
             .iter()
@@ -309,33 +321,25 @@ pub fn render_parallel_with_progress(
     let setup_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let failed = |e: hybrid_sched::RunError| Error::Other(format!("parallel render failed: {e}"));
-    let mut timeline = None;
-    let (report, ranks): (RunReport<RtWorkload>, Vec<RankTraffic>) = match popts.runtime {
-        RuntimeKind::Threads => (
-            Threads.run_blocking(wl.clone(), &config).map_err(failed)?,
-            vec![],
-        ),
-        RuntimeKind::Sequential => (
-            Sequential
-                .run_blocking(wl.clone(), &config)
-                .map_err(failed)?,
-            vec![],
-        ),
+    let runtime: Box<dyn Runtime<RtWorkload>> = match popts.runtime {
+        RuntimeKind::Threads => Box::new(Threads),
+        RuntimeKind::Sequential => Box::new(Sequential),
         RuntimeKind::Sim => {
             let mut sim = Sim::new(cost::model(), popts.network.clone());
             sim.seed = popts.sim_seed;
             // Virtual time has no wall-clock limit.
             config.time_limit = None;
-            let mut r = sim.run_blocking(wl.clone(), &config).map_err(failed)?;
-            if let Extras::Timeline(t) = std::mem::take(&mut r.extras) {
-                timeline = Some(t);
-            }
-            (r, vec![])
+            Box::new(sim)
         }
-        RuntimeKind::Mpi => match run_mpi(wl.clone(), &config)? {
-            Some(r) => r,
-            None => return Ok(None),
-        },
+        RuntimeKind::Mpi => mpi_runtime()?,
+    };
+    let mut report = runtime.run_blocking(wl.clone(), &config).map_err(failed)?;
+    let (timeline, ranks) = match std::mem::take(&mut report.extras) {
+        Extras::None => (None, Vec::new()),
+        Extras::Timeline(t) => (Some(t), Vec::new()),
+        Extras::Ranks(ranks) => (None, ranks),
+        // Another MPI rank: rank 0 has the picture.
+        Extras::NotRoot { .. } => return Ok(None),
     };
     let simulated_s =
         (popts.runtime == RuntimeKind::Sim).then_some(report.stats.elapsed_ns as f64 * 1e-9);
@@ -420,25 +424,14 @@ pub fn mpi_world() -> Result<(usize, usize)> {
     Ok((w.rank, w.size))
 }
 
+/// The MPI runtime (one processor per rank).
 #[cfg(feature = "mpi")]
-fn run_mpi(
-    wl: Arc<RtWorkload>,
-    config: &Config,
-) -> Result<Option<(RunReport<RtWorkload>, Vec<RankTraffic>)>> {
-    let mut out = hybrid_sched::runtime::mpi::Mpi
-        .run_blocking(wl, config)
-        .map_err(|e| Error::Other(format!("parallel render failed: {e}")))?;
-    match std::mem::take(&mut out.extras) {
-        Extras::Ranks(ranks) => Ok(Some((out, ranks))),
-        _ => Ok(None),
-    }
+fn mpi_runtime() -> Result<Box<dyn Runtime<RtWorkload>>> {
+    Ok(Box::new(hybrid_sched::runtime::mpi::Mpi))
 }
 
 #[cfg(not(feature = "mpi"))]
-fn run_mpi(
-    _wl: Arc<RtWorkload>,
-    _config: &Config,
-) -> Result<Option<(RunReport<RtWorkload>, Vec<RankTraffic>)>> {
+fn mpi_runtime() -> Result<Box<dyn Runtime<RtWorkload>>> {
     Err(Error::Usage(
         "runtime \"mpi\" is not available in this build (build hybrid-rt with --features mpi)"
             .into(),

@@ -16,14 +16,8 @@ use crate::render::light::LightExtent;
 use crate::render::Renderer;
 use crate::scene::View;
 
-use super::cost;
-
-fn unit(kind: &str) -> f64 {
-    cost::UNIT_NS
-        .iter()
-        .find(|(k, _)| *k == kind)
-        .map_or(0.0, |(_, v)| *v)
-}
+use super::cost::unit_ns as unit;
+use super::work::Work;
 
 /// Predicted cost of every node's subtree (ns of the cost model), indexed
 /// by node id: each leaf's predicted work, summed upwards.
@@ -37,8 +31,8 @@ pub fn subtree_costs(
     let scene = renderer.scene();
     let objects = &scene.objects;
     let mut leaf = vec![0f64; octree.node_count()];
-    let (leaf_ns, object_ns) = (unit("trace.leaves"), unit("trace.objects"));
-    let shade_ns = unit("shade");
+    let (leaf_ns, object_ns) = (unit(Work::TraceLeaves), unit(Work::TraceObjects));
+    let shade_ns = unit(Work::Shade);
     let walk = |leaf: &mut [f64], o: &Octree, ray: &Ray, t0: f64, t1: f64, weight: f64| {
         o.for_each_leaf_along_ray(ray, t0, t1, |l, _, _| {
             let n = o.leaf_objects(l).len();

@@ -28,237 +28,18 @@ use std::collections::{HashMap, HashSet};
 use std::sync::{Arc, Mutex};
 
 use hybrid_sched::serde::{Deserialize, Serialize};
-use hybrid_sched::{Addr, ByteSize, Ctx, DataView, DpOutcome, Placement, Workload};
+use hybrid_sched::{Ctx, DataView, DpOutcome, Placement, Workload};
 
-use super::caster::{PartialCaster, Replay};
+use super::caster::Replay;
+use super::distribution::{partition_for, subtree_owners, Distribution, EMPTY};
 use super::partition::{object_bytes, Partition};
-use super::tree::{Child, NodeKey, PixelTrees, Record, RtResult};
-use crate::accel::{Hit, NodeId, Partial, Pyramid, TraceCursor};
-use crate::geometry::{Aabb, Vec3};
-use crate::render::direct::{run_shadow_bundle, ShadowCounts};
-use crate::render::light::LightExtent;
-use crate::render::material::shade;
-use crate::render::{RayKind, RayTask, Renderer, Request, ShadowBundle};
-use crate::scene::{View, ViewType};
-
-thread_local! {
-    /// The patch list of [`run_shadow_bundle`], reused by every bundle a
-    /// thread runs (a fresh one per bundle grew on the hot path).
-    static SCRATCH: std::cell::RefCell<Vec<crate::render::direct::Contribution>> =
-        const { std::cell::RefCell::new(Vec::new()) };
-}
-
-/// How the octree's objects are spread over the processors.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub enum Distribution {
-    /// The paper's: the octree cut near the root into pieces of equal cost.
-    Octree,
-    /// The worst case: processor 0 holds everything.
-    Worst,
-    /// Beyond the paper: the same cut, with each cell weighted by its
-    /// predicted work (see [`super::predict`]) instead of its objects, so
-    /// processors get equal work rather than equal memory.
-    Predicted,
-    /// Every processor holds the whole scene (under the threads runtime one
-    /// shared copy; under MPI a copy per rank): nothing is selected,
-    /// fetched or cached, only the work is scheduled: tiles on demand, each
-    /// traced whole. The mode for a scene that fits one machine; the others
-    /// emulate or use distributed memory.
-    Replicated,
-}
-
-impl std::str::FromStr for Distribution {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "octree" | "balanced" => Ok(Distribution::Octree),
-            "worst" | "worst-case" | "one" => Ok(Distribution::Worst),
-            "predicted" | "cost-predicted" | "work" => Ok(Distribution::Predicted),
-            "replicated" | "shared" => Ok(Distribution::Replicated),
-            _ => Err(format!(
-                "unknown distribution {s:?}: expected octree, predicted, replicated or worst"
-            )),
-        }
-    }
-}
-
-impl std::fmt::Display for Distribution {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Distribution::Octree => "octree",
-            Distribution::Worst => "worst",
-            Distribution::Predicted => "predicted",
-            Distribution::Replicated => "replicated",
-        })
-    }
-}
-
-/// One octree leaf's objects as a data item. In-process runtimes share the
-/// parsed scene, so the item grants access to the leaf's objects and
-/// carries their size: caches, requests and replies are accounted in the
-/// bytes the objects occupy (an object listed in n leaves counts 1/n in
-/// each).
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub struct CellData {
-    pub leaf: NodeId,
-    pub objects: u32,
-    pub bytes: u64,
-}
-
-impl ByteSize for CellData {
-    fn byte_size(&self) -> usize {
-        self.bytes as usize
-    }
-}
-
-/// A tile: a rectangle of pixels, the renderer's [`Region`](crate::render::Region).
-pub type Tile = crate::render::Region;
-
-/// A shadow bundle scheduled demand-driven.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub struct ShadowJob {
-    pub key: NodeKey,
-    /// The processor assembling the pixel.
-    pub origin: u32,
-    pub bundle: ShadowBundle,
-}
-
-/// Demand-driven tasks. (Tiles are much smaller than shadow bundles, but
-/// there are few of them: boxing the bundle would cost an allocation per
-/// bundle for nothing.)
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub enum DdTask {
-    Tile(Tile),
-    Shadow(ShadowJob),
-}
-
-impl ByteSize for DdTask {
-    fn byte_size(&self) -> usize {
-        std::mem::size_of::<Self>()
-            + match self {
-                DdTask::Tile(_) => 0,
-                DdTask::Shadow(j) => 2 * j.key.path.len(),
-            }
-    }
-}
-
-/// A ray migrating cell by cell.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub struct RayJob {
-    pub key: NodeKey,
-    pub origin: u32,
-    pub task: RayTask,
-    pub cursor: TraceCursor,
-    /// The leaf it needs next (`None`: start wherever it is).
-    pub next: Option<NodeId>,
-}
-
-/// A shadow bundle migrating with its recorded answers.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub struct ShadowDp {
-    pub key: NodeKey,
-    pub origin: u32,
-    pub bundle: ShadowBundle,
-    pub replay: Replay,
-    pub next: Option<NodeId>,
-}
-
-/// Data-parallel tasks.
-// Both variants travel by value between processors; a shadow bundle carries
-// its medium, and boxing it would cost an allocation per task.
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(crate = "hybrid_sched::serde")]
-pub enum DpTask {
-    Ray(RayJob),
-    Shadow(ShadowDp),
-}
-
-impl ByteSize for DpTask {
-    fn byte_size(&self) -> usize {
-        std::mem::size_of::<Self>()
-            + match self {
-                DpTask::Ray(j) => 2 * j.key.path.len(),
-                DpTask::Shadow(s) => {
-                    2 * s.key.path.len()
-                        + s.replay.answers.len() * std::mem::size_of::<super::caster::Answer>()
-                }
-            }
-    }
-}
-
-/// Work-unit names charged to the framework's statistics.
-pub mod work {
-    hybrid_sched::work_kinds! {
-        /// Every kind of work the renderer charges, by its name in the
-        /// statistics and the cost model.
-        pub enum Work {
-            ClipNodes = "clip.nodes",
-            ClipMisses = "clip.misses",
-            /// Shadow bundles that reused a cell's selection (option `clip_cache`).
-            ClipReused = "clip.reused",
-            /// Of those, bundles whose whole selection was local already: nothing
-            /// to select or pin (option `clip_cache`).
-            ClipAllLocal = "clip.all_local",
-            RaysPrimary = "rays.primary",
-            RaysReflection = "rays.reflection",
-            RaysRefraction = "rays.refraction",
-            RaysPassThrough = "rays.pass_through",
-            RaysAmbient = "rays.ambient",
-            RaysSpawned = "rays.spawned",
-            RaysRetired = "rays.retired",
-            ShadowBundles = "shadow.bundles",
-            ShadowBundlesDp = "shadow.bundles_dp",
-            ShadowSpawned = "shadow.spawned",
-            ShadowRetired = "shadow.retired",
-            ShadowPatches = "shadow.patches",
-            ShadowTested = "shadow.tested",
-            ShadowEstimated = "shadow.estimated",
-            ShadowUnoccluded = "shadow.unoccluded",
-            ShadowSegments = "shadow.transparent_segments",
-            ShadowRestarts = "shadow.restarts",
-            /// Non-empty octree leaves entered by traversals (octree steps).
-            TraceLeaves = "trace.leaves",
-            /// Objects listed in those leaves (intersection tests, counting an
-            /// object once per leaf; an any-hit query may stop earlier).
-            TraceObjects = "trace.objects",
-            Shade = "shade",
-        }
-    }
-
-    // The kinds under their names as constants.
-    pub const CLIP_NODES: Work = Work::ClipNodes;
-    pub const CLIP_MISSES: Work = Work::ClipMisses;
-    pub const CLIP_REUSED: Work = Work::ClipReused;
-    pub const CLIP_ALL_LOCAL: Work = Work::ClipAllLocal;
-    pub const RAYS_PRIMARY: Work = Work::RaysPrimary;
-    pub const RAYS_REFLECTION: Work = Work::RaysReflection;
-    pub const RAYS_REFRACTION: Work = Work::RaysRefraction;
-    pub const RAYS_PASS_THROUGH: Work = Work::RaysPassThrough;
-    pub const RAYS_AMBIENT: Work = Work::RaysAmbient;
-    pub const RAYS_SPAWNED: Work = Work::RaysSpawned;
-    pub const RAYS_RETIRED: Work = Work::RaysRetired;
-    pub const SHADOW_BUNDLES: Work = Work::ShadowBundles;
-    pub const SHADOW_BUNDLES_DP: Work = Work::ShadowBundlesDp;
-    pub const SHADOW_SPAWNED: Work = Work::ShadowSpawned;
-    pub const SHADOW_RETIRED: Work = Work::ShadowRetired;
-    pub const SHADOW_PATCHES: Work = Work::ShadowPatches;
-    pub const SHADOW_TESTED: Work = Work::ShadowTested;
-    pub const SHADOW_ESTIMATED: Work = Work::ShadowEstimated;
-    pub const SHADOW_UNOCCLUDED: Work = Work::ShadowUnoccluded;
-    pub const SHADOW_SEGMENTS: Work = Work::ShadowSegments;
-    pub const SHADOW_RESTARTS: Work = Work::ShadowRestarts;
-    pub const TRACE_LEAVES: Work = Work::TraceLeaves;
-    pub const TRACE_OBJECTS: Work = Work::TraceObjects;
-    pub const SHADE: Work = Work::Shade;
-}
+use super::tasks::{CellData, DdTask, DpTask, RayJob, ShadowDp, Tile};
+use super::tree::{NodeKey, PixelTrees, RtResult};
+use super::work::Work;
+use crate::accel::{NodeId, TraceCursor};
+use crate::geometry::Aabb;
+use crate::render::Renderer;
+use crate::scene::View;
 
 /// Knobs of the parallel renderer that are not the framework's.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -293,42 +74,37 @@ impl Default for WorkloadOptions {
 /// The parallel ray tracer (see the module documentation).
 #[derive(Debug)]
 pub struct RtWorkload {
-    renderer: Renderer<'static>,
-    view: View,
-    width: usize,
-    height: usize,
-    opts: WorkloadOptions,
+    pub(super) renderer: Renderer<'static>,
+    pub(super) view: View,
+    pub(super) width: usize,
+    pub(super) height: usize,
+    pub(super) opts: WorkloadOptions,
     /// Non-empty leaves with their data size.
-    cells: Vec<(NodeId, u32, u64)>,
-    partition: Partition,
+    pub(super) cells: Vec<(NodeId, u32, u64)>,
+    pub(super) partition: Partition,
     /// Per node: the one processor owning every non-empty leaf below it,
-    /// [`EMPTY`] if there is none, [`MIXED`] if several own some.
-    subtree_owner: Vec<u32>,
-    /// Predicted subtree costs ([`Distribution::Predicted`] only).
-    predicted: Vec<u64>,
+    /// see [`super::distribution::subtree_owners`].
+    pub(super) subtree_owner: Vec<u32>,
     /// Shadow selections per (processor, cell, light) (option
     /// `clip_cache`), one map per processor so they do not contend.
-    clip_cache: Vec<Mutex<ClipCache>>,
+    pub(super) clip_cache: Vec<Mutex<ClipCache>>,
     /// Finished pixels, counted for a progress display (see
     /// [`RtWorkload::with_progress`]).
-    progress: Option<Arc<std::sync::atomic::AtomicU64>>,
+    pub(super) progress: Option<Arc<std::sync::atomic::AtomicU64>>,
 }
 
 /// Shadow selections per (processor, cell, light).
-type ClipCache = HashMap<(u32, NodeId, u32), ClipEntry>;
+pub(super) type ClipCache = HashMap<(u32, NodeId, u32), ClipEntry>;
 
 /// One cached shadow selection.
 #[derive(Debug)]
-struct ClipEntry {
-    leaves: Arc<[NodeId]>,
+pub(super) struct ClipEntry {
+    pub(super) leaves: Arc<[NodeId]>,
     /// Every leaf of the selection was found local, under a cache that
     /// never evicts: bundles from this cell to this light need no
     /// selection at all.
-    all_local: bool,
+    pub(super) all_local: bool,
 }
-
-const EMPTY: u32 = u32::MAX - 1;
-const MIXED: u32 = u32::MAX;
 
 impl RtWorkload {
     /// Counts finished pixels into `counter` as processors assemble them
@@ -380,11 +156,10 @@ impl RtWorkload {
         } else {
             Vec::new()
         };
-        let partition = Self::partition_for(&renderer, opts.distribution, procs, &predicted);
-        let subtree_owner = Self::subtree_owners(&renderer, &partition);
+        let partition = partition_for(&renderer, opts.distribution, procs, &predicted);
+        let subtree_owner = subtree_owners(&renderer, &partition);
         RtWorkload {
             subtree_owner,
-            predicted,
             clip_cache: (0..procs.max(1))
                 .map(|_| Mutex::new(HashMap::new()))
                 .collect(),
@@ -402,51 +177,11 @@ impl RtWorkload {
         }
     }
 
-    fn partition_for(
-        renderer: &Renderer<'static>,
-        d: Distribution,
-        procs: usize,
-        predicted: &[u64],
-    ) -> Partition {
-        let (octree, objects) = (renderer.octree(), &renderer.scene().objects);
-        let procs = u32::try_from(procs.max(1)).unwrap_or(u32::MAX);
-        match d {
-            // Replicated: the memory cut, for the per-processor report only.
-            Distribution::Octree | Distribution::Replicated => {
-                Partition::new(octree, objects, procs)
-            }
-            Distribution::Worst => Partition::worst_case(octree, objects, procs),
-            Distribution::Predicted => Partition::by_cost(octree, objects, procs, predicted),
-        }
-    }
-
-    fn subtree_owners(renderer: &Renderer<'static>, part: &Partition) -> Vec<u32> {
-        let octree = renderer.octree();
-        let n = octree.node_count();
-        let mut out = vec![EMPTY; n];
-        // Children always have larger ids than their parent.
-        for id in (0..n as NodeId).rev() {
-            out[id as usize] = match octree.children(id) {
-                None if octree.leaf_objects(id).is_empty() => EMPTY,
-                None => part.owner(id),
-                Some(ch) => ch
-                    .iter()
-                    .fold(EMPTY, |acc, &c| match (acc, out[c as usize]) {
-                        (a, EMPTY) => a,
-                        (EMPTY, b) => b,
-                        (a, b) if a == b => a,
-                        _ => MIXED,
-                    }),
-            };
-        }
-        out
-    }
-
     /// True if every leaf a bundle confined to `bounds` (`None`: anywhere)
     /// can touch is resident on processor `proc`: its data selection would
     /// fetch nothing, so clipping is skipped.
-    fn all_resident(&self, bounds: Option<Aabb>, proc: usize, procs: usize) -> bool {
-        if self.partition.procs() as usize != procs || self.subtree_owner.is_empty() {
+    pub(super) fn all_resident(&self, bounds: Option<Aabb>, proc: usize) -> bool {
+        if self.subtree_owner.is_empty() {
             return false;
         }
         let octree = self.renderer.octree();
@@ -465,6 +200,21 @@ impl RtWorkload {
         }
         let o = self.subtree_owner[node as usize];
         o == EMPTY || o as usize == proc
+    }
+
+    /// The one source of the processor count is the run's
+    /// [`hybrid_sched::Config`]: the workload is built for it
+    /// ([`RtWorkload::new`]'s `procs`), and a run with another count is a
+    /// caller's error, reported here at start-up (the hooks `placement`,
+    /// `load_partition` and `root_tasks`), not served with a second
+    /// partition that could disagree with the first.
+    fn check_procs(&self, procs: usize) {
+        assert_eq!(
+            self.partition.procs() as usize,
+            procs.max(1),
+            "RtWorkload was built for {} processors but runs on {procs}: build it with the Config's procs",
+            self.partition.procs()
+        );
     }
 
     pub fn renderer(&self) -> &Renderer<'static> {
@@ -490,27 +240,17 @@ impl RtWorkload {
 
     /// [`Distribution::Replicated`]: every leaf is local everywhere.
     #[inline]
-    fn replicated(&self) -> bool {
+    pub(super) fn replicated(&self) -> bool {
         self.opts.distribution == Distribution::Replicated
     }
 
     /// Leaves as data items: (leaf, owner, bytes); none when replicated.
     fn owner_table(&self, procs: usize) -> Vec<(NodeId, usize, u64)> {
+        self.check_procs(procs);
         if self.replicated() {
             return Vec::new();
         }
-        let fresh;
-        let part = if self.partition.procs() as usize == procs.max(1) {
-            &self.partition
-        } else {
-            fresh = Self::partition_for(
-                &self.renderer,
-                self.opts.distribution,
-                procs,
-                &self.predicted,
-            );
-            &fresh
-        };
+        let part = &self.partition;
         self.cells
             .iter()
             .map(|&(leaf, _, bytes)| (leaf, part.owner(leaf) as usize, bytes))
@@ -518,30 +258,28 @@ impl RtWorkload {
     }
 
     /// Whether `leaf`'s objects are available on processor `proc` (of
-    /// `procs`): resident by the partition (an array lookup) or in the view
+    /// the run's): resident by the partition (an array lookup) or in the view
     /// (cached, or resident under a runtime that holds everything locally).
     #[inline]
-    fn is_local(&self, view: &DataView<'_, Self>, proc: usize, procs: usize, leaf: NodeId) -> bool {
-        self.owned(proc, procs, leaf) || view.get(&leaf).is_some()
+    pub(super) fn is_local(&self, view: &DataView<'_, Self>, proc: usize, leaf: NodeId) -> bool {
+        self.owned(proc, leaf) || view.get(&leaf).is_some()
     }
 
     /// [`Self::is_local`] without touching the leaf's cache recency.
-    fn held(&self, view: &DataView<'_, Self>, proc: usize, procs: usize, leaf: NodeId) -> bool {
-        self.owned(proc, procs, leaf) || view.is_local(&leaf)
+    pub(super) fn held(&self, view: &DataView<'_, Self>, proc: usize, leaf: NodeId) -> bool {
+        self.owned(proc, leaf) || view.is_local(&leaf)
     }
 
-    /// Whether `leaf` is resident on processor `proc` (of `procs`) without
+    /// Whether `leaf` is resident on processor `proc` without
     /// asking a view: everything is when replicated, else the partition's
     /// owner (an array lookup).
     #[inline]
-    fn owned(&self, proc: usize, procs: usize, leaf: NodeId) -> bool {
-        self.replicated()
-            || (self.partition.procs() as usize == procs
-                && self.partition.owner(leaf) as usize == proc)
+    pub(super) fn owned(&self, proc: usize, leaf: NodeId) -> bool {
+        self.replicated() || self.partition.owner(leaf) as usize == proc
     }
 
     /// The non-empty leaves among `leaves`, each once, in order.
-    fn nonempty(&self, leaves: impl IntoIterator<Item = NodeId>) -> Vec<NodeId> {
+    pub(super) fn nonempty(&self, leaves: impl IntoIterator<Item = NodeId>) -> Vec<NodeId> {
         let octree = self.renderer.octree();
         let mut seen = HashSet::new();
         leaves
@@ -549,452 +287,7 @@ impl RtWorkload {
             .filter(|&l| !octree.leaf_objects(l).is_empty() && seen.insert(l))
             .collect()
     }
-
-    /// Data selection for a tile: the pyramid from the eye through the
-    /// tile's corners (perspective views), else the leaves along every
-    /// primary ray.
-    fn select_tile(&self, t: &Tile, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
-        if self.replicated() || self.all_resident(None, ctx.proc_id(), ctx.procs()) {
-            return Vec::new();
-        }
-        let octree = self.renderer.octree();
-        let (w, h) = (self.width as f64, self.height as f64);
-        if self.view.vtype == ViewType::Perspective {
-            // Pixel edges widened by the largest jitter offset, so every
-            // jittered ray of the tile is inside.
-            let m = (self.renderer.options().pj * 0.5).max(0.5);
-            let xs = [(t.x0 as f64 - m) / w, (t.x1 as f64 + m) / w];
-            let ys = [1.0 - (t.y0 as f64 - m) / h, 1.0 - (t.y1 as f64 + m) / h];
-            let dirs: Vec<Vec3> = xs
-                .iter()
-                .flat_map(|&x| ys.iter().map(move |&y| (x, y)))
-                .filter_map(|(x, y)| self.view.ray(x, y).map(|(r, _, _)| r.dir))
-                .collect();
-            if dirs.len() == 4 {
-                return self.clip(&Pyramid::from_rays(self.view.vp, &dirs), ctx);
-            }
-        }
-        let mut leaves = Vec::new();
-        let mut visits = 0u64;
-        for y in t.y0..t.y1 {
-            for x in t.x0..t.x1 {
-                let Some(task) = self.primary(x, y) else {
-                    continue;
-                };
-                octree.for_each_leaf_along_ray(&task.ray, task.tmin, task.tmax, |leaf, _, _| {
-                    visits += 1;
-                    leaves.push(leaf);
-                    false
-                });
-            }
-        }
-        ctx.charge(work::CLIP_NODES, visits);
-        self.nonempty(leaves)
-    }
-
-    /// Data selection for a shadow bundle: the pyramid from the shaded
-    /// point around the whole source.
-    fn select_shadow(
-        &self,
-        b: &ShadowBundle,
-        local: Option<&DataView<'_, Self>>,
-        ctx: &mut Ctx<Self>,
-    ) -> Vec<NodeId> {
-        if self.replicated() {
-            return Vec::new();
-        }
-        // The box holding every shadow ray of the bundle (padded for the
-        // origin offsets), if the source is finite.
-        let bounds = self
-            .renderer
-            .lights()
-            .get(b.light as usize)
-            .and_then(|l| l.shadow_bounds(b.point, b.offset_scale));
-        if self.all_resident(bounds, ctx.proc_id(), ctx.procs()) {
-            return Vec::new();
-        }
-        if self.opts.clip_cache {
-            if let Some(sel) = self.select_shadow_cached(b, local, ctx) {
-                return sel;
-            }
-        }
-        match self.shadow_pyramid(b) {
-            Some(pyramid) => self.clip(&pyramid, ctx),
-            None => Vec::new(),
-        }
-    }
-
-    /// [`WorkloadOptions::clip_cache`]: the selection for every bundle from
-    /// the shaded point's cell to its (finite) light. `None` to clip the
-    /// bundle's own pyramid instead.
-    ///
-    /// With `local` (what the processor holds) and an unlimited cache, a
-    /// selection found entirely local is remembered, and later bundles from
-    /// the cell to the light select (and pin) nothing.
-    fn select_shadow_cached(
-        &self,
-        b: &ShadowBundle,
-        local: Option<&DataView<'_, Self>>,
-        ctx: &mut Ctx<Self>,
-    ) -> Option<Vec<NodeId>> {
-        let octree = self.renderer.octree();
-        let leaf = octree.find_leaf(b.point)?;
-        let (proc, procs) = (ctx.proc_id(), ctx.procs());
-        let key = (proc as u32, leaf, b.light);
-        let shard = &self.clip_cache[proc % self.clip_cache.len()];
-        if let Some(e) = shard.lock().ok()?.get_mut(&key) {
-            ctx.charge(work::CLIP_REUSED, 1);
-            // Only where nothing is ever evicted: a selection left empty
-            // pins nothing, so with a budget a cell could leave before the
-            // bundle runs.
-            if let Some(local) = local.filter(|l| l.keeps_everything()) {
-                if e.all_local || e.leaves.iter().all(|&l| self.held(local, proc, procs, l)) {
-                    e.all_local = true;
-                    ctx.charge(work::CLIP_ALL_LOCAL, 1);
-                    return Some(Vec::new());
-                }
-            }
-            return Some(e.leaves.to_vec());
-        }
-        // Entries exist only for finite sources (checked here, on a miss).
-        let light = self.renderer.lights().get(b.light as usize)?;
-        let points = light.shadow_hull_points(octree.node_bounds(leaf), b.point, b.offset_scale)?;
-        let hull = Pyramid::hull(&points, b.point)?;
-        let sel = self.clip(&hull, ctx);
-        if let Ok(mut cache) = shard.lock() {
-            cache.insert(
-                key,
-                ClipEntry {
-                    leaves: sel.clone().into(),
-                    all_local: false,
-                },
-            );
-        }
-        Some(sel)
-    }
-
-    /// The non-empty leaves meeting `pyramid` that this processor does not
-    /// hold, front to back (subtrees it holds entirely are not visited).
-    fn clip(&self, pyramid: &Pyramid, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
-        let octree = self.renderer.octree();
-        let mut leaves = Vec::new();
-        let me = ctx.proc_id() as u32;
-        let known = self.partition.procs() as usize == ctx.procs();
-        let wanted = |id: NodeId| {
-            let o = self.subtree_owner[id as usize];
-            !(known && (o == me || o == EMPTY))
-        };
-        let visits = octree.clip_leaves_where(pyramid, wanted, |l| {
-            if !octree.leaf_objects(l).is_empty() {
-                leaves.push(l);
-            }
-        });
-        ctx.charge(work::CLIP_NODES, visits);
-        leaves
-    }
-
-    fn shadow_pyramid(&self, b: &ShadowBundle) -> Option<Pyramid> {
-        self.renderer
-            .lights()
-            .get(b.light as usize)?
-            .shadow_pyramid(b.point)
-    }
-
-    /// Whether a new shadow bundle should run data-parallel: too few rays to
-    /// be worth clipping, or a pyramid that would not bound it (the point
-    /// inside the source's box, a very wide distant source).
-    fn shadow_goes_dp(&self, b: &ShadowBundle) -> bool {
-        let Some(light) = self.renderer.lights().get(b.light as usize) else {
-            return true;
-        };
-        match light.extent() {
-            None => true,
-            Some(LightExtent::Distant { cos_half, .. }) => {
-                cos_half < 0.5 || self.opts.shadow_dp_below > 1
-            }
-            Some(LightExtent::Finite(_)) => {
-                light.box_holds(b.point)
-                    || light.patch_estimate(b.point, self.renderer.options().ds)
-                        < self.opts.shadow_dp_below
-            }
-        }
-    }
-
-    fn primary(&self, x: u32, y: u32) -> Option<RayTask> {
-        self.renderer
-            .primary_task(&self.view, self.width, self.height, x as usize, y as usize)
-    }
-
-    /// [`Distribution::Replicated`]: with the whole scene at hand there is
-    /// nothing to migrate or fetch, so a tile's pixels are traced whole by
-    /// the sequential renderer (the very code the other distributions must
-    /// equal) and only finished pixels are emitted. Its ray and shadow
-    /// counts are charged; traversal units (`trace.*`) are not, since the
-    /// sequential kernel does not count them, so a simulated replicated run
-    /// prices tracing from the ray counts alone.
-    fn trace_tile_whole(&self, t: &Tile, ctx: &mut Ctx<Self>) {
-        let origin = Addr::Proc(ctx.proc_id());
-        let mut st = crate::render::TraceState::default();
-        if self.renderer.options().ps > 1 {
-            // Adaptive sampling: the tile with its grid cells as apron, so
-            // its pixels equal the sequential picture's.
-            let grid = self.renderer.grid(self.width, self.height);
-            let width = self.width as u32;
-            grid.fill_region(
-                t.x0 as usize..t.x1 as usize,
-                t.y0 as usize..t.y1 as usize,
-                &mut None,
-                &mut |x, y| {
-                    self.renderer
-                        .pixel(&self.view, self.width, self.height, x, y, &mut st)
-                },
-                &mut |x, y, value| {
-                    ctx.emit_result(
-                        origin,
-                        RtResult {
-                            key: NodeKey::root(y as u32 * width + x as u32),
-                            record: Record::Value(value),
-                        },
-                    )
-                },
-            );
-            self.charge_counts(&st, ctx);
-            return;
-        }
-        for y in t.y0..t.y1 {
-            for x in t.x0..t.x1 {
-                let Some(task) = self.primary(x, y) else {
-                    continue;
-                };
-                let value = self.renderer.radiance(&task, &mut st);
-                ctx.emit_result(
-                    origin,
-                    RtResult {
-                        key: NodeKey::root(y * self.width as u32 + x),
-                        record: Record::Value(value),
-                    },
-                );
-            }
-        }
-        self.charge_counts(&st, ctx);
-    }
-
-    /// Charges the rays and shadow work tallied in `st`.
-    fn charge_counts(&self, st: &crate::render::TraceState, ctx: &mut Ctx<Self>) {
-        let c = &st.counts;
-        for (kind, n) in [
-            (work::RAYS_PRIMARY, c.primary),
-            (work::RAYS_REFLECTION, c.reflection),
-            (work::RAYS_REFRACTION, c.refraction),
-            (work::RAYS_PASS_THROUGH, c.pass_through),
-        ] {
-            ctx.charge(kind, n);
-        }
-        ctx.charge(work::SHADOW_BUNDLES, c.shadow.bundles);
-        ctx.charge(work::SHADOW_PATCHES, c.shadow.patches);
-        ctx.charge(work::SHADOW_TESTED, c.shadow.tested);
-        ctx.charge(work::SHADOW_ESTIMATED, c.shadow.estimated);
-        ctx.charge(work::SHADOW_UNOCCLUDED, c.shadow.unoccluded);
-        ctx.charge(work::SHADOW_SEGMENTS, c.shadow.transparent_segments);
-    }
-
-    /// A traced ray is complete: shade its hit here (or take the sky), send
-    /// the node's record to the pixel's owner, spawn its requests.
-    fn finish_ray(
-        &self,
-        key: NodeKey,
-        origin: u32,
-        task: &RayTask,
-        hit: Option<Hit>,
-        ctx: &mut Ctx<Self>,
-    ) {
-        ctx.charge(
-            match task.kind {
-                RayKind::Primary => work::RAYS_PRIMARY,
-                RayKind::Reflection => work::RAYS_REFLECTION,
-                RayKind::Refraction => work::RAYS_REFRACTION,
-                RayKind::PassThrough => work::RAYS_PASS_THROUGH,
-                RayKind::Ambient => work::RAYS_AMBIENT,
-            },
-            1,
-        );
-        ctx.charge(work::RAYS_RETIRED, 1);
-        let dest = Addr::Proc(origin as usize);
-        let Some(hit) = hit else {
-            let sky = self.renderer.sky_seen(task);
-            ctx.emit_result(
-                dest,
-                RtResult {
-                    key,
-                    record: Record::Value(sky),
-                },
-            );
-            return;
-        };
-        ctx.charge(work::SHADE, 1);
-        let sctx = self.renderer.context();
-        let mut requests = Vec::new();
-        let shaded = shade(&sctx, task, &hit, &mut requests);
-        let mut children = Vec::with_capacity(requests.len());
-        for (i, r) in requests.into_iter().enumerate() {
-            match r {
-                Request::Trace { task: child, coef } => {
-                    children.push(Child::Trace(coef));
-                    ctx.charge(work::RAYS_SPAWNED, 1);
-                    ctx.spawn_dp(DpTask::Ray(RayJob {
-                        key: key.child(i),
-                        origin,
-                        task: child,
-                        cursor: TraceCursor::default(),
-                        next: None,
-                    }));
-                }
-                Request::Shadow(bundle) | Request::Scatter(bundle) => {
-                    children.push(if matches!(r, Request::Scatter(_)) {
-                        Child::Scatter
-                    } else {
-                        Child::Shadow
-                    });
-                    ctx.charge(work::SHADOW_SPAWNED, 1);
-                    let key = key.child(i);
-                    if self.shadow_goes_dp(&bundle) {
-                        ctx.charge(work::SHADOW_BUNDLES_DP, 1);
-                        ctx.spawn_dp(DpTask::Shadow(ShadowDp {
-                            key,
-                            origin,
-                            bundle,
-                            replay: Replay::default(),
-                            next: None,
-                        }));
-                    } else {
-                        ctx.spawn_dd(DdTask::Shadow(ShadowJob {
-                            key,
-                            origin,
-                            bundle,
-                        }));
-                    }
-                }
-            }
-        }
-        let attenuation = crate::render::medium::participate(
-            self.renderer.options(),
-            shaded.extinction,
-            &shaded.medium,
-            hit.t,
-        );
-        ctx.emit_result(
-            dest,
-            RtResult {
-                key,
-                record: Record::Shaded {
-                    base: shaded.base,
-                    children,
-                    attenuation,
-                },
-            },
-        );
-    }
-
-    /// Traces a ray as far as the local cells allow: finished, or the job
-    /// to migrate.
-    fn advance_ray(
-        &self,
-        mut job: RayJob,
-        data: &DataView<'_, Self>,
-        ctx: &mut Ctx<Self>,
-    ) -> Option<RayJob> {
-        let octree = self.renderer.octree();
-        let objects = &self.renderer.scene().objects;
-        let t = &job.task;
-        let (proc, procs) = (ctx.proc_id(), ctx.procs());
-        let (mut leaves, mut tests) = (0u64, 0u64);
-        let partial =
-            octree.intersect_partial(objects, &t.ray, t.tmin, t.tmax, &mut job.cursor, |l| {
-                leaves += 1;
-                tests += octree.leaf_objects(l).len() as u64;
-                self.is_local(data, proc, procs, l)
-            });
-        ctx.charge(work::TRACE_LEAVES, leaves);
-        ctx.charge(work::TRACE_OBJECTS, tests);
-        match partial {
-            Partial::Blocked(leaf) => {
-                job.next = Some(leaf);
-                Some(job)
-            }
-            Partial::Done(hit) => {
-                let task = job.task;
-                self.finish_ray(job.key, job.origin, &task, hit, ctx);
-                None
-            }
-        }
-    }
-
-    /// Runs a shadow bundle as far as the local cells allow: finished, or
-    /// the bundle to migrate with its recorded answers.
-    fn advance_shadow(
-        &self,
-        mut job: ShadowDp,
-        data: &DataView<'_, Self>,
-        ctx: &mut Ctx<Self>,
-    ) -> Option<ShadowDp> {
-        let octree = self.renderer.octree();
-        let objects = &self.renderer.scene().objects;
-        if !job.replay.answers.is_empty() || job.replay.cursor != TraceCursor::default() {
-            ctx.charge(work::SHADOW_RESTARTS, 1);
-        }
-        let replay = std::mem::take(&mut job.replay);
-        let (proc, procs) = (ctx.proc_id(), ctx.procs());
-        let visits = std::cell::Cell::new((0u64, 0u64));
-        let caster = PartialCaster::new(
-            octree,
-            objects,
-            |l| {
-                let (a, b) = visits.get();
-                visits.set((a + 1, b + octree.leaf_objects(l).len() as u64));
-                self.is_local(data, proc, procs, l)
-            },
-            replay,
-        );
-        let mut counts = ShadowCounts::default();
-        let value = SCRATCH.with_borrow_mut(|scratch| {
-            run_shadow_bundle(
-                &self.renderer.context(),
-                &caster,
-                &job.bundle,
-                scratch,
-                &mut counts,
-            )
-        });
-        let (leaves, tests) = visits.get();
-        ctx.charge(work::TRACE_LEAVES, leaves);
-        ctx.charge(work::TRACE_OBJECTS, tests);
-        if let Some(leaf) = caster.blocked() {
-            job.replay = caster.into_replay();
-            job.next = Some(leaf);
-            return Some(job);
-        }
-        charge_shadow(ctx, &counts);
-        ctx.emit_result(
-            Addr::Proc(job.origin as usize),
-            RtResult {
-                key: job.key,
-                record: Record::Value(value),
-            },
-        );
-        None
-    }
 }
-
-fn charge_shadow(ctx: &mut Ctx<RtWorkload>, c: &ShadowCounts) {
-    ctx.charge(work::SHADOW_RETIRED, 1);
-    ctx.charge(work::SHADOW_BUNDLES, c.bundles);
-    ctx.charge(work::SHADOW_PATCHES, c.patches);
-    ctx.charge(work::SHADOW_TESTED, c.tested);
-    ctx.charge(work::SHADOW_ESTIMATED, c.estimated);
-    ctx.charge(work::SHADOW_UNOCCLUDED, c.unoccluded);
-    ctx.charge(work::SHADOW_SEGMENTS, c.transparent_segments);
-}
-
 impl Workload for RtWorkload {
     type DataId = NodeId;
     type DataItem = CellData;
@@ -1002,7 +295,7 @@ impl Workload for RtWorkload {
     type DpTask = DpTask;
     type Result = RtResult;
     type Accumulator = PixelTrees;
-    type Work = work::Work;
+    type Work = Work;
 
     fn placement(&self, procs: usize) -> Vec<Placement<NodeId>> {
         self.owner_table(procs)
@@ -1031,7 +324,8 @@ impl Workload for RtWorkload {
             .collect()
     }
 
-    fn root_tasks(&self, _procs: usize) -> Vec<DdTask> {
+    fn root_tasks(&self, procs: usize) -> Vec<DdTask> {
+        self.check_procs(procs);
         let mut t = self.opts.tile;
         let ps = self.renderer.options().ps as usize;
         if ps > 1 && self.replicated() {
@@ -1076,22 +370,20 @@ impl Workload for RtWorkload {
         match task {
             DdTask::Tile(t) if self.replicated() => self.trace_tile_whole(&t, ctx),
             DdTask::Tile(t) => {
-                let origin = ctx.proc_id() as u32;
                 for y in t.y0..t.y1 {
                     for x in t.x0..t.x1 {
                         let Some(task) = self.primary(x, y) else {
                             continue;
                         };
-                        ctx.charge(work::RAYS_SPAWNED, 1);
+                        ctx.charge(Work::RaysSpawned, 1);
                         let job = RayJob {
                             key: NodeKey::root(y * self.width as u32 + x),
-                            origin,
                             task,
                             cursor: TraceCursor::default(),
                             next: None,
                         };
                         if let Some(job) = self.advance_ray(job, data, ctx) {
-                            ctx.charge(work::CLIP_MISSES, 1);
+                            ctx.charge(Work::ClipMisses, 1);
                             ctx.spawn_dp(DpTask::Ray(job));
                         }
                     }
@@ -1100,13 +392,12 @@ impl Workload for RtWorkload {
             DdTask::Shadow(j) => {
                 let job = ShadowDp {
                     key: j.key,
-                    origin: j.origin,
                     bundle: j.bundle,
                     replay: Replay::default(),
                     next: None,
                 };
                 if let Some(job) = self.advance_shadow(job, data, ctx) {
-                    ctx.charge(work::CLIP_MISSES, 1);
+                    ctx.charge(Work::ClipMisses, 1);
                     ctx.spawn_dp(DpTask::Shadow(job));
                 }
             }
@@ -1116,14 +407,12 @@ impl Workload for RtWorkload {
     fn to_data_parallel(&self, task: DdTask, ctx: &mut Ctx<Self>) {
         match task {
             DdTask::Tile(t) => {
-                let origin = ctx.proc_id() as u32;
                 for y in t.y0..t.y1 {
                     for x in t.x0..t.x1 {
                         if let Some(task) = self.primary(x, y) {
-                            ctx.charge(work::RAYS_SPAWNED, 1);
+                            ctx.charge(Work::RaysSpawned, 1);
                             ctx.spawn_dp(DpTask::Ray(RayJob {
                                 key: NodeKey::root(y * self.width as u32 + x),
-                                origin,
                                 task,
                                 cursor: TraceCursor::default(),
                                 next: None,
@@ -1133,10 +422,9 @@ impl Workload for RtWorkload {
                 }
             }
             DdTask::Shadow(j) => {
-                ctx.charge(work::SHADOW_BUNDLES_DP, 1);
+                ctx.charge(Work::ShadowBundlesDp, 1);
                 ctx.spawn_dp(DpTask::Shadow(ShadowDp {
                     key: j.key,
-                    origin: j.origin,
                     bundle: j.bundle,
                     replay: Replay::default(),
                     next: None,
@@ -1179,6 +467,3 @@ impl Workload for RtWorkload {
         }
     }
 }
-
-/// Shared handle type used by the runtimes.
-pub type SharedWorkload = Arc<RtWorkload>;

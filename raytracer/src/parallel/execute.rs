@@ -1,0 +1,314 @@
+//! Execution: tracing a tile's primary rays (or, replicated, the whole
+//! tile), shading a hit and spawning its rays and shadow bundles, advancing
+//! a migrating ray or a restartable shadow bundle as far as the local cells
+//! allow, and sending every ray-tree record to the pixel's origin.
+
+use hybrid_sched::{Addr, Ctx, DataView};
+
+use super::caster::PartialCaster;
+use super::caster::Replay;
+use super::tasks::{DdTask, DpTask, RayJob, ShadowDp, ShadowJob, Tile};
+use super::tree::{Child, NodeKey, Record, RtResult};
+use super::work::Work;
+use super::workload::RtWorkload;
+use crate::accel::{Hit, Partial, TraceCursor};
+use crate::render::direct::{run_shadow_bundle, ShadowCounts};
+use crate::render::light::LightExtent;
+use crate::render::material::shade;
+use crate::render::{RayKind, RayTask, Request, ShadowBundle};
+
+thread_local! {
+    /// The patch list of [`run_shadow_bundle`], reused by every bundle a
+    /// thread runs (a fresh one per bundle grew on the hot path).
+    static SCRATCH: std::cell::RefCell<Vec<crate::render::direct::Contribution>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
+
+impl RtWorkload {
+    /// Whether a new shadow bundle should run data-parallel: too few rays to
+    /// be worth clipping, or a pyramid that would not bound it (the point
+    /// inside the source's box, a very wide distant source).
+    pub(super) fn shadow_goes_dp(&self, b: &ShadowBundle) -> bool {
+        let Some(light) = self.renderer.lights().get(b.light as usize) else {
+            return true;
+        };
+        match light.extent() {
+            None => true,
+            Some(LightExtent::Distant { cos_half, .. }) => {
+                cos_half < 0.5 || self.opts.shadow_dp_below > 1
+            }
+            Some(LightExtent::Finite(_)) => {
+                light.box_holds(b.point)
+                    || light.patch_estimate(b.point, self.renderer.options().ds)
+                        < self.opts.shadow_dp_below
+            }
+        }
+    }
+
+    pub(super) fn primary(&self, x: u32, y: u32) -> Option<RayTask> {
+        self.renderer
+            .primary_task(&self.view, self.width, self.height, x as usize, y as usize)
+    }
+
+    /// [`Distribution::Replicated`]: with the whole scene at hand there is
+    /// nothing to migrate or fetch, so a tile's pixels are traced whole by
+    /// the sequential renderer (the very code the other distributions must
+    /// equal) and only finished pixels are emitted. Its ray and shadow
+    /// counts are charged; traversal units (`trace.*`) are not, since the
+    /// sequential kernel does not count them, so a simulated replicated run
+    /// prices tracing from the ray counts alone.
+    pub(super) fn trace_tile_whole(&self, t: &Tile, ctx: &mut Ctx<Self>) {
+        let origin = Addr::Proc(ctx.origin());
+        let mut st = crate::render::TraceState::default();
+        if self.renderer.options().ps > 1 {
+            // Adaptive sampling: the tile with its grid cells as apron, so
+            // its pixels equal the sequential picture's.
+            let grid = self.renderer.grid(self.width, self.height);
+            let width = self.width as u32;
+            grid.fill_region(
+                t.x0 as usize..t.x1 as usize,
+                t.y0 as usize..t.y1 as usize,
+                &mut None,
+                &mut |x, y| {
+                    self.renderer
+                        .pixel(&self.view, self.width, self.height, x, y, &mut st)
+                },
+                &mut |x, y, value| {
+                    ctx.emit_result(
+                        origin,
+                        RtResult {
+                            key: NodeKey::root(y as u32 * width + x as u32),
+                            record: Record::Value(value),
+                        },
+                    )
+                },
+            );
+            self.charge_counts(&st, ctx);
+            return;
+        }
+        for y in t.y0..t.y1 {
+            for x in t.x0..t.x1 {
+                let Some(task) = self.primary(x, y) else {
+                    continue;
+                };
+                let value = self.renderer.radiance(&task, &mut st);
+                ctx.emit_result(
+                    origin,
+                    RtResult {
+                        key: NodeKey::root(y * self.width as u32 + x),
+                        record: Record::Value(value),
+                    },
+                );
+            }
+        }
+        self.charge_counts(&st, ctx);
+    }
+
+    /// Charges the rays and shadow work tallied in `st`.
+    pub(super) fn charge_counts(&self, st: &crate::render::TraceState, ctx: &mut Ctx<Self>) {
+        let c = &st.counts;
+        for (kind, n) in [
+            (Work::RaysPrimary, c.primary),
+            (Work::RaysReflection, c.reflection),
+            (Work::RaysRefraction, c.refraction),
+            (Work::RaysPassThrough, c.pass_through),
+        ] {
+            ctx.charge(kind, n);
+        }
+        ctx.charge(Work::ShadowBundles, c.shadow.bundles);
+        ctx.charge(Work::ShadowPatches, c.shadow.patches);
+        ctx.charge(Work::ShadowTested, c.shadow.tested);
+        ctx.charge(Work::ShadowEstimated, c.shadow.estimated);
+        ctx.charge(Work::ShadowUnoccluded, c.shadow.unoccluded);
+        ctx.charge(Work::ShadowSegments, c.shadow.transparent_segments);
+    }
+
+    /// A traced ray is complete: shade its hit here (or take the sky), send
+    /// the node's record to the pixel's owner, spawn its requests.
+    pub(super) fn finish_ray(
+        &self,
+        key: NodeKey,
+        task: &RayTask,
+        hit: Option<Hit>,
+        ctx: &mut Ctx<Self>,
+    ) {
+        ctx.charge(
+            match task.kind {
+                RayKind::Primary => Work::RaysPrimary,
+                RayKind::Reflection => Work::RaysReflection,
+                RayKind::Refraction => Work::RaysRefraction,
+                RayKind::PassThrough => Work::RaysPassThrough,
+                RayKind::Ambient => Work::RaysAmbient,
+            },
+            1,
+        );
+        ctx.charge(Work::RaysRetired, 1);
+        let dest = Addr::Proc(ctx.origin());
+        let Some(hit) = hit else {
+            let sky = self.renderer.sky_seen(task);
+            ctx.emit_result(
+                dest,
+                RtResult {
+                    key,
+                    record: Record::Value(sky),
+                },
+            );
+            return;
+        };
+        ctx.charge(Work::Shade, 1);
+        let sctx = self.renderer.context();
+        let mut requests = Vec::new();
+        let shaded = shade(&sctx, task, &hit, &mut requests);
+        let mut children = Vec::with_capacity(requests.len());
+        for (i, r) in requests.into_iter().enumerate() {
+            match r {
+                Request::Trace { task: child, coef } => {
+                    children.push(Child::Trace(coef));
+                    ctx.charge(Work::RaysSpawned, 1);
+                    ctx.spawn_dp(DpTask::Ray(RayJob {
+                        key: key.child(i),
+                        task: child,
+                        cursor: TraceCursor::default(),
+                        next: None,
+                    }));
+                }
+                Request::Shadow(bundle) | Request::Scatter(bundle) => {
+                    children.push(if matches!(r, Request::Scatter(_)) {
+                        Child::Scatter
+                    } else {
+                        Child::Shadow
+                    });
+                    ctx.charge(Work::ShadowSpawned, 1);
+                    let key = key.child(i);
+                    if self.shadow_goes_dp(&bundle) {
+                        ctx.charge(Work::ShadowBundlesDp, 1);
+                        ctx.spawn_dp(DpTask::Shadow(ShadowDp {
+                            key,
+                            bundle,
+                            replay: Replay::default(),
+                            next: None,
+                        }));
+                    } else {
+                        ctx.spawn_dd(DdTask::Shadow(ShadowJob { key, bundle }));
+                    }
+                }
+            }
+        }
+        let attenuation = crate::render::medium::participate(
+            self.renderer.options(),
+            shaded.extinction,
+            &shaded.medium,
+            hit.t,
+        );
+        ctx.emit_result(
+            dest,
+            RtResult {
+                key,
+                record: Record::Shaded {
+                    base: shaded.base,
+                    children,
+                    attenuation,
+                },
+            },
+        );
+    }
+
+    /// Traces a ray as far as the local cells allow: finished, or the job
+    /// to migrate.
+    pub(super) fn advance_ray(
+        &self,
+        mut job: RayJob,
+        data: &DataView<'_, Self>,
+        ctx: &mut Ctx<Self>,
+    ) -> Option<RayJob> {
+        let octree = self.renderer.octree();
+        let objects = &self.renderer.scene().objects;
+        let t = &job.task;
+        let proc = ctx.proc_id();
+        let (mut leaves, mut tests) = (0u64, 0u64);
+        let partial =
+            octree.intersect_partial(objects, &t.ray, t.tmin, t.tmax, &mut job.cursor, |l| {
+                leaves += 1;
+                tests += octree.leaf_objects(l).len() as u64;
+                self.is_local(data, proc, l)
+            });
+        ctx.charge(Work::TraceLeaves, leaves);
+        ctx.charge(Work::TraceObjects, tests);
+        match partial {
+            Partial::Blocked(leaf) => {
+                job.next = Some(leaf);
+                Some(job)
+            }
+            Partial::Done(hit) => {
+                let task = job.task;
+                self.finish_ray(job.key, &task, hit, ctx);
+                None
+            }
+        }
+    }
+
+    /// Runs a shadow bundle as far as the local cells allow: finished, or
+    /// the bundle to migrate with its recorded answers.
+    pub(super) fn advance_shadow(
+        &self,
+        mut job: ShadowDp,
+        data: &DataView<'_, Self>,
+        ctx: &mut Ctx<Self>,
+    ) -> Option<ShadowDp> {
+        let octree = self.renderer.octree();
+        let objects = &self.renderer.scene().objects;
+        if !job.replay.answers.is_empty() || job.replay.cursor != TraceCursor::default() {
+            ctx.charge(Work::ShadowRestarts, 1);
+        }
+        let replay = std::mem::take(&mut job.replay);
+        let proc = ctx.proc_id();
+        let visits = std::cell::Cell::new((0u64, 0u64));
+        let caster = PartialCaster::new(
+            octree,
+            objects,
+            |l| {
+                let (a, b) = visits.get();
+                visits.set((a + 1, b + octree.leaf_objects(l).len() as u64));
+                self.is_local(data, proc, l)
+            },
+            replay,
+        );
+        let mut counts = ShadowCounts::default();
+        let value = SCRATCH.with_borrow_mut(|scratch| {
+            run_shadow_bundle(
+                &self.renderer.context(),
+                &caster,
+                &job.bundle,
+                scratch,
+                &mut counts,
+            )
+        });
+        let (leaves, tests) = visits.get();
+        ctx.charge(Work::TraceLeaves, leaves);
+        ctx.charge(Work::TraceObjects, tests);
+        if let Some(leaf) = caster.blocked() {
+            job.replay = caster.into_replay();
+            job.next = Some(leaf);
+            return Some(job);
+        }
+        charge_shadow(ctx, &counts);
+        ctx.emit_result(
+            Addr::Proc(ctx.origin()),
+            RtResult {
+                key: job.key,
+                record: Record::Value(value),
+            },
+        );
+        None
+    }
+}
+
+fn charge_shadow(ctx: &mut Ctx<RtWorkload>, c: &ShadowCounts) {
+    ctx.charge(Work::ShadowRetired, 1);
+    ctx.charge(Work::ShadowBundles, c.bundles);
+    ctx.charge(Work::ShadowPatches, c.patches);
+    ctx.charge(Work::ShadowTested, c.tested);
+    ctx.charge(Work::ShadowEstimated, c.estimated);
+    ctx.charge(Work::ShadowUnoccluded, c.unoccluded);
+    ctx.charge(Work::ShadowSegments, c.transparent_segments);
+}

@@ -1,0 +1,168 @@
+//! Data selection: the cells a demand-driven task needs that its processor
+//! does not hold. A tile selects the pyramid from the eye through its
+//! corners (or the leaves along its primary rays), a shadow bundle the
+//! pyramid around its light ([`crate::render::light::PreparedLight`]'s
+//! pyramids), clipped against the octree; with option `clip_cache` a
+//! selection per (processor, cell, light) is reused.
+
+use hybrid_sched::{Ctx, DataView};
+
+use super::distribution::EMPTY;
+use super::tasks::Tile;
+use super::work::Work;
+use super::workload::{ClipEntry, RtWorkload};
+use crate::accel::{NodeId, Pyramid};
+use crate::geometry::Vec3;
+use crate::render::ShadowBundle;
+use crate::scene::ViewType;
+
+impl RtWorkload {
+    /// Data selection for a tile: the pyramid from the eye through the
+    /// tile's corners (perspective views), else the leaves along every
+    /// primary ray.
+    pub(super) fn select_tile(&self, t: &Tile, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
+        if self.replicated() || self.all_resident(None, ctx.proc_id()) {
+            return Vec::new();
+        }
+        let octree = self.renderer.octree();
+        let (w, h) = (self.width as f64, self.height as f64);
+        if self.view.vtype == ViewType::Perspective {
+            // Pixel edges widened by the largest jitter offset, so every
+            // jittered ray of the tile is inside.
+            let m = (self.renderer.options().pj * 0.5).max(0.5);
+            let xs = [(t.x0 as f64 - m) / w, (t.x1 as f64 + m) / w];
+            let ys = [1.0 - (t.y0 as f64 - m) / h, 1.0 - (t.y1 as f64 + m) / h];
+            let dirs: Vec<Vec3> = xs
+                .iter()
+                .flat_map(|&x| ys.iter().map(move |&y| (x, y)))
+                .filter_map(|(x, y)| self.view.ray(x, y).map(|(r, _, _)| r.dir))
+                .collect();
+            if dirs.len() == 4 {
+                return self.clip(&Pyramid::from_rays(self.view.vp, &dirs), ctx);
+            }
+        }
+        let mut leaves = Vec::new();
+        let mut visits = 0u64;
+        for y in t.y0..t.y1 {
+            for x in t.x0..t.x1 {
+                let Some(task) = self.primary(x, y) else {
+                    continue;
+                };
+                octree.for_each_leaf_along_ray(&task.ray, task.tmin, task.tmax, |leaf, _, _| {
+                    visits += 1;
+                    leaves.push(leaf);
+                    false
+                });
+            }
+        }
+        ctx.charge(Work::ClipNodes, visits);
+        self.nonempty(leaves)
+    }
+
+    /// Data selection for a shadow bundle: the pyramid from the shaded
+    /// point around the whole source.
+    pub(super) fn select_shadow(
+        &self,
+        b: &ShadowBundle,
+        local: Option<&DataView<'_, Self>>,
+        ctx: &mut Ctx<Self>,
+    ) -> Vec<NodeId> {
+        if self.replicated() {
+            return Vec::new();
+        }
+        // The box holding every shadow ray of the bundle (padded for the
+        // origin offsets), if the source is finite.
+        let bounds = self
+            .renderer
+            .lights()
+            .get(b.light as usize)
+            .and_then(|l| l.shadow_bounds(b.point, b.offset_scale));
+        if self.all_resident(bounds, ctx.proc_id()) {
+            return Vec::new();
+        }
+        if self.opts.clip_cache {
+            if let Some(sel) = self.select_shadow_cached(b, local, ctx) {
+                return sel;
+            }
+        }
+        match self.shadow_pyramid(b) {
+            Some(pyramid) => self.clip(&pyramid, ctx),
+            None => Vec::new(),
+        }
+    }
+
+    /// [`WorkloadOptions::clip_cache`]: the selection for every bundle from
+    /// the shaded point's cell to its (finite) light. `None` to clip the
+    /// bundle's own pyramid instead.
+    ///
+    /// With `local` (what the processor holds) and an unlimited cache, a
+    /// selection found entirely local is remembered, and later bundles from
+    /// the cell to the light select (and pin) nothing.
+    pub(super) fn select_shadow_cached(
+        &self,
+        b: &ShadowBundle,
+        local: Option<&DataView<'_, Self>>,
+        ctx: &mut Ctx<Self>,
+    ) -> Option<Vec<NodeId>> {
+        let octree = self.renderer.octree();
+        let leaf = octree.find_leaf(b.point)?;
+        let proc = ctx.proc_id();
+        let key = (proc as u32, leaf, b.light);
+        let shard = &self.clip_cache[proc % self.clip_cache.len()];
+        if let Some(e) = shard.lock().ok()?.get_mut(&key) {
+            ctx.charge(Work::ClipReused, 1);
+            // Only where nothing is ever evicted: a selection left empty
+            // pins nothing, so with a budget a cell could leave before the
+            // bundle runs.
+            if let Some(local) = local.filter(|l| l.keeps_everything()) {
+                if e.all_local || e.leaves.iter().all(|&l| self.held(local, proc, l)) {
+                    e.all_local = true;
+                    ctx.charge(Work::ClipAllLocal, 1);
+                    return Some(Vec::new());
+                }
+            }
+            return Some(e.leaves.to_vec());
+        }
+        // Entries exist only for finite sources (checked here, on a miss).
+        let light = self.renderer.lights().get(b.light as usize)?;
+        let points = light.shadow_hull_points(octree.node_bounds(leaf), b.point, b.offset_scale)?;
+        let hull = Pyramid::hull(&points, b.point)?;
+        let sel = self.clip(&hull, ctx);
+        if let Ok(mut cache) = shard.lock() {
+            cache.insert(
+                key,
+                ClipEntry {
+                    leaves: sel.clone().into(),
+                    all_local: false,
+                },
+            );
+        }
+        Some(sel)
+    }
+
+    /// The non-empty leaves meeting `pyramid` that this processor does not
+    /// hold, front to back (subtrees it holds entirely are not visited).
+    pub(super) fn clip(&self, pyramid: &Pyramid, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
+        let octree = self.renderer.octree();
+        let mut leaves = Vec::new();
+        let me = ctx.proc_id() as u32;
+        let wanted = |id: NodeId| {
+            let o = self.subtree_owner[id as usize];
+            !(o == me || o == EMPTY)
+        };
+        let visits = octree.clip_leaves_where(pyramid, wanted, |l| {
+            if !octree.leaf_objects(l).is_empty() {
+                leaves.push(l);
+            }
+        });
+        ctx.charge(Work::ClipNodes, visits);
+        leaves
+    }
+
+    pub(super) fn shadow_pyramid(&self, b: &ShadowBundle) -> Option<Pyramid> {
+        self.renderer
+            .lights()
+            .get(b.light as usize)?
+            .shadow_pyramid(b.point)
+    }
+}

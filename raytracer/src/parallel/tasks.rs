@@ -1,0 +1,114 @@
+//! Everything that travels between processors: the data items, the
+//! demand-driven and data-parallel tasks with their byte sizes. (The
+//! results, ray-tree records keyed by [`NodeKey`], are in [`super::tree`];
+//! the recorded answers of a restartable bundle in [`super::caster`].)
+
+use hybrid_sched::serde::{Deserialize, Serialize};
+use hybrid_sched::ByteSize;
+
+use super::caster::{Answer, Replay};
+use super::tree::NodeKey;
+use crate::accel::{NodeId, TraceCursor};
+use crate::render::{RayTask, ShadowBundle};
+
+/// One octree leaf's objects as a data item. In-process runtimes share the
+/// parsed scene, so the item grants access to the leaf's objects and
+/// carries their size: caches, requests and replies are accounted in the
+/// bytes the objects occupy (an object listed in n leaves counts 1/n in
+/// each).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct CellData {
+    pub leaf: NodeId,
+    pub objects: u32,
+    pub bytes: u64,
+}
+
+impl ByteSize for CellData {
+    fn byte_size(&self) -> usize {
+        self.bytes as usize
+    }
+}
+
+/// A tile: a rectangle of pixels, the renderer's [`Region`](crate::render::Region).
+pub type Tile = crate::render::Region;
+
+/// A shadow bundle scheduled demand-driven.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct ShadowJob {
+    pub key: NodeKey,
+    pub bundle: ShadowBundle,
+}
+
+/// Demand-driven tasks. (Tiles are much smaller than shadow bundles, but
+/// there are few of them: boxing the bundle would cost an allocation per
+/// bundle for nothing.)
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub enum DdTask {
+    Tile(Tile),
+    Shadow(ShadowJob),
+}
+
+/// Bytes of the task's origin, which its envelope carries (the framework
+/// tracks it: [`hybrid_sched::Ctx::origin`]); tasks carried it themselves before, and the
+/// accounting keeps those bytes.
+const ORIGIN_BYTES: usize = 8;
+
+impl ByteSize for DdTask {
+    fn byte_size(&self) -> usize {
+        std::mem::size_of::<Self>()
+            + ORIGIN_BYTES
+            + match self {
+                DdTask::Tile(_) => 0,
+                DdTask::Shadow(j) => 2 * j.key.path.len(),
+            }
+    }
+}
+
+/// A ray migrating cell by cell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct RayJob {
+    pub key: NodeKey,
+    pub task: RayTask,
+    pub cursor: TraceCursor,
+    /// The leaf it needs next (`None`: start wherever it is).
+    pub next: Option<NodeId>,
+}
+
+/// A shadow bundle migrating with its recorded answers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct ShadowDp {
+    pub key: NodeKey,
+    pub bundle: ShadowBundle,
+    pub replay: Replay,
+    pub next: Option<NodeId>,
+}
+
+/// Data-parallel tasks.
+// Both variants travel by value between processors; a shadow bundle carries
+// its medium, and boxing it would cost an allocation per task.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub enum DpTask {
+    Ray(RayJob),
+    Shadow(ShadowDp),
+}
+
+impl ByteSize for DpTask {
+    fn byte_size(&self) -> usize {
+        std::mem::size_of::<Self>()
+            + ORIGIN_BYTES
+            + match self {
+                DpTask::Ray(j) => 2 * j.key.path.len(),
+                DpTask::Shadow(s) => {
+                    2 * s.key.path.len() + s.replay.answers.len() * std::mem::size_of::<Answer>()
+                }
+            }
+    }
+}

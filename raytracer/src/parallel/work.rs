@@ -1,0 +1,40 @@
+//! The kinds of work the renderer charges to the framework's statistics
+//! ([`hybrid_sched::Ctx::charge`]) and the simulator prices
+//! ([`super::cost`]): one enum, so a misspelt kind does not compile.
+
+hybrid_sched::work_kinds! {
+    /// Every kind of work the renderer charges, by its name in the
+    /// statistics and the cost model.
+    pub enum Work {
+        ClipNodes = "clip.nodes",
+        ClipMisses = "clip.misses",
+        /// Shadow bundles that reused a cell's selection (option `clip_cache`).
+        ClipReused = "clip.reused",
+        /// Of those, bundles whose whole selection was local already: nothing
+        /// to select or pin (option `clip_cache`).
+        ClipAllLocal = "clip.all_local",
+        RaysPrimary = "rays.primary",
+        RaysReflection = "rays.reflection",
+        RaysRefraction = "rays.refraction",
+        RaysPassThrough = "rays.pass_through",
+        RaysAmbient = "rays.ambient",
+        RaysSpawned = "rays.spawned",
+        RaysRetired = "rays.retired",
+        ShadowBundles = "shadow.bundles",
+        ShadowBundlesDp = "shadow.bundles_dp",
+        ShadowSpawned = "shadow.spawned",
+        ShadowRetired = "shadow.retired",
+        ShadowPatches = "shadow.patches",
+        ShadowTested = "shadow.tested",
+        ShadowEstimated = "shadow.estimated",
+        ShadowUnoccluded = "shadow.unoccluded",
+        ShadowSegments = "shadow.transparent_segments",
+        ShadowRestarts = "shadow.restarts",
+        /// Non-empty octree leaves entered by traversals (octree steps).
+        TraceLeaves = "trace.leaves",
+        /// Objects listed in those leaves (intersection tests, counting an
+        /// object once per leaf; an any-hit query may stop earlier).
+        TraceObjects = "trace.objects",
+        Shade = "shade",
+    }
+}
