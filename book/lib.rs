@@ -81,11 +81,16 @@ mod tests {
         let lib = include_str!("lib.rs");
         let mut chapters = 0;
         for line in summary.lines() {
-            let Some(start) = line.find("](") else { continue };
+            let Some(start) = line.find("](") else {
+                continue;
+            };
             let rest = &line[start + 2..];
             let file = &rest[..rest.find(')').expect("a link ends")];
             let include = format!("include_str!(\"src/{file}\")");
-            assert!(lib.contains(&include), "{file} is not included in book/lib.rs");
+            assert!(
+                lib.contains(&include),
+                "{file} is not included in book/lib.rs"
+            );
             chapters += 1;
         }
         assert_eq!(chapters, 17);
