@@ -1,5 +1,8 @@
 //! Example workloads for `hybrid-sched`.
 //!
+//! [`Chunks`] (module [`chunks`]) is the book's running example: the
+//! smallest workload with both kinds of task, grown chapter by chapter.
+//!
 //! [`Blocks`] is a non-rendering workload that exercises every part of the
 //! framework: data blocks owned by different processors, demand-driven tasks
 //! that select a few blocks and checksum them (and spawn child tasks),
@@ -14,6 +17,9 @@ use hybrid_sched::{
     Addr, ByteSize, Ctx, DataView, DpOutcome, Placement, RunStats, State, Workload,
 };
 use serde::{Deserialize, Serialize};
+
+pub mod chunks;
+pub use chunks::Chunks;
 
 /// SplitMix64's mixer: a tiny, good-enough deterministic hash.
 pub use hybrid_sched::rng::mix;
