@@ -6,54 +6,8 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed, TestRunner};
 
 use super::*;
-use crate::geometry::{Ray, Shape, Vec3};
-use crate::scene::Object;
-
-fn v(x: f64, y: f64, z: f64) -> Vec3 {
-    Vec3::new(x, y, z)
-}
-
-fn obj(shape: Shape) -> Object {
-    Object {
-        name: String::new(),
-        shape,
-        material: 0,
-    }
-}
-
-/// Deterministic generator in [0, 1).
-fn lcg(seed: u64) -> impl FnMut() -> f64 {
-    let mut s = seed
-        .wrapping_mul(6364136223846793005)
-        .wrapping_add(1442695040888963407);
-    move || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((s >> 11) as f64) / ((1u64 << 53) as f64)
-    }
-}
-
-/// `n` random small triangles and spheres in the box `[0, size]^3`.
-fn random_scene(seed: u64, n: usize, size: f64) -> Vec<Object> {
-    let mut rnd = lcg(seed);
-    let mut out = Vec::new();
-    while out.len() < n {
-        let c = v(rnd(), rnd(), rnd()) * size;
-        let r = (0.005 + 0.04 * rnd()) * size;
-        let shape = if rnd() < 0.7 {
-            let mut p = || c + v(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * r * 4.0;
-            let (a, b, d) = (p(), p(), p());
-            Shape::polygon(vec![a, b, d])
-        } else {
-            Shape::sphere(c, r, false)
-        };
-        if let Ok(s) = shape {
-            out.push(obj(s));
-        }
-    }
-    out
-}
+use crate::geometry::{Object, Ray, Shape, Vec3};
+use crate::testdata::{lcg, obj, random_scene, v};
 
 /// Small spheres at the centres of an `n`^3 grid of unit cells.
 fn grid_scene(n: usize) -> Vec<Object> {
