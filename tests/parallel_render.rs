@@ -54,6 +54,27 @@ fn case(name: &str, width: usize, height: usize, options: RenderOptions) -> Case
     }
 }
 
+/// [`case`] with `options` applied over the scene's view file.
+fn case_view(name: &str, options: &str, width: usize, height: usize) -> Case {
+    let dir = scenes_dir();
+    let mut view = View::from_file(dir.join(format!("{name}.vf"))).expect("view loads");
+    view.apply_options(options, &Default::default())
+        .expect("view options");
+    let scene = Arc::new(scene::load(&[dir.join(format!("{name}.rad"))]).expect("scene loads"));
+    let options = RenderOptions::default();
+    let r = Renderer::new(&scene, options.clone()).expect("renderer");
+    let (film, stats) = r.render(&view, width, height).expect("render");
+    Case {
+        pixels: bits(&film),
+        counts: stats.rays,
+        scene,
+        view,
+        options,
+        width,
+        height,
+    }
+}
+
 fn run(c: &Case, popts: &ParallelOptions) -> ParallelRender {
     let mut popts = popts.clone();
     popts.time_limit = Some(Duration::from_secs(120));
@@ -184,6 +205,35 @@ fn cornell_equals_sequential_for_every_procs_policy_cache_distribution() {
     // The matrix exercised both escape routes of the hybrid scheduler.
     assert!(fallbacks > 0, "no task ever fell back to data-parallel");
     assert!(migrations > 0, "no ray ever migrated");
+}
+
+/// Views whose tiles have no bounding pyramid (fisheye, parallel): a
+/// tile's selection walks its primary rays and leaves them for its
+/// execution or its data-parallel fallback, which must still trace each
+/// pixel once and equal the sequential picture.
+#[test]
+fn views_without_a_tile_pyramid_equal_sequential() {
+    for opts in [
+        "-vta -vh 180 -vv 180",
+        "-vtl -vh 6 -vv 6",
+        "-vth -vh 150 -vv 150",
+    ] {
+        let c = case_view("cornell", opts, 20, 20);
+        let mut fallbacks = 0;
+        for procs in [1, 3] {
+            for distribution in [Distribution::Octree, Distribution::Worst] {
+                for cache in [CacheSize::Unlimited, CacheSize::Bytes(largest_cell(&c))] {
+                    let mut p = ParallelOptions::new(procs);
+                    p.cache = cache;
+                    p.workload.tile = 6;
+                    p.workload.distribution = distribution;
+                    let out = check(&c, &p);
+                    fallbacks += out.stats.sum(|s| s.tasks.fallbacks);
+                }
+            }
+        }
+        assert!(fallbacks > 0, "{opts}: no tile fell back to data-parallel");
+    }
 }
 
 #[test]
@@ -524,16 +574,37 @@ fn adaptive_pixel_sampling_equals_sequential_for_every_tiling_and_distribution()
     }
 }
 
-/// The processor count has one source, the run's Config: a workload built
-/// for two processors refuses to be placed on three.
+/// The processor count has one source: a workload built for two
+/// processors says so (`laid_out_for`), and every runtime refuses to run it
+/// on three with a configuration error, before any hook runs.
 #[test]
-#[should_panic(expected = "built for 2 processors but runs on 3")]
 fn a_workload_runs_only_on_the_processor_count_it_was_built_for() {
     use hybrid_rt::parallel::RtWorkload;
-    use hybrid_sched::Workload;
+    use hybrid_sched::{Config, ConfigError, RunError, Runtime, Sequential, Threads, Workload};
     let c = case("cornell", 8, 8, RenderOptions::default());
     let r = Renderer::shared(c.scene.clone(), c.options.clone(), &Default::default()).unwrap();
-    let wl = RtWorkload::new(r, c.view.clone(), c.width, c.height, 2, Default::default());
-    assert_eq!(wl.placement(2).len(), wl.placement(2).len());
-    let _ = wl.placement(3);
+    let wl = Arc::new(RtWorkload::new(
+        r,
+        c.view.clone(),
+        c.width,
+        c.height,
+        2,
+        Default::default(),
+    ));
+    assert_eq!(wl.laid_out_for(), Some(2));
+    let runtimes: [Box<dyn Runtime<RtWorkload>>; 2] = [Box::new(Threads), Box::new(Sequential)];
+    for rt in runtimes {
+        match rt.run_blocking(wl.clone(), &Config::new(3)) {
+            Err(RunError::Config(ConfigError::ProcsMismatch {
+                laid_out: 2,
+                procs: 3,
+            })) => {}
+            other => panic!(
+                "{}: expected a count mismatch, got {:?}",
+                rt.name(),
+                other.err()
+            ),
+        }
+        assert!(rt.run_blocking(wl.clone(), &Config::new(2)).is_ok());
+    }
 }

@@ -139,6 +139,21 @@ impl Config {
         self
     }
 
+    /// [`Config::validate`], then the configuration against `workload`:
+    /// the processor count it was laid out for, if any
+    /// ([`crate::Workload::laid_out_for`]). Every runtime calls this before
+    /// any hook runs.
+    pub fn validate_for<W: crate::Workload>(&self, workload: &W) -> Result<(), ConfigError> {
+        self.validate()?;
+        match workload.laid_out_for() {
+            Some(n) if n != self.procs => Err(ConfigError::ProcsMismatch {
+                laid_out: n,
+                procs: self.procs,
+            }),
+            _ => Ok(()),
+        }
+    }
+
     /// Checks every field; the first problem found is returned.
     pub fn validate(&self) -> Result<(), ConfigError> {
         if self.procs == 0 {

@@ -69,6 +69,15 @@ pub enum ConfigError {
         /// The workload's kinds.
         known: String,
     },
+    /// The workload's data layout was made for another processor count
+    /// (see [`crate::Workload::laid_out_for`]).
+    #[error("the workload's data is laid out for {laid_out} processors, but the run asks for {procs}: build the workload for the run's count")]
+    ProcsMismatch {
+        /// The workload's count.
+        laid_out: usize,
+        /// The configuration's count.
+        procs: usize,
+    },
     /// The workload's data placement is inconsistent.
     #[error("inconsistent workload data placement: {0}")]
     Placement(String),

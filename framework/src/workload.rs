@@ -228,6 +228,17 @@ pub trait Workload: Send + Sync + Sized + 'static {
     /// none.
     type Work: WorkKind;
 
+    /// The processor count this workload's data layout was made for, if it
+    /// was made for one (a renderer that balances its partition for a
+    /// count when it is built). Every runtime compares it with
+    /// [`crate::Config::procs`] before any other hook runs and refuses a
+    /// mismatch with [`crate::ConfigError::ProcsMismatch`], so the count has
+    /// one source and the start-up hooks below always receive it. The
+    /// default, `None`, lays data out for whatever count a run asks.
+    fn laid_out_for(&self) -> Option<usize> {
+        None
+    }
+
     /// The replicated ownership directory for a run on `procs` processors.
     fn placement(&self, procs: usize) -> Vec<Placement<Self::DataId>>;
 

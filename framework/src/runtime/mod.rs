@@ -223,7 +223,7 @@ pub(crate) enum Node<W: Workload> {
 impl<W: Workload> Node<W> {
     /// Builds every actor of a run: workers `0..procs`, then the master.
     pub(crate) fn build_all(workload: &Arc<W>, config: &Config) -> Result<Vec<Node<W>>, RunError> {
-        config.validate()?;
+        config.validate_for(&**workload)?;
         let mut nodes = Vec::with_capacity(config.procs + 1);
         for p in 0..config.procs {
             nodes.push(Node::Worker(Box::new(Processor::new(

@@ -30,7 +30,7 @@ impl<W: Workload> Runtime<W> for Sequential {
     }
 
     async fn run(&self, workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
-        config.validate()?;
+        config.validate_for(&*workload)?;
         run_sequential(&*workload, config.procs)
     }
 }
@@ -136,6 +136,12 @@ pub fn run_sequential_observed<W: Workload>(
 ) -> Result<RunReport<W>, RunError> {
     if procs == 0 {
         return Err(ConfigError::NoProcessors.into());
+    }
+    match workload.laid_out_for() {
+        Some(n) if n != procs => {
+            return Err(ConfigError::ProcsMismatch { laid_out: n, procs }.into())
+        }
+        _ => {}
     }
     let err = |message: String| RunError::Workload {
         at: Addr::Proc(0),

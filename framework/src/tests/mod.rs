@@ -44,6 +44,8 @@ pub(crate) struct Mini {
     pub hops: usize,
     pub hotspot: bool,
     pub seed: u64,
+    /// [`Workload::laid_out_for`].
+    pub laid_out: Option<usize>,
 }
 
 impl Default for Mini {
@@ -57,6 +59,7 @@ impl Default for Mini {
             hops: 3,
             hotspot: false,
             seed: 7,
+            laid_out: None,
         }
     }
 }
@@ -178,6 +181,10 @@ impl Workload for Mini {
     type Result = Res;
     type Accumulator = Acc;
     type Work = MiniWork;
+
+    fn laid_out_for(&self) -> Option<usize> {
+        self.laid_out
+    }
 
     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
         (0..self.items)

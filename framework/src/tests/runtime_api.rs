@@ -59,6 +59,35 @@ async fn runs_are_awaitable_inside_a_current_thread_tokio_runtime() {
     check_against_sequential(&w, &r);
 }
 
+/// A workload laid out for one processor count is refused, before any
+/// hook runs, by every runtime asked for another; the same count runs.
+#[test]
+fn every_runtime_refuses_a_workload_laid_out_for_another_count() {
+    let w = Mini {
+        laid_out: Some(3),
+        ..Mini::default()
+    };
+    for rt in all_runtimes() {
+        let err = rt
+            .run_blocking(Arc::new(w.clone()), &Config::new(2))
+            .unwrap_err();
+        match err {
+            RunError::Config(ConfigError::ProcsMismatch { laid_out, procs }) => {
+                assert_eq!((laid_out, procs), (3, 2), "{}", rt.name())
+            }
+            other => panic!("{}: expected a count mismatch, got {other}", rt.name()),
+        }
+        let r = rt
+            .run_blocking(Arc::new(w.clone()), &Config::new(3))
+            .unwrap();
+        check_against_sequential(&w, &r);
+    }
+    assert!(matches!(
+        run_sequential(&w, 4),
+        Err(RunError::Config(ConfigError::ProcsMismatch { .. }))
+    ));
+}
+
 #[test]
 fn a_cost_model_naming_an_unknown_work_kind_is_an_error() {
     let mut cost = CostModel::default();

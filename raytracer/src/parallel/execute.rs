@@ -50,6 +50,37 @@ impl RtWorkload {
             .primary_task(&self.view, self.width, self.height, x as usize, y as usize)
     }
 
+    /// A tile's primary rays, row by row (`None` where the view has no
+    /// ray), computed once: [`RtWorkload::select_tile`] computes them
+    /// when it walks them and leaves them here.
+    pub(super) fn compute_tile_rays(&self, t: &Tile) -> Vec<Option<RayTask>> {
+        (t.y0..t.y1)
+            .flat_map(|y| (t.x0..t.x1).map(move |x| (x, y)))
+            .map(|(x, y)| self.primary(x, y))
+            .collect()
+    }
+
+    /// The primary rays of tile `t` on processor `proc` with their ray-tree
+    /// keys, row by row: the ones its selection left, else computed now.
+    pub(super) fn tile_primaries(
+        &self,
+        t: &Tile,
+        proc: usize,
+    ) -> impl Iterator<Item = (NodeKey, RayTask)> + '_ {
+        let shard = &self.tile_rays[proc % self.tile_rays.len()];
+        let left = shard
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .remove(&(t.x0, t.y0));
+        let rays = left.unwrap_or_else(|| self.compute_tile_rays(t));
+        let (x0, y0, w) = (t.x0, t.y0, (t.x1 - t.x0).max(1));
+        let width = self.width as u32;
+        rays.into_iter().enumerate().filter_map(move |(i, task)| {
+            let (x, y) = (x0 + i as u32 % w, y0 + i as u32 / w);
+            task.map(|task| (NodeKey::root(y * width + x), task))
+        })
+    }
+
     /// [`Distribution::Replicated`]: with the whole scene at hand there is
     /// nothing to migrate or fetch, so a tile's pixels are traced whole by
     /// the sequential renderer (the very code the other distributions must

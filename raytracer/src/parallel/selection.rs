@@ -19,7 +19,7 @@ use crate::scene::ViewType;
 impl RtWorkload {
     /// Data selection for a tile: the pyramid from the eye through the
     /// tile's corners (perspective views), else the leaves along every
-    /// primary ray.
+    /// primary ray (which are kept for the tile's execution).
     pub(super) fn select_tile(&self, t: &Tile, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
         if self.replicated() || self.all_resident(None, ctx.proc_id()) {
             return Vec::new();
@@ -43,18 +43,20 @@ impl RtWorkload {
         }
         let mut leaves = Vec::new();
         let mut visits = 0u64;
-        for y in t.y0..t.y1 {
-            for x in t.x0..t.x1 {
-                let Some(task) = self.primary(x, y) else {
-                    continue;
-                };
-                octree.for_each_leaf_along_ray(&task.ray, task.tmin, task.tmax, |leaf, _, _| {
-                    visits += 1;
-                    leaves.push(leaf);
-                    false
-                });
-            }
+        let rays = self.compute_tile_rays(t);
+        for task in rays.iter().flatten() {
+            octree.for_each_leaf_along_ray(&task.ray, task.tmin, task.tmax, |leaf, _, _| {
+                visits += 1;
+                leaves.push(leaf);
+                false
+            });
         }
+        // Execution (or the data-parallel fallback) on this processor takes
+        // them: each primary ray is computed once.
+        self.tile_rays[ctx.proc_id() % self.tile_rays.len()]
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .insert((t.x0, t.y0), rays);
         ctx.charge(Work::ClipNodes, visits);
         self.nonempty(leaves)
     }

@@ -34,7 +34,7 @@ use super::caster::Replay;
 use super::distribution::{partition_for, subtree_owners, Distribution, EMPTY};
 use super::partition::{object_bytes, Partition};
 use super::tasks::{CellData, DdTask, DpTask, RayJob, ShadowDp, Tile};
-use super::tree::{NodeKey, PixelTrees, RtResult};
+use super::tree::{PixelTrees, RtResult};
 use super::work::Work;
 use crate::accel::{NodeId, TraceCursor};
 use crate::geometry::Aabb;
@@ -88,10 +88,18 @@ pub struct RtWorkload {
     /// Shadow selections per (processor, cell, light) (option
     /// `clip_cache`), one map per processor so they do not contend.
     pub(super) clip_cache: Vec<Mutex<ClipCache>>,
+    /// Primary rays a tile's selection computed (views whose tiles have no
+    /// bounding pyramid), per processor, for its execution to take: each
+    /// primary ray is computed once.
+    pub(super) tile_rays: Vec<Mutex<TileRays>>,
     /// Finished pixels, counted for a progress display (see
     /// [`RtWorkload::with_progress`]).
     pub(super) progress: Option<Arc<std::sync::atomic::AtomicU64>>,
 }
+
+/// A tile's primary rays by its top-left pixel, row by row (`None`: the
+/// view has no ray through that pixel).
+pub(super) type TileRays = HashMap<(u32, u32), Vec<Option<crate::render::RayTask>>>;
 
 /// Shadow selections per (processor, cell, light).
 pub(super) type ClipCache = HashMap<(u32, NodeId, u32), ClipEntry>;
@@ -163,6 +171,9 @@ impl RtWorkload {
             clip_cache: (0..procs.max(1))
                 .map(|_| Mutex::new(HashMap::new()))
                 .collect(),
+            tile_rays: (0..procs.max(1))
+                .map(|_| Mutex::new(HashMap::new()))
+                .collect(),
             renderer,
             view,
             width,
@@ -202,21 +213,6 @@ impl RtWorkload {
         o == EMPTY || o as usize == proc
     }
 
-    /// The one source of the processor count is the run's
-    /// [`hybrid_sched::Config`]: the workload is built for it
-    /// ([`RtWorkload::new`]'s `procs`), and a run with another count is a
-    /// caller's error, reported here at start-up (the hooks `placement`,
-    /// `load_partition` and `root_tasks`), not served with a second
-    /// partition that could disagree with the first.
-    fn check_procs(&self, procs: usize) {
-        assert_eq!(
-            self.partition.procs() as usize,
-            procs.max(1),
-            "RtWorkload was built for {} processors but runs on {procs}: build it with the Config's procs",
-            self.partition.procs()
-        );
-    }
-
     pub fn renderer(&self) -> &Renderer<'static> {
         &self.renderer
     }
@@ -245,8 +241,7 @@ impl RtWorkload {
     }
 
     /// Leaves as data items: (leaf, owner, bytes); none when replicated.
-    fn owner_table(&self, procs: usize) -> Vec<(NodeId, usize, u64)> {
-        self.check_procs(procs);
+    fn owner_table(&self) -> Vec<(NodeId, usize, u64)> {
         if self.replicated() {
             return Vec::new();
         }
@@ -297,8 +292,16 @@ impl Workload for RtWorkload {
     type Accumulator = PixelTrees;
     type Work = Work;
 
-    fn placement(&self, procs: usize) -> Vec<Placement<NodeId>> {
-        self.owner_table(procs)
+    /// The partition is balanced for the count the workload is built for
+    /// ([`RtWorkload::new`]'s `procs`); the framework refuses a run with
+    /// another count before any hook runs, so the start-up hooks below
+    /// need not look at theirs.
+    fn laid_out_for(&self) -> Option<usize> {
+        Some(self.partition.procs() as usize)
+    }
+
+    fn placement(&self, _procs: usize) -> Vec<Placement<NodeId>> {
+        self.owner_table()
             .into_iter()
             .map(|(id, owner, bytes)| Placement { id, owner, bytes })
             .collect()
@@ -308,7 +311,7 @@ impl Workload for RtWorkload {
         tracing::debug!(proc, procs, "processor starting: loading its partition");
         let objects: std::collections::HashMap<NodeId, u32> =
             self.cells.iter().map(|&(l, n, _)| (l, n)).collect();
-        self.owner_table(procs)
+        self.owner_table()
             .into_iter()
             .filter(|&(_, owner, _)| owner == proc)
             .map(|(leaf, _, bytes)| {
@@ -324,8 +327,7 @@ impl Workload for RtWorkload {
             .collect()
     }
 
-    fn root_tasks(&self, procs: usize) -> Vec<DdTask> {
-        self.check_procs(procs);
+    fn root_tasks(&self, _procs: usize) -> Vec<DdTask> {
         let mut t = self.opts.tile;
         let ps = self.renderer.options().ps as usize;
         if ps > 1 && self.replicated() {
@@ -370,22 +372,17 @@ impl Workload for RtWorkload {
         match task {
             DdTask::Tile(t) if self.replicated() => self.trace_tile_whole(&t, ctx),
             DdTask::Tile(t) => {
-                for y in t.y0..t.y1 {
-                    for x in t.x0..t.x1 {
-                        let Some(task) = self.primary(x, y) else {
-                            continue;
-                        };
-                        ctx.charge(Work::RaysSpawned, 1);
-                        let job = RayJob {
-                            key: NodeKey::root(y * self.width as u32 + x),
-                            task,
-                            cursor: TraceCursor::default(),
-                            next: None,
-                        };
-                        if let Some(job) = self.advance_ray(job, data, ctx) {
-                            ctx.charge(Work::ClipMisses, 1);
-                            ctx.spawn_dp(DpTask::Ray(job));
-                        }
+                for (key, task) in self.tile_primaries(&t, ctx.proc_id()) {
+                    ctx.charge(Work::RaysSpawned, 1);
+                    let job = RayJob {
+                        key,
+                        task,
+                        cursor: TraceCursor::default(),
+                        next: None,
+                    };
+                    if let Some(job) = self.advance_ray(job, data, ctx) {
+                        ctx.charge(Work::ClipMisses, 1);
+                        ctx.spawn_dp(DpTask::Ray(job));
                     }
                 }
             }
@@ -407,18 +404,14 @@ impl Workload for RtWorkload {
     fn to_data_parallel(&self, task: DdTask, ctx: &mut Ctx<Self>) {
         match task {
             DdTask::Tile(t) => {
-                for y in t.y0..t.y1 {
-                    for x in t.x0..t.x1 {
-                        if let Some(task) = self.primary(x, y) {
-                            ctx.charge(Work::RaysSpawned, 1);
-                            ctx.spawn_dp(DpTask::Ray(RayJob {
-                                key: NodeKey::root(y * self.width as u32 + x),
-                                task,
-                                cursor: TraceCursor::default(),
-                                next: None,
-                            }));
-                        }
-                    }
+                for (key, task) in self.tile_primaries(&t, ctx.proc_id()) {
+                    ctx.charge(Work::RaysSpawned, 1);
+                    ctx.spawn_dp(DpTask::Ray(RayJob {
+                        key,
+                        task,
+                        cursor: TraceCursor::default(),
+                        next: None,
+                    }));
                 }
             }
             DdTask::Shadow(j) => {

@@ -103,7 +103,7 @@ impl<W: Workload> Runtime<W> for Mpi {
 /// On success MPI is finalised (an MPI job runs once per process); on error
 /// it keeps running so that the caller can print the error and [`abort`].
 pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunReport<W>, RunError> {
-    config.validate()?;
+    config.validate_for(&*workload)?;
     let mut guard = phase();
     let Phase::Running(session) = &mut *guard else {
         return Err(runtime_err(
