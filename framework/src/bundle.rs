@@ -13,8 +13,8 @@ use crate::clock::Time;
 use crate::config::BundleConfig;
 use crate::flow::{CreditLedger, Credits, InputBuffer};
 use crate::protocol::message::{is_credit_limited, Msg, Packet, HEADER_BYTES};
+use crate::protocol::workload::Workload;
 use crate::protocol::{Addr, Class};
-use crate::workload::Workload;
 
 struct Lane<W: Workload> {
     items: VecDeque<(Msg<W>, usize, Time)>,

@@ -154,7 +154,6 @@ pub mod rng;
 pub mod runtime;
 pub mod stats;
 mod store;
-pub mod workload;
 
 #[cfg(test)]
 mod tests;
@@ -170,6 +169,7 @@ pub use config::{BundleConfig, Config};
 pub use error::{ConfigError, RunError};
 pub use policy::Policy;
 pub use protocol::message::{Msg, Packet};
+pub use protocol::workload::{ByteSize, Ctx, DataView, NoWork, WorkKind, Workload};
 pub use protocol::{Addr, Class, DpOutcome, Placement};
 pub use runtime::lockstep::{run_lockstep, Lockstep};
 pub use runtime::sequential::{run_sequential, run_sequential_observed, Sequential};
@@ -177,4 +177,3 @@ pub use runtime::sim::{run_sim, CostModel, Network, Sim};
 pub use runtime::threads::{run_threads, Threads};
 pub use runtime::{Extras, RunReport, Runtime, Timeline};
 pub use stats::{ProcStats, RankTraffic, RunStats, State};
-pub use workload::{ByteSize, Ctx, DataView, NoWork, WorkKind, Workload};

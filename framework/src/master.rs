@@ -39,9 +39,9 @@ use crate::error::RunError;
 use crate::mailbox::Mailbox;
 use crate::processor::Step;
 use crate::protocol::message::{DdEnvelope, Incoming, Msg, Packet};
+use crate::protocol::workload::Workload;
 use crate::protocol::Addr;
 use crate::stats::{ProcStats, State};
-use crate::workload::Workload;
 
 struct Wave {
     id: u64,

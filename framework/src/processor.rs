@@ -30,10 +30,10 @@ use crate::error::RunError;
 use crate::mailbox::Mailbox;
 use crate::policy::{PlaceCtx, Placer, Target};
 use crate::protocol::message::{DdEnvelope, DpEnvelope, Incoming, Msg, Packet};
+use crate::protocol::workload::{Ctx, WorkKind, Workload};
 use crate::protocol::{Addr, Class, DpOutcome};
 use crate::stats::{ProcStats, State};
 use crate::store::{Admission, DataStore, Directory, ReadyTask};
-use crate::workload::{Ctx, WorkKind, Workload};
 
 /// What one [`Processor::step`] (or [`crate::master::Master::step`]) did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -6,8 +6,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::cache::CacheCounters;
 use crate::clock::Time;
+use crate::protocol::workload::WorkKind;
 use crate::protocol::{Addr, Class};
-use crate::workload::WorkKind;
 
 /// What a processor is doing; time is accounted per state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]

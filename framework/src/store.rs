@@ -18,8 +18,8 @@ use std::collections::{BTreeMap, HashMap};
 
 use crate::cache::{ByteLru, IdMap};
 use crate::protocol::message::DdEnvelope;
+use crate::protocol::workload::{ByteSize, DataView, Workload};
 use crate::protocol::Placement;
-use crate::workload::{ByteSize, DataView, Workload};
 
 /// The replicated ownership directory: data id -> (owner, bytes).
 #[derive(Clone, Debug)]

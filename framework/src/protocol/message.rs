@@ -5,8 +5,8 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use crate::protocol::workload::{ByteSize, Workload};
 use crate::protocol::{Addr, Class};
-use crate::workload::{ByteSize, Workload};
 
 /// A demand-driven task in transit.
 #[derive(Serialize, Deserialize)]

@@ -1,14 +1,20 @@
-//! The protocol: addresses, priority classes, data placement, and every
-//! message and envelope processors exchange.
+//! The protocol: between the framework and a workload (the [`Workload`]
+//! contract and its hook context, in [`workload`]) and between actors
+//! (addresses, priority classes, data placement, and every message and
+//! envelope processors exchange).
 //!
-//! Everything here is `serde`-serialisable so that a transport other than
+//! Everything sent is `serde`-serialisable so that a transport other than
 //! in-process channels (MPI, a file for replay) can carry it unchanged.
 //!
 //! This file holds the types that do not depend on a workload (and that the
-//! [`crate::Workload`] trait names); [`message`] holds the messages, which
-//! carry a workload's tasks, data and results.
+//! [`Workload`] trait names); [`message`] holds the messages, which
+//! carry a workload's tasks, data and results. Nothing here uses the
+//! actors, stores or runtimes: they all build on it.
+//!
+//! [`Workload`]: workload::Workload
 
 pub mod message;
+pub mod workload;
 
 use std::fmt;
 

@@ -16,9 +16,9 @@ use crate::config::Config;
 use crate::error::RunError;
 use crate::processor::Step;
 use crate::protocol::message::Packet;
+use crate::protocol::workload::Workload;
 use crate::protocol::Addr;
 use crate::rng::SplitMix64;
-use crate::workload::Workload;
 
 /// The lockstep runtime with its interleaving seed.
 #[derive(Clone, Copy, Debug)]

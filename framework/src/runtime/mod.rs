@@ -38,9 +38,9 @@ use crate::error::RunError;
 use crate::master::Master;
 use crate::processor::{Processor, Step};
 use crate::protocol::message::Packet;
+use crate::protocol::workload::Workload;
 use crate::protocol::Addr;
 use crate::stats::{ProcStats, RankTraffic, RunStats, State};
-use crate::workload::Workload;
 
 pub use self::timeline::{Timeline, MAX_BUCKETS};
 

@@ -14,10 +14,10 @@ use super::{RunReport, Runtime};
 use crate::clock::{Clock, WallClock};
 use crate::config::Config;
 use crate::error::{ConfigError, RunError};
+use crate::protocol::workload::{Ctx, DataView, Workload};
 use crate::protocol::Addr;
 use crate::protocol::DpOutcome;
 use crate::stats::{ProcStats, RunStats, State};
-use crate::workload::{Ctx, DataView, Workload};
 
 /// The sequential reference runtime.
 #[derive(Clone, Copy, Debug, Default)]

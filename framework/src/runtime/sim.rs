@@ -38,10 +38,10 @@ use crate::config::Config;
 use crate::error::{ConfigError, RunError};
 use crate::processor::Step;
 use crate::protocol::message::Packet;
+use crate::protocol::workload::{WorkKind, Workload};
 use crate::protocol::{Addr, Class};
 use crate::rng::SplitMix64;
 use crate::stats::State;
-use crate::workload::{WorkKind, Workload};
 
 /// Compute costs in nanoseconds of this machine's CPU; the network's
 /// `cpu_scale` turns them into the simulated machine's. (Message overheads

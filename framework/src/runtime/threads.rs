@@ -21,9 +21,9 @@ use crate::config::Config;
 use crate::error::RunError;
 use crate::processor::Step;
 use crate::protocol::message::Packet;
+use crate::protocol::workload::Workload;
 use crate::protocol::Addr;
 use crate::stats::{ProcStats, State};
-use crate::workload::Workload;
 
 /// The threads runtime (see the module documentation).
 #[derive(Clone, Copy, Debug, Default)]

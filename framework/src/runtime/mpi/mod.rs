@@ -59,10 +59,10 @@ use crate::error::RunError;
 use crate::master::Master;
 use crate::processor::{Processor, Step};
 use crate::protocol::message::Packet;
+use crate::protocol::workload::Workload;
 use crate::protocol::{Addr, Class};
 use crate::runtime::{assemble, Extras, Node, RunReport, Runtime};
 use crate::stats::{ProcStats, RankTraffic, State};
-use crate::workload::Workload;
 
 pub use self::transport::{
     abort, decode_packet, encode_packet, init, world, World, TAG_FINAL, TAG_PACKET,

@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::RunError;
 use crate::protocol::message::Packet;
-use crate::workload::Workload;
+use crate::protocol::workload::Workload;
 
 /// MPI tag of a packet.
 pub const TAG_PACKET: i32 = 1;
