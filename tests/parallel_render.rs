@@ -207,6 +207,53 @@ fn cornell_equals_sequential_for_every_procs_policy_cache_distribution() {
     assert!(migrations > 0, "no ray ever migrated");
 }
 
+/// Shadow bundles start in the step that shaded their point (data-parallel
+/// ones, and demand-driven ones whose cells are all resident): the picture
+/// and every ray count stay the same, and steps are saved; on one
+/// processor every bundle starts inline, each one step saved.
+#[test]
+fn shadow_bundles_start_in_the_step_that_shaded_their_point() {
+    let c = case("studio", 32, 32, RenderOptions::default());
+    for procs in [1, 3] {
+        for policy in Policy::ALL {
+            let mut on = ParallelOptions::new(procs);
+            on.policy = policy;
+            on.workload.tile = 8;
+            let mut off = on.clone();
+            off.workload.inline_local_shadows = false;
+            let (a, b) = (check(&c, &on), check(&c, &off));
+            let what = format!("procs {procs} policy {policy}");
+            let inline = a.work(Work::ShadowBundlesInline);
+            assert_eq!(b.work(Work::ShadowBundlesInline), 0, "{what}");
+            assert!(
+                inline > a.work(Work::ShadowBundlesDp),
+                "{what}: no demand-driven bundle ran inline"
+            );
+            let steps = |r: &ParallelRender| {
+                r.stats
+                    .sum(|s| s.tasks.demand_driven + s.tasks.data_parallel_steps)
+            };
+            if procs == 1 {
+                // Every bundle starts inline, each one step saved. (With
+                // more processors, which tiles, and so which resident
+                // bundles, a processor gets depends on timing.)
+                assert_eq!(
+                    inline,
+                    a.work(Work::ShadowSpawned),
+                    "{what}: one processor holds every cell"
+                );
+                assert_eq!(
+                    steps(&a) + inline,
+                    steps(&b),
+                    "{what}: one step saved per bundle"
+                );
+            } else {
+                assert!(steps(&a) < steps(&b), "{what}: no step saved");
+            }
+        }
+    }
+}
+
 /// Views whose tiles have no bounding pyramid (fisheye, parallel): a
 /// tile's selection walks its primary rays and leaves them for its
 /// execution or its data-parallel fallback, which must still trace each

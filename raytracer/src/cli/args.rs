@@ -526,6 +526,17 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub clip_cache: bool,
+    /// Run a shadow bundle whose rays stay among its processor's resident cells in the step that shaded its point (no task of its own; pictures do not change); `--inline-shadows false`: every bundle a demand-driven task, as the paper schedules them.
+    #[arg(
+        long = "inline-shadows",
+        value_name = "BOOL",
+        default_value_t = true,
+        num_args = 0..=1,
+        default_missing_value = "true",
+        action = clap::ArgAction::Set,
+        help_heading = "Parallel rendering"
+    )]
+    pub inline_shadows: bool,
     /// Simulated machine for --runtime sim: parsytec-cc (the paper's) or 10gbe.
     #[arg(
         long,

@@ -79,6 +79,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
             shadow_dp_below: a.shadow_dp_below,
             distribution: a.distribution.into(),
             clip_cache: a.clip_cache,
+            inline_local_shadows: a.inline_shadows,
         },
         threads: a.threads,
         time_limit,

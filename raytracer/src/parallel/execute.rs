@@ -161,6 +161,7 @@ impl RtWorkload {
         key: NodeKey,
         task: &RayTask,
         hit: Option<Hit>,
+        data: &DataView<'_, Self>,
         ctx: &mut Ctx<Self>,
     ) {
         ctx.charge(
@@ -211,16 +212,39 @@ impl RtWorkload {
                     });
                     ctx.charge(Work::ShadowSpawned, 1);
                     let key = key.child(i);
-                    if self.shadow_goes_dp(&bundle) {
+                    let job = ShadowDp {
+                        key,
+                        bundle,
+                        replay: Replay::default(),
+                        next: None,
+                    };
+                    let inline = self.opts.inline_local_shadows;
+                    if self.shadow_goes_dp(&job.bundle) {
                         ctx.charge(Work::ShadowBundlesDp, 1);
-                        ctx.spawn_dp(DpTask::Shadow(ShadowDp {
-                            key,
-                            bundle,
-                            replay: Replay::default(),
-                            next: None,
-                        }));
+                        if inline {
+                            // Its first step would run here (it names no
+                            // cell yet): run it now.
+                            ctx.charge(Work::ShadowBundlesInline, 1);
+                            if let Some(job) = self.advance_shadow(job, data, ctx) {
+                                ctx.spawn_dp(DpTask::Shadow(job));
+                            }
+                        } else {
+                            ctx.spawn_dp(DpTask::Shadow(job));
+                        }
+                    } else if inline && self.shadow_all_resident(&job.bundle, ctx.proc_id()) {
+                        // Nothing to select or fetch: run it now (should a
+                        // ray still leave the resident cells, the bundle
+                        // migrates as a data-parallel one).
+                        ctx.charge(Work::ShadowBundlesInline, 1);
+                        if let Some(job) = self.advance_shadow(job, data, ctx) {
+                            ctx.charge(Work::ClipMisses, 1);
+                            ctx.spawn_dp(DpTask::Shadow(job));
+                        }
                     } else {
-                        ctx.spawn_dd(DdTask::Shadow(ShadowJob { key, bundle }));
+                        ctx.spawn_dd(DdTask::Shadow(ShadowJob {
+                            key: job.key,
+                            bundle: job.bundle,
+                        }));
                     }
                 }
             }
@@ -272,7 +296,7 @@ impl RtWorkload {
             }
             Partial::Done(hit) => {
                 let task = job.task;
-                self.finish_ray(job.key, &task, hit, ctx);
+                self.finish_ray(job.key, &task, hit, data, ctx);
                 None
             }
         }

@@ -69,17 +69,7 @@ impl RtWorkload {
         local: Option<&DataView<'_, Self>>,
         ctx: &mut Ctx<Self>,
     ) -> Vec<NodeId> {
-        if self.replicated() {
-            return Vec::new();
-        }
-        // The box holding every shadow ray of the bundle (padded for the
-        // origin offsets), if the source is finite.
-        let bounds = self
-            .renderer
-            .lights()
-            .get(b.light as usize)
-            .and_then(|l| l.shadow_bounds(b.point, b.offset_scale));
-        if self.all_resident(bounds, ctx.proc_id()) {
+        if self.replicated() || self.shadow_all_resident(b, ctx.proc_id()) {
             return Vec::new();
         }
         if self.opts.clip_cache {
@@ -91,6 +81,19 @@ impl RtWorkload {
             Some(pyramid) => self.clip(&pyramid, ctx),
             None => Vec::new(),
         }
+    }
+
+    /// Whether every cell a shadow ray of `b` can enter is resident on
+    /// processor `proc`: the box holding the bundle's rays (padded for the
+    /// origin offsets; the whole scene for a distant source) lies in
+    /// subtrees `proc` owns.
+    pub(super) fn shadow_all_resident(&self, b: &ShadowBundle, proc: usize) -> bool {
+        let bounds = self
+            .renderer
+            .lights()
+            .get(b.light as usize)
+            .and_then(|l| l.shadow_bounds(b.point, b.offset_scale));
+        self.all_resident(bounds, proc)
     }
 
     /// [`WorkloadOptions::clip_cache`]: the selection for every bundle from

@@ -22,6 +22,10 @@ hybrid_sched::work_kinds! {
         RaysRetired = "rays.retired",
         ShadowBundles = "shadow.bundles",
         ShadowBundlesDp = "shadow.bundles_dp",
+        /// Bundles started in the step that shaded their point: every
+        /// data-parallel one, and demand-driven ones whose cells are all
+        /// resident (option `inline_local_shadows`).
+        ShadowBundlesInline = "shadow.bundles_inline",
         ShadowSpawned = "shadow.spawned",
         ShadowRetired = "shadow.retired",
         ShadowPatches = "shadow.patches",
