@@ -192,6 +192,8 @@ impl RtWorkload {
         let mut requests = Vec::new();
         let shaded = shade(&sctx, task, &hit, &mut requests);
         let mut children = Vec::with_capacity(requests.len());
+        // Bundles that need cells held elsewhere: one task for them all.
+        let mut scheduled = Vec::new();
         for (i, r) in requests.into_iter().enumerate() {
             match r {
                 Request::Trace { task: child, coef } => {
@@ -241,13 +243,16 @@ impl RtWorkload {
                             ctx.spawn_dp(DpTask::Shadow(job));
                         }
                     } else {
-                        ctx.spawn_dd(DdTask::Shadow(ShadowJob {
+                        scheduled.push(ShadowJob {
                             key: job.key,
                             bundle: job.bundle,
-                        }));
+                        });
                     }
                 }
             }
+        }
+        if !scheduled.is_empty() {
+            ctx.spawn_dd(DdTask::Shadows(scheduled));
         }
         let attenuation = crate::render::medium::participate(
             self.renderer.options(),

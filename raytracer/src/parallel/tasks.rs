@@ -41,15 +41,14 @@ pub struct ShadowJob {
     pub bundle: ShadowBundle,
 }
 
-/// Demand-driven tasks. (Tiles are much smaller than shadow bundles, but
-/// there are few of them: boxing the bundle would cost an allocation per
-/// bundle for nothing.)
-#[allow(clippy::large_enum_variant)]
+/// Demand-driven tasks: a tile of primary rays, or the shadow bundles of
+/// one shaded point that need cells their processor does not hold (one
+/// task, one selection: the union of theirs).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(crate = "hybrid_sched::serde")]
 pub enum DdTask {
     Tile(Tile),
-    Shadow(ShadowJob),
+    Shadows(Vec<ShadowJob>),
 }
 
 /// Bytes of the task's origin, which its envelope carries (the framework
@@ -63,7 +62,10 @@ impl ByteSize for DdTask {
             + ORIGIN_BYTES
             + match self {
                 DdTask::Tile(_) => 0,
-                DdTask::Shadow(j) => 2 * j.key.path.len(),
+                DdTask::Shadows(jobs) => jobs
+                    .iter()
+                    .map(|j| std::mem::size_of::<ShadowJob>() + 2 * j.key.path.len())
+                    .sum(),
             }
     }
 }

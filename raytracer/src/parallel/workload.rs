@@ -366,7 +366,10 @@ impl Workload for RtWorkload {
     fn select_data(&self, task: &DdTask, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
         match task {
             DdTask::Tile(t) => self.select_tile(t, ctx),
-            DdTask::Shadow(j) => self.select_shadow(&j.bundle, None, ctx),
+            DdTask::Shadows(jobs) => jobs
+                .iter()
+                .flat_map(|j| self.select_shadow(&j.bundle, None, ctx))
+                .collect(),
         }
     }
 
@@ -378,7 +381,10 @@ impl Workload for RtWorkload {
     ) -> Vec<NodeId> {
         match task {
             DdTask::Tile(t) => self.select_tile(t, ctx),
-            DdTask::Shadow(j) => self.select_shadow(&j.bundle, Some(local), ctx),
+            DdTask::Shadows(jobs) => jobs
+                .iter()
+                .flat_map(|j| self.select_shadow(&j.bundle, Some(local), ctx))
+                .collect(),
         }
     }
 
@@ -400,16 +406,18 @@ impl Workload for RtWorkload {
                     }
                 }
             }
-            DdTask::Shadow(j) => {
-                let job = ShadowDp {
-                    key: j.key,
-                    bundle: j.bundle,
-                    replay: Replay::default(),
-                    next: None,
-                };
-                if let Some(job) = self.advance_shadow(job, data, ctx) {
-                    ctx.charge(Work::ClipMisses, 1);
-                    ctx.spawn_dp(DpTask::Shadow(job));
+            DdTask::Shadows(jobs) => {
+                for j in jobs {
+                    let job = ShadowDp {
+                        key: j.key,
+                        bundle: j.bundle,
+                        replay: Replay::default(),
+                        next: None,
+                    };
+                    if let Some(job) = self.advance_shadow(job, data, ctx) {
+                        ctx.charge(Work::ClipMisses, 1);
+                        ctx.spawn_dp(DpTask::Shadow(job));
+                    }
                 }
             }
         }
@@ -428,14 +436,16 @@ impl Workload for RtWorkload {
                     }));
                 }
             }
-            DdTask::Shadow(j) => {
-                ctx.charge(Work::ShadowBundlesDp, 1);
-                ctx.spawn_dp(DpTask::Shadow(ShadowDp {
-                    key: j.key,
-                    bundle: j.bundle,
-                    replay: Replay::default(),
-                    next: None,
-                }));
+            DdTask::Shadows(jobs) => {
+                for j in jobs {
+                    ctx.charge(Work::ShadowBundlesDp, 1);
+                    ctx.spawn_dp(DpTask::Shadow(ShadowDp {
+                        key: j.key,
+                        bundle: j.bundle,
+                        replay: Replay::default(),
+                        next: None,
+                    }));
+                }
             }
         }
     }
