@@ -155,6 +155,39 @@ pub struct CellObjects {
     pub stored: Vec<(ObjectId, Surface)>,
 }
 
+/// A cell as [`CompiledScene::into_scene`] reads it: the listed ids are
+/// stepped over (the octree is built again from the objects), not stored.
+#[derive(Debug, Deserialize)]
+struct CellStored {
+    #[allow(dead_code)] // read to step over it
+    listed: Skipped,
+    stored: Vec<(ObjectId, Surface)>,
+}
+
+/// A sequence of ids decoded and dropped.
+#[derive(Debug)]
+struct Skipped;
+
+impl<'de> Deserialize<'de> for Skipped {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = Skipped;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a sequence of object ids")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> std::result::Result<Skipped, A::Error> {
+                while seq.next_element::<ObjectId>()?.is_some() {}
+                Ok(Skipped)
+            }
+        }
+        d.deserialize_seq(V)
+    }
+}
+
 /// Where a cell lies in the file.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CellEntry {
@@ -603,7 +636,7 @@ impl CompiledScene {
         self.decode_cell(cell, &bytes)
     }
 
-    fn decode_cell(&self, cell: usize, bytes: &[u8]) -> Result<CellObjects> {
+    fn decode_cell<'a, T: Deserialize<'a>>(&self, cell: usize, bytes: &'a [u8]) -> Result<T> {
         let e = self.index[cell];
         check_crc(&self.path, e.offset, bytes, e.crc, &format!("cell {cell}"))?;
         decode(&self.path, e.offset, bytes)
@@ -612,24 +645,30 @@ impl CompiledScene {
     /// Reads every cell and builds the whole scene (what `render` does
     /// with a compiled scene).
     pub fn into_scene(self, options: &LoadOptions) -> Result<Scene> {
-        let mut file = &self.file;
-        file.seek(SeekFrom::Start(0))
-            .map_err(|e| Error::io(&self.path, e))?;
-        let mut all = Vec::with_capacity(self.file_len as usize);
-        file.read_to_end(&mut all)
-            .map_err(|e| Error::io(&self.path, e))?;
-        if all.len() as u64 != self.file_len {
-            return Err(file_error(
-                &self.path,
-                all.len() as u64,
-                "the file changed while it was read",
-            ));
-        }
+        let surfaces = self.read_surfaces()?;
+        record::replay(&self.replicated.program, surfaces, options, &self.path)
+    }
+
+    /// Every stored surface by object id (`None` for instances), read
+    /// cell after cell through one buffer.
+    pub fn read_surfaces(&self) -> Result<Vec<Option<Surface>>> {
         let n = self.replicated.program.objects as usize;
         let mut surfaces: Vec<Option<Surface>> = vec![None; n];
+        let mut reader = std::io::BufReader::with_capacity(1 << 20, &self.file);
+        let mut at = u64::MAX;
+        let mut bytes = Vec::new();
         for (k, e) in self.index.iter().enumerate() {
-            let bytes = &all[e.offset as usize..(e.offset + e.len) as usize];
-            let cell = self.decode_cell(k, bytes)?;
+            if e.offset != at {
+                reader
+                    .seek(SeekFrom::Start(e.offset))
+                    .map_err(|err| Error::io(&self.path, err))?;
+            }
+            bytes.resize(e.len as usize, 0);
+            reader
+                .read_exact(&mut bytes)
+                .map_err(|err| Error::io(&self.path, err))?;
+            at = e.offset + e.len;
+            let cell: CellStored = self.decode_cell(k, &bytes)?;
             for (id, s) in cell.stored {
                 let slot = surfaces.get_mut(id as usize).ok_or_else(|| {
                     file_error(
@@ -643,7 +682,7 @@ impl CompiledScene {
                 }
             }
         }
-        record::replay(&self.replicated.program, surfaces, options, &self.path)
+        Ok(surfaces)
     }
 }
 
