@@ -319,6 +319,25 @@ fn renders_of_a_compiled_scene_equal_renders_of_its_sources() {
             );
         }
     }
+    // The view stored in a compiled scene is the default view.
+    let moved = dir.join("moved");
+    std::fs::create_dir_all(&moved).unwrap();
+    let lone = moved.join("city.hrtc");
+    std::fs::copy(dir.join("city.hrtc"), &lone).unwrap();
+    let pic = moved.join("stored.hdr");
+    let o = run(&[
+        "render",
+        lone.to_str().unwrap(),
+        "-x",
+        "32",
+        "-y",
+        "32",
+        "-o",
+        pic.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("its stored view"), "{}", stderr(&o));
+    assert!(std::fs::read(&pic).unwrap() == std::fs::read(dir.join("city0.hdr")).unwrap());
     // A compiled scene is the only scene file of a render.
     let hrtc = dir.join("cornell.hrtc");
     let rad = dir.join("cornell.rad");

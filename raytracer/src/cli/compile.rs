@@ -17,7 +17,8 @@ pub struct CompileArgs {
     /// The compiled scene to write.
     #[arg(short = 'o', long = "output", value_name = "FILE")]
     pub output: PathBuf,
-    /// View files to store with the scene (repeatable).
+    /// View files to store with the scene (repeatable); `render` uses the
+    /// first when given no view.
     #[arg(long = "view-file", value_name = "FILE")]
     pub view_files: Vec<PathBuf>,
     /// Store an object in every cell that lists it (default: once, in the
@@ -42,7 +43,11 @@ pub(super) fn run(a: &CompileArgs) -> Result<()> {
     let views = a
         .view_files
         .iter()
-        .map(|p| crate::input::read_input_text(p, 1 << 20).map_err(|e| Error::io(p, e)))
+        .map(|p| {
+            let text = crate::input::read_input_text(p, 1 << 20).map_err(|e| Error::io(p, e))?;
+            crate::scene::View::from_file_text(&text, p)?;
+            Ok(text)
+        })
         .collect::<Result<Vec<_>>>()?;
     let params = OctreeParams {
         max_objects: a.cell_objects,
@@ -53,8 +58,15 @@ pub(super) fn run(a: &CompileArgs) -> Result<()> {
     } else {
         Storage::Once
     };
+    // Records name files (function files, data, instanced octrees) that
+    // a render reads again: absolute names find them from anywhere.
+    let scenes = a
+        .scenes
+        .iter()
+        .map(|p| std::path::absolute(p).map_err(|e| Error::io(p, e)))
+        .collect::<Result<Vec<_>>>()?;
     let t0 = std::time::Instant::now();
-    let s = compiled::compile(&a.scenes, views, &params, storage, &a.output)?;
+    let s = compiled::compile(&scenes, views, &params, storage, &a.output)?;
     eprintln!(
         "{}: {} objects in {} cells ({} listings), {} bytes: replicated {}, index {}, cells {} ({:.2} s)",
         a.output.display(),

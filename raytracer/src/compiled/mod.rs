@@ -37,7 +37,8 @@
 //! the scene is the one its sources make (same objects, ids, materials and
 //! lights), so a render of the compiled scene equals the render of its
 //! sources bit for bit. Files the records name (function files, data,
-//! pictures, instanced octrees) are read again from where they were, as
+//! pictures, instanced octrees) are read again from where they were
+//! (`hybrid-rt compile` names its sources by absolute paths for this), as
 //! with a Radiance octree that is not frozen.
 
 use std::io::{Read, Seek, SeekFrom};
@@ -140,7 +141,8 @@ impl Skeleton {
 pub struct Replicated {
     /// The files compiled, as named.
     pub sources: Vec<PathBuf>,
-    /// Views given to `compile` (the text of each view file).
+    /// Views given to `compile` (the text of each view file); `render`
+    /// uses the first when given no view.
     pub views: Vec<String>,
     pub program: Program,
     pub skeleton: Skeleton,
