@@ -338,6 +338,28 @@ fn renders_of_a_compiled_scene_equal_renders_of_its_sources() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("its stored view"), "{}", stderr(&o));
     assert!(std::fs::read(&pic).unwrap() == std::fs::read(dir.join("city0.hdr")).unwrap());
+    // A damaged compiled scene: render says which file, where and why.
+    let mut bytes = std::fs::read(&lone).unwrap();
+    let at = bytes.len() - 3;
+    bytes[at] ^= 0x10;
+    std::fs::write(&lone, &bytes).unwrap();
+    let o = run(&[
+        "render",
+        lone.to_str().unwrap(),
+        "-x",
+        "8",
+        "-y",
+        "8",
+        "-o",
+        pic.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("city.hrtc") && e.contains("byte ") && e.contains("damaged"),
+        "{e}"
+    );
+    assert!(!e.contains("panicked"), "{e}");
     // A compiled scene is the only scene file of a render.
     let hrtc = dir.join("cornell.hrtc");
     let rad = dir.join("cornell.rad");
