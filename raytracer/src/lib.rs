@@ -18,12 +18,14 @@
 //! 6. [`accel`]: the octree over a scene and pyramid clipping;
 //! 7. [`render`]: lights, materials, shading and the sequential renderer.
 //!
-//! Above them: [`parallel`] (the hybrid-scheduled renderer), [`experiment`],
+//! Above them: [`compiled`] (compiled scenes, grouped by octree cell),
+//! [`parallel`] (the hybrid-scheduled renderer), [`experiment`],
 //! [`report`] and [`cli`].
 
 pub mod accel;
 pub mod cal;
 pub mod cli;
+pub mod compiled;
 pub mod error;
 pub mod experiment;
 pub mod geometry;

@@ -501,6 +501,14 @@ impl Octree {
         }
     }
 
+    /// The root cell's centre and half size (`None` for the empty tree):
+    /// a child's cell has half the half size and its centre moved by that
+    /// along each axis, down for a clear octant bit, up for a set one.
+    pub fn root_cell(&self) -> Option<(Vec3, f64)> {
+        self.root()
+            .map(|_| (self.root_cell.center, self.root_cell.half))
+    }
+
     /// The node's cell (a cube).
     pub fn node_bounds(&self, id: NodeId) -> Aabb {
         self.cell(id).bounds()

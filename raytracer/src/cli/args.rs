@@ -224,6 +224,10 @@ pub enum Command {
     Sweep(Box<SweepArgs>),
     /// Reproduce the paper's tables and figures on a simulated cluster (SVG, markdown, JSON).
     Experiment(Box<ExperimentArgs>),
+    /// Write a built-in scene as Radiance text: a seeded city of any size, the studio, the Cornell box.
+    Generate(Box<super::generate::GenerateArgs>),
+    /// Compile scene files into one binary scene grouped by octree cell (like oconv); render reads it.
+    Compile(Box<super::compile::CompileArgs>),
 }
 
 /// Radiance rendering options (long forms of `-ds`, `-dj`, ...).

@@ -1,4 +1,5 @@
-//! The `hybrid-rt` command-line program: `render`, `bench` and `sweep`.
+//! The `hybrid-rt` command-line program: `render`, `bench`, `sweep`,
+//! `experiment`, `generate` and `compile`.
 //!
 //! Errors print as `error: <file:line: reason>` on stderr; the exit code
 //! is 2 for usage errors and 1 for everything else. No input makes the
@@ -15,8 +16,10 @@ macro_rules! outln {
 mod args;
 mod bench;
 mod common;
+mod compile;
 mod console;
 mod experiment;
+mod generate;
 mod parallel;
 mod render;
 mod sweep;
@@ -54,6 +57,8 @@ pub fn main() -> i32 {
         Command::Bench(a) => bench::run(&a),
         Command::Sweep(a) => sweep::run(&a),
         Command::Experiment(a) => experiment::run(&a),
+        Command::Generate(a) => generate::run(&a),
+        Command::Compile(a) => compile::run(&a),
     };
     // Everything written to standard output must have reached it.
     let result = result.and_then(|()| {

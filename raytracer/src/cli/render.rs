@@ -130,7 +130,7 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
 
     let popts = super::parallel::resolve(&a.parallel)?;
     let t0 = std::time::Instant::now();
-    let scene = Arc::new(scene::load(&a.scenes)?);
+    let scene = Arc::new(crate::compiled::load(&a.scenes)?);
     print_scene_warnings(&scene);
     let view = match view {
         Some(v) => v,

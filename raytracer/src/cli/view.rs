@@ -84,14 +84,23 @@ pub(super) fn build_view(
     Ok(view)
 }
 
-/// The view when none is given (no `-vf`, `--view` or `-v` option):
-/// `SCENE.vf` beside the first scene file if there is one (as `bench` and
+/// The view when none is given (no `-vf`, `--view` or `-v` option): the
+/// first view stored in a compiled scene, else `SCENE.vf` beside the first scene file if there is one (as `bench` and
 /// `sweep` find it), else for an OBJ scene none yet (it is framed once
 /// loaded, see [`View::framing`]), else Radiance's default view.
 pub(super) fn default_view(scenes: &[PathBuf]) -> Result<Option<View>> {
     let Some(first) = scenes.first() else {
         return Ok(Some(View::default()));
     };
+    if scenes.len() == 1 && crate::compiled::is_compiled(first) {
+        let c = crate::compiled::CompiledScene::open(first)?;
+        if let Some(text) = c.replicated().views.first() {
+            let where_ = format!("{} (its stored view)", first.display());
+            let view = View::from_file_text(text, &where_)?;
+            eprintln!("view: {where_}");
+            return Ok(Some(view));
+        }
+    }
     let vf = view_file_beside(first);
     if vf.is_file() {
         let view = build_view(Some(&vf), &[], &[])?;

@@ -52,6 +52,9 @@ pub(crate) struct Builder {
     pub(super) mods: ModState,
     /// Unsupported-type warnings by key: index into `scene.warnings` and count.
     grouped: HashMap<String, (usize, usize)>,
+    /// When set, every top-level record interpreted is appended here, in
+    /// order (see [`super::record`]).
+    pub(super) record: Option<Vec<RawPrim>>,
 }
 
 impl Builder {
@@ -67,6 +70,7 @@ impl Builder {
             pending_shading: None,
             mods: ModState::new(LoadOptions::from_env().search_path),
             grouped: HashMap::new(),
+            record: None,
         }
     }
 
@@ -182,7 +186,7 @@ impl Builder {
     }
 
     /// The material a surface with modifier `name` is made of.
-    fn surface_material(&mut self, p: &RawPrim) -> Result<MaterialId> {
+    pub(super) fn surface_material(&mut self, p: &RawPrim) -> Result<MaterialId> {
         if p.modifier == "void" {
             return Ok(self.void_material());
         }
@@ -210,13 +214,21 @@ impl Builder {
         objects: &mut Vec<Object>,
         top: bool,
     ) -> Result<()> {
+        if let (true, Some(record)) = (top, self.record.as_mut()) {
+            record.extend_from_slice(prims);
+        }
         for p in prims {
             self.add_prim(p, objects, top)?;
         }
         Ok(())
     }
 
-    fn add_prim(&mut self, p: &RawPrim, objects: &mut Vec<Object>, top: bool) -> Result<()> {
+    pub(super) fn add_prim(
+        &mut self,
+        p: &RawPrim,
+        objects: &mut Vec<Object>,
+        top: bool,
+    ) -> Result<()> {
         let t = p.ptype.as_str();
         if t == "alias" {
             return self.add_alias(p);
@@ -827,7 +839,7 @@ impl Builder {
         Ok(())
     }
 
-    fn primitive_shape(&self, p: &RawPrim) -> Result<Shape> {
+    pub(super) fn primitive_shape(&self, p: &RawPrim) -> Result<Shape> {
         let t = p.ptype.as_str();
         let r = &p.reals;
         let v = |k: usize| Vec3::new(r[k], r[k + 1], r[k + 2]);

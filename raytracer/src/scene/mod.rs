@@ -4,6 +4,8 @@
 //!   forming one scene (like `oconv`: later files may use earlier materials);
 //! - [`load_rad_str`]: scene text from memory (tests, examples);
 //! - [`view`]: Radiance views (`-vtv -vp ...`, view files) and primary rays;
+//! - [`record`]: a scene as the program of its records, its plain surfaces
+//!   apart (what a compiled scene stores);
 //! - [`generate`]: the built-in procedural scenes (Cornell box, studio,
 //!   conference room), written as Radiance text.
 //!
@@ -25,6 +27,7 @@ mod obj;
 mod octfile;
 mod rad;
 mod radbin;
+pub mod record;
 mod rtm;
 pub mod view;
 mod xform;

@@ -6,6 +6,8 @@
 //! - [`studio`]: a large room full of small objects lit by a few big ceiling
 //!   panels high above them (the paper's "studio": about 4,600 primitives and
 //!   700 materials);
+//! - [`city`]: a city of any size, real geometry (no instances), for
+//!   scenes larger than one machine;
 //! - [`conference`]: a hall of tables and chairs shared as instances, lit by
 //!   many small luminaires just below the ceiling (the paper's "conference
 //!   room": about 3,900 objects and 6,100 instances).
@@ -14,6 +16,7 @@
 //! shipped in `examples/scenes/` are their output for [`DEFAULT_SEED`]; a
 //! test keeps the two identical (set `HYBRID_RT_BLESS=1` to rewrite them).
 
+mod city;
 mod conference;
 mod cornell;
 mod studio;
@@ -23,6 +26,7 @@ use std::path::Path;
 
 use glam::DVec3;
 
+pub use city::{city, city_view, city_with_stats, CityStats};
 pub use conference::{conference, conference_parts, conference_view};
 pub use cornell::{cornell, cornell_view};
 pub use studio::{studio, studio_view};

@@ -1,0 +1,378 @@
+//! A scene as the program that builds it: the top-level records of its
+//! files in order, with the plain surfaces (polygons, spheres, cones,
+//! cylinders, rings and their inward forms) taken out to be stored apart
+//! (a compiled scene groups them by octree cell; see `crate::compiled`).
+//!
+//! [`record`] loads scene files as [`super::load_with`] does and returns,
+//! beside the scene, its [`Program`] and its plain surfaces by object id;
+//! [`replay`] interprets the program again, taking the surfaces back, and
+//! makes the same scene: the same materials in the same order (the
+//! modifiers a run of surfaces uses are looked up again where the run
+//! stood, so materials made on first use are made at the same moment), the
+//! same objects with the same ids, the same lights. Records that are not
+//! plain surfaces (materials, patterns, aliases, `source`, `instance`,
+//! `mesh`) stay in the program and are interpreted again: the files they
+//! name (function files, data, pictures, instanced octrees) are read again
+//! from where they were.
+//!
+//! Only Radiance inputs can be recorded: an OBJ file's faces are not
+//! records, and a scene naming one is refused.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::build::{is_light_material, Builder, LoadOptions};
+use super::model::{Light, LightKind, MaterialId, Object, ObjectId, Scene};
+use super::rad::RawPrim;
+use crate::geometry::Transform;
+use crate::{Error, Result, SourceLoc};
+
+/// The types of plain surfaces, as [`Surface::kind`] numbers them.
+const KINDS: [&str; 8] = [
+    "polygon", "sphere", "bubble", "cone", "cup", "cylinder", "tube", "ring",
+];
+
+/// One plain surface: what its record said (its reals exactly as read) and
+/// the material it resolved to.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Surface {
+    pub name: String,
+    pub material: MaterialId,
+    /// Index into the plain surface types: polygon, sphere, bubble, cone,
+    /// cup, cylinder, tube, ring.
+    pub kind: u8,
+    pub reals: Vec<f64>,
+}
+
+impl Surface {
+    /// The surface's type name (`polygon`, ...), `None` for an unknown kind.
+    pub fn type_name(&self) -> Option<&'static str> {
+        KINDS.get(self.kind as usize).copied()
+    }
+}
+
+/// A record kept in the program, as the parser made it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Record {
+    pub modifier: String,
+    pub ptype: String,
+    pub id: String,
+    pub strs: Vec<String>,
+    pub ints: Vec<String>,
+    pub reals: Vec<f64>,
+    pub loc: SourceLoc,
+    /// An enclosing `!xform`'s transform of an `instance` or `mesh`:
+    /// `to_world` and `to_object` (columns) and the scale.
+    pub post: Option<(Vec<f64>, Vec<f64>, f64)>,
+}
+
+/// One step of a [`Program`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Step {
+    /// Interpret a record.
+    Record(Box<Record>),
+    /// Objects `first .. first + count` are plain surfaces, stored apart;
+    /// `modifiers` are the modifier names they use, in order of first use,
+    /// with the material each resolved to.
+    Surfaces {
+        first: ObjectId,
+        count: u32,
+        modifiers: Vec<(String, MaterialId)>,
+    },
+}
+
+/// How to build a scene again, less its plain surfaces.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Program {
+    pub steps: Vec<Step>,
+    /// Objects of the scene (plain surfaces and instances).
+    pub objects: u32,
+}
+
+fn to_record(p: &RawPrim) -> Record {
+    Record {
+        modifier: p.modifier.clone(),
+        ptype: p.ptype.clone(),
+        id: p.id.clone(),
+        strs: p.strs.clone(),
+        ints: p.ints.clone(),
+        reals: p.reals.clone(),
+        loc: p.loc.clone(),
+        post: p.post.map(|t| {
+            (
+                t.to_world.to_cols_array().to_vec(),
+                t.to_object.to_cols_array().to_vec(),
+                t.scale,
+            )
+        }),
+    }
+}
+
+fn from_record(r: &Record) -> Result<RawPrim> {
+    let post = match &r.post {
+        None => None,
+        Some((w, o, scale)) => {
+            let mat = |v: &[f64]| -> Result<glam::DMat4> {
+                let a: [f64; 16] = v.try_into().map_err(|_| {
+                    Error::parse(
+                        r.loc.clone(),
+                        format!("{} '{}': a transform of {} numbers", r.ptype, r.id, v.len()),
+                    )
+                })?;
+                Ok(glam::DMat4::from_cols_array(&a))
+            };
+            Some(Transform {
+                to_world: mat(w)?,
+                to_object: mat(o)?,
+                scale: *scale,
+            })
+        }
+    };
+    Ok(RawPrim {
+        modifier: r.modifier.clone(),
+        ptype: r.ptype.clone(),
+        id: r.id.clone(),
+        strs: r.strs.clone(),
+        ints: r.ints.clone(),
+        reals: r.reals.clone(),
+        loc: r.loc.clone(),
+        post,
+    })
+}
+
+fn builder(options: &LoadOptions) -> Builder {
+    let mut b = Builder::new();
+    b.mods.search_path = options.search_path.clone();
+    b.exp.search_path = options.search_path.clone();
+    b
+}
+
+/// Loads Radiance scene files (`.rad` text, `.oct` octrees, `-` is not
+/// allowed) as one scene and returns it with its program and its plain
+/// surfaces by object id (`None` for instances).
+pub fn record(
+    paths: &[impl AsRef<Path>],
+    options: &LoadOptions,
+) -> Result<(Scene, Program, Vec<Option<Surface>>)> {
+    let mut b = builder(options);
+    b.record = Some(Vec::new());
+    for p in paths {
+        let p = p.as_ref();
+        let ext = p
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            _ if p == Path::new("-") => {
+                return Err(Error::Usage(
+                    "a compiled scene is made from files, not standard input".into(),
+                ))
+            }
+            Some("obj") => {
+                return Err(Error::parse(
+                    SourceLoc::new(p, 0),
+                    "OBJ files cannot be compiled (their faces are not Radiance records): convert them with obj2rad first",
+                ))
+            }
+            Some("oct" | "octf") => b.add_octree_file(p)?,
+            _ => b.add_rad_file(p)?,
+        }
+    }
+    let prims = b.record.take().unwrap_or_default();
+    let scene = b.finish()?;
+    let (program, surfaces) = split(&prims, &scene)?;
+    Ok((scene, program, surfaces))
+}
+
+/// Separates the plain surfaces from the other records.
+fn split(prims: &[RawPrim], scene: &Scene) -> Result<(Program, Vec<Option<Surface>>)> {
+    let mut steps = Vec::new();
+    let mut surfaces: Vec<Option<Surface>> = Vec::with_capacity(scene.objects.len());
+    let mismatch = |p: &RawPrim| {
+        Error::parse(
+            p.loc.clone(),
+            format!(
+                "{} '{}': the scene's objects do not follow its records (this input cannot be compiled)",
+                p.ptype, p.id
+            ),
+        )
+    };
+    for p in prims {
+        let next = surfaces.len() as ObjectId;
+        if let Some(kind) = KINDS.iter().position(|k| *k == p.ptype) {
+            let o = scene
+                .objects
+                .get(next as usize)
+                .ok_or_else(|| mismatch(p))?;
+            if o.name != p.id {
+                return Err(mismatch(p));
+            }
+            surfaces.push(Some(Surface {
+                name: p.id.clone(),
+                material: o.material,
+                kind: kind as u8,
+                reals: p.reals.clone(),
+            }));
+            let pair = (p.modifier.clone(), o.material);
+            match steps.last_mut() {
+                Some(Step::Surfaces {
+                    count, modifiers, ..
+                }) => {
+                    *count += 1;
+                    if !modifiers.iter().any(|(m, _)| *m == pair.0) {
+                        modifiers.push(pair);
+                    }
+                }
+                _ => steps.push(Step::Surfaces {
+                    first: next,
+                    count: 1,
+                    modifiers: vec![pair],
+                }),
+            }
+        } else {
+            if p.ptype == "instance" || p.ptype == "mesh" {
+                let o = scene
+                    .objects
+                    .get(next as usize)
+                    .ok_or_else(|| mismatch(p))?;
+                if o.name != p.id {
+                    return Err(mismatch(p));
+                }
+                surfaces.push(None);
+            }
+            steps.push(Step::Record(Box::new(to_record(p))));
+        }
+    }
+    if surfaces.len() != scene.objects.len() {
+        return Err(Error::Other(format!(
+            "the scene has {} objects but its records make {}: it cannot be compiled",
+            scene.objects.len(),
+            surfaces.len()
+        )));
+    }
+    let objects = surfaces.len() as u32;
+    Ok((Program { steps, objects }, surfaces))
+}
+
+/// Builds the scene of `program` again; `surfaces[id]` is taken for every
+/// plain surface. `file` names the compiled scene in messages.
+pub fn replay(
+    program: &Program,
+    mut surfaces: Vec<Option<Surface>>,
+    options: &LoadOptions,
+    file: &Path,
+) -> Result<Scene> {
+    let bad = |reason: String| Error::parse(SourceLoc::new(file, 0), reason);
+    if surfaces.len() != program.objects as usize {
+        return Err(bad(format!(
+            "{} objects stored, the scene program makes {}",
+            surfaces.len(),
+            program.objects
+        )));
+    }
+    let mut b = builder(options);
+    let mut objects: Vec<Object> = Vec::with_capacity(surfaces.len());
+    for step in &program.steps {
+        match step {
+            Step::Record(r) => {
+                let start = objects.len();
+                b.add_prim(&from_record(r)?, &mut objects, true)?;
+                if objects.len() > start + 1 {
+                    return Err(bad(format!("record '{}' made several objects", r.id)));
+                }
+            }
+            Step::Surfaces {
+                first,
+                count,
+                modifiers,
+            } => {
+                if *first as usize != objects.len() {
+                    return Err(bad(format!(
+                        "surfaces stored from object {first}, the scene program is at object {}",
+                        objects.len()
+                    )));
+                }
+                for (name, id) in modifiers {
+                    let stub = RawPrim {
+                        modifier: name.clone(),
+                        ptype: "polygon".into(),
+                        id: String::new(),
+                        strs: Vec::new(),
+                        ints: Vec::new(),
+                        reals: Vec::new(),
+                        loc: SourceLoc::new(file, 0),
+                        post: None,
+                    };
+                    let got = b.surface_material(&stub)?;
+                    if got != *id {
+                        return Err(bad(format!(
+                            "modifier '{name}' resolves to material {got}, the stored surfaces use {id}"
+                        )));
+                    }
+                }
+                let end = (*first as usize).checked_add(*count as usize);
+                let Some(slots) = end.and_then(|e| surfaces.get_mut(*first as usize..e)) else {
+                    return Err(bad(format!(
+                        "surfaces {first} + {count} lie beyond the {} objects",
+                        program.objects
+                    )));
+                };
+                for (k, slot) in slots.iter_mut().enumerate() {
+                    let id = *first + k as ObjectId;
+                    let s = slot
+                        .take()
+                        .ok_or_else(|| bad(format!("object {id}: its surface is missing")))?;
+                    objects.push(surface_object(&b, s, id, file)?);
+                    let material = objects[id as usize].material;
+                    if is_light_material(b.scene.material(material)) {
+                        b.scene.lights.push(Light {
+                            kind: LightKind::Area { object: id },
+                            material,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    if objects.len() != program.objects as usize {
+        return Err(bad(format!(
+            "the scene program made {} objects, it should make {}",
+            objects.len(),
+            program.objects
+        )));
+    }
+    b.scene.objects = objects;
+    b.finish()
+}
+
+/// A stored surface as an object, through the loader's own shape code.
+fn surface_object(b: &Builder, s: Surface, id: ObjectId, file: &Path) -> Result<Object> {
+    let bad = |reason: String| Error::parse(SourceLoc::new(file, 0), reason);
+    let ptype = s
+        .type_name()
+        .ok_or_else(|| bad(format!("object {id}: unknown surface kind {}", s.kind)))?;
+    if s.material as usize >= b.scene.materials.len() {
+        return Err(bad(format!(
+            "object {id}: material {} of {}",
+            s.material,
+            b.scene.materials.len()
+        )));
+    }
+    let p = RawPrim {
+        modifier: String::new(),
+        ptype: ptype.to_string(),
+        id: s.name,
+        strs: Vec::new(),
+        ints: Vec::new(),
+        reals: s.reals,
+        loc: SourceLoc::new(file, 0),
+        post: None,
+    };
+    let shape = b.primitive_shape(&p)?;
+    Ok(Object {
+        name: p.id,
+        shape,
+        material: s.material,
+    })
+}
