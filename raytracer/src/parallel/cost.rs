@@ -12,17 +12,18 @@
 //! hybrid-rt experiment calibrate --scene studio --width 256 --height 192 --out experiments
 //! ```
 //!
-//! which times every task step of a one-processor run of the framework's
-//! sequential runtime, fits the per-unit costs of [`FITTED`] by
-//! non-negative least squares over batches of steps, then takes the
-//! framework's own per-step overhead (mailboxes, selection bookkeeping,
-//! result merging) from one-processor runs of the threads runtime:
-//! (measured CPU time of the process - fitted work) / steps. CPU time, not
-//! wall time, so that other work on a shared machine is not charged to the
-//! framework; the process's time includes the master's thread, which the
-//! simulator prices separately, so `step_ns` errs on the high side. It writes the new file, recording
-//! the machine, the command, the date and the fit's quality, and reports how
-//! far the *committed* model's prediction of that threads run is from the
+//! which times every task step of the framework's sequential runtime on a
+//! one-processor and a two-processor workload (the latter samples
+//! clipping), fits the per-unit costs of [`FITTED`] by non-negative least
+//! squares over batches of steps, then takes the framework's own per-step
+//! overhead (mailboxes, selection bookkeeping, result merging) from
+//! one-processor runs of the threads runtime: (CPU time of the process -
+//! fitted work) / steps. CPU time, not wall time, so that other work on a
+//! shared machine is not charged to the framework; the process's time
+//! includes the master's thread, which the simulator prices separately, so
+//! `step_ns` errs on the high side. It writes the new file, recording the
+//! machine, the command, the date and the fit's quality, and reports how far
+//! the *committed* model's prediction of that threads run is from the
 //! measured time: past 10%, refit and commit the file (the simulated
 //! experiment outputs change with it; `experiments/` is then regenerated).
 //!
@@ -32,10 +33,10 @@
 //! `assumed` table says where each comes from. Kinds that always occur
 //! together cannot be told apart by a regression (each shaded ray is also a
 //! spawned ray; each tested shadow ray also enters leaves and tests
-//! objects), so the fit gives one of them the whole cost and the others
-//! zero. Objects inside instances are not counted (the conference scene's
-//! instanced furniture), so a fit on that scene puts their cost on the leaf
-//! steps.
+//! objects), so the fit splits their joint cost between them arbitrarily
+//! (often all on one). Objects inside instances are not counted (the
+//! conference scene's instanced furniture), so a fit on that scene puts
+//! their cost on the leaf steps.
 
 use std::collections::BTreeMap;
 use std::sync::OnceLock;
