@@ -97,8 +97,10 @@ fn calibrate_to(
         100.0 * c.committed_error,
         if c.needs_refit() {
             format!(
-                ", past {:.0}%: refit (copy the new model over it and regenerate experiments/)",
-                100.0 * calibrate::REFIT_ABOVE
+                ", past {:.0}%: refit (commit {} as {} and regenerate experiments/ with EXPERIMENTS.md's commands)",
+                100.0 * calibrate::REFIT_ABOVE,
+                path.display(),
+                crate::parallel::cost::MODEL_PATH
             )
         } else {
             String::new()
