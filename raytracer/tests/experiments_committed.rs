@@ -16,6 +16,9 @@
 //! - `experiments/studio` and `experiments/conference`: minutes each,
 //!   ignored by default; `cargo test --release -p hybrid-rt --test
 //!   experiments_committed -- --ignored` checks them.
+//!
+//! And `experiment calibrate`, which writes the committed model, writes a
+//! file the simulator accepts.
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -190,4 +193,44 @@ fn conference_experiments_equal_the_committed_files() {
             "64",
         ],
     );
+}
+
+/// `experiment calibrate` writes a model file the simulator accepts (every
+/// fitted kind priced), recording the command and the scene, and says how
+/// far the committed model is off. The costs themselves are measurements
+/// and are not compared.
+#[test]
+fn calibrate_writes_a_model_file_the_simulator_accepts() {
+    let out = tmpdir("calibrate");
+    let o = Command::new(env!("CARGO_BIN_EXE_hybrid-rt"))
+        .args([
+            "experiment",
+            "calibrate",
+            "--scene",
+            "cornell",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .expect("run hybrid-rt");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains("the committed model"), "{stderr}");
+    let text = std::fs::read_to_string(out.join("cost-model.json")).unwrap();
+    let f = hybrid_rt::parallel::cost::ModelFile::parse(&text).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(f.scene, "cornell");
+    assert!(
+        f.command.contains("experiment calibrate --scene cornell"),
+        "{}",
+        f.command
+    );
+    assert!(f.fit.steps > 0 && f.fit.threads_steps > 0);
+    let committed = hybrid_rt::parallel::cost::committed();
+    assert_eq!(f.assumed, committed.assumed, "assumptions are carried over");
+    assert_eq!(f.model.master_step_ns, committed.model.master_step_ns);
+    let _ = std::fs::remove_dir_all(&out);
 }
