@@ -37,6 +37,8 @@ echo "== Radiance's regression scenes against its reference images (release buil
 cargo test --release --locked -p hybrid-rt --test radiance_suite
 echo "== concave seams at scene scales 1e-5..1e5 (release build)"
 cargo test --release --locked -p hybrid-rt --test seams
+echo "== committed experiment outputs equal what the code writes (release build)"
+cargo test --release --locked -p hybrid-rt --test experiments_committed
 
 if [ "${SKIP_MPI:-0}" = 1 ]; then
     echo "== MPI checks skipped (SKIP_MPI=1)"

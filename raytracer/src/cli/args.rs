@@ -654,7 +654,7 @@ pub struct SweepArgs {
 /// `hybrid-rt experiment NAME`: the paper's experiments on a simulated cluster.
 #[derive(Debug, Args)]
 pub struct ExperimentArgs {
-    /// An experiment, all of them, or calibrate (fit the cost model on this machine).
+    /// An experiment, all of them, or calibrate (fit the cost model on this machine, write it to OUT/cost-model.json, and say how far the committed experiments/cost-model.json is off).
     #[arg(value_enum)]
     pub name: ExperimentName,
     /// Built-in scene (cornell, studio, conference) or a scene file.

@@ -3,6 +3,9 @@
 
 use std::sync::Arc;
 
+use crate::render::RenderOptions;
+use crate::scene::{Scene, View};
+
 use super::args::{ExperimentArgs, ExperimentName};
 use super::common::{options_from, usage};
 use super::view::resolve_scene_view;
@@ -28,17 +31,6 @@ pub(super) fn run(a: &ExperimentArgs) -> Result<()> {
     let (cview, cw, ch) = view.fit_aspect(a.cache_size, a.cache_size);
     let _ = cview;
     let scene = Arc::new(scene::load(&[&path])?);
-    if a.name == ExperimentName::Calibrate {
-        let c = calibrate::calibrate(scene, options, &view, w as usize, h as usize)?;
-        let text =
-            serde_json::to_string_pretty(&c).map_err(|e| crate::Error::Other(e.to_string()))?;
-        outln!("{text}");
-        eprintln!(
-            "fitted {} steps: R^2 {:.3}; sequential steps {:.3} s measured, {:.3} s fitted; threads (1 proc) {:.3} s measured, built-in model {:.3} s",
-            c.steps, c.r_squared, c.measured_s, c.predicted_s, c.threads_s, c.builtin_predicted_s
-        );
-        return Ok(());
-    }
     let name = match a.scene.as_str() {
         "cornell" | "studio" | "conference" => a.scene.clone(),
         _ => path
@@ -46,6 +38,9 @@ pub(super) fn run(a: &ExperimentArgs) -> Result<()> {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "scene".into()),
     };
+    if a.name == ExperimentName::Calibrate {
+        return calibrate_to(a, scene, options, &view, (w, h), name);
+    }
     let setup = Setup {
         name,
         scene,
@@ -64,5 +59,53 @@ pub(super) fn run(a: &ExperimentArgs) -> Result<()> {
     for o in written {
         outln!("{}", o.path.display());
     }
+    Ok(())
+}
+
+/// `experiment calibrate`: fits the model on this machine, writes it to
+/// `OUT/cost-model.json` and says how far the committed model is off.
+fn calibrate_to(
+    a: &ExperimentArgs,
+    scene: Arc<Scene>,
+    options: RenderOptions,
+    view: &View,
+    (w, h): (u32, u32),
+    name: String,
+) -> Result<()> {
+    let mut c = calibrate::calibrate(scene, options, view, w as usize, h as usize)?;
+    c.file.scene = name;
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    c.file.command = format!("hybrid-rt {}", args.join(" "));
+    let text = serde_json::to_string_pretty(&c.file)
+        .map_err(|e| crate::Error::Other(e.to_string()))?
+        + "\n";
+    std::fs::create_dir_all(&a.out).map_err(|e| crate::Error::io(&a.out, e))?;
+    let path = a.out.join("cost-model.json");
+    std::fs::write(&path, text).map_err(|e| crate::Error::io(&path, e))?;
+    let f = &c.file.fit;
+    eprintln!(
+        "fitted {} steps: R^2 {:.3}; sequential steps {:.3} s measured, {:.3} s fitted; step cost {:.0} ns",
+        f.steps, f.r_squared, f.sequential_measured_s, f.sequential_fitted_s, c.file.model.step_ns
+    );
+    eprintln!(
+        "threads, 1 processor: {:.3} CPU s measured ({:.3} s wall; least of {}); the committed model ({}) predicts {:.3} s: {:+.1}%{}",
+        c.threads_s,
+        c.file.fit.threads_wall_s,
+        calibrate::THREADS_RUNS,
+        crate::parallel::cost::MODEL_PATH,
+        c.committed_predicted_s,
+        100.0 * c.committed_error,
+        if c.needs_refit() {
+            format!(
+                ", past {:.0}%: refit (commit {} as {} and regenerate experiments/ with EXPERIMENTS.md's commands)",
+                100.0 * calibrate::REFIT_ABOVE,
+                path.display(),
+                crate::parallel::cost::MODEL_PATH
+            )
+        } else {
+            String::new()
+        }
+    );
+    outln!("{}", path.display());
     Ok(())
 }

@@ -178,19 +178,7 @@ impl Ctx<'_> {
         let report = Sequential
             .run_blocking(Arc::new(wl), &hybrid_sched::Config::new(1))
             .map_err(|e| Error::Other(format!("sequential run failed: {e}")))?;
-        let model = cost::model();
-        let ns: f64 = report.stats.procs[0]
-            .work
-            .iter()
-            .map(|(k, &v)| {
-                v as f64
-                    * model
-                        .unit_ns
-                        .get(k)
-                        .copied()
-                        .unwrap_or(model.default_unit_ns)
-            })
-            .sum();
+        let ns = cost::predict_ns(&cost::model(), &report.stats.procs[0].work, 0);
         let t = ns * s.network.cpu_scale * 1e-9;
         self.seq_s = Some(t);
         Ok(t)
@@ -235,9 +223,18 @@ impl Ctx<'_> {
 
     pub(super) fn setup_line(&self) -> String {
         let s = self.s;
+        let model = cost::committed();
         format!(
-            "Scene `{}`, {}x{} pixels, simulated `{}` network (compute {}x slower than the calibration machine), seed {}.\n",
-            s.name, s.width, s.height, s.network.name, s.network.cpu_scale, s.seed
+            "Scene `{}`, {}x{} pixels, simulated `{}` network (compute {}x slower than the calibration machine), seed {}. Compute priced by `{}` (fitted {} on {}).\n",
+            s.name,
+            s.width,
+            s.height,
+            s.network.name,
+            s.network.cpu_scale,
+            s.seed,
+            cost::MODEL_PATH,
+            model.date,
+            model.machine
         )
     }
 
