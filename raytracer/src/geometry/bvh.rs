@@ -451,6 +451,33 @@ impl Bvh {
     /// object id, like [`crate::accel::intersect_brute_force`] and
     /// [`crate::accel::Octree::intersect`].
     pub fn intersect(&self, objects: &[Object], ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2.
+            return unsafe { self.intersect_avx2(objects, ray, tmin, tmax) };
+        }
+        self.intersect_impl(objects, ray, tmin, tmax)
+    }
+
+    /// [`Bvh::intersect`] compiled for AVX2 (the four lanes of a slab test
+    /// in one instruction). The same IEEE operations in the same order (no
+    /// fused multiply-add): the same answers, bit for bit. Measured
+    /// (`hybrid-rt bench --embree`, three runs side by side): about 6%
+    /// faster, primary and shadow rays.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn intersect_avx2(
+        &self,
+        objects: &[Object],
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<Hit> {
+        self.intersect_impl(objects, ray, tmin, tmax)
+    }
+
+    #[inline(always)]
+    fn intersect_impl(&self, objects: &[Object], ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         let pre = PreparedRay::new(ray);
         let test = Tester::new(&self.prims, objects, &pre);
         let mut best: Option<(f64, ObjectId, ShapeHit)> = None;
@@ -525,6 +552,37 @@ impl Bvh {
 
     /// True if any object other than `ignore` is hit with `tmin < t < tmax`.
     pub fn occluded(
+        &self,
+        objects: &[Object],
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+        ignore: Option<ObjectId>,
+    ) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2.
+            return unsafe { self.occluded_avx2(objects, ray, tmin, tmax, ignore) };
+        }
+        self.occluded_impl(objects, ray, tmin, tmax, ignore)
+    }
+
+    /// [`Bvh::occluded`] compiled for AVX2 (see [`Bvh::intersect_avx2`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn occluded_avx2(
+        &self,
+        objects: &[Object],
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+        ignore: Option<ObjectId>,
+    ) -> bool {
+        self.occluded_impl(objects, ray, tmin, tmax, ignore)
+    }
+
+    #[inline(always)]
+    fn occluded_impl(
         &self,
         objects: &[Object],
         ray: &Ray,
