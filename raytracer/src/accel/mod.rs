@@ -2,6 +2,8 @@
 //! bounding volume hierarchy, which instances hold, is in [`crate::geometry`]).
 
 pub mod clip;
+#[cfg(feature = "embree")]
+pub mod embree;
 mod octree;
 
 pub use crate::geometry::{Bvh, BvhStats, Hit};

@@ -618,6 +618,11 @@ pub struct BenchArgs {
     /// Runs per configuration for --scaling (the median is reported).
     #[arg(long, default_value_t = 3, value_name = "K")]
     pub repeat: usize,
+    /// Instead: the scene as triangles through this project's hierarchy and
+    /// through Embree (a build with the `embree` feature), primary and shadow
+    /// rays side by side, --repeat rounds (median).
+    #[arg(long)]
+    pub embree: bool,
     #[command(flatten)]
     pub radiance: RadianceArgs,
 }

@@ -125,6 +125,9 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
     if !a.scaling.is_empty() {
         return scaling(a);
     }
+    if a.embree {
+        return embree_run(a);
+    }
     let options = options_from(&a.radiance, 0)?;
     let (path, view) = resolve_scene(a)?;
     let (view, w, h) = view.fit_aspect(a.width, a.height);
@@ -410,5 +413,273 @@ fn scaling(a: &BenchArgs) -> Result<()> {
             outln!("| {dist} | {n} | {t:.3} | {rel} | {:.2} |", med[0] / t);
         }
     }
+    Ok(())
+}
+
+/// Steps around a curved surface.
+#[cfg(feature = "embree")]
+const SEGMENTS: usize = 16;
+/// Rays per Embree stream (`rtcIntersect1M`, `rtcOccluded1M`).
+#[cfg(feature = "embree")]
+const STREAM: usize = 4096;
+
+/// `bench --embree` without the `embree` feature: a usage error.
+#[cfg(not(feature = "embree"))]
+fn embree_run(_: &BenchArgs) -> Result<()> {
+    Err(super::common::usage(
+        "bench --embree needs a build with the `embree` feature (cargo build --release --features embree; Debian's libembree-dev)",
+    ))
+}
+
+/// `bench --embree`: this project's hierarchy against Embree on the same
+/// triangles and the same rays, in one run. The scene's shapes become
+/// triangles ([`crate::geometry::tessellate`], curved surfaces in
+/// [`SEGMENTS`] steps), each triangle one object of a [`Bvh`]
+/// and one primitive of an Embree mesh. Primary rays: one per pixel centre.
+/// Shadow rays: from each primary hit on a surface that does not emit,
+/// towards the centre of each area light in front of it. Each query kind
+/// is timed `--repeat` times in interleaved rounds (so a slow spell of a
+/// shared machine hits all of them); medians are reported. The answers are
+/// compared ray by ray: Embree's are single precision, so a ray may differ
+/// where it grazes an edge or a corner, and the count of such rays is shown.
+///
+/// [`Bvh`]: crate::geometry::Bvh
+#[cfg(feature = "embree")]
+fn embree_run(a: &BenchArgs) -> Result<()> {
+    use crate::accel::embree::{self as rtc, Embree, RtcRayHit, INVALID_ID};
+    use crate::geometry::{tessellate, Bvh, Vec3};
+    use crate::render::Camera;
+    use crate::scene::LightKind;
+
+    if a.repeat == 0 {
+        return Err(super::common::usage("--repeat must be at least 1"));
+    }
+    let (path, view) = resolve_scene(a)?;
+    let (view, w, h) = view.fit_aspect(a.width, a.height);
+    let (w, h) = (w as usize, h as usize);
+    let scene = scene::load(&[&path])?;
+
+    // The scene as triangles; `owner[i]`: the scene object triangle `i`
+    // came from. Triangles too thin to be a polygon are left out of both.
+    let (mut tris, mut owner, mut objects) = (Vec::new(), Vec::new(), Vec::new());
+    let mut skipped = 0usize;
+    let mut buf = Vec::new();
+    for (i, o) in scene.objects.iter().enumerate() {
+        buf.clear();
+        tessellate(&o.shape, SEGMENTS, &mut buf);
+        for t in &buf {
+            match Shape::polygon(t.to_vec()) {
+                Ok(shape) => {
+                    tris.push(*t);
+                    owner.push(i as ObjectId);
+                    objects.push(Object {
+                        name: String::new(),
+                        shape,
+                        material: o.material,
+                    });
+                }
+                Err(_) => skipped += 1,
+            }
+        }
+    }
+    let extent = objects
+        .iter()
+        .fold(crate::geometry::Aabb::EMPTY, |b, o| {
+            b.union(o.shape.bounds())
+        })
+        .extent()
+        .max_element();
+
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let (mut build_ours, mut build_embree) = (Vec::new(), Vec::new());
+    let mut bvh = Bvh::default();
+    let mut rtc_scene = None;
+    for _ in 0..a.repeat {
+        let t0 = Instant::now();
+        bvh = Bvh::build(&objects);
+        build_ours.push(t0.elapsed().as_secs_f64());
+        drop(rtc_scene.take());
+        let t0 = Instant::now();
+        rtc_scene = Some(Embree::new(&tris).map_err(Error::Other)?);
+        build_embree.push(t0.elapsed().as_secs_f64());
+    }
+    let rtc_scene = rtc_scene.expect("at least one round");
+
+    // Primary rays.
+    let mut primary = Vec::with_capacity(w * h);
+    for p in 0..w * h {
+        let (x, y) = (p % w, p / w);
+        let fx = (x as f64 + 0.5) / w as f64;
+        let fy = 1.0 - (y as f64 + 0.5) / h as f64;
+        if let Some(r) = Camera::ray(&view, fx, fy) {
+            primary.push(r);
+        }
+    }
+    let primary_rtc: Vec<RtcRayHit> = primary
+        .iter()
+        .map(|(r, t0, t1)| RtcRayHit {
+            ray: rtc::ray(r.origin, r.dir, *t0, *t1),
+            hit: rtc::RtcHit {
+                geom_id: INVALID_ID,
+                ..Default::default()
+            },
+        })
+        .collect();
+    let mut ours: Vec<Option<crate::accel::Hit>> = Vec::new();
+    let (mut e1, mut em) = (primary_rtc.clone(), primary_rtc.clone());
+    let (mut t_ours, mut t_e1, mut t_em) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..a.repeat {
+        let t0 = Instant::now();
+        ours.clear();
+        ours.extend(
+            primary
+                .iter()
+                .map(|(r, t0, t1)| bvh.intersect(&objects, r, *t0, *t1)),
+        );
+        t_ours.push(t0.elapsed().as_secs_f64());
+        e1.copy_from_slice(&primary_rtc);
+        let t0 = Instant::now();
+        rtc_scene.intersect1(&mut e1);
+        t_e1.push(t0.elapsed().as_secs_f64());
+        em.copy_from_slice(&primary_rtc);
+        let t0 = Instant::now();
+        rtc_scene.intersect_streams(&mut em, STREAM);
+        t_em.push(t0.elapsed().as_secs_f64());
+    }
+    // Ray by ray: hit or miss, which triangle, how far.
+    let hits_ours = ours.iter().filter(|h| h.is_some()).count();
+    let hits_e1 = e1.iter().filter(|r| r.hit.geom_id != INVALID_ID).count();
+    let hits_em = em.iter().filter(|r| r.hit.geom_id != INVALID_ID).count();
+    let (mut other_prim, mut worst_dt, mut streams_differ) = (0usize, 0.0f64, 0usize);
+    for ((h, r1), rm) in ours.iter().zip(&e1).zip(&em) {
+        if (r1.hit.geom_id, r1.hit.prim_id, r1.ray.tfar.to_bits())
+            != (rm.hit.geom_id, rm.hit.prim_id, rm.ray.tfar.to_bits())
+        {
+            streams_differ += 1;
+        }
+        match h {
+            Some(h) if r1.hit.geom_id != INVALID_ID => {
+                if h.object != r1.hit.prim_id {
+                    other_prim += 1;
+                }
+                worst_dt = worst_dt.max((h.t - r1.ray.tfar as f64).abs() / h.t.max(1.0));
+            }
+            None if r1.hit.geom_id == INVALID_ID => {}
+            _ => other_prim += 1,
+        }
+    }
+
+    // Shadow rays from the hits towards the area lights' centres.
+    let centres: Vec<Vec3> = scene
+        .lights
+        .iter()
+        .filter_map(|l| match l.kind {
+            LightKind::Area { object } => {
+                Some(scene.objects[object as usize].shape.bounds().center())
+            }
+            LightKind::Distant { .. } => None,
+        })
+        .collect();
+    let tmin = 1e-4 * extent;
+    let mut shadow = Vec::new();
+    for ((r, _, _), h) in primary.iter().zip(&ours) {
+        let Some(h) = h else { continue };
+        let o = &scene.objects[owner[h.object as usize] as usize];
+        if scene.material(o.material).is_emitter() {
+            continue;
+        }
+        let n = if h.normal.dot(r.dir) > 0.0 {
+            -h.normal
+        } else {
+            h.normal
+        };
+        for &c in &centres {
+            let d = c - h.point;
+            let dist = d.length();
+            if dist > 0.0 && d.dot(n) > 0.0 {
+                shadow.push((Ray::new(h.point, d), dist * (1.0 - 1e-4)));
+            }
+        }
+    }
+    let shadow_rtc: Vec<rtc::RtcRay> = shadow
+        .iter()
+        .map(|(r, tmax)| rtc::ray(r.origin, r.dir, tmin, *tmax))
+        .collect();
+    let mut blocked: Vec<bool> = Vec::new();
+    let (mut s1, mut sm) = (shadow_rtc.clone(), shadow_rtc.clone());
+    let (mut ts_ours, mut ts_e1, mut ts_em) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..a.repeat {
+        let t0 = Instant::now();
+        blocked.clear();
+        blocked.extend(
+            shadow
+                .iter()
+                .map(|(r, tmax)| bvh.occluded(&objects, r, tmin, *tmax, None)),
+        );
+        ts_ours.push(t0.elapsed().as_secs_f64());
+        s1.copy_from_slice(&shadow_rtc);
+        let t0 = Instant::now();
+        rtc_scene.occluded1(&mut s1);
+        ts_e1.push(t0.elapsed().as_secs_f64());
+        sm.copy_from_slice(&shadow_rtc);
+        let t0 = Instant::now();
+        rtc_scene.occluded_streams(&mut sm, STREAM);
+        ts_em.push(t0.elapsed().as_secs_f64());
+    }
+    let is_blocked = |r: &rtc::RtcRay| r.tfar == f32::NEG_INFINITY;
+    let blocked_ours = blocked.iter().filter(|&&b| b).count();
+    let blocked_e1 = s1.iter().filter(|r| is_blocked(r)).count();
+    let blocked_em = sm.iter().filter(|r| is_blocked(r)).count();
+    let shadow_differ = blocked
+        .iter()
+        .zip(&s1)
+        .filter(|(&b, r)| b != is_blocked(r))
+        .count();
+
+    let mrays = |n: usize, t: f64| n as f64 / t.max(1e-12) / 1e6;
+    let (p, s) = (primary.len(), shadow.len());
+    let (b_o, b_e) = (median(&mut build_ours), median(&mut build_embree));
+    let (po, p1, pm) = (median(&mut t_ours), median(&mut t_e1), median(&mut t_em));
+    let (so, s1t, smt) = (median(&mut ts_ours), median(&mut ts_e1), median(&mut ts_em));
+    outln!(
+        "{} at {w}x{h}: {} objects as {} triangles ({} too thin, left out; curved surfaces in {SEGMENTS} steps), {} area lights; median of {} rounds",
+        path.display(),
+        scene.objects.len(),
+        tris.len(),
+        skipped,
+        centres.len(),
+        a.repeat
+    );
+    outln!("| | this project (hierarchy) | Embree, one ray at a time | Embree, streams of {STREAM} | speed here / one at a time | speed here / streams |");
+    outln!("| --- | --- | --- | --- | --- | --- |");
+    outln!(
+        "| build (s) | {b_o:.3} | {b_e:.3} | - | {:.2} | - |",
+        b_e / b_o.max(1e-12)
+    );
+    outln!(
+        "| primary rays ({p}), Mrays/s | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+        mrays(p, po),
+        mrays(p, p1),
+        mrays(p, pm),
+        p1 / po.max(1e-12),
+        pm / po.max(1e-12)
+    );
+    outln!(
+        "| shadow rays ({s}), Mrays/s | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+        mrays(s, so),
+        mrays(s, s1t),
+        mrays(s, smt),
+        s1t / so.max(1e-12),
+        smt / so.max(1e-12)
+    );
+    outln!(
+        "primary hits: {hits_ours} here, {hits_e1} Embree one at a time, {hits_em} streams; {other_prim} rays hit another triangle (or only one kernel hits); largest distance difference on the same triangle {worst_dt:.1e} (relative); {streams_differ} rays differ between Embree's two modes"
+    );
+    outln!(
+        "shadow rays blocked: {blocked_ours} here, {blocked_e1} Embree one at a time, {blocked_em} streams; {shadow_differ} rays answered differently"
+    );
     Ok(())
 }

@@ -4,9 +4,13 @@
 //! cells, and the structure a resumable query's progress is counted in. For
 //! rays whose whole path is in one set of objects (the sequential renderer,
 //! a whole scene, the shared geometry of instances), this hierarchy answers the same queries with fewer steps: a
-//! binary tree built with the surface area heuristic, each node holding its
-//! two children's boxes so that both are tested at once, two
-//! double-precision lanes side by side.
+//! binary tree built with the surface area heuristic, then collapsed into
+//! four-wide nodes (Embree's layout), each holding its four children's
+//! boxes so that all are tested at once, four double-precision lanes side
+//! by side; the nearest child entered is visited first. Measured
+//! (`hybrid-rt bench --embree`, the studio as 48,684 triangles, one core):
+//! the wide nodes trace primary rays about twice as fast as the binary
+//! ones, shadow rays about 1.3 times.
 //!
 //! **Same answers as the octree.** A node is only a filter: the objects it
 //! lets through are tested with the same code ([`Tester`]), and the answer
@@ -37,6 +41,10 @@ const NODE_COST: f64 = 0.5;
 const SAH_DEPTH: u32 = 48;
 /// Size of the traversal stack: at least the tree's depth.
 const STACK: usize = 96;
+/// Trees at most this deep are traversed with a smaller stack (a
+/// traversal's stack is zeroed for every ray: 4.6 kB for [`STACK`], 1.9 kB
+/// for this). Each wide level leaves at most three children pending.
+const SHALLOW: usize = 40;
 
 /// Two children: `b[axis][0]` the lower corner, `b[axis][1]` the upper,
 /// each `[child 0, child 1]`. `count[i] == 0`: child `i` is the node
@@ -67,6 +75,87 @@ impl Node {
     }
 }
 
+/// Four children, the traversal's node: [`Node`]'s layout four lanes wide
+/// (`b[axis][0]` the lower corners, `b[axis][1]` the upper, each
+/// `[child 0, .., child 3]`). Built by collapsing the binary tree: each
+/// wide node takes a binary node's children and opens the largest internal
+/// one until it has four (Embree's "wide nodes": half the levels, the four
+/// box tests side by side). Unused children have empty boxes.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(32))]
+struct Wide {
+    b: [[[f64; 4]; 2]; 3],
+    link: [u32; 4],
+    count: [u32; 4],
+}
+
+impl Wide {
+    const UNUSED: Wide = Wide {
+        b: [[[f64::INFINITY; 4], [f64::NEG_INFINITY; 4]]; 3],
+        link: [0; 4],
+        count: [0; 4],
+    };
+}
+
+/// A child of a binary node: `(node, lane)`.
+type Lane = (u32, usize);
+
+fn lane_box(bin: &[Node], (n, l): Lane) -> Aabb {
+    let b = &bin[n as usize].b;
+    Aabb::new(
+        Vec3::new(b[0][0][l], b[1][0][l], b[2][0][l]),
+        Vec3::new(b[0][1][l], b[1][1][l], b[2][1][l]),
+    )
+}
+
+/// The wide node over binary node `node`'s subtree (appended to `out`
+/// with its descendants); returns its index. Deterministic: the largest
+/// internal child is opened, the first of equal ones.
+fn widen(bin: &[Node], out: &mut Vec<Wide>, node: u32) -> u32 {
+    let mut kids: Vec<Lane> = (0..2)
+        .map(|l| (node, l))
+        .filter(|&k| !lane_box(bin, k).is_empty())
+        .collect();
+    while kids.len() < 4 {
+        let open = kids
+            .iter()
+            .enumerate()
+            .filter(|(_, &(n, l))| bin[n as usize].count[l] == 0)
+            .map(|(i, &k)| (i, area(&lane_box(bin, k))))
+            .fold(None, |best: Option<(usize, f64)>, (i, a)| match best {
+                Some((_, ba)) if ba >= a => best,
+                _ => Some((i, a)),
+            });
+        let Some((i, _)) = open else { break };
+        let (n, l) = kids[i];
+        let child = bin[n as usize].link[l];
+        let grand: Vec<Lane> = (0..2)
+            .map(|g| (child, g))
+            .filter(|&k| !lane_box(bin, k).is_empty())
+            .collect();
+        kids.splice(i..=i, grand);
+    }
+    let id = out.len() as u32;
+    out.push(Wide::UNUSED);
+    for (j, &(n, l)) in kids.iter().enumerate() {
+        let b = lane_box(bin, (n, l));
+        let src = &bin[n as usize];
+        let (link, count) = if src.count[l] > 0 {
+            (src.link[l], src.count[l])
+        } else {
+            (widen(bin, out, src.link[l]), 0)
+        };
+        let w = &mut out[id as usize];
+        for a in 0..3 {
+            w.b[a][0][j] = b.min[a];
+            w.b[a][1][j] = b.max[a];
+        }
+        w.link[j] = link;
+        w.count[j] = count;
+    }
+    id
+}
+
 /// Per-ray constants of the slab test.
 struct Slab {
     o: [f64; 3],
@@ -86,17 +175,17 @@ impl Slab {
         }
     }
 
-    /// Entry and exit distances of both children's boxes within
-    /// `[tmin, tmax]` (the ray enters child `i` if `t0[i] <= t1[i]`).
+    /// Entry and exit distances of a wide node's four children's boxes
+    /// within `[tmin, tmax]` (the ray enters child `i` if `t0[i] <= t1[i]`).
     #[inline(always)]
-    fn test(&self, n: &Node, tmin: f64, tmax: f64) -> ([f64; 2], [f64; 2]) {
-        let mut t0 = [tmin; 2];
-        let mut t1 = [tmax; 2];
+    fn test4(&self, n: &Wide, tmin: f64, tmax: f64) -> ([f64; 4], [f64; 4]) {
+        let mut t0 = [tmin; 4];
+        let mut t1 = [tmax; 4];
         for a in 0..3 {
             let (o, inv) = (self.o[a], self.inv[a]);
             let lo = n.b[a][self.near[a]];
             let hi = n.b[a][1 - self.near[a]];
-            for l in 0..2 {
+            for l in 0..4 {
                 let e = (lo[l] - o) * inv;
                 let x = (hi[l] - o) * inv;
                 // Written so a NaN (0 * inf) keeps the bound: `maxpd`/`minpd`.
@@ -112,7 +201,7 @@ impl Slab {
 #[derive(Debug, Clone, Default)]
 pub struct Bvh {
     /// Node 0 holds the root's children.
-    nodes: Vec<Node>,
+    nodes: Vec<Wide>,
     /// Object ids in leaf order.
     ids: Vec<ObjectId>,
     /// Objects without finite bounds: tested by every ray.
@@ -332,7 +421,9 @@ impl Bvh {
                 b.node(&mut items, mid, 1);
             }
         }
-        bvh.nodes = b.nodes;
+        let mut wide = Vec::with_capacity(b.nodes.len() / 2 + 1);
+        widen(&b.nodes, &mut wide, 0);
+        bvh.nodes = wide;
         bvh.ids = b.ids;
         bvh.depth = b.depth;
         bvh
@@ -354,7 +445,7 @@ impl Bvh {
 
     /// Heap bytes (nodes, ids and the compact object data).
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.capacity() * std::mem::size_of::<Node>()
+        self.nodes.capacity() * std::mem::size_of::<Wide>()
             + (self.ids.capacity() + self.unbounded.capacity()) * std::mem::size_of::<ObjectId>()
             + self.prims.memory_bytes()
     }
@@ -364,6 +455,47 @@ impl Bvh {
     /// object id, like [`crate::accel::intersect_brute_force`] and
     /// [`crate::accel::Octree::intersect`].
     pub fn intersect(&self, objects: &[Object], ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2.
+            return unsafe { self.intersect_avx2(objects, ray, tmin, tmax) };
+        }
+        if self.depth as usize <= SHALLOW {
+            self.intersect_impl::<{ 3 * SHALLOW + 1 }>(objects, ray, tmin, tmax)
+        } else {
+            self.intersect_impl::<{ 3 * STACK + 1 }>(objects, ray, tmin, tmax)
+        }
+    }
+
+    /// [`Bvh::intersect`] compiled for AVX2 (the four lanes of a slab test
+    /// in one instruction). The same IEEE operations in the same order (no
+    /// fused multiply-add): the same answers, bit for bit. Measured
+    /// (`hybrid-rt bench --embree`, three runs side by side): about 6%
+    /// faster, primary and shadow rays.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn intersect_avx2(
+        &self,
+        objects: &[Object],
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<Hit> {
+        if self.depth as usize <= SHALLOW {
+            self.intersect_impl::<{ 3 * SHALLOW + 1 }>(objects, ray, tmin, tmax)
+        } else {
+            self.intersect_impl::<{ 3 * STACK + 1 }>(objects, ray, tmin, tmax)
+        }
+    }
+
+    #[inline(always)]
+    fn intersect_impl<const N: usize>(
+        &self,
+        objects: &[Object],
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<Hit> {
         let pre = PreparedRay::new(ray);
         let test = Tester::new(&self.prims, objects, &pre);
         let mut best: Option<(f64, ObjectId, ShapeHit)> = None;
@@ -383,7 +515,7 @@ impl Bvh {
         if !self.nodes.is_empty() {
             let slab = Slab::new(ray, pre.inv_dir);
             // Pending children, nearest on top: (link, count, entry distance).
-            let mut stack = [(0u32, 0u32, 0.0f64); STACK + 1];
+            let mut stack = [(0u32, 0u32, 0.0f64); N];
             let mut sp = 0usize;
             let (mut link, mut count) = (0u32, 0u32);
             loop {
@@ -394,11 +526,19 @@ impl Bvh {
                     }
                 } else {
                     let n = &self.nodes[link as usize];
-                    let (t0, t1) = slab.test(n, tmin, cut);
-                    let near = (t0[1] < t0[0]) as usize;
-                    for lane in [1 - near, near] {
+                    let (t0, t1) = slab.test4(n, tmin, cut);
+                    // The children entered, farthest pushed first (ties
+                    // by lane: deterministic).
+                    let base = sp;
+                    for lane in 0..4 {
                         if t0[lane] <= t1[lane] {
-                            stack[sp] = (n.link[lane], n.count[lane], t0[lane]);
+                            let e = (n.link[lane], n.count[lane], t0[lane]);
+                            let mut j = sp;
+                            while j > base && stack[j - 1].2 < e.2 {
+                                stack[j] = stack[j - 1];
+                                j -= 1;
+                            }
+                            stack[j] = e;
                             sp += 1;
                         }
                     }
@@ -437,6 +577,45 @@ impl Bvh {
         tmax: f64,
         ignore: Option<ObjectId>,
     ) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2.
+            return unsafe { self.occluded_avx2(objects, ray, tmin, tmax, ignore) };
+        }
+        if self.depth as usize <= SHALLOW {
+            self.occluded_impl::<{ 3 * SHALLOW }>(objects, ray, tmin, tmax, ignore)
+        } else {
+            self.occluded_impl::<{ 3 * STACK }>(objects, ray, tmin, tmax, ignore)
+        }
+    }
+
+    /// [`Bvh::occluded`] compiled for AVX2 (see [`Bvh::intersect_avx2`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn occluded_avx2(
+        &self,
+        objects: &[Object],
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+        ignore: Option<ObjectId>,
+    ) -> bool {
+        if self.depth as usize <= SHALLOW {
+            self.occluded_impl::<{ 3 * SHALLOW }>(objects, ray, tmin, tmax, ignore)
+        } else {
+            self.occluded_impl::<{ 3 * STACK }>(objects, ray, tmin, tmax, ignore)
+        }
+    }
+
+    #[inline(always)]
+    fn occluded_impl<const N: usize>(
+        &self,
+        objects: &[Object],
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+        ignore: Option<ObjectId>,
+    ) -> bool {
         let pre = PreparedRay::new(ray);
         let test = Tester::new(&self.prims, objects, &pre);
         let blocks = |id: ObjectId| Some(id) != ignore && test.occludes(id, tmin, tmax);
@@ -447,14 +626,14 @@ impl Bvh {
             return false;
         }
         let slab = Slab::new(ray, pre.inv_dir);
-        let mut stack = [0u32; STACK];
+        let mut stack = [0u32; N];
         let mut sp = 0usize;
         let mut node = 0u32;
         loop {
             let n = &self.nodes[node as usize];
-            let (t0, t1) = slab.test(n, tmin, tmax);
+            let (t0, t1) = slab.test4(n, tmin, tmax);
             let mut next = u32::MAX;
-            for lane in 0..2 {
+            for lane in 0..4 {
                 if t0[lane] > t1[lane] {
                     continue;
                 }

@@ -14,6 +14,7 @@ pub mod rng;
 pub mod robust;
 pub mod shape;
 mod shape_impl;
+mod tessellate;
 mod transform;
 mod triangulate;
 
@@ -30,6 +31,7 @@ pub use shape_impl::{
     intersect_cone, intersect_cone_consts, intersect_polygon, intersect_ring, intersect_sphere,
     intersect_triangle, ConeConsts, PLANARITY_TOLERANCE,
 };
+pub use tessellate::tessellate;
 
 /// Double-precision vector used for all geometry.
 pub type Vec3 = glam::DVec3;

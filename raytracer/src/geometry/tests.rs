@@ -827,3 +827,77 @@ fn instance_hits_equal_explicit_transform() {
         assert!(p.is_finite() && (n.length() - 1.0).abs() < 1e-12);
     }
 }
+
+// ------------------------------------------------------------- tessellation
+
+#[test]
+fn tessellation_lies_on_the_surfaces() {
+    let objects = sample_objects();
+    let k = 16;
+    let mut counts = Vec::new();
+    for o in &objects {
+        let mut tris = Vec::new();
+        tessellate(&o.shape, k, &mut tris);
+        counts.push(tris.len());
+        for p in tris.iter().flatten() {
+            let on = match &o.shape {
+                Shape::Polygon(poly) => (*p - poly.vertices[0]).dot(poly.normal).abs() < 1e-12,
+                Shape::Sphere { center, radius, .. } => {
+                    rel_close(p.distance(*center), *radius, 1e-12)
+                }
+                Shape::Cone { p0, p1, r0, r1, .. } => {
+                    let a = (*p1 - *p0).normalize();
+                    let s = (*p - *p0).dot(a) / (*p1 - *p0).length();
+                    let r = (*p - *p0 - a * (*p - *p0).dot(a)).length();
+                    (s.abs() < 1e-12 || (s - 1.0).abs() < 1e-12)
+                        && (r - (r0 + s * (r1 - r0))).abs() < 1e-12
+                }
+                Shape::Ring {
+                    center,
+                    normal,
+                    r_inner,
+                    r_outer,
+                } => {
+                    let d = *p - *center;
+                    let r = d.length();
+                    d.dot(*normal).abs() < 1e-12
+                        && (r < 1e-12
+                            || rel_close(r, *r_inner, 1e-12)
+                            || rel_close(r, *r_outer, 1e-12))
+                }
+                Shape::Instance(_) => unreachable!(),
+            };
+            assert!(on, "{p} is not on {:?}", o.shape);
+        }
+    }
+    // Polygon: its two triangles; sphere: k per row, the poles' rows fans;
+    // cone and ring: two per step.
+    assert_eq!(counts, vec![2, 14 * k, 14 * k, 2 * k, 2 * k]);
+    let mut disk = Vec::new();
+    tessellate(
+        &Shape::ring(v(0.0, 0.0, 0.0), Vec3::Z, 0.0, 1.0).unwrap(),
+        k,
+        &mut disk,
+    );
+    assert_eq!(disk.len(), k);
+
+    // An instance gives its geometry's triangles, transformed.
+    let t = Transform::identity()
+        .scale(2.5)
+        .unwrap()
+        .rotate_z(30.0)
+        .translate(v(3.0, -2.0, 1.0));
+    let geo = Arc::new(InstanceGeometry::new("sample", objects.clone()));
+    let mut inst = Vec::new();
+    tessellate(&Shape::instance(geo, t).unwrap(), k, &mut inst);
+    let mut direct = Vec::new();
+    for o in &objects {
+        tessellate(&o.shape, k, &mut direct);
+    }
+    assert_eq!(inst.len(), direct.len());
+    for (a, b) in inst.iter().zip(&direct) {
+        for i in 0..3 {
+            assert!((a[i] - t.point(b[i])).length() < 1e-12 * 10.0);
+        }
+    }
+}
