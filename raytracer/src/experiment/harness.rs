@@ -69,6 +69,9 @@ pub(super) struct RunSpec {
     pub(super) credits: usize,
     pub(super) small: bool,
     pub(super) clip_cache: bool,
+    /// [`WorkloadOptions::inline_local_shadows`] (the paper has every
+    /// shadow bundle a task of its own).
+    pub(super) inline_shadows: bool,
 }
 
 impl RunSpec {
@@ -81,13 +84,23 @@ impl RunSpec {
             credits: 64,
             small: false,
             clip_cache: false,
+            inline_shadows: false,
+        }
+    }
+
+    /// Coarse shadow tasks: bundles start in the step that shaded their
+    /// point where they can, the rest of a point's travel as one task.
+    pub(super) fn coarse(procs: usize) -> Self {
+        RunSpec {
+            inline_shadows: true,
+            ..Self::paper(procs)
         }
     }
 
     pub(super) fn clip_cache(procs: usize) -> Self {
         RunSpec {
             clip_cache: true,
-            ..Self::paper(procs)
+            ..Self::coarse(procs)
         }
     }
 
@@ -138,6 +151,7 @@ impl Ctx<'_> {
         p.workload = WorkloadOptions {
             distribution: spec.distribution,
             clip_cache: spec.clip_cache,
+            inline_local_shadows: spec.inline_shadows,
             ..WorkloadOptions::default()
         };
         p.network = s.network.clone();

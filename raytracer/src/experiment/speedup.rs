@@ -13,9 +13,10 @@ type Variant = (&'static str, fn(usize) -> RunSpec);
 
 /// The speed-up curve's variants: the paper's algorithm, then ours one
 /// step at a time.
-fn variants() -> [Variant; 4] {
+fn variants() -> [Variant; 5] {
     [
         ("paper", RunSpec::paper),
+        ("+ coarse tasks", RunSpec::coarse),
         ("+ clip cache", RunSpec::clip_cache),
         ("+ predicted", RunSpec::predicted),
         ("+ load-aware", RunSpec::ours),
@@ -95,7 +96,7 @@ pub(super) fn speedup(cx: &mut Ctx) -> Result<()> {
         &format!(
             "Relative: against the same algorithm on one processor. Fair: against the sequential renderer on one node ({seq:.3} s simulated). \
              Paper: octree distribution (equal memory), shadow tasks local, every shadow bundle clipped. \
-             Ours, one step at a time: + clip cache (one clip per cell and light), + predicted (the octree cut by predicted work), + load-aware (busy processors shed shadow tasks to idle ones)."
+             Ours, one step at a time: + coarse tasks (shadow bundles start in the step that shaded their point where their cells are resident, the others of a point travel as one task), + clip cache (one clip per cell and light), + predicted (the octree cut by predicted work), + load-aware (busy processors shed shadow tasks to idle ones)."
         ),
         &[t],
         json!({"sequential_s": seq, "runs": rows}),
