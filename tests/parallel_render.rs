@@ -36,32 +36,32 @@ fn bits(film: &hybrid_rt::image::Film) -> Vec<[u64; 3]> {
 }
 
 fn case(name: &str, width: usize, height: usize, options: RenderOptions) -> Case {
-    let dir = scenes_dir();
-    let scene = Arc::new(scene::load(&[dir.join(format!("{name}.rad"))]).expect("scene loads"));
-    let view = View::from_file(dir.join(format!("{name}.vf"))).expect("view loads");
-    let (view, w, h) = view.fit_aspect(width as u32, height as u32);
-    let (width, height) = (w as usize, h as usize);
-    let r = Renderer::new(&scene, options.clone()).expect("renderer");
-    let (film, stats) = r.render(&view, width, height).expect("render");
-    Case {
-        pixels: bits(&film),
-        counts: stats.rays,
-        scene,
-        view,
-        options,
-        width,
-        height,
-    }
+    let (view, w, h) = scene_view(name).fit_aspect(width as u32, height as u32);
+    render_case(name, view, w as usize, h as usize, options)
 }
 
 /// [`case`] with `options` applied over the scene's view file.
 fn case_view(name: &str, options: &str, width: usize, height: usize) -> Case {
-    let dir = scenes_dir();
-    let mut view = View::from_file(dir.join(format!("{name}.vf"))).expect("view loads");
+    let mut view = scene_view(name);
     view.apply_options(options, &Default::default())
         .expect("view options");
-    let scene = Arc::new(scene::load(&[dir.join(format!("{name}.rad"))]).expect("scene loads"));
-    let options = RenderOptions::default();
+    render_case(name, view, width, height, RenderOptions::default())
+}
+
+fn scene_view(name: &str) -> View {
+    View::from_file(scenes_dir().join(format!("{name}.vf"))).expect("view loads")
+}
+
+/// Scene `name` rendered sequentially from `view`: the reference.
+fn render_case(
+    name: &str,
+    view: View,
+    width: usize,
+    height: usize,
+    options: RenderOptions,
+) -> Case {
+    let path = scenes_dir().join(format!("{name}.rad"));
+    let scene = Arc::new(scene::load(&[path]).expect("scene loads"));
     let r = Renderer::new(&scene, options.clone()).expect("renderer");
     let (film, stats) = r.render(&view, width, height).expect("render");
     Case {

@@ -145,13 +145,7 @@ impl Config {
     /// any hook runs.
     pub fn validate_for<W: crate::Workload>(&self, workload: &W) -> Result<(), ConfigError> {
         self.validate()?;
-        match workload.laid_out_for() {
-            Some(n) if n != self.procs => Err(ConfigError::ProcsMismatch {
-                laid_out: n,
-                procs: self.procs,
-            }),
-            _ => Ok(()),
-        }
+        check_laid_out(workload, self.procs)
     }
 
     /// Checks every field; the first problem found is returned.
@@ -208,6 +202,18 @@ impl Config {
     /// never exceed this (checked by the flow-control tests).
     pub fn input_buffer_bound(&self) -> usize {
         self.procs * self.credits_per_link
+    }
+}
+
+/// A run of `workload` on `procs` processors against the count its data
+/// was laid out for, if any ([`crate::Workload::laid_out_for`]).
+pub(crate) fn check_laid_out<W: crate::Workload>(
+    workload: &W,
+    procs: usize,
+) -> Result<(), ConfigError> {
+    match workload.laid_out_for() {
+        Some(n) if n != procs => Err(ConfigError::ProcsMismatch { laid_out: n, procs }),
+        _ => Ok(()),
     }
 }
 

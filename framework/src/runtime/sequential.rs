@@ -137,12 +137,7 @@ pub fn run_sequential_observed<W: Workload>(
     if procs == 0 {
         return Err(ConfigError::NoProcessors.into());
     }
-    match workload.laid_out_for() {
-        Some(n) if n != procs => {
-            return Err(ConfigError::ProcsMismatch { laid_out: n, procs }.into())
-        }
-        _ => {}
-    }
+    crate::config::check_laid_out(workload, procs)?;
     let err = |message: String| RunError::Workload {
         at: Addr::Proc(0),
         message,
