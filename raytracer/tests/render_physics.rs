@@ -274,6 +274,8 @@ fn tir_reflects_everything_in_shading() {
             normal: Vec3::X,
             object: 0,
             inner: None,
+            material: ctx.scene.objects[0].surface_at(None).0,
+            flat: ctx.scene.objects[0].surface_at(None).1,
         };
         let mut out = Vec::new();
         let shaded = shade(&ctx, &task, &hit, &mut out);

@@ -1,12 +1,14 @@
 //! Acceleration over a scene: the octree and pyramid clipping (the
 //! bounding volume hierarchy, which instances hold, is in [`crate::geometry`]).
 
+mod cells;
 pub mod clip;
 #[cfg(feature = "embree")]
 pub mod embree;
 mod octree;
 
 pub use crate::geometry::{Bvh, BvhStats, Hit};
+pub use cells::LeafObjects;
 pub use clip::{ClipResult, Plane, Pyramid};
 pub use octree::{
     intersect_brute_force, occluded_brute_force, LeafSpan, NodeId, NodeView, Octree, OctreeParams,

@@ -13,6 +13,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::cells::LeafObjects;
 use crate::geometry::prims::{Prims, Tester};
 use crate::geometry::robust::next_up;
 use crate::geometry::{Aabb, Hit, Object, ObjectId, PreparedRay, Ray, ShapeHit, Vec3};
@@ -790,13 +791,7 @@ impl Octree {
             best.is_some_and(|(bt, _, _)| bt <= t1)
         };
         self.traverse::<ONCE, _>(ray, pre.inv_dir, tmin, tmax, &mut visit);
-        best.map(|(t, id, h)| Hit {
-            t,
-            point: ray.at(t),
-            normal: h.normal,
-            object: id,
-            inner: h.inner,
-        })
+        best.map(|(t, id, h)| Hit::on(&objects[id as usize], id, ray, t, h.normal, h.inner))
     }
 
     /// True if any object other than `ignore` is hit with `tmin < t < tmax`.
@@ -825,69 +820,73 @@ impl Octree {
         found
     }
 
-    /// [`Octree::intersect`] over the leaves for which `local` is true, as a
-    /// traversal that can stop and resume elsewhere (a migrating ray).
+    /// [`Octree::intersect`] over the leaves whose objects `cell` gives (the
+    /// leaves held here; `None` for the others), as a traversal that can
+    /// stop and resume elsewhere (a migrating ray). Objects are tested from
+    /// the leaf's own copies ([`LeafObjects`]); the ones it shares
+    /// (instances) from `shared`, the objects the octree was built over.
     ///
     /// Visits the same leaves in the same order as [`Octree::intersect`],
     /// skipping the `cursor.leaves_done` leaves already handled; at the first
-    /// non-empty leaf that is not local it records its progress in `cursor`
+    /// non-empty leaf that is not held it records its progress in `cursor`
     /// and returns [`Partial::Blocked`]. Resumed (anywhere, any
     /// number of times) until [`Partial::Done`], it returns exactly what
     /// [`Octree::intersect`] returns: same leaves, same tests, same bounds,
     /// same tie rule.
-    pub fn intersect_partial<F>(
+    pub fn intersect_partial<'c, F>(
         &self,
-        objects: &[Object],
+        shared: &[Object],
         ray: &Ray,
         tmin: f64,
         tmax: f64,
         cursor: &mut TraceCursor,
-        mut local: F,
+        mut cell: F,
     ) -> Partial<Option<Hit>>
     where
-        F: FnMut(NodeId) -> bool,
+        F: FnMut(NodeId) -> Option<&'c LeafObjects>,
     {
         let pre = PreparedRay::new(ray);
-        let test = self.tester(objects, &pre);
-        let mut best: Option<(f64, ObjectId, Vec3, Option<u32>)> =
-            cursor.best.map(|h| (h.t, h.object, h.normal, h.inner));
+        let test = self.tester(shared, &pre);
+        let mut best: Option<Hit> = cursor.best;
         let skip = cursor.leaves_done;
         let mut pos = 0u32;
         let mut blocked = None;
         let mut mailbox = Mailbox::new();
-        let cut = best.map_or(tmax, |(t, _, _, _)| t);
+        let cut = best.map_or(tmax, |h| h.t);
         let mut visit = |leaf: NodeId, ids: &[ObjectId], _t0: f64, t1: f64, cut: &mut f64| {
             let k = pos;
             pos += 1;
             if k < skip {
                 return false;
             }
-            if !ids.is_empty() && !local(leaf) {
-                blocked = Some((leaf, k));
-                return true;
-            }
-            for &id in ids {
-                if mailbox.seen(id) {
-                    continue;
-                }
-                let bound = if best.is_some() { next_up(*cut) } else { *cut };
-                if let Some(h) = test.intersect(id, tmin, bound) {
-                    if best.is_none_or(|(bt, bid, _, _)| h.t < bt || (h.t == bt && id < bid)) {
-                        best = Some((h.t, id, h.normal, h.inner));
-                        *cut = h.t;
+            if !ids.is_empty() {
+                let Some(c) = cell(leaf) else {
+                    blocked = Some((leaf, k));
+                    return true;
+                };
+                debug_assert_eq!(c.ids(), ids, "a leaf's objects differ from the octree's");
+                let (prims, own) = c.parts();
+                let local = test.over(prims, own);
+                for (j, &id) in c.ids().iter().enumerate() {
+                    if mailbox.seen(id) {
+                        continue;
+                    }
+                    let bound = if best.is_some() { next_up(*cut) } else { *cut };
+                    let (h, obj) = match c.own(j) {
+                        Some(i) => (local.intersect(i, tmin, bound), &own[i as usize]),
+                        None => (test.intersect(id, tmin, bound), &shared[id as usize]),
+                    };
+                    if let Some(h) = h {
+                        if best.is_none_or(|b| h.t < b.t || (h.t == b.t && id < b.object)) {
+                            best = Some(Hit::on(obj, id, ray, h.t, h.normal, h.inner));
+                            *cut = h.t;
+                        }
                     }
                 }
             }
-            best.is_some_and(|(bt, _, _, _)| bt <= t1)
+            best.is_some_and(|b| b.t <= t1)
         };
         self.traverse_from::<ALL, _>(ray, pre.inv_dir, tmin, tmax, cut, &mut visit);
-        let best = best.map(|(t, object, normal, inner)| Hit {
-            t,
-            point: ray.at(t),
-            normal,
-            object,
-            inner,
-        });
         match blocked {
             Some((leaf, k)) => {
                 cursor.leaves_done = k;
@@ -902,25 +901,24 @@ impl Octree {
         }
     }
 
-    /// [`Octree::occluded`] over the leaves for which `local` is true,
-    /// resumable like [`Octree::intersect_partial`] (only
-    /// `cursor.leaves_done` is used).
+    /// [`Octree::occluded`] over the leaves `cell` gives, resumable like
+    /// [`Octree::intersect_partial`] (only `cursor.leaves_done` is used).
     #[allow(clippy::too_many_arguments)]
-    pub fn occluded_partial<F>(
+    pub fn occluded_partial<'c, F>(
         &self,
-        objects: &[Object],
+        shared: &[Object],
         ray: &Ray,
         tmin: f64,
         tmax: f64,
         ignore: Option<ObjectId>,
         cursor: &mut TraceCursor,
-        mut local: F,
+        mut cell: F,
     ) -> Partial<bool>
     where
-        F: FnMut(NodeId) -> bool,
+        F: FnMut(NodeId) -> Option<&'c LeafObjects>,
     {
         let pre = PreparedRay::new(ray);
-        let test = self.tester(objects, &pre);
+        let test = self.tester(shared, &pre);
         let skip = cursor.leaves_done;
         let mut pos = 0u32;
         let mut blocked = None;
@@ -929,15 +927,24 @@ impl Octree {
         let mut visit = |leaf: NodeId, ids: &[ObjectId], _t0: f64, _t1: f64, _cut: &mut f64| {
             let k = pos;
             pos += 1;
-            if k < skip {
+            if k < skip || ids.is_empty() {
                 return false;
             }
-            if !ids.is_empty() && !local(leaf) {
+            let Some(c) = cell(leaf) else {
                 blocked = Some((leaf, k));
                 return true;
-            }
-            for &id in ids {
-                if Some(id) != ignore && !mailbox.seen(id) && test.occludes(id, tmin, tmax) {
+            };
+            let (prims, own) = c.parts();
+            let local = test.over(prims, own);
+            for (j, &id) in c.ids().iter().enumerate() {
+                if Some(id) == ignore || mailbox.seen(id) {
+                    continue;
+                }
+                let hit = match c.own(j) {
+                    Some(i) => local.occludes(i, tmin, tmax),
+                    None => test.occludes(id, tmin, tmax),
+                };
+                if hit {
                     found = true;
                     return true;
                 }
@@ -995,13 +1002,7 @@ pub fn intersect_brute_force(objects: &[Object], ray: &Ray, tmin: f64, tmax: f64
         let bound = best.map_or(tmax, |b| next_up(b.t));
         if let Some(h) = o.shape.intersect_prepared(&pre, tmin, bound) {
             if best.is_none_or(|b| h.t < b.t) {
-                best = Some(Hit {
-                    t: h.t,
-                    point: ray.at(h.t),
-                    normal: h.normal,
-                    object: id as u32,
-                    inner: h.inner,
-                });
+                best = Some(Hit::on(o, id as u32, ray, h.t, h.normal, h.inner));
             }
         }
     }

@@ -811,6 +811,17 @@ fn resumable_traversal_equals_intersect_and_occluded_wherever_it_stops() {
             ..OctreeParams::default()
         };
         let tree = Octree::build(&objects, &params);
+        // Each leaf's objects as a processor receives them: copied, sent
+        // (serialized) and rebuilt.
+        let cells: std::collections::HashMap<NodeId, LeafObjects> = tree
+            .leaves()
+            .map(|l| {
+                let sent =
+                    postcard::to_allocvec(&LeafObjects::copy_from(&tree, &objects, l)).unwrap();
+                (l, postcard::from_bytes(&sent).unwrap())
+            })
+            .collect();
+        let cell = |local: &dyn Fn(NodeId) -> bool, l: NodeId| local(l).then(|| &cells[&l]);
         let mut runner = TestRunner::new(Config {
             cases: 300,
             rng_seed: RngSeed::Fixed(seed),
@@ -831,14 +842,16 @@ fn resumable_traversal_equals_intersect_and_occluded_wherever_it_stops() {
                     for tmax in [f64::INFINITY, tm * 8.0] {
                         let want = tree.intersect(&objects, &ray, 0.0, tmax);
                         let (got, h) = migrate(procs, salt, |c, local| {
-                            tree.intersect_partial(&objects, &ray, 0.0, tmax, c, local)
+                            tree.intersect_partial(&objects, &ray, 0.0, tmax, c, |l| cell(local, l))
                         });
                         prop_assert_eq!(got, want);
                         hops.set(hops.get() + h);
                         let ignore = want.map(|h| h.object);
                         let want = tree.occluded(&objects, &ray, 0.0, tmax, ignore);
                         let (got, _) = migrate(procs, salt, |c, local| {
-                            tree.occluded_partial(&objects, &ray, 0.0, tmax, ignore, c, local)
+                            tree.occluded_partial(&objects, &ray, 0.0, tmax, ignore, c, |l| {
+                                cell(local, l)
+                            })
                         });
                         prop_assert_eq!(got, want);
                     }
@@ -954,5 +967,69 @@ fn crowded_cone_bands_build_a_bounded_octree() {
             .min_by(|a, b| a.0.total_cmp(&b.0));
         let hit = t.intersect(&objects, &ray, 1e-9, f64::INFINITY);
         assert_eq!(hit.map(|h| h.t), brute.map(|b| b.0));
+    }
+}
+
+#[test]
+fn leaf_objects_cross_the_wire_bit_for_bit() {
+    // Polygons, spheres, cones, rings and an instance (shared, not copied).
+    let mut objects = random_scene(11, 300, 10.0);
+    let inner = random_scene(12, 20, 1.0);
+    let geometry = Arc::new(InstanceGeometry::new("inner", inner));
+    let t = Transform::identity().translate(v(5.0, 5.0, 5.0));
+    objects.push(obj(Shape::instance(geometry, t).unwrap()));
+    let tree = Octree::build(&objects, &OctreeParams::default());
+    let (mut copies, mut shared) = (0, 0);
+    for leaf in tree.leaves() {
+        let held = LeafObjects::copy_from(&tree, &objects, leaf);
+        let bytes = postcard::to_allocvec(&held).unwrap();
+        let got: LeafObjects = postcard::from_bytes(&bytes).unwrap();
+        assert_eq!(got.ids(), tree.leaf_objects(leaf));
+        assert_eq!(got.copies(), held.copies());
+        for (k, &id) in got.ids().iter().enumerate() {
+            match (got.own(k), held.own(k)) {
+                (Some(a), Some(b)) => {
+                    let (a, b) = (&got.parts().1[a as usize], &held.parts().1[b as usize]);
+                    // Debug prints each f64 exactly (shortest round trip).
+                    assert_eq!(
+                        format!("{:?}", a.shape),
+                        format!("{:?}", b.shape),
+                        "object {id}"
+                    );
+                    assert_eq!((&a.name, a.material), (&b.name, b.material));
+                    copies += 1;
+                }
+                (None, None) => {
+                    assert!(matches!(objects[id as usize].shape, Shape::Instance(_)));
+                    shared += 1;
+                }
+                _ => panic!("object {id}: copied on one side only"),
+            }
+        }
+    }
+    assert!(
+        copies > 300 && shared > 0,
+        "{copies} copies, {shared} shared"
+    );
+}
+
+#[test]
+fn damaged_leaf_data_is_an_error_not_a_panic() {
+    let objects = random_scene(13, 40, 10.0);
+    let tree = Octree::build(&objects, &OctreeParams::default());
+    let leaf = tree
+        .leaves()
+        .max_by_key(|&l| tree.leaf_objects(l).len())
+        .unwrap();
+    let bytes = postcard::to_allocvec(&LeafObjects::copy_from(&tree, &objects, leaf)).unwrap();
+    // Every truncation and every single-byte change: an error or a leaf,
+    // never a panic.
+    for n in 0..bytes.len() {
+        assert!(postcard::from_bytes::<LeafObjects>(&bytes[..n]).is_err());
+    }
+    for i in 0..bytes.len() {
+        let mut b = bytes.clone();
+        b[i] ^= 0x5a;
+        let _ = postcard::from_bytes::<LeafObjects>(&b);
     }
 }

@@ -15,7 +15,6 @@ use super::args::BenchArgs;
 use super::common::options_from;
 use super::view::resolve_scene_view;
 use crate::geometry::{offset_origin_scaled, InstanceGeometry, Ray, Shape};
-use crate::render::material::hit_object;
 use crate::render::rng::Rng;
 use crate::render::{check_resolution, RayCaster, Renderer};
 use crate::scene::{self, Object, ObjectId, View};
@@ -231,10 +230,7 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         for (i, hit) in hits.iter().enumerate() {
             let Some(hit) = hit else { continue };
             n_hits += 1;
-            if scene
-                .material(hit_object(&scene, hit).material)
-                .is_emitter()
-            {
+            if scene.material(hit.material).is_emitter() {
                 continue;
             }
             let ray = &rays[i].0;

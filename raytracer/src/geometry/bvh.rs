@@ -559,13 +559,7 @@ impl Bvh {
                 }
             }
         }
-        best.map(|(t, id, h)| Hit {
-            t,
-            point: ray.at(t),
-            normal: h.normal,
-            object: id,
-            inner: h.inner,
-        })
+        best.map(|(t, id, h)| Hit::on(&objects[id as usize], id, ray, t, h.normal, h.inner))
     }
 
     /// True if any object other than `ignore` is hit with `tmin < t < tmax`.

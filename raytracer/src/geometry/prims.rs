@@ -293,6 +293,18 @@ impl<'a> Tester<'a> {
         }
     }
 
+    /// The same ray's tests over other objects (`objects` with their data
+    /// `prims`): a leaf's own copies.
+    #[inline]
+    pub(crate) fn over<'b>(&'b self, prims: &'b Prims, objects: &'b [Object]) -> Tester<'b> {
+        Tester {
+            prims: prims.matches(objects).then_some(prims),
+            objects,
+            pre: self.pre,
+            tr: self.tr,
+        }
+    }
+
     /// Nearest hit of object `id` with `tmin < t < tmax`.
     #[inline]
     pub(crate) fn intersect(&self, id: ObjectId, tmin: f64, tmax: f64) -> Option<ShapeHit> {

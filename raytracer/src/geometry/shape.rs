@@ -137,6 +137,57 @@ pub struct Hit {
     /// For instances: index of the hit object in the instance's geometry (its
     /// material is the one that shades the hit).
     pub inner: Option<u32>,
+    /// The material shading the hit (an instance's: its inner object's).
+    /// A hit carries what shading needs of the object it landed on, so it
+    /// can be shaded by a processor that does not hold that object (a
+    /// migrated ray's nearest hit so far, a shadow bundle's replayed
+    /// answer).
+    pub material: MaterialId,
+    /// Whether the surface hit is flat (a polygon or a ring).
+    pub flat: bool,
+}
+
+impl Hit {
+    /// The hit at distance `t` along `ray` on object `id` (`obj`), with the
+    /// shape's normal and instance index.
+    #[inline]
+    pub fn on(
+        obj: &Object,
+        id: ObjectId,
+        ray: &Ray,
+        t: f64,
+        normal: Vec3,
+        inner: Option<u32>,
+    ) -> Hit {
+        let (material, flat) = obj.surface_at(inner);
+        Hit {
+            t,
+            point: ray.at(t),
+            normal,
+            object: id,
+            inner,
+            material,
+            flat,
+        }
+    }
+}
+
+impl Object {
+    /// The material shading a hit on this object and whether the surface
+    /// hit is flat; `inner` is the hit's index into an instance's geometry.
+    #[inline]
+    pub fn surface_at(&self, inner: Option<u32>) -> (MaterialId, bool) {
+        let o = match (&self.shape, inner) {
+            (Shape::Instance(inst), Some(i)) => {
+                inst.geometry.objects.get(i as usize).unwrap_or(self)
+            }
+            _ => self,
+        };
+        (
+            o.material,
+            matches!(o.shape, Shape::Polygon(_) | Shape::Ring { .. }),
+        )
+    }
 }
 
 /// A search structure over the objects of an instance's geometry: what

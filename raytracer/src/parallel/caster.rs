@@ -18,7 +18,7 @@ use std::cell::{Cell, RefCell};
 
 use hybrid_sched::serde::{Deserialize, Serialize};
 
-use crate::accel::{Hit, NodeId, Octree, Partial, TraceCursor};
+use crate::accel::{Hit, LeafObjects, NodeId, Octree, Partial, TraceCursor};
 use crate::geometry::Ray;
 use crate::render::RayCaster;
 use crate::scene::{Object, ObjectId};
@@ -40,12 +40,13 @@ pub struct Replay {
     pub cursor: TraceCursor,
 }
 
-/// See the module documentation. `local(leaf)` says whether a non-empty
-/// leaf's objects are available here.
-pub struct PartialCaster<'a, F: Fn(NodeId) -> bool> {
+/// See the module documentation. `cell(leaf)` gives a non-empty leaf's
+/// objects where they are held here (`None` elsewhere); `shared` are the
+/// objects every processor holds (see [`Octree::intersect_partial`]).
+pub struct PartialCaster<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> {
     octree: &'a Octree,
-    objects: &'a [Object],
-    local: F,
+    shared: &'a [Object],
+    cell: F,
     replay: RefCell<Replay>,
     next: Cell<usize>,
     blocked: Cell<Option<NodeId>>,
@@ -53,12 +54,12 @@ pub struct PartialCaster<'a, F: Fn(NodeId) -> bool> {
     pub queries: Cell<u64>,
 }
 
-impl<'a, F: Fn(NodeId) -> bool> PartialCaster<'a, F> {
-    pub fn new(octree: &'a Octree, objects: &'a [Object], local: F, replay: Replay) -> Self {
+impl<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> PartialCaster<'a, 'c, F> {
+    pub fn new(octree: &'a Octree, shared: &'a [Object], cell: F, replay: Replay) -> Self {
         PartialCaster {
             octree,
-            objects,
-            local,
+            shared,
+            cell,
             replay: RefCell::new(replay),
             next: Cell::new(0),
             blocked: Cell::new(None),
@@ -101,7 +102,7 @@ impl<'a, F: Fn(NodeId) -> bool> PartialCaster<'a, F> {
     }
 }
 
-impl<F: Fn(NodeId) -> bool> RayCaster for PartialCaster<'_, F> {
+impl<'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> RayCaster for PartialCaster<'_, 'c, F> {
     fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         if self.blocked.get().is_some() {
             return None;
@@ -117,7 +118,7 @@ impl<F: Fn(NodeId) -> bool> RayCaster for PartialCaster<'_, F> {
         self.queries.set(self.queries.get() + 1);
         match self
             .octree
-            .intersect_partial(self.objects, ray, tmin, tmax, &mut cursor, &self.local)
+            .intersect_partial(self.shared, ray, tmin, tmax, &mut cursor, &self.cell)
         {
             Partial::Done(h) => {
                 self.record(Answer::Nearest(h));
@@ -144,13 +145,13 @@ impl<F: Fn(NodeId) -> bool> RayCaster for PartialCaster<'_, F> {
         };
         self.queries.set(self.queries.get() + 1);
         match self.octree.occluded_partial(
-            self.objects,
+            self.shared,
             ray,
             tmin,
             tmax,
             ignore,
             &mut cursor,
-            &self.local,
+            &self.cell,
         ) {
             Partial::Done(b) => {
                 self.record(Answer::Occluded(b));

@@ -282,15 +282,14 @@ impl RtWorkload {
         ctx: &mut Ctx<Self>,
     ) -> Option<RayJob> {
         let octree = self.renderer.octree();
-        let objects = &self.renderer.scene().objects;
+        let shared = &self.renderer.scene().objects;
         let t = &job.task;
-        let proc = ctx.proc_id();
         let (mut leaves, mut tests) = (0u64, 0u64);
         let partial =
-            octree.intersect_partial(objects, &t.ray, t.tmin, t.tmax, &mut job.cursor, |l| {
+            octree.intersect_partial(shared, &t.ray, t.tmin, t.tmax, &mut job.cursor, |l| {
                 leaves += 1;
                 tests += octree.leaf_objects(l).len() as u64;
-                self.is_local(data, proc, l)
+                Self::cell(data, l)
             });
         ctx.charge(Work::TraceLeaves, leaves);
         ctx.charge(Work::TraceObjects, tests);
@@ -316,20 +315,19 @@ impl RtWorkload {
         ctx: &mut Ctx<Self>,
     ) -> Option<ShadowDp> {
         let octree = self.renderer.octree();
-        let objects = &self.renderer.scene().objects;
+        let shared = &self.renderer.scene().objects;
         if !job.replay.answers.is_empty() || job.replay.cursor != TraceCursor::default() {
             ctx.charge(Work::ShadowRestarts, 1);
         }
         let replay = std::mem::take(&mut job.replay);
-        let proc = ctx.proc_id();
         let visits = std::cell::Cell::new((0u64, 0u64));
         let caster = PartialCaster::new(
             octree,
-            objects,
+            shared,
             |l| {
                 let (a, b) = visits.get();
                 visits.set((a + 1, b + octree.leaf_objects(l).len() as u64));
-                self.is_local(data, proc, l)
+                Self::cell(data, l)
             },
             replay,
         );

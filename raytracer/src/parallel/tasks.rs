@@ -8,20 +8,23 @@ use hybrid_sched::ByteSize;
 
 use super::caster::{Answer, Replay};
 use super::tree::NodeKey;
-use crate::accel::{NodeId, TraceCursor};
+use crate::accel::{LeafObjects, NodeId, TraceCursor};
 use crate::render::{RayTask, ShadowBundle};
 
-/// One octree leaf's objects as a data item. In-process runtimes share the
-/// parsed scene, so the item grants access to the leaf's objects and
-/// carries their size: caches, requests and replies are accounted in the
-/// bytes the objects occupy (an object listed in n leaves counts 1/n in
-/// each).
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+/// One octree leaf's objects as a data item: the leaf's own copies of its
+/// objects ([`LeafObjects`]), which a data reply carries (serialized, under
+/// MPI) and tracing on the receiving processor reads. Caches, requests
+/// and replies are accounted in the bytes the objects occupy in the scene
+/// (an object listed in n leaves counts 1/n in each), not in the copies'
+/// size: the accounting (and the simulated machine) prices a scene whose
+/// objects travel once per leaf share.
+#[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(crate = "hybrid_sched::serde")]
 pub struct CellData {
     pub leaf: NodeId,
     pub objects: u32,
     pub bytes: u64,
+    pub cell: LeafObjects,
 }
 
 impl ByteSize for CellData {

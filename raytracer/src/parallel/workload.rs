@@ -36,7 +36,7 @@ use super::partition::{object_bytes, Partition};
 use super::tasks::{CellData, DdTask, DpTask, RayJob, ShadowDp, Tile};
 use super::tree::{PixelTrees, RtResult};
 use super::work::Work;
-use crate::accel::{NodeId, TraceCursor};
+use crate::accel::{LeafObjects, NodeId, TraceCursor};
 use crate::geometry::Aabb;
 use crate::render::Renderer;
 use crate::scene::View;
@@ -266,15 +266,19 @@ impl RtWorkload {
             .collect()
     }
 
-    /// Whether `leaf`'s objects are available on processor `proc` (of
-    /// the run's): resident by the partition (an array lookup) or in the view
-    /// (cached, or resident under a runtime that holds everything locally).
+    /// `leaf`'s objects as this processor holds them (resident or cached),
+    /// what tracing reads; `None` if they are held elsewhere. (Under the
+    /// replicated distribution tiles are traced whole from the shared
+    /// scene and never come here.)
     #[inline]
-    pub(super) fn is_local(&self, view: &DataView<'_, Self>, proc: usize, leaf: NodeId) -> bool {
-        self.owned(proc, leaf) || view.get(&leaf).is_some()
+    pub(super) fn cell<'v>(view: &DataView<'v, Self>, leaf: NodeId) -> Option<&'v LeafObjects> {
+        view.get(&leaf).map(|c| &c.cell)
     }
 
-    /// [`Self::is_local`] without touching the leaf's cache recency.
+    /// Whether `leaf`'s objects are held on processor `proc`: resident by
+    /// the partition (an array lookup) or in the view (cached, or resident
+    /// under a runtime that holds everything locally), without touching
+    /// the leaf's cache recency.
     pub(super) fn held(&self, view: &DataView<'_, Self>, proc: usize, leaf: NodeId) -> bool {
         self.owned(proc, leaf) || view.is_local(&leaf)
     }
@@ -329,12 +333,18 @@ impl Workload for RtWorkload {
             .into_iter()
             .filter(|&(_, owner, _)| owner == proc)
             .map(|(leaf, _, bytes)| {
+                let cell = LeafObjects::copy_from(
+                    self.renderer.octree(),
+                    &self.renderer.scene().objects,
+                    leaf,
+                );
                 (
                     leaf,
                     CellData {
                         leaf,
                         objects: objects[&leaf],
                         bytes,
+                        cell,
                     },
                 )
             })

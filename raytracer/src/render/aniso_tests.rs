@@ -668,6 +668,8 @@ fn sampled_reflections(ss: f64, seed: u64) -> (usize, Color) {
         normal: Vec3::Z,
         object: 0,
         inner: None,
+        material: ctx.scene.objects[0].surface_at(None).0,
+        flat: ctx.scene.objects[0].surface_at(None).1,
     };
     let mut out = Vec::new();
     shade(&ctx, &task, &hit, &mut out);

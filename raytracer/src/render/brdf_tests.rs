@@ -66,6 +66,8 @@ fn shaded(s: &Scene, dir: Vec3) -> (Vec<Request>, Option<FuncBsdf>) {
         normal: Vec3::Z,
         object: 0,
         inner: None,
+        material: ctx.scene.objects[0].surface_at(None).0,
+        flat: ctx.scene.objects[0].surface_at(None).1,
     };
     let mut out = Vec::new();
     shade(&ctx, &task, &hit, &mut out);
@@ -320,6 +322,8 @@ fn the_mist_brtdfunc_specular_depends_on_rdot_and_rdotp() {
         normal: Vec3::Z,
         object: 0,
         inner: None,
+        material: s.objects[0].surface_at(None).0,
+        flat: s.objects[0].surface_at(None).1,
     };
     let id = material_id(&s, "brtd_mat");
     let f = shadow_filter(&s, id, &hit, cos(0.9, 1.0).normalize()).unwrap();

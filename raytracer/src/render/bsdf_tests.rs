@@ -138,6 +138,8 @@ fn shaded(s: &Scene, dir: Vec3) -> (Vec<Request>, Option<KlemsSurface>, Color) {
         normal: Vec3::Z,
         object: 0,
         inner: None,
+        material: ctx.scene.objects[0].surface_at(None).0,
+        flat: ctx.scene.objects[0].surface_at(None).1,
     };
     let mut out = Vec::new();
     let sh = shade(&ctx, &task, &hit, &mut out);

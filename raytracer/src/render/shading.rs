@@ -17,7 +17,7 @@ use super::rng::{child_seed, Rng};
 use super::surface::Surface;
 use super::task::{intens, RayKind, RayTask};
 use crate::accel::Hit;
-use crate::geometry::{offset_origin_scaled, Ray, Shape, Vec3, FTINY};
+use crate::geometry::{offset_origin_scaled, Ray, Vec3, FTINY};
 use crate::image::brightness;
 use crate::modifier::{Applied, RayVars};
 use crate::scene::{Color, Scene};
@@ -96,16 +96,6 @@ pub struct ShadeContext<'a> {
     pub effects: &'a EffectsReport,
     /// The mists' scattering sources.
     pub media: &'a Media,
-}
-
-/// The object a hit landed on and the material shading it (instances
-/// resolve to the inner object).
-pub fn hit_object<'a>(scene: &'a Scene, hit: &Hit) -> &'a crate::scene::Object {
-    let top = &scene.objects[hit.object as usize];
-    match (&top.shape, hit.inner) {
-        (Shape::Instance(inst), Some(i)) => inst.geometry.objects.get(i as usize).unwrap_or(top),
-        _ => top,
-    }
 }
 
 thread_local! {

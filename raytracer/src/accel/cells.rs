@@ -1,0 +1,290 @@
+//! One octree leaf's objects as a processor holds them: what a data item
+//! of the parallel renderer carries, and what tracing over a leaf reads
+//! when the scene is distributed.
+//!
+//! A [`LeafObjects`] lists the leaf's object ids in the octree's order and,
+//! for each, either its own copy of the object (a plain surface: polygon,
+//! sphere, cone, ring) or nothing, for the objects every processor holds
+//! anyway (instances, whose geometry is part of the replicated scene). Its
+//! intersection data is built from its own copies with the same code as
+//! the octree's ([`Prims`]), so a leaf traced from a [`LeafObjects`]
+//! answers exactly as the whole scene's octree does.
+//!
+//! On the wire (serde) a leaf is its ids and, for each plain surface, its
+//! name, material and defining numbers (a polygon's vertices after the
+//! loader dropped duplicates, a sphere's centre and radius, ...); reading
+//! it rebuilds each shape with the loader's constructors, which derive the
+//! rest (normal, triangulation) exactly as they did from the source, and
+//! rejects data no source could have made.
+
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+use super::octree::{NodeId, Octree};
+use crate::geometry::prims::Prims;
+use crate::geometry::{MaterialId, Object, ObjectId, Shape, Vec3};
+
+/// A slot holding no copy: the object is one every processor holds.
+const SHARED: u32 = u32::MAX;
+
+/// See the module documentation.
+#[derive(Debug, Clone)]
+pub struct LeafObjects {
+    ids: Vec<ObjectId>,
+    /// Per id: index into `objects`, or [`SHARED`].
+    slots: Vec<u32>,
+    objects: Vec<Object>,
+    prims: Prims,
+}
+
+/// Whether a processor keeps its own copy of `o` in the leaves it holds
+/// (plain surfaces) or uses the replicated one (instances).
+fn is_plain(o: &Object) -> bool {
+    !matches!(o.shape, Shape::Instance(_))
+}
+
+impl LeafObjects {
+    /// Copies of `leaf`'s objects out of `objects` (the objects `octree`
+    /// was built over).
+    pub fn copy_from(octree: &Octree, objects: &[Object], leaf: NodeId) -> LeafObjects {
+        let ids = octree.leaf_objects(leaf).to_vec();
+        let mut own = Vec::new();
+        let slots = ids
+            .iter()
+            .map(|&id| {
+                let o = &objects[id as usize];
+                if is_plain(o) {
+                    own.push(o.clone());
+                    own.len() as u32 - 1
+                } else {
+                    SHARED
+                }
+            })
+            .collect();
+        LeafObjects::from_parts(ids, slots, own)
+    }
+
+    fn from_parts(ids: Vec<ObjectId>, slots: Vec<u32>, objects: Vec<Object>) -> LeafObjects {
+        let prims = Prims::build(&objects);
+        LeafObjects {
+            ids,
+            slots,
+            objects,
+            prims,
+        }
+    }
+
+    /// The leaf's object ids, in the octree's order.
+    pub fn ids(&self) -> &[ObjectId] {
+        &self.ids
+    }
+
+    /// The copies held (plain surfaces; instances are not copied).
+    pub fn copies(&self) -> usize {
+        self.objects.len()
+    }
+
+    /// This leaf's own copy of its `k`-th object, `None` for a shared one.
+    #[inline]
+    pub(crate) fn own(&self, k: usize) -> Option<u32> {
+        let s = self.slots[k];
+        (s != SHARED).then_some(s)
+    }
+
+    /// The copies and their intersection data.
+    #[inline]
+    pub(crate) fn parts(&self) -> (&Prims, &[Object]) {
+        (&self.prims, &self.objects)
+    }
+
+    /// Heap bytes this leaf occupies on a processor: ids, slots, the
+    /// copies (with their polygons' vertex, triangle and sampling data) and
+    /// their intersection data.
+    pub fn heap_bytes(&self) -> usize {
+        let polys: usize = self
+            .objects
+            .iter()
+            .map(|o| {
+                o.name.capacity()
+                    + match &o.shape {
+                        Shape::Polygon(p) => {
+                            p.vertices.capacity() * size_of::<Vec3>()
+                                + p.triangles.capacity() * size_of::<[u32; 3]>()
+                                + p.tri_verts.capacity() * size_of::<[Vec3; 3]>()
+                                + p.cdf.capacity() * size_of::<f64>()
+                        }
+                        _ => 0,
+                    }
+            })
+            .sum();
+        self.ids.capacity() * size_of::<ObjectId>()
+            + self.slots.capacity() * size_of::<u32>()
+            + self.objects.capacity() * size_of::<Object>()
+            + polys
+            + self.prims.memory_bytes()
+    }
+}
+
+/// A plain surface on the wire.
+#[derive(Serialize, Deserialize)]
+struct WireObject {
+    name: String,
+    material: MaterialId,
+    shape: WireShape,
+}
+
+#[derive(Serialize, Deserialize)]
+enum WireShape {
+    Polygon(Vec<[f64; 3]>),
+    Sphere {
+        center: [f64; 3],
+        radius: f64,
+        inward: bool,
+    },
+    Cone {
+        p0: [f64; 3],
+        p1: [f64; 3],
+        r0: f64,
+        r1: f64,
+        inward: bool,
+    },
+    Ring {
+        center: [f64; 3],
+        normal: [f64; 3],
+        r_inner: f64,
+        r_outer: f64,
+    },
+}
+
+#[derive(Serialize, Deserialize)]
+struct Wire {
+    ids: Vec<ObjectId>,
+    /// Per id: the surface, or `None` for an object every processor holds.
+    objects: Vec<Option<WireObject>>,
+}
+
+fn wire_object(o: &Object) -> WireObject {
+    let a = |v: Vec3| v.to_array();
+    let shape = match &o.shape {
+        Shape::Polygon(p) => WireShape::Polygon(p.vertices.iter().map(|&v| a(v)).collect()),
+        &Shape::Sphere {
+            center,
+            radius,
+            inward,
+        } => WireShape::Sphere {
+            center: a(center),
+            radius,
+            inward,
+        },
+        &Shape::Cone {
+            p0,
+            p1,
+            r0,
+            r1,
+            inward,
+        } => WireShape::Cone {
+            p0: a(p0),
+            p1: a(p1),
+            r0,
+            r1,
+            inward,
+        },
+        &Shape::Ring {
+            center,
+            normal,
+            r_inner,
+            r_outer,
+        } => WireShape::Ring {
+            center: a(center),
+            normal: a(normal),
+            r_inner,
+            r_outer,
+        },
+        Shape::Instance(_) => unreachable!("instances are shared, never copied"),
+    };
+    WireObject {
+        name: o.name.clone(),
+        material: o.material,
+        shape,
+    }
+}
+
+fn object_from_wire(w: WireObject) -> Result<Object, String> {
+    let v = Vec3::from_array;
+    let shape = match w.shape {
+        WireShape::Polygon(vs) => Shape::polygon(vs.into_iter().map(v).collect())?,
+        WireShape::Sphere {
+            center,
+            radius,
+            inward,
+        } => Shape::sphere(v(center), radius, inward)?,
+        WireShape::Cone {
+            p0,
+            p1,
+            r0,
+            r1,
+            inward,
+        } => Shape::cone(v(p0), v(p1), r0, r1, inward)?,
+        WireShape::Ring {
+            center,
+            normal,
+            r_inner,
+            r_outer,
+        } => {
+            // Validated by the constructor; the stored (already unit)
+            // normal is kept as it was, not normalised a second time.
+            Shape::ring(v(center), v(normal), r_inner, r_outer)?;
+            Shape::Ring {
+                center: v(center),
+                normal: v(normal),
+                r_inner,
+                r_outer,
+            }
+        }
+    };
+    Ok(Object {
+        name: w.name,
+        shape,
+        material: w.material,
+    })
+}
+
+impl Serialize for LeafObjects {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let objects = (0..self.ids.len())
+            .map(|k| self.own(k).map(|i| wire_object(&self.objects[i as usize])))
+            .collect();
+        Wire {
+            ids: self.ids.clone(),
+            objects,
+        }
+        .serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for LeafObjects {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let w = Wire::deserialize(d)?;
+        if w.objects.len() != w.ids.len() {
+            return Err(D::Error::custom(format!(
+                "a leaf lists {} objects but carries {}",
+                w.ids.len(),
+                w.objects.len()
+            )));
+        }
+        let mut own = Vec::new();
+        let mut slots = Vec::with_capacity(w.ids.len());
+        for (id, o) in w.ids.iter().zip(w.objects) {
+            match o {
+                None => slots.push(SHARED),
+                Some(o) => {
+                    let o = object_from_wire(o)
+                        .map_err(|e| D::Error::custom(format!("object {id}: {e}")))?;
+                    own.push(o);
+                    slots.push(own.len() as u32 - 1);
+                }
+            }
+        }
+        Ok(LeafObjects::from_parts(w.ids, slots, own))
+    }
+}
