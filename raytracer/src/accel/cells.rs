@@ -3,12 +3,21 @@
 //! when the scene is distributed.
 //!
 //! A [`LeafObjects`] lists the leaf's object ids in the octree's order and,
-//! for each, either its own copy of the object (a plain surface: polygon,
-//! sphere, cone, ring) or nothing, for the objects every processor holds
-//! anyway (instances, whose geometry is part of the replicated scene). Its
-//! intersection data is built from its own copies with the same code as
-//! the octree's ([`Prims`]), so a leaf traced from a [`LeafObjects`]
+//! for each, either a copy of the object (a plain surface: polygon, sphere,
+//! cone, ring) or nothing, for the objects every processor holds anyway
+//! (instances, whose geometry is part of the replicated scene). A copy
+//! ([`HeldObject`]) carries its intersection data, built with the same code
+//! as the octree's ([`Prims`]), so a leaf traced from a [`LeafObjects`]
 //! answers exactly as the whole scene's octree does.
+//!
+//! Objects that span several leaves: a processor's leaves share one copy
+//! of each object ([`LeafObjects::copy_from`] takes the processor's
+//! [`ObjectCopies`]); a leaf received in process shares the sender's
+//! copies; a leaf received over the wire brings copies of its own (a leaf
+//! is self-contained, so it can be traced, cached and evicted alone).
+//! Copying every object into every leaf instead made the studio's one
+//! processor hold 92 MB more than the whole scene (its walls and floor are
+//! listed in thousands of leaves).
 //!
 //! On the wire (serde) a leaf is its ids and, for each plain surface, its
 //! name, material and defining numbers (a polygon's vertices after the
@@ -16,6 +25,9 @@
 //! it rebuilds each shape with the loader's constructors, which derive the
 //! rest (normal, triangulation) exactly as they did from the source, and
 //! rejects data no source could have made.
+
+use std::collections::HashMap;
+use std::sync::Arc;
 
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -31,11 +43,65 @@ const SHARED: u32 = u32::MAX;
 #[derive(Debug, Clone)]
 pub struct LeafObjects {
     ids: Vec<ObjectId>,
-    /// Per id: index into `objects`, or [`SHARED`].
+    /// Per id: index into `held`, or [`SHARED`].
     slots: Vec<u32>,
-    objects: Vec<Object>,
+    held: Vec<Arc<HeldObject>>,
+}
+
+/// A copy of one plain surface with its intersection data.
+#[derive(Debug)]
+pub struct HeldObject {
+    object: [Object; 1],
     prims: Prims,
 }
+
+impl HeldObject {
+    fn new(object: Object) -> Arc<HeldObject> {
+        let object = [object];
+        let prims = Prims::build(&object);
+        Arc::new(HeldObject { object, prims })
+    }
+
+    /// The copy and its intersection data (the object is number 0).
+    #[inline]
+    pub(crate) fn parts(&self) -> (&Prims, &[Object]) {
+        (&self.prims, &self.object)
+    }
+
+    /// The copy.
+    pub fn object(&self) -> &Object {
+        &self.object[0]
+    }
+
+    /// Heap and inline bytes of the copy and its intersection data.
+    pub fn bytes(&self) -> usize {
+        let o = &self.object[0];
+        let heap = o.name.capacity()
+            + match &o.shape {
+                Shape::Polygon(p) => {
+                    p.vertices.capacity() * size_of::<Vec3>()
+                        + p.triangles.capacity() * size_of::<[u32; 3]>()
+                        + p.tri_verts.capacity() * size_of::<[Vec3; 3]>()
+                        + p.cdf.capacity() * size_of::<f64>()
+                }
+                _ => 0,
+            };
+        size_of::<HeldObject>() + heap + self.prims.memory_bytes()
+    }
+}
+
+/// Bytes a processor's copy of `o` occupies (0 for an instance, which is
+/// shared, not copied): measured from a copy's structures.
+pub fn copy_bytes(o: &Object) -> usize {
+    if is_plain(o) {
+        HeldObject::new(o.clone()).bytes()
+    } else {
+        0
+    }
+}
+
+/// One processor's copies by object id, shared by the leaves it builds.
+pub type ObjectCopies = HashMap<ObjectId, Arc<HeldObject>>;
 
 /// Whether a processor keeps its own copy of `o` in the leaves it holds
 /// (plain surfaces) or uses the replicated one (instances).
@@ -44,34 +110,32 @@ fn is_plain(o: &Object) -> bool {
 }
 
 impl LeafObjects {
-    /// Copies of `leaf`'s objects out of `objects` (the objects `octree`
-    /// was built over).
-    pub fn copy_from(octree: &Octree, objects: &[Object], leaf: NodeId) -> LeafObjects {
+    /// `leaf`'s objects out of `objects` (the objects `octree` was built
+    /// over), sharing the copies in `copies` and adding the missing ones.
+    pub fn copy_from(
+        octree: &Octree,
+        objects: &[Object],
+        leaf: NodeId,
+        copies: &mut ObjectCopies,
+    ) -> LeafObjects {
         let ids = octree.leaf_objects(leaf).to_vec();
-        let mut own = Vec::new();
+        let mut held = Vec::new();
         let slots = ids
             .iter()
             .map(|&id| {
                 let o = &objects[id as usize];
                 if is_plain(o) {
-                    own.push(o.clone());
-                    own.len() as u32 - 1
+                    let c = copies
+                        .entry(id)
+                        .or_insert_with(|| HeldObject::new(o.clone()));
+                    held.push(c.clone());
+                    held.len() as u32 - 1
                 } else {
                     SHARED
                 }
             })
             .collect();
-        LeafObjects::from_parts(ids, slots, own)
-    }
-
-    fn from_parts(ids: Vec<ObjectId>, slots: Vec<u32>, objects: Vec<Object>) -> LeafObjects {
-        let prims = Prims::build(&objects);
-        LeafObjects {
-            ids,
-            slots,
-            objects,
-            prims,
-        }
+        LeafObjects { ids, slots, held }
     }
 
     /// The leaf's object ids, in the octree's order.
@@ -80,48 +144,23 @@ impl LeafObjects {
     }
 
     /// The copies held (plain surfaces; instances are not copied).
-    pub fn copies(&self) -> usize {
-        self.objects.len()
+    pub fn copies(&self) -> &[Arc<HeldObject>] {
+        &self.held
     }
 
-    /// This leaf's own copy of its `k`-th object, `None` for a shared one.
+    /// The copy of the leaf's `k`-th object, `None` for a shared one.
     #[inline]
-    pub(crate) fn own(&self, k: usize) -> Option<u32> {
+    pub fn own(&self, k: usize) -> Option<&HeldObject> {
         let s = self.slots[k];
-        (s != SHARED).then_some(s)
+        (s != SHARED).then(|| &*self.held[s as usize])
     }
 
-    /// The copies and their intersection data.
-    #[inline]
-    pub(crate) fn parts(&self) -> (&Prims, &[Object]) {
-        (&self.prims, &self.objects)
-    }
-
-    /// Heap bytes this leaf occupies on a processor: ids, slots, the
-    /// copies (with their polygons' vertex, triangle and sampling data) and
-    /// their intersection data.
-    pub fn heap_bytes(&self) -> usize {
-        let polys: usize = self
-            .objects
-            .iter()
-            .map(|o| {
-                o.name.capacity()
-                    + match &o.shape {
-                        Shape::Polygon(p) => {
-                            p.vertices.capacity() * size_of::<Vec3>()
-                                + p.triangles.capacity() * size_of::<[u32; 3]>()
-                                + p.tri_verts.capacity() * size_of::<[Vec3; 3]>()
-                                + p.cdf.capacity() * size_of::<f64>()
-                        }
-                        _ => 0,
-                    }
-            })
-            .sum();
+    /// Bytes of the leaf's own lists (ids, slots, references to copies),
+    /// not counting the copies, which leaves share.
+    pub fn list_bytes(&self) -> usize {
         self.ids.capacity() * size_of::<ObjectId>()
             + self.slots.capacity() * size_of::<u32>()
-            + self.objects.capacity() * size_of::<Object>()
-            + polys
-            + self.prims.memory_bytes()
+            + self.held.capacity() * size_of::<Arc<HeldObject>>()
     }
 }
 
@@ -252,7 +291,7 @@ fn object_from_wire(w: WireObject) -> Result<Object, String> {
 impl Serialize for LeafObjects {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         let objects = (0..self.ids.len())
-            .map(|k| self.own(k).map(|i| wire_object(&self.objects[i as usize])))
+            .map(|k| self.own(k).map(|h| wire_object(h.object())))
             .collect();
         Wire {
             ids: self.ids.clone(),
@@ -272,7 +311,7 @@ impl<'de> Deserialize<'de> for LeafObjects {
                 w.objects.len()
             )));
         }
-        let mut own = Vec::new();
+        let mut held = Vec::new();
         let mut slots = Vec::with_capacity(w.ids.len());
         for (id, o) in w.ids.iter().zip(w.objects) {
             match o {
@@ -280,11 +319,15 @@ impl<'de> Deserialize<'de> for LeafObjects {
                 Some(o) => {
                     let o = object_from_wire(o)
                         .map_err(|e| D::Error::custom(format!("object {id}: {e}")))?;
-                    own.push(o);
-                    slots.push(own.len() as u32 - 1);
+                    held.push(HeldObject::new(o));
+                    slots.push(held.len() as u32 - 1);
                 }
             }
         }
-        Ok(LeafObjects::from_parts(w.ids, slots, own))
+        Ok(LeafObjects {
+            ids: w.ids,
+            slots,
+            held,
+        })
     }
 }

@@ -865,15 +865,16 @@ impl Octree {
                     return true;
                 };
                 debug_assert_eq!(c.ids(), ids, "a leaf's objects differ from the octree's");
-                let (prims, own) = c.parts();
-                let local = test.over(prims, own);
                 for (j, &id) in c.ids().iter().enumerate() {
                     if mailbox.seen(id) {
                         continue;
                     }
                     let bound = if best.is_some() { next_up(*cut) } else { *cut };
                     let (h, obj) = match c.own(j) {
-                        Some(i) => (local.intersect(i, tmin, bound), &own[i as usize]),
+                        Some(held) => {
+                            let (prims, one) = held.parts();
+                            (test.intersect_in(prims, one, tmin, bound), &one[0])
+                        }
                         None => (test.intersect(id, tmin, bound), &shared[id as usize]),
                     };
                     if let Some(h) = h {
@@ -934,14 +935,15 @@ impl Octree {
                 blocked = Some((leaf, k));
                 return true;
             };
-            let (prims, own) = c.parts();
-            let local = test.over(prims, own);
             for (j, &id) in c.ids().iter().enumerate() {
                 if Some(id) == ignore || mailbox.seen(id) {
                     continue;
                 }
                 let hit = match c.own(j) {
-                    Some(i) => local.occludes(i, tmin, tmax),
+                    Some(held) => {
+                        let (prims, one) = held.parts();
+                        test.occludes_in(prims, one, tmin, tmax)
+                    }
                     None => test.occludes(id, tmin, tmax),
                 };
                 if hit {

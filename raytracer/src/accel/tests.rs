@@ -813,11 +813,13 @@ fn resumable_traversal_equals_intersect_and_occluded_wherever_it_stops() {
         let tree = Octree::build(&objects, &params);
         // Each leaf's objects as a processor receives them: copied, sent
         // (serialized) and rebuilt.
+        let mut copies = ObjectCopies::new();
         let cells: std::collections::HashMap<NodeId, LeafObjects> = tree
             .leaves()
             .map(|l| {
                 let sent =
-                    postcard::to_allocvec(&LeafObjects::copy_from(&tree, &objects, l)).unwrap();
+                    postcard::to_allocvec(&LeafObjects::copy_from(&tree, &objects, l, &mut copies))
+                        .unwrap();
                 (l, postcard::from_bytes(&sent).unwrap())
             })
             .collect();
@@ -979,17 +981,18 @@ fn leaf_objects_cross_the_wire_bit_for_bit() {
     let t = Transform::identity().translate(v(5.0, 5.0, 5.0));
     objects.push(obj(Shape::instance(geometry, t).unwrap()));
     let tree = Octree::build(&objects, &OctreeParams::default());
-    let (mut copies, mut shared) = (0, 0);
+    let (mut copied, mut shared) = (0, 0);
+    let mut copies = ObjectCopies::new();
     for leaf in tree.leaves() {
-        let held = LeafObjects::copy_from(&tree, &objects, leaf);
+        let held = LeafObjects::copy_from(&tree, &objects, leaf, &mut copies);
         let bytes = postcard::to_allocvec(&held).unwrap();
         let got: LeafObjects = postcard::from_bytes(&bytes).unwrap();
         assert_eq!(got.ids(), tree.leaf_objects(leaf));
-        assert_eq!(got.copies(), held.copies());
+        assert_eq!(got.copies().len(), held.copies().len());
         for (k, &id) in got.ids().iter().enumerate() {
             match (got.own(k), held.own(k)) {
                 (Some(a), Some(b)) => {
-                    let (a, b) = (&got.parts().1[a as usize], &held.parts().1[b as usize]);
+                    let (a, b) = (a.object(), b.object());
                     // Debug prints each f64 exactly (shortest round trip).
                     assert_eq!(
                         format!("{:?}", a.shape),
@@ -997,7 +1000,7 @@ fn leaf_objects_cross_the_wire_bit_for_bit() {
                         "object {id}"
                     );
                     assert_eq!((&a.name, a.material), (&b.name, b.material));
-                    copies += 1;
+                    copied += 1;
                 }
                 (None, None) => {
                     assert!(matches!(objects[id as usize].shape, Shape::Instance(_)));
@@ -1008,9 +1011,15 @@ fn leaf_objects_cross_the_wire_bit_for_bit() {
         }
     }
     assert!(
-        copies > 300 && shared > 0,
-        "{copies} copies, {shared} shared"
+        copied > 300 && shared > 0,
+        "{copied} copies, {shared} shared"
     );
+    // A processor's leaves share one copy of each object.
+    let plain = objects
+        .iter()
+        .filter(|o| !matches!(o.shape, Shape::Instance(_)))
+        .count();
+    assert_eq!(copies.len(), plain);
 }
 
 #[test]
@@ -1021,7 +1030,8 @@ fn damaged_leaf_data_is_an_error_not_a_panic() {
         .leaves()
         .max_by_key(|&l| tree.leaf_objects(l).len())
         .unwrap();
-    let bytes = postcard::to_allocvec(&LeafObjects::copy_from(&tree, &objects, leaf)).unwrap();
+    let held = LeafObjects::copy_from(&tree, &objects, leaf, &mut ObjectCopies::new());
+    let bytes = postcard::to_allocvec(&held).unwrap();
     // Every truncation and every single-byte change: an error or a leaf,
     // never a panic.
     for n in 0..bytes.len() {

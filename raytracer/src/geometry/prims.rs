@@ -293,16 +293,24 @@ impl<'a> Tester<'a> {
         }
     }
 
-    /// The same ray's tests over other objects (`objects` with their data
-    /// `prims`): a leaf's own copies.
+    /// Nearest hit of the one object `one` (with its data `prims`) with
+    /// `tmin < t < tmax`: a processor's copy of an object.
     #[inline]
-    pub(crate) fn over<'b>(&'b self, prims: &'b Prims, objects: &'b [Object]) -> Tester<'b> {
-        Tester {
-            prims: prims.matches(objects).then_some(prims),
-            objects,
-            pre: self.pre,
-            tr: self.tr,
-        }
+    pub(crate) fn intersect_in(
+        &self,
+        prims: &Prims,
+        one: &[Object],
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<ShapeHit> {
+        prims.intersect(one, 0, self.pre, &self.tr, tmin, tmax)
+    }
+
+    /// True if the one object `one` (with its data `prims`) has a hit with
+    /// `tmin < t < tmax`.
+    #[inline]
+    pub(crate) fn occludes_in(&self, prims: &Prims, one: &[Object], tmin: f64, tmax: f64) -> bool {
+        prims.occludes(one, 0, self.pre, &self.tr, tmin, tmax)
     }
 
     /// Nearest hit of object `id` with `tmin < t < tmax`.

@@ -10,7 +10,7 @@ use super::caster::Replay;
 use super::tasks::{DdTask, DpTask, RayJob, ShadowDp, ShadowJob, Tile};
 use super::tree::{Child, NodeKey, Record, RtResult};
 use super::work::Work;
-use super::workload::RtWorkload;
+use super::workload::{CellMemo, RtWorkload};
 use crate::accel::{Hit, Partial, TraceCursor};
 use crate::render::direct::{run_shadow_bundle, ShadowCounts};
 use crate::render::light::LightExtent;
@@ -321,13 +321,14 @@ impl RtWorkload {
         }
         let replay = std::mem::take(&mut job.replay);
         let visits = std::cell::Cell::new((0u64, 0u64));
+        let memo = CellMemo::new(data);
         let caster = PartialCaster::new(
             octree,
             shared,
             |l| {
                 let (a, b) = visits.get();
                 visits.set((a + 1, b + octree.leaf_objects(l).len() as u64));
-                Self::cell(data, l)
+                memo.get(l)
             },
             replay,
         );

@@ -186,6 +186,10 @@ pub struct ProcSummary {
     pub resident_bytes: u64,
     /// Objects resident.
     pub resident_objects: usize,
+    /// Bytes of this processor's copies of its resident objects (one copy
+    /// per object, however many of its leaves list it), measured from the
+    /// copies' structures; 0 when replicated (processors share the scene).
+    pub copy_bytes: u64,
     /// Share of the octree's object references assigned here.
     pub cost: u64,
     /// Pixels assembled here.
@@ -382,6 +386,15 @@ pub fn render_parallel_with_progress(
                 wl.renderer().scene().objects.len()
             } else {
                 resident.len()
+            },
+            copy_bytes: if replicated {
+                0
+            } else {
+                let objects = &wl.renderer().scene().objects;
+                resident
+                    .iter()
+                    .map(|&id| crate::accel::copy_bytes(&objects[id as usize]) as u64)
+                    .sum()
             },
             cost: part.cost().get(p).copied().unwrap_or(0),
             pixels: acc.pixels.len(),

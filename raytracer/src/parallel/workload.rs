@@ -36,7 +36,7 @@ use super::partition::{object_bytes, Partition};
 use super::tasks::{CellData, DdTask, DpTask, RayJob, ShadowDp, Tile};
 use super::tree::{PixelTrees, RtResult};
 use super::work::Work;
-use crate::accel::{LeafObjects, NodeId, TraceCursor};
+use crate::accel::{LeafObjects, NodeId, ObjectCopies, TraceCursor};
 use crate::geometry::Aabb;
 use crate::render::Renderer;
 use crate::scene::View;
@@ -329,6 +329,8 @@ impl Workload for RtWorkload {
         tracing::debug!(proc, procs, "processor starting: loading its partition");
         let objects: std::collections::HashMap<NodeId, u32> =
             self.cells.iter().map(|&(l, n, _)| (l, n)).collect();
+        // One copy of each object for all of this processor's leaves.
+        let mut copies = ObjectCopies::new();
         self.owner_table()
             .into_iter()
             .filter(|&(_, owner, _)| owner == proc)
@@ -337,6 +339,7 @@ impl Workload for RtWorkload {
                     self.renderer.octree(),
                     &self.renderer.scene().objects,
                     leaf,
+                    &mut copies,
                 );
                 (
                     leaf,
@@ -490,6 +493,38 @@ impl Workload for RtWorkload {
             let done = acc.pixels.len().saturating_sub(before) as u64;
             if done > 0 {
                 p.fetch_add(done, std::sync::atomic::Ordering::Relaxed);
+            }
+        }
+    }
+}
+
+/// [`RtWorkload::cell`] with the last leaves found remembered: a shadow
+/// bundle's rays cross the same few leaves again and again, and a lookup
+/// in the processor's store is a hash lookup.
+pub(super) struct CellMemo<'a, 'v> {
+    view: &'a DataView<'v, RtWorkload>,
+    slots: [std::cell::Cell<(NodeId, Option<&'v LeafObjects>)>; 8],
+}
+
+impl<'a, 'v> CellMemo<'a, 'v> {
+    pub(super) fn new(view: &'a DataView<'v, RtWorkload>) -> Self {
+        CellMemo {
+            view,
+            slots: std::array::from_fn(|_| std::cell::Cell::new((NodeId::MAX, None))),
+        }
+    }
+
+    #[inline]
+    pub(super) fn get(&self, leaf: NodeId) -> Option<&'v LeafObjects> {
+        let slot = &self.slots[leaf as usize & 7];
+        match slot.get() {
+            (l, Some(c)) if l == leaf => Some(c),
+            _ => {
+                let c = RtWorkload::cell(self.view, leaf);
+                if c.is_some() {
+                    slot.set((leaf, c));
+                }
+                c
             }
         }
     }
