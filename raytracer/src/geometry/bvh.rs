@@ -3,14 +3,14 @@
 //! The octree stays what the paper made it: the division of the scene into
 //! cells, and the structure a resumable query's progress is counted in. For
 //! rays whose whole path is in one set of objects (the sequential renderer,
-//! a whole scene, the shared geometry of instances), this hierarchy answers the same queries with fewer steps: a
-//! binary tree built with the surface area heuristic, then collapsed into
-//! four-wide nodes (Embree's layout), each holding its four children's
-//! boxes so that all are tested at once, four double-precision lanes side
-//! by side; the nearest child entered is visited first. Measured
-//! (`hybrid-rt bench --embree`, the studio as 48,684 triangles, one core):
-//! the wide nodes trace primary rays about twice as fast as the binary
-//! ones, shadow rays about 1.3 times.
+//! a whole scene, the shared geometry of instances), this hierarchy answers the same queries with fewer steps:
+//! four-wide nodes (Embree's layout) built with the binned surface area
+//! heuristic ([`Builder`]), each holding its four children's boxes so that
+//! all are tested at once, four double-precision lanes side by side; the
+//! nearest child entered is visited first. Measured (`hybrid-rt bench
+//! --embree`, the studio as 48,684 triangles, one core): the wide nodes
+//! trace primary rays about twice as fast as binary ones, shadow rays about
+//! 1.3 times; the build takes about twice Embree's time.
 //!
 //! **Same answers as the octree.** A node is only a filter: the objects it
 //! lets through are tested with the same code ([`Tester`]), and the answer
