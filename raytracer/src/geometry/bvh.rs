@@ -3,14 +3,14 @@
 //! The octree stays what the paper made it: the division of the scene into
 //! cells, and the structure a resumable query's progress is counted in. For
 //! rays whose whole path is in one set of objects (the sequential renderer,
-//! a whole scene, the shared geometry of instances), this hierarchy answers the same queries with fewer steps: a
-//! binary tree built with the surface area heuristic, then collapsed into
-//! four-wide nodes (Embree's layout), each holding its four children's
-//! boxes so that all are tested at once, four double-precision lanes side
-//! by side; the nearest child entered is visited first. Measured
-//! (`hybrid-rt bench --embree`, the studio as 48,684 triangles, one core):
-//! the wide nodes trace primary rays about twice as fast as the binary
-//! ones, shadow rays about 1.3 times.
+//! a whole scene, the shared geometry of instances), this hierarchy answers the same queries with fewer steps:
+//! four-wide nodes (Embree's layout) built with the binned surface area
+//! heuristic ([`Builder`]), each holding its four children's boxes so that
+//! all are tested at once, four double-precision lanes side by side; the
+//! nearest child entered is visited first. Measured (`hybrid-rt bench
+//! --embree`, the studio as 48,684 triangles, one core): the wide nodes
+//! trace primary rays about twice as fast as binary ones, shadow rays about
+//! 1.3 times; the build takes about twice Embree's time.
 //!
 //! **Same answers as the octree.** A node is only a filter: the objects it
 //! lets through are tested with the same code ([`Tester`]), and the answer
@@ -46,35 +46,6 @@ const STACK: usize = 96;
 /// for this). Each wide level leaves at most three children pending.
 const SHALLOW: usize = 40;
 
-/// Two children: `b[axis][0]` the lower corner, `b[axis][1]` the upper,
-/// each `[child 0, child 1]`. `count[i] == 0`: child `i` is the node
-/// `link[i]`; else it is a leaf of `count[i]` objects from `ids[link[i]..]`.
-/// An unused child has an empty box (lower corner `+inf`), which no ray
-/// enters.
-#[derive(Debug, Clone, Copy)]
-struct Node {
-    b: [[[f64; 2]; 2]; 3],
-    link: [u32; 2],
-    count: [u32; 2],
-}
-
-impl Node {
-    const UNUSED: Node = Node {
-        b: [[[f64::INFINITY; 2], [f64::NEG_INFINITY; 2]]; 3],
-        link: [0; 2],
-        count: [0; 2],
-    };
-
-    fn set(&mut self, lane: usize, bounds: Aabb, link: u32, count: u32) {
-        for a in 0..3 {
-            self.b[a][0][lane] = bounds.min[a];
-            self.b[a][1][lane] = bounds.max[a];
-        }
-        self.link[lane] = link;
-        self.count[lane] = count;
-    }
-}
-
 /// Four children, the traversal's node: [`Node`]'s layout four lanes wide
 /// (`b[axis][0]` the lower corners, `b[axis][1]` the upper, each
 /// `[child 0, .., child 3]`). Built by collapsing the binary tree: each
@@ -95,65 +66,6 @@ impl Wide {
         link: [0; 4],
         count: [0; 4],
     };
-}
-
-/// A child of a binary node: `(node, lane)`.
-type Lane = (u32, usize);
-
-fn lane_box(bin: &[Node], (n, l): Lane) -> Aabb {
-    let b = &bin[n as usize].b;
-    Aabb::new(
-        Vec3::new(b[0][0][l], b[1][0][l], b[2][0][l]),
-        Vec3::new(b[0][1][l], b[1][1][l], b[2][1][l]),
-    )
-}
-
-/// The wide node over binary node `node`'s subtree (appended to `out`
-/// with its descendants); returns its index. Deterministic: the largest
-/// internal child is opened, the first of equal ones.
-fn widen(bin: &[Node], out: &mut Vec<Wide>, node: u32) -> u32 {
-    let mut kids: Vec<Lane> = (0..2)
-        .map(|l| (node, l))
-        .filter(|&k| !lane_box(bin, k).is_empty())
-        .collect();
-    while kids.len() < 4 {
-        let open = kids
-            .iter()
-            .enumerate()
-            .filter(|(_, &(n, l))| bin[n as usize].count[l] == 0)
-            .map(|(i, &k)| (i, area(&lane_box(bin, k))))
-            .fold(None, |best: Option<(usize, f64)>, (i, a)| match best {
-                Some((_, ba)) if ba >= a => best,
-                _ => Some((i, a)),
-            });
-        let Some((i, _)) = open else { break };
-        let (n, l) = kids[i];
-        let child = bin[n as usize].link[l];
-        let grand: Vec<Lane> = (0..2)
-            .map(|g| (child, g))
-            .filter(|&k| !lane_box(bin, k).is_empty())
-            .collect();
-        kids.splice(i..=i, grand);
-    }
-    let id = out.len() as u32;
-    out.push(Wide::UNUSED);
-    for (j, &(n, l)) in kids.iter().enumerate() {
-        let b = lane_box(bin, (n, l));
-        let src = &bin[n as usize];
-        let (link, count) = if src.count[l] > 0 {
-            (src.link[l], src.count[l])
-        } else {
-            (widen(bin, out, src.link[l]), 0)
-        };
-        let w = &mut out[id as usize];
-        for a in 0..3 {
-            w.b[a][0][j] = b.min[a];
-            w.b[a][1][j] = b.max[a];
-        }
-        w.link[j] = link;
-        w.count[j] = count;
-    }
-    id
 }
 
 /// Per-ray constants of the slab test.
@@ -220,159 +132,439 @@ pub struct BvhStats {
     pub objects: usize,
 }
 
+/// An object's box in single precision, for the heuristic only (the nodes'
+/// boxes are the exact unions of the objects' double-precision boxes, see
+/// [`Builder::boxes`]): lanes 0 to 2 the coordinates, lane 3 of `lo` the
+/// index into `boxes` (its bits). 32 bytes, two SIMD registers.
 #[derive(Debug, Clone, Copy)]
-struct Item {
-    bounds: Aabb,
-    center: Vec3,
-    id: ObjectId,
+#[repr(C, align(16))]
+struct Ref {
+    lo: [f32; 4],
+    hi: [f32; 4],
 }
 
-struct Builder {
-    nodes: Vec<Node>,
-    /// Object ids of the leaves built so far, in leaf order.
-    ids: Vec<ObjectId>,
+impl Ref {
+    #[inline(always)]
+    fn index(&self) -> usize {
+        self.lo[3].to_bits() as usize
+    }
+
+    /// Twice the box's centre (lane 3 meaningless).
+    #[inline(always)]
+    fn centre(&self) -> [f32; 4] {
+        std::array::from_fn(|k| self.lo[k] + self.hi[k])
+    }
+}
+
+/// A box in single precision (lane 3 meaningless).
+#[derive(Debug, Clone, Copy)]
+struct Box4 {
+    lo: [f32; 4],
+    hi: [f32; 4],
+}
+
+impl Box4 {
+    const EMPTY: Box4 = Box4 {
+        lo: [f32::INFINITY; 4],
+        hi: [f32::NEG_INFINITY; 4],
+    };
+
+    #[inline(always)]
+    fn add(&mut self, lo: &[f32; 4], hi: &[f32; 4]) {
+        for k in 0..4 {
+            self.lo[k] = fmin(self.lo[k], lo[k]);
+            self.hi[k] = fmax(self.hi[k], hi[k]);
+        }
+    }
+
+    #[inline(always)]
+    fn grow(&mut self, p: &[f32; 4]) {
+        self.add(p, p);
+    }
+
+    /// Half the surface area (0 for an empty box).
+    #[inline(always)]
+    fn half_area(&self) -> f32 {
+        let e = [0, 1, 2].map(|k| fmax(self.hi[k] - self.lo[k], 0.0));
+        e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+    }
+
+    fn extent(&self) -> [f32; 3] {
+        [0, 1, 2].map(|k| self.hi[k] - self.lo[k])
+    }
+}
+
+/// A run `refs[start..end]` of the build: its box and the box of its
+/// centres (single precision), and its depth in binary splits (the root's
+/// children have depth 1).
+#[derive(Debug, Clone, Copy)]
+struct Part {
+    start: usize,
+    end: usize,
+    bounds: Box4,
+    centres: Box4,
     depth: u32,
 }
 
-fn area(b: &Aabb) -> f64 {
-    if b.is_empty() {
-        return 0.0;
-    }
-    let e = b.extent();
-    e.x * e.y + e.y * e.z + e.z * e.x
+/// What the build decided for a child of a wide node.
+#[derive(Debug, Clone, Copy)]
+enum Kid {
+    /// Not yet looked at.
+    Open(Part),
+    Leaf(Part),
+    /// Split in two (its box's half area, the sides); becomes a wide node
+    /// of its own unless opened.
+    Split(f32, Part, Part),
 }
 
-fn bounds_of(items: &[Item]) -> Aabb {
-    items.iter().fold(Aabb::EMPTY, |a, it| a.union(it.bounds))
+impl Kid {
+    fn half_area(&self) -> f32 {
+        match self {
+            Kid::Open(p) | Kid::Leaf(p) => p.bounds.half_area(),
+            Kid::Split(a, _, _) => *a,
+        }
+    }
 }
 
-/// Sweeps bin boundaries: the cheapest `(cost, boundary)` given each bin's
-/// box and object count.
-fn sweep(bin_box: &[Aabb; BINS], bin_n: &[usize; BINS], parent_area: f64) -> Option<(f64, usize)> {
-    let mut right_area = [0.0; BINS];
-    let mut right_n = [0usize; BINS];
-    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-    for b in (1..BINS).rev() {
-        acc = acc.union(bin_box[b]);
-        cnt += bin_n[b];
-        right_area[b] = area(&acc);
-        right_n[b] = cnt;
+/// `a.min(b)` and `a.max(b)` without the NaN cases: one `minps`/`maxps`
+/// lane.
+#[inline(always)]
+fn fmin(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
     }
-    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-    let mut best: Option<(f64, usize)> = None;
-    for b in 1..BINS {
-        acc = acc.union(bin_box[b - 1]);
-        cnt += bin_n[b - 1];
-        if cnt == 0 || right_n[b] == 0 {
-            continue;
-        }
-        let cost = NODE_COST
-            + (area(&acc) * cnt as f64 + right_area[b] * right_n[b] as f64)
-                / parent_area.max(f64::MIN_POSITIVE);
-        if best.is_none_or(|(c, _)| cost < c) {
-            best = Some((cost, b));
-        }
+}
+
+#[inline(always)]
+fn fmax(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
     }
-    best
+}
+
+/// The build, Embree's way: the binned surface area heuristic on
+/// single-precision boxes ([`Ref`], all three axes binned in one pass),
+/// partitions in place in one array (no allocation per node), four-wide
+/// nodes built directly (the binary split of the largest child repeated
+/// until there are four). Deterministic: every step is a function of the
+/// refs' order, which only the steps themselves change; no threads.
+struct Builder {
+    refs: Vec<Ref>,
+    /// Each object's box (already enlarged by the margin) and id, by
+    /// [`Ref::index`].
+    boxes: Vec<(Aabb, ObjectId)>,
+    nodes: Vec<Wide>,
+    /// Object ids of the leaves built so far, in leaf order.
+    ids: Vec<ObjectId>,
+    /// Deepest leaf in wide levels (the root's children have depth 1).
+    depth: u32,
+    /// The heuristic's bins, one set per axis (reused: each split clears
+    /// the ones it uses).
+    bins: [Bins; 3],
+}
+
+/// The part over `refs[start..end]` (boxes and centres gathered).
+fn part_of(refs: &[Ref], start: usize, end: usize, depth: u32) -> Part {
+    let (mut bounds, mut centres) = (Box4::EMPTY, Box4::EMPTY);
+    for r in &refs[start..end] {
+        bounds.add(&r.lo, &r.hi);
+        centres.grow(&r.centre());
+    }
+    Part {
+        start,
+        end,
+        bounds,
+        centres,
+        depth,
+    }
+}
+
+/// Per-axis bins of the heuristic: each bin's box and object count.
+#[derive(Clone, Copy)]
+struct Bins {
+    b: [Box4; BINS],
+    n: [u32; BINS],
+}
+
+impl Bins {
+    const EMPTY: Bins = Bins {
+        b: [Box4::EMPTY; BINS],
+        n: [0; BINS],
+    };
+
+    /// Sweeps the first `nb` bins' boundaries: the cheapest `(cost,
+    /// boundary, left box, right box)`.
+    fn sweep(&self, nb: usize, parent_area: f32) -> Option<(f32, usize, Box4, Box4)> {
+        let mut right_area = [0.0f32; BINS];
+        let mut right_n = [0u32; BINS];
+        let (mut acc, mut cnt) = (Box4::EMPTY, 0);
+        for b in (1..nb).rev() {
+            acc.add(&self.b[b].lo, &self.b[b].hi);
+            cnt += self.n[b];
+            right_area[b] = acc.half_area();
+            right_n[b] = cnt;
+        }
+        let (mut acc, mut cnt) = (Box4::EMPTY, 0);
+        let mut best: Option<(f32, usize, Box4)> = None;
+        let scale = 1.0 / parent_area.max(f32::MIN_POSITIVE);
+        for b in 1..nb {
+            acc.add(&self.b[b - 1].lo, &self.b[b - 1].hi);
+            cnt += self.n[b - 1];
+            if cnt == 0 || right_n[b] == 0 {
+                continue;
+            }
+            let cost = NODE_COST as f32
+                + (acc.half_area() * cnt as f32 + right_area[b] * right_n[b] as f32) * scale;
+            if best.is_none_or(|(c, ..)| cost < c) {
+                best = Some((cost, b, acc));
+            }
+        }
+        let (cost, b, left) = best?;
+        let mut right = Box4::EMPTY;
+        for bin in &self.b[b..nb] {
+            right.add(&bin.lo, &bin.hi);
+        }
+        Some((cost, b, left, right))
+    }
 }
 
 impl Builder {
-    /// Builds the subtree over `items` and returns its box, link and count
-    /// (see [`Node`]).
-    fn subtree(&mut self, items: &mut [Item], depth: u32) -> (Aabb, u32, u32) {
-        let bounds = bounds_of(items);
-        match self.split(items, &bounds, depth) {
-            None => {
-                self.depth = self.depth.max(depth);
-                let start = self.ids.len() as u32;
-                self.ids.extend(items.iter().map(|it| it.id));
-                (bounds, start, items.len() as u32)
-            }
-            Some(mid) => (bounds, self.node(items, mid, depth), 0),
-        }
-    }
-
-    /// A node with children over `items[..mid]` and `items[mid..]`.
-    fn node(&mut self, items: &mut [Item], mid: usize, depth: u32) -> u32 {
-        let id = self.nodes.len() as u32;
-        self.nodes.push(Node::UNUSED);
-        let (left, right) = items.split_at_mut(mid);
-        let (b0, l0, c0) = self.subtree(left, depth + 1);
-        let (b1, l1, c1) = self.subtree(right, depth + 1);
-        let n = &mut self.nodes[id as usize];
-        n.set(0, b0, l0, c0);
-        n.set(1, b1, l1, c1);
-        id
-    }
-
-    /// How to split `items`: the binned surface area heuristic over the
-    /// three axes (objects binned by box centre); a split by count where
-    /// centres coincide or the tree would grow too deep for the traversal
-    /// stack.
-    fn split(&self, items: &mut [Item], bounds: &Aabb, depth: u32) -> Option<usize> {
-        let n = items.len();
+    /// How to split `p`: the binned surface area heuristic over the three
+    /// axes (objects binned by box centre, the three axes in one pass); a
+    /// split by count where centres coincide or the tree would grow too
+    /// deep for the traversal stack; `None` for a leaf. Reorders
+    /// `refs[p.start..p.end]` so that each side is a run.
+    fn split(&mut self, p: &Part) -> Option<(Part, Part)> {
+        let n = p.end - p.start;
         if n <= 1 {
             return None;
         }
-        let cb = items.iter().fold(Aabb::EMPTY, |a, it| a.grow(it.center));
-        let axis_ext = cb.extent();
-        let widest = axis_ext.max_position();
-        let by_count = |items: &mut [Item]| {
-            if n <= MAX_LEAF {
-                return None;
-            }
-            items.sort_unstable_by(|a, b| {
-                a.center[widest]
-                    .total_cmp(&b.center[widest])
-                    .then(a.id.cmp(&b.id))
-            });
-            Some(n / 2)
-        };
-        if depth >= SAH_DEPTH || axis_ext.max_element() <= 0.0 || !axis_ext.is_finite() {
-            return by_count(items);
+        let ext = p.centres.extent();
+        let widest = ext[0].max(ext[1]).max(ext[2]);
+        if p.depth >= SAH_DEPTH || !(widest.is_finite() && widest > 0.0) {
+            return self.by_count(p);
         }
-        let parent_area = area(bounds);
-        let bin = |it: &Item, axis: usize| {
-            let scale = BINS as f64 / axis_ext[axis];
-            (((it.center[axis] - cb.min[axis]) * scale) as usize).min(BINS - 1)
+        // Fewer bins than objects would leave most of them empty.
+        let nb = n.min(BINS);
+        let cmin = p.centres.lo;
+        let mut scale = [0.0f32; 4];
+        for k in 0..3 {
+            scale[k] = if ext[k] > 0.0 {
+                nb as f32 / ext[k]
+            } else {
+                0.0
+            };
+        }
+        // A centre is in `[cmin, cmin + ext]`: bins `0..nb` (clamped: a
+        // centre on the top edge, rounding; a NaN from an infinite scale is
+        // bin 0).
+        let top = (nb - 1) as f32;
+        let bin = move |c: f32, k: usize| {
+            let x = fmin(fmax((c - cmin[k]) * scale[k], 0.0), top);
+            // SAFETY: `x` is in `[0, top]`, finite.
+            unsafe { x.to_int_unchecked::<u32>() as usize }
         };
-        let mut object: Option<(f64, usize, usize)> = None;
-        for axis in 0..3 {
-            if axis_ext[axis] <= 0.0 {
+        let bins_of = move |r: &Ref| {
+            let c = r.centre();
+            [bin(c[0], 0), bin(c[1], 1), bin(c[2], 2)]
+        };
+        let bins = &mut self.bins;
+        for bins in bins.iter_mut() {
+            bins.b[..nb].fill(Box4::EMPTY);
+            bins.n[..nb].fill(0);
+        }
+        for r in &self.refs[p.start..p.end] {
+            let b = bins_of(r);
+            for (a, bins) in bins.iter_mut().enumerate() {
+                bins.b[b[a]].add(&r.lo, &r.hi);
+                bins.n[b[a]] += 1;
+            }
+        }
+        let parent_area = p.bounds.half_area();
+        let mut best: Option<(f32, usize, usize, Box4, Box4)> = None;
+        for (axis, bins) in bins.iter().enumerate() {
+            if ext[axis].is_nan() || ext[axis] <= 0.0 {
                 continue;
             }
-            let mut bin_box = [Aabb::EMPTY; BINS];
-            let mut bin_n = [0usize; BINS];
-            for it in items.iter() {
-                let b = bin(it, axis);
-                bin_box[b] = bin_box[b].union(it.bounds);
-                bin_n[b] += 1;
-            }
-            if let Some((cost, b)) = sweep(&bin_box, &bin_n, parent_area) {
-                if object.is_none_or(|(c, _, _)| cost < c) {
-                    object = Some((cost, axis, b));
+            if let Some((cost, b, l, r)) = bins.sweep(nb, parent_area) {
+                if best.is_none_or(|(c, ..)| cost < c) {
+                    best = Some((cost, axis, b, l, r));
                 }
             }
         }
-        let Some((cost, axis, b)) = object else {
-            return by_count(items);
+        let Some((cost, axis, b, left, right)) = best else {
+            return self.by_count(p);
         };
-        if n <= MAX_LEAF && cost >= n as f64 {
-            return by_count(items);
+        if n <= MAX_LEAF && cost >= n as f32 {
+            return None;
         }
-        // In place, ordered by side and id: deterministic.
-        items.sort_unstable_by_key(|it| (bin(it, axis) >= b, it.id));
-        Some(items.iter().take_while(|it| bin(it, axis) < b).count())
+        // In place (Hoare's partition), gathering each side's centres.
+        let refs = &mut self.refs[p.start..p.end];
+        let (mut i, mut j) = (0, refs.len());
+        let (mut lc, mut rc) = (Box4::EMPTY, Box4::EMPTY);
+        let side = move |r: &Ref| bin(r.lo[axis] + r.hi[axis], axis) < b;
+        loop {
+            while i < j && side(&refs[i]) {
+                lc.grow(&refs[i].centre());
+                i += 1;
+            }
+            while i < j && !side(&refs[j - 1]) {
+                rc.grow(&refs[j - 1].centre());
+                j -= 1;
+            }
+            if i >= j {
+                break;
+            }
+            refs.swap(i, j - 1);
+        }
+        let mid = p.start + i;
+        let depth = p.depth + 1;
+        Some((
+            Part {
+                start: p.start,
+                end: mid,
+                bounds: left,
+                centres: lc,
+                depth,
+            },
+            Part {
+                start: mid,
+                end: p.end,
+                bounds: right,
+                centres: rc,
+                depth,
+            },
+        ))
     }
+
+    /// Halves `p` at the median centre on its centres' widest axis (ties
+    /// by index: by object id); `None` for a leaf when it holds at most
+    /// [`MAX_LEAF`] objects.
+    fn by_count(&mut self, p: &Part) -> Option<(Part, Part)> {
+        let n = p.end - p.start;
+        if n <= MAX_LEAF {
+            return None;
+        }
+        let ext = p.centres.extent();
+        let mut widest = 0;
+        for k in 1..3 {
+            if ext[k] > ext[widest] {
+                widest = k;
+            }
+        }
+        self.refs[p.start..p.end].select_nth_unstable_by(n / 2, |a, b| {
+            (a.lo[widest] + a.hi[widest])
+                .total_cmp(&(b.lo[widest] + b.hi[widest]))
+                .then(a.index().cmp(&b.index()))
+        });
+        let mid = p.start + n / 2;
+        Some((
+            part_of(&self.refs, p.start, mid, p.depth + 1),
+            part_of(&self.refs, mid, p.end, p.depth + 1),
+        ))
+    }
+
+    /// The wide node over a part split into `first`; returns its index and
+    /// exact box. Its children: the two sides, the largest side that
+    /// splits split again until there are four (the first of equal areas).
+    fn wide(&mut self, first: (Part, Part), depth: u32) -> (u32, Aabb) {
+        let mut kids = [
+            Kid::Open(first.0),
+            Kid::Open(first.1),
+            Kid::Open(first.1),
+            Kid::Open(first.1),
+        ];
+        let mut n = 2;
+        while n < 4 {
+            let mut open: Option<(usize, f32)> = None;
+            for (i, k) in kids[..n].iter().enumerate() {
+                if matches!(k, Kid::Leaf(_)) {
+                    continue;
+                }
+                let a = k.half_area();
+                if open.is_none_or(|(_, b)| a > b) {
+                    open = Some((i, a));
+                }
+            }
+            let Some((i, _)) = open else { break };
+            kids[i] = match kids[i] {
+                Kid::Split(_, l, r) => {
+                    kids[n] = Kid::Open(r);
+                    n += 1;
+                    Kid::Open(l)
+                }
+                Kid::Open(p) | Kid::Leaf(p) => self.decide(&p),
+            }
+        }
+        let id = self.nodes.len() as u32;
+        self.nodes.push(Wide::UNUSED);
+        let mut all = Aabb::EMPTY;
+        for (j, kid) in kids[..n].iter().enumerate() {
+            let kid = match *kid {
+                Kid::Open(p) => self.decide(&p),
+                k => k,
+            };
+            let (link, count, b) = match kid {
+                Kid::Split(_, l, r) => {
+                    let (link, b) = self.wide((l, r), depth + 1);
+                    (link, 0, b)
+                }
+                Kid::Leaf(p) | Kid::Open(p) => {
+                    let (link, b) = self.leaf(&p, depth);
+                    (link, (p.end - p.start) as u32, b)
+                }
+            };
+            all = all.union(b);
+            let w = &mut self.nodes[id as usize];
+            for a in 0..3 {
+                w.b[a][0][j] = b.min[a];
+                w.b[a][1][j] = b.max[a];
+            }
+            w.link[j] = link;
+            w.count[j] = count;
+        }
+        (id, all)
+    }
+
+    /// `p` as a leaf or split.
+    fn decide(&mut self, p: &Part) -> Kid {
+        match self.split(p) {
+            Some((l, r)) => Kid::Split(p.bounds.half_area(), l, r),
+            None => Kid::Leaf(*p),
+        }
+    }
+
+    /// Appends `p`'s objects to the leaf order; returns where they start
+    /// and their exact box.
+    fn leaf(&mut self, p: &Part, depth: u32) -> (u32, Aabb) {
+        self.depth = self.depth.max(depth);
+        let start = self.ids.len() as u32;
+        let mut all = Aabb::EMPTY;
+        for r in &self.refs[p.start..p.end] {
+            let (b, id) = self.boxes[r.index()];
+            all = all.union(b);
+            self.ids.push(id);
+        }
+        (start, all)
+    }
+}
+
+/// `x` rounded to single precision, within the finite range.
+fn to_f32(x: f64) -> f32 {
+    (x as f32).clamp(f32::MIN, f32::MAX)
 }
 
 impl Bvh {
     /// Builds the hierarchy over `objects` (ids are indices into
     /// `objects`). Objects with empty bounds are left out, like the
-    /// octree's. Deterministic.
+    /// octree's. Deterministic: the same objects give the same tree.
     pub fn build(objects: &[Object]) -> Bvh {
         let mut unbounded = Vec::new();
-        let mut items = Vec::with_capacity(objects.len());
+        let mut boxes = Vec::with_capacity(objects.len());
         let mut scene = Aabb::EMPTY;
         for (i, o) in objects.iter().enumerate() {
             let b = o.shape.bounds();
@@ -384,46 +576,58 @@ impl Bvh {
                 continue;
             }
             scene = scene.union(b);
-            items.push(Item {
-                bounds: b,
-                center: b.center(),
-                id: i as ObjectId,
-            });
+            boxes.push((b, i as ObjectId));
         }
         let mut bvh = Bvh {
             unbounded,
             prims: Prims::build(objects),
             ..Default::default()
         };
-        if items.is_empty() {
+        if boxes.is_empty() {
             return bvh;
         }
         // The octree's margin: far beyond the slab test's rounding.
         let margin = 1e-9 * (scene.extent().max_element() + scene.magnitude());
         let pad = Vec3::splat(margin);
-        for it in &mut items {
-            it.bounds = Aabb::new(it.bounds.min - pad, it.bounds.max + pad);
-        }
-        let all = bounds_of(&items);
+        let refs = boxes
+            .iter_mut()
+            .enumerate()
+            .map(|(i, (b, _))| {
+                *b = Aabb::new(b.min - pad, b.max + pad);
+                let (lo, hi) = (b.min.to_array().map(to_f32), b.max.to_array().map(to_f32));
+                Ref {
+                    lo: [lo[0], lo[1], lo[2], f32::from_bits(i as u32)],
+                    hi: [hi[0], hi[1], hi[2], 0.0],
+                }
+            })
+            .collect();
+        let n = boxes.len();
         let mut b = Builder {
-            nodes: Vec::with_capacity(items.len()),
-            ids: Vec::with_capacity(items.len()),
+            refs,
+            boxes,
+            nodes: Vec::with_capacity(n / 2 + 1),
+            ids: Vec::with_capacity(n),
             depth: 0,
+            bins: [Bins::EMPTY; 3],
         };
-        match b.split(&mut items, &all, 0) {
+        let root = part_of(&b.refs, 0, n, 0);
+        match b.split(&root) {
             None => {
-                b.nodes.push(Node::UNUSED);
-                b.nodes[0].set(0, all, 0, items.len() as u32);
-                b.ids.extend(items.iter().map(|it| it.id));
-                b.depth = 1;
+                let (link, all) = b.leaf(&root, 1);
+                let mut w = Wide::UNUSED;
+                for a in 0..3 {
+                    w.b[a][0][0] = all.min[a];
+                    w.b[a][1][0] = all.max[a];
+                }
+                w.link[0] = link;
+                w.count[0] = n as u32;
+                b.nodes.push(w);
             }
-            Some(mid) => {
-                b.node(&mut items, mid, 1);
+            Some(sides) => {
+                b.wide(sides, 1);
             }
         }
-        let mut wide = Vec::with_capacity(b.nodes.len() / 2 + 1);
-        widen(&b.nodes, &mut wide, 0);
-        bvh.nodes = wide;
+        bvh.nodes = b.nodes;
         bvh.ids = b.ids;
         bvh.depth = b.depth;
         bvh
@@ -691,5 +895,105 @@ impl ObjectIndex for Bvh {
 
     fn memory_bytes(&self) -> usize {
         Bvh::memory_bytes(self)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::rng::Rng;
+    use crate::geometry::Shape;
+
+    fn scene(seed: u64, n: usize) -> Vec<Object> {
+        let mut rng = Rng::new(seed);
+        let mut v = || Vec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64());
+        let mut out = Vec::new();
+        while out.len() < n {
+            let c = v() * 10.0;
+            let (a, b) = (c + v() * 0.5, c + v() * 0.5);
+            let shape = if out.len() % 7 == 0 {
+                Shape::sphere(c, 0.1, false)
+            } else {
+                Shape::polygon(vec![c, a, b])
+            };
+            if let Ok(shape) = shape {
+                out.push(Object {
+                    name: String::new(),
+                    shape,
+                    material: 0,
+                });
+            }
+        }
+        // Coincident copies: centres that do not spread.
+        for _ in 0..40 {
+            out.push(out[1].clone());
+        }
+        out
+    }
+
+    /// Every child box is the exact union of what it holds: its objects'
+    /// boxes enlarged by the margin, or its node's children's boxes.
+    fn check_boxes(bvh: &Bvh, objects: &[Object], node: u32, margin: f64) -> usize {
+        let n = &bvh.nodes[node as usize];
+        let mut held = 0;
+        for l in 0..4 {
+            let lane = Aabb::new(
+                Vec3::new(n.b[0][0][l], n.b[1][0][l], n.b[2][0][l]),
+                Vec3::new(n.b[0][1][l], n.b[1][1][l], n.b[2][1][l]),
+            );
+            if lane.is_empty() {
+                continue;
+            }
+            let want = if n.count[l] > 0 {
+                let s = n.link[l] as usize;
+                held += n.count[l] as usize;
+                bvh.ids[s..s + n.count[l] as usize]
+                    .iter()
+                    .fold(Aabb::EMPTY, |b, &id| {
+                        let o = objects[id as usize].shape.bounds();
+                        b.union(Aabb::new(o.min - margin, o.max + margin))
+                    })
+            } else {
+                held += check_boxes(bvh, objects, n.link[l], margin);
+                let c = &bvh.nodes[n.link[l] as usize];
+                (0..4).fold(Aabb::EMPTY, |b, k| {
+                    b.union(Aabb::new(
+                        Vec3::new(c.b[0][0][k], c.b[1][0][k], c.b[2][0][k]),
+                        Vec3::new(c.b[0][1][k], c.b[1][1][k], c.b[2][1][k]),
+                    ))
+                })
+            };
+            assert_eq!(
+                (lane.min, lane.max),
+                (want.min, want.max),
+                "node {node} lane {l}"
+            );
+        }
+        held
+    }
+
+    #[test]
+    fn bvh_build_is_deterministic_and_boxes_exact() {
+        for (seed, n) in [(1, 3), (2, 9), (3, 300), (4, 5000)] {
+            let objects = scene(seed, n);
+            let a = Bvh::build(&objects);
+            let b = Bvh::build(&objects);
+            assert_eq!(a.ids, b.ids);
+            assert_eq!(a.depth, b.depth);
+            assert_eq!(a.nodes.len(), b.nodes.len());
+            for (x, y) in a.nodes.iter().zip(&b.nodes) {
+                assert_eq!((x.link, x.count), (y.link, y.count));
+                assert_eq!(format!("{:?}", x.b), format!("{:?}", y.b));
+            }
+            let scene_box = objects
+                .iter()
+                .fold(Aabb::EMPTY, |b, o| b.union(o.shape.bounds()));
+            let margin = 1e-9 * (scene_box.extent().max_element() + scene_box.magnitude());
+            assert_eq!(check_boxes(&a, &objects, 0, margin), objects.len());
+            let mut ids = a.ids.clone();
+            ids.sort_unstable();
+            assert!(ids.iter().copied().eq(0..objects.len() as ObjectId));
+            assert!(a.stats().leaves * MAX_LEAF >= objects.len());
+        }
     }
 }
