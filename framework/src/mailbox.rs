@@ -56,15 +56,6 @@ impl<T> Mailbox<T> {
         Some(item)
     }
 
-    /// Takes the oldest item of `class` that satisfies `pred`.
-    pub(crate) fn pop_class_where(&mut self, class: Class, pred: impl Fn(&T) -> bool) -> Option<T> {
-        let q = &mut self.queues[class.index()];
-        let i = q.iter().position(pred)?;
-        let item = q.remove(i)?;
-        self.len -= 1;
-        Some(item)
-    }
-
     /// The class [`Mailbox::pop`] would return from.
     pub(crate) fn peek_class(&self) -> Option<Class> {
         Class::ALL

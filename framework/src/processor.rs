@@ -20,9 +20,10 @@
 //!
 //! Back-pressure: while its send backlog holds more than
 //! [`Config::backlog_budget_bytes`], a processor asks the master for pooled
-//! children only (no new root task) and keeps the demand-driven children it
-//! spawns instead of sending them away. Everything it already holds still
-//! runs, so no cycle of waiting processors can form (SEMANTICS.md, 5 and 6).
+//! children only (no new root task), keeps the demand-driven children it
+//! spawns instead of sending them away and sends every lane with credit at
+//! once. Everything it already holds still runs, so no cycle of waiting
+//! processors can form (SEMANTICS.md, 5 and 6).
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -257,14 +258,14 @@ impl<W: Workload> Processor<W> {
             self.execute_dd(task, now)?;
             return Ok(Step::Worked(State::Executing));
         }
-        if let Some(inc) = self.pop_task(Class::DataParallel) {
+        if let Some(inc) = self.mailbox.pop_class(Class::DataParallel) {
             return self.handle(inc, now).map(Step::Worked);
         }
         // New demand-driven work only while there is room to wait for its
         // data: this keeps the waiting table bounded and leaves further tasks
         // in the (credit-bounded) input buffer.
         if self.room_for_more_waiting() {
-            if let Some(inc) = self.pop_task(Class::DemandDriven) {
+            if let Some(inc) = self.mailbox.pop_class(Class::DemandDriven) {
                 let root = matches!(&inc.msg, Msg::Dd(env) if env.handout);
                 let state = self.handle(inc, now)?;
                 if root && self.prefetch_work && self.requested.is_none() {
@@ -290,20 +291,6 @@ impl<W: Workload> Processor<W> {
     /// Back-pressure: the send backlog holds more than its budget.
     fn over_budget(&self) -> bool {
         self.outbox.backlog_bytes() > self.backlog_budget
-    }
-
-    /// The next task of `class` to run. Over budget, tasks this processor
-    /// spawned for itself wait (they are new work and would grow the
-    /// backlog); tasks received from others, and hand-outs, still run:
-    /// their consumption returns credits, which other processors' progress
-    /// may depend on.
-    fn pop_task(&mut self, class: Class) -> Option<Incoming<W>> {
-        if self.over_budget() {
-            let me = self.addr;
-            self.mailbox.pop_class_where(class, |inc| inc.from != me)
-        } else {
-            self.mailbox.pop_class(class)
-        }
     }
 
     /// Asks the master for work: a root task too unless over budget.

@@ -288,7 +288,7 @@ fn work_in_flight_stays_within_the_byte_budget_under_every_policy() {
 
 /// Back-pressure never loses a task or hangs: with a budget of a few
 /// messages every processor is over it most of the time (it keeps its
-/// children, asks for pooled work only, holds its own new tasks), and
+/// children and asks for pooled work only), and
 /// every policy, cache size and interleaving still ends with the
 /// sequential results.
 #[test]
