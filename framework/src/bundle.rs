@@ -52,11 +52,24 @@ pub(crate) struct Outbox<W: Workload> {
     ready: Vec<Packet<W>>,
     backlog: usize,
     backlog_high_water: usize,
+    /// Bytes of the messages waiting in lanes, and their high-water mark.
+    backlog_bytes: usize,
+    backlog_bytes_high_water: usize,
+    /// High-water mark of the work in flight here: input buffer bytes plus
+    /// send backlog bytes, at the same moment.
+    in_flight_high_water: usize,
 }
 
 impl<W: Workload> Outbox<W> {
-    /// Outbox of `me` in a run with `procs` workers.
-    pub(crate) fn new(me: Addr, procs: usize, bundle: BundleConfig, credits_per_link: u32) -> Self {
+    /// Outbox of `me` in a run with `procs` workers, `credits_per_link`
+    /// credits and a byte window of `window` towards each destination.
+    pub(crate) fn new(
+        me: Addr,
+        procs: usize,
+        bundle: BundleConfig,
+        credits_per_link: u32,
+        window: usize,
+    ) -> Self {
         let slots = procs + 1;
         let max_age = u64::try_from(bundle.max_age.as_nanos()).unwrap_or(u64::MAX);
         Outbox {
@@ -65,12 +78,15 @@ impl<W: Workload> Outbox<W> {
             bundle,
             max_age,
             lanes: (0..slots).map(|_| Default::default()).collect(),
-            credits: Credits::new(slots, credits_per_link),
-            ledger: CreditLedger::new(slots, credits_per_link),
+            credits: Credits::new(slots, credits_per_link, window),
+            ledger: CreditLedger::new(slots, credits_per_link, window),
             inbuf: InputBuffer::default(),
             ready: Vec::new(),
             backlog: 0,
             backlog_high_water: 0,
+            backlog_bytes: 0,
+            backlog_bytes_high_water: 0,
+            in_flight_high_water: 0,
         }
     }
 
@@ -81,6 +97,7 @@ impl<W: Workload> Outbox<W> {
         let credited = is_credit_limited(from, class);
         if credited {
             self.inbuf.add(bytes);
+            self.note_in_flight();
         }
         credited
     }
@@ -89,15 +106,19 @@ impl<W: Workload> Outbox<W> {
     /// credit goes back with the next batch that is due.
     pub(crate) fn consumed(&mut self, from: Addr, bytes: usize, now: Time) {
         self.inbuf.remove(bytes);
-        self.ledger.consumed(from.slot(self.procs));
+        self.ledger.consumed(from.slot(self.procs), bytes);
         self.return_credits(false, now);
     }
 
     /// Sends the credits that are due; with `flush`, every owed one (the
     /// actor ran out of work).
     pub(crate) fn return_credits(&mut self, flush: bool, now: Time) {
-        for (slot, n) in self.ledger.take_due(flush) {
-            self.push(Addr::from_slot(slot, self.procs), Msg::Credit(n), now);
+        for (slot, n, bytes) in self.ledger.take_due(flush) {
+            self.push(
+                Addr::from_slot(slot, self.procs),
+                Msg::Credit(n, bytes as u64),
+                now,
+            );
         }
     }
 
@@ -121,13 +142,18 @@ impl<W: Workload> Outbox<W> {
         lane.bytes += bytes;
         self.backlog += 1;
         self.backlog_high_water = self.backlog_high_water.max(self.backlog);
+        self.backlog_bytes += bytes;
+        self.backlog_bytes_high_water = self.backlog_bytes_high_water.max(self.backlog_bytes);
+        self.note_in_flight();
         self.pump_lane(slot, class, now, false);
     }
 
-    /// Credits came back from `from`; lanes towards it may move again.
-    pub(crate) fn grant(&mut self, from: Addr, credits: u32, now: Time) {
+    /// Credits (and window bytes) came back from `from`; lanes towards it
+    /// may move again.
+    pub(crate) fn grant(&mut self, from: Addr, credits: u32, bytes: u64, now: Time) {
         let slot = from.slot(self.procs);
-        self.credits.grant(slot, credits);
+        let bytes = usize::try_from(bytes).unwrap_or(usize::MAX);
+        self.credits.grant(slot, credits, bytes);
         for class in Class::ALL {
             self.pump_lane(slot, class, now, false);
         }
@@ -169,15 +195,26 @@ impl<W: Workload> Outbox<W> {
             let mut items = Vec::new();
             let mut bytes = HEADER_BYTES;
             while items.len() < cap && bytes - HEADER_BYTES < self.bundle.max_bytes {
-                let Some((msg, b, _)) = lane.items.pop_front() else {
+                let Some(&(_, b, _)) = lane.items.front() else {
                     break;
                 };
+                // The byte window: a message that does not fit waits for
+                // credit, unless it is the first with nothing outstanding.
+                if !self.credits.fits(slot, bytes - HEADER_BYTES, b) {
+                    break;
+                }
+                let (msg, b, _) = lane.items.pop_front().expect("peeked");
                 lane.bytes -= b;
                 bytes += b;
                 items.push(msg);
             }
+            if items.is_empty() {
+                return;
+            }
+            let payload = bytes - HEADER_BYTES;
             self.backlog -= items.len();
-            self.credits.consume(slot, items.len() as u32);
+            self.backlog_bytes -= payload;
+            self.credits.consume(slot, items.len() as u32, payload);
             self.ready.push(Packet {
                 from: self.me,
                 to,
@@ -210,6 +247,31 @@ impl<W: Workload> Outbox<W> {
         self.backlog_high_water
     }
 
+    /// Bytes of the messages waiting in lanes now.
+    pub(crate) fn backlog_bytes(&self) -> usize {
+        self.backlog_bytes
+    }
+
+    /// Most bytes ever waiting in lanes.
+    pub(crate) fn backlog_bytes_high_water(&self) -> usize {
+        self.backlog_bytes_high_water
+    }
+
+    /// Work in flight here now: credit-limited bytes received and not
+    /// consumed plus bytes waiting in lanes.
+    pub(crate) fn in_flight_bytes(&self) -> usize {
+        self.inbuf.bytes + self.backlog_bytes
+    }
+
+    /// Most work ever in flight here ([`Outbox::in_flight_bytes`]).
+    pub(crate) fn in_flight_high_water(&self) -> usize {
+        self.in_flight_high_water
+    }
+
+    fn note_in_flight(&mut self) {
+        self.in_flight_high_water = self.in_flight_high_water.max(self.in_flight_bytes());
+    }
+
     /// Whether nothing at all is waiting to go out.
     #[cfg(test)]
     pub(crate) fn is_empty(&self) -> bool {
@@ -236,7 +298,7 @@ mod example {
             max_items: 3,
             ..BundleConfig::default()
         };
-        let mut out = Outbox::<Mini>::new(Addr::Proc(0), 2, bundle, 4);
+        let mut out = Outbox::<Mini>::new(Addr::Proc(0), 2, bundle, 4, 1 << 20);
         let to = Addr::Proc(1);
 
         // A data request leaves at once, alone; results wait for a bundle of three.
@@ -264,7 +326,7 @@ mod example {
 
         // The receiver consumed them and gave credits back; a flush (the sender
         // ran out of work) sends the rest without waiting for a full bundle.
-        out.grant(to, 3, 0);
+        out.grant(to, 3, 3 * 16, 0);
         out.pump(0, true);
         assert_eq!(out.take_ready()[0].items.len(), 2);
         assert!(out.is_empty());

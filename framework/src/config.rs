@@ -74,6 +74,15 @@ pub struct Config {
     /// worker may have unconsumed at one receiver. Bounds every input buffer
     /// by `credits_per_link * procs` messages.
     pub credits_per_link: usize,
+    /// Flow control in bytes: the work in flight at one actor, credit-limited
+    /// messages received and not consumed (its input buffer) plus messages
+    /// waiting in its outbox (its send backlog). Half of it bounds the input
+    /// buffer (a byte window per sending link of half the budget over the
+    /// processors), half the backlog (a processor whose backlog holds more
+    /// takes no new root task and keeps the children it spawns). See
+    /// SEMANTICS.md section 5 for what is guaranteed.
+    #[serde(default = "default_flight_bytes")]
+    pub flight_bytes: usize,
     /// A processor asks for new demand-driven work while fewer than this many
     /// of its tasks wait for data (latency hiding versus memory).
     pub max_waiting_tasks: usize,
@@ -92,6 +101,13 @@ fn yes() -> bool {
     true
 }
 
+/// The default of [`Config::flight_bytes`]: 1 MiB.
+pub const DEFAULT_FLIGHT_BYTES: usize = 1 << 20;
+
+fn default_flight_bytes() -> usize {
+    DEFAULT_FLIGHT_BYTES
+}
+
 impl Config {
     /// Defaults for `procs` workers: `Local` policy, unlimited cache,
     /// bundling on, 64 credits per link.
@@ -102,6 +118,7 @@ impl Config {
             cache_bytes: None,
             bundle: BundleConfig::default(),
             credits_per_link: 64,
+            flight_bytes: DEFAULT_FLIGHT_BYTES,
             max_waiting_tasks: 2,
             prefetch_work: true,
             threads: None,
@@ -130,6 +147,12 @@ impl Config {
     /// Sets the credits per link.
     pub fn with_credits(mut self, credits: usize) -> Self {
         self.credits_per_link = credits;
+        self
+    }
+
+    /// Sets the work-in-flight budget per actor ([`Config::flight_bytes`]).
+    pub fn with_flight_bytes(mut self, bytes: usize) -> Self {
+        self.flight_bytes = bytes;
         self
     }
 
@@ -184,6 +207,12 @@ impl Config {
                 max: MAX_CREDITS,
             });
         }
+        if self.flight_bytes / 2 < self.procs {
+            return Err(ConfigError::FlightBudgetTooSmall {
+                bytes: self.flight_bytes,
+                procs: self.procs,
+            });
+        }
         if self.max_waiting_tasks == 0 {
             return Err(ConfigError::ZeroWaitingTasks);
         }
@@ -202,6 +231,21 @@ impl Config {
     /// never exceed this (checked by the flow-control tests).
     pub fn input_buffer_bound(&self) -> usize {
         self.procs * self.credits_per_link
+    }
+
+    /// The byte window of one link: a worker may have at most this many
+    /// bytes of credit-limited messages unconsumed at one receiver (or a
+    /// single message of any size when it has none there). Half the
+    /// [`Config::flight_bytes`] budget shared by the `procs` senders.
+    pub fn link_window_bytes(&self) -> usize {
+        (self.flight_bytes / 2 / self.procs.max(1)).max(1)
+    }
+
+    /// A processor whose send backlog holds more bytes than this takes no
+    /// new root task and keeps its spawned children: the other half of
+    /// [`Config::flight_bytes`].
+    pub fn backlog_budget_bytes(&self) -> usize {
+        self.flight_bytes - self.flight_bytes / 2
     }
 }
 
@@ -269,6 +313,7 @@ mod tests {
                 "threads",
             ),
             (Config::new(2).with_time_limit(Duration::ZERO), "time limit"),
+            (Config::new(4).with_flight_bytes(7), "in-flight budget"),
         ];
         for (cfg, needle) in cases {
             let err = cfg.validate().expect_err("must be rejected");

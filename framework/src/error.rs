@@ -49,6 +49,14 @@ pub enum ConfigError {
         /// Allowed.
         max: usize,
     },
+    /// A work-in-flight budget too small to give every sender a byte.
+    #[error("the work-in-flight budget must be at least 2 bytes per processor (got {bytes} for {procs} processors)")]
+    FlightBudgetTooSmall {
+        /// Requested.
+        bytes: usize,
+        /// Processors.
+        procs: usize,
+    },
     /// A processor must be allowed at least one task waiting for data.
     #[error("max_waiting_tasks must be at least 1 (got 0)")]
     ZeroWaitingTasks,

@@ -57,7 +57,9 @@ pub(crate) struct Master<W: Workload> {
     workload: Arc<W>,
     roots: VecDeque<W::DdTask>,
     pool: VecDeque<(DdEnvelope<W>, Addr, usize)>,
-    parked: VecDeque<usize>,
+    /// Workers with a work request parked, and whether it allows a root
+    /// task (at most one entry per worker: a new request replaces it).
+    parked: VecDeque<(usize, bool)>,
     mailbox: Mailbox<Incoming<W>>,
     outbox: Outbox<W>,
     acc: W::Accumulator,
@@ -81,7 +83,13 @@ impl<W: Workload> Master<W> {
             pool: VecDeque::new(),
             parked: VecDeque::new(),
             mailbox: Mailbox::new(),
-            outbox: Outbox::new(Addr::Master, procs, config.bundle.clone(), credits),
+            outbox: Outbox::new(
+                Addr::Master,
+                procs,
+                config.bundle.clone(),
+                credits,
+                config.link_window_bytes(),
+            ),
             acc: W::Accumulator::default(),
             stats: ProcStats::new(Addr::Master),
             basic_sent: 0,
@@ -145,26 +153,30 @@ impl<W: Workload> Master<W> {
             }
         };
         match inc.msg {
-            Msg::WorkRequest => {
+            Msg::WorkRequest { roots } => {
+                // A worker's new request replaces its parked one (a worker
+                // back under its backlog budget allows a root again).
+                self.parked.retain(|&(w, _)| w != worker);
                 if let Some((env, sender, bytes)) = self.pool.pop_front() {
                     self.hand_out(worker, env, now);
                     self.consume(sender, bytes, now);
-                } else if let Some(task) = self.roots.pop_front() {
+                } else if let Some(task) = roots.then(|| self.roots.pop_front()).flatten() {
                     self.stats.tasks.roots += 1;
                     let env = DdEnvelope {
                         task,
                         origin: None,
                         handout: true,
+                        root: true,
                     };
                     self.hand_out(worker, env, now);
                 } else {
-                    self.parked.push_back(worker);
+                    self.parked.push_back((worker, roots));
                 }
             }
             Msg::Dd(env) => {
                 // A `ViaMaster` child: to the first processor asking for work.
                 self.stats.tasks.pooled += 1;
-                if let Some(w) = self.parked.pop_front() {
+                if let Some((w, _)) = self.parked.pop_front() {
                     self.hand_out(w, env, now);
                     self.consume(from, inc.bytes, now);
                 } else {
@@ -290,6 +302,9 @@ impl<W: Workload> Master<W> {
             self.stats.memory.input_buffer_bytes,
         ) = self.outbox.input_high_water();
         self.stats.memory.mailbox_items = self.mailbox.high_water();
+        self.stats.memory.send_backlog = self.outbox.backlog_high_water();
+        self.stats.memory.send_backlog_bytes = self.outbox.backlog_bytes_high_water();
+        self.stats.memory.in_flight_bytes = self.outbox.in_flight_high_water();
         (self.acc, self.stats)
     }
 }

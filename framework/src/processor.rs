@@ -17,6 +17,13 @@
 //!    data-parallel work when its data can never fit the cache;
 //! 5. nothing runnable: flush bundles and credits, ask the master for work if
 //!    there is room for more, answer a termination probe if passive.
+//!
+//! Back-pressure: while its send backlog holds more than
+//! [`Config::backlog_budget_bytes`], a processor asks the master for pooled
+//! children only (no new root task), keeps the demand-driven children it
+//! spawns instead of sending them away and sends every lane with credit at
+//! once. Everything it already holds still runs, so no cycle of waiting
+//! processors can form (SEMANTICS.md, 5 and 6).
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -62,7 +69,10 @@ pub(crate) struct Processor<W: Workload> {
     stats: ProcStats,
     max_waiting: usize,
     prefetch_work: bool,
-    requested_work: bool,
+    /// The work request outstanding at the master, if any: whether it
+    /// allowed a root task.
+    requested: Option<bool>,
+    backlog_budget: usize,
     probe: Option<u64>,
     terminated: bool,
     basic_sent: u64,
@@ -76,6 +86,11 @@ pub(crate) struct Processor<W: Workload> {
     /// every time).
     spare_ctx: Option<Ctx<W>>,
     queued_high_water: usize,
+    /// Bytes of root tasks held from hand-out to execution, and their
+    /// high-water mark.
+    roots_held: (usize, usize),
+    /// Bytes of the largest data selection one clipping returned.
+    largest_selection: usize,
 }
 
 impl<W: Workload> Processor<W> {
@@ -97,13 +112,20 @@ impl<W: Workload> Processor<W> {
             ready: VecDeque::new(),
             deferred: VecDeque::new(),
             store,
-            outbox: Outbox::new(addr, procs, config.bundle.clone(), credits),
+            outbox: Outbox::new(
+                addr,
+                procs,
+                config.bundle.clone(),
+                credits,
+                config.link_window_bytes(),
+            ),
             placer: Placer::new(config.policy, id, procs),
             acc: W::Accumulator::default(),
             stats: ProcStats::new(addr),
             max_waiting: config.max_waiting_tasks,
             prefetch_work: config.prefetch_work,
-            requested_work: false,
+            requested: None,
+            backlog_budget: config.backlog_budget_bytes(),
             probe: None,
             terminated: false,
             basic_sent: 0,
@@ -112,6 +134,8 @@ impl<W: Workload> Processor<W> {
             pending_work: Vec::new(),
             spare_ctx: None,
             queued_high_water: 0,
+            roots_held: (0, 0),
+            largest_selection: 0,
             workload,
         })
     }
@@ -169,7 +193,7 @@ impl<W: Workload> Processor<W> {
                 self.basic_received += 1;
             }
             match msg {
-                Msg::Credit(n) => self.outbox.grant(from, n, now),
+                Msg::Credit(n, bytes) => self.outbox.grant(from, n, bytes, now),
                 Msg::Probe(wave) => self.probe = Some(wave),
                 Msg::Terminate => {
                     debug!(proc = self.id, passive = self.is_passive(), "terminate");
@@ -180,8 +204,12 @@ impl<W: Workload> Processor<W> {
                     let bytes = msg.byte_size();
                     let credited = self.outbox.arrived(from, class, bytes);
                     if let Msg::Dd(env) = &msg {
+                        if env.root {
+                            self.roots_held.0 += bytes;
+                            self.roots_held.1 = self.roots_held.1.max(self.roots_held.0);
+                        }
                         if env.handout {
-                            self.requested_work = false;
+                            self.requested = None;
                             if env.origin.is_none() {
                                 self.stats.tasks.roots += 1;
                             }
@@ -209,6 +237,11 @@ impl<W: Workload> Processor<W> {
         }
         self.last_charges.clear();
         let result = self.step_inner(now);
+        if self.over_budget() {
+            // Over budget, nothing waits for a fuller bundle: what has
+            // credit goes now, so the backlog holds only what lacks it.
+            self.outbox.pump(now, true);
+        }
         self.note_queues();
         result.map_err(|message| RunError::Workload {
             at: self.addr,
@@ -235,16 +268,39 @@ impl<W: Workload> Processor<W> {
             if let Some(inc) = self.mailbox.pop_class(Class::DemandDriven) {
                 let root = matches!(&inc.msg, Msg::Dd(env) if env.handout);
                 let state = self.handle(inc, now)?;
-                if root && self.prefetch_work && !self.requested_work {
+                if root && self.prefetch_work && self.requested.is_none() {
                     // One root in reserve: ask now, work while it comes.
-                    self.requested_work = true;
-                    self.send(Addr::Master, Msg::WorkRequest, now);
+                    self.request_work(now);
                 }
                 return Ok(Step::Worked(state));
             }
         }
         self.on_idle(now);
         Ok(Step::Idle)
+    }
+
+    /// A root task leaves the processor's hold (it runs, or turns
+    /// data-parallel).
+    fn root_done(&mut self, env: &DdEnvelope<W>) {
+        if env.root {
+            let bytes = Msg::<W>::dd_bytes(&env.task);
+            self.roots_held.0 = self.roots_held.0.saturating_sub(bytes);
+        }
+    }
+
+    /// Back-pressure: the send backlog holds more than its budget.
+    fn over_budget(&self) -> bool {
+        self.outbox.backlog_bytes() > self.backlog_budget
+    }
+
+    /// Asks the master for work: a root task too unless over budget.
+    fn request_work(&mut self, now: Time) {
+        let roots = !self.over_budget();
+        if !roots {
+            self.stats.tasks.pooled_only_requests += 1;
+        }
+        self.requested = Some(roots);
+        self.send(Addr::Master, Msg::WorkRequest { roots }, now);
     }
 
     fn room_for_more_waiting(&self) -> bool {
@@ -319,6 +375,9 @@ impl<W: Workload> Processor<W> {
             self.workload.select_data_in(&env.task, &local, &mut ctx)
         };
         self.stats.tasks.selections += 1;
+        self.largest_selection = self
+            .largest_selection
+            .max(ids.len() * std::mem::size_of::<W::DataId>());
         self.dispatch(ctx, Some(origin), now)?;
         self.admit(env, ids, now)
     }
@@ -333,6 +392,7 @@ impl<W: Workload> Processor<W> {
 
     fn execute_dd(&mut self, task: ReadyTask<W>, now: Time) -> Result<(), String> {
         let ReadyTask { env, pinned } = task;
+        self.root_done(&env);
         let origin = env.origin;
         let mut ctx = self.new_ctx(origin);
         {
@@ -370,6 +430,7 @@ impl<W: Workload> Processor<W> {
             }
             Admission::Deferred(env, ids) => self.deferred.push_back((env, ids)),
             Admission::TooBig(env) => {
+                self.root_done(&env);
                 self.stats.tasks.fallbacks += 1;
                 debug!(proc = self.id, task = ?env.task, "data exceeds cache budget: data-parallel fallback");
                 let mut ctx = self.new_ctx(env.origin);
@@ -462,9 +523,17 @@ impl<W: Workload> Processor<W> {
                 task,
                 origin,
                 handout: false,
+                root: false,
             };
             let load = self.load();
-            match self.placer.place(PlaceCtx { origin, load }) {
+            // Over budget, children stay: sending them would grow the
+            // backlog (placement never changes results, only where work runs).
+            let mut target = self.placer.place(PlaceCtx { origin, load });
+            if target != Target::Local && self.over_budget() {
+                self.stats.tasks.kept_over_budget += 1;
+                target = Target::Local;
+            }
+            match target {
                 Target::Local => self.push_local(Msg::Dd(env)),
                 Target::Master => self.send(Addr::Master, Msg::Dd(env), now),
                 Target::Proc(p) => self.send(Addr::Proc(p), Msg::Dd(env), now),
@@ -510,9 +579,14 @@ impl<W: Workload> Processor<W> {
         // go back.
         self.outbox.pump(now, true);
         self.outbox.return_credits(true, now);
-        if !self.requested_work && self.room_for_more_waiting() {
-            self.requested_work = true;
-            self.send(Addr::Master, Msg::WorkRequest, now);
+        if self.room_for_more_waiting() {
+            match self.requested {
+                None => self.request_work(now),
+                // Back under budget with a request for pooled work only
+                // parked: ask again, allowing a root (it replaces the other).
+                Some(false) if !self.over_budget() => self.request_work(now),
+                Some(_) => {}
+            }
         }
         if let Some(wave) = self.probe {
             if self.is_passive() {
@@ -570,6 +644,10 @@ impl<W: Workload> Processor<W> {
         m.mailbox_items = self.mailbox.high_water();
         m.queued_tasks = self.queued_high_water;
         m.send_backlog = self.outbox.backlog_high_water();
+        m.send_backlog_bytes = self.outbox.backlog_bytes_high_water();
+        m.in_flight_bytes = self.outbox.in_flight_high_water();
+        m.root_task_bytes = self.roots_held.1;
+        m.selection_bytes = self.largest_selection;
         self.stats.cache = self.store.cache().counters();
         (self.acc, self.stats)
     }

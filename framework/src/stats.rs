@@ -193,6 +193,15 @@ pub struct TaskCounters {
     pub children_spawned: u64,
     /// Child tasks pooled at the master (master only).
     pub pooled: u64,
+    /// Back-pressure: children kept on this processor, which its policy
+    /// would have sent away, because its send backlog was over budget
+    /// ([`crate::Config::flight_bytes`]).
+    #[serde(default)]
+    pub kept_over_budget: u64,
+    /// Back-pressure: work requests for pooled children only (no root task)
+    /// sent while over budget.
+    #[serde(default)]
+    pub pooled_only_requests: u64,
     /// Results merged here.
     pub results_merged: u64,
 }
@@ -219,6 +228,21 @@ pub struct MemoryHighWater {
     pub queued_tasks: usize,
     /// Messages held in the outbox for a bundle or for credit.
     pub send_backlog: usize,
+    /// Bytes of the above.
+    #[serde(default)]
+    pub send_backlog_bytes: usize,
+    /// Work in flight: input buffer bytes plus send backlog bytes, the most
+    /// ever held at one moment (at most the sum of the two high-water marks).
+    #[serde(default)]
+    pub in_flight_bytes: usize,
+    /// Bytes of root tasks (the ray tracer's primary-ray tiles) held here
+    /// from hand-out to execution.
+    #[serde(default)]
+    pub root_task_bytes: usize,
+    /// Bytes of the largest data selection (data ids) one selection step
+    /// returned (the ray tracer's pyramid clipping).
+    #[serde(default)]
+    pub selection_bytes: usize,
 }
 
 /// Everything measured at one actor.

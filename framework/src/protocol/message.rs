@@ -19,6 +19,9 @@ pub struct DdEnvelope<W: Workload> {
     pub origin: Option<usize>,
     /// Whether the master sent it in answer to a work request.
     pub handout: bool,
+    /// Whether it is a root task (from [`crate::Workload::root_tasks`]).
+    #[serde(default)]
+    pub root: bool,
 }
 
 /// A data-parallel task in transit.
@@ -46,11 +49,17 @@ pub enum Msg<W: Workload> {
     Dp(DpEnvelope<W>),
     /// A demand-driven task.
     Dd(DdEnvelope<W>),
-    /// A worker asks the master for a demand-driven task.
-    WorkRequest,
+    /// A worker asks the master for a demand-driven task: a pooled child,
+    /// or a root task too when `roots` (a worker over its backlog budget
+    /// asks for pooled children only). A request from a worker whose
+    /// earlier one is still parked replaces it.
+    WorkRequest {
+        /// Whether a root task may answer it.
+        roots: bool,
+    },
     /// Flow control: the receiver has consumed this many of the sender's
-    /// credit-limited items.
-    Credit(u32),
+    /// credit-limited items, of this many bytes.
+    Credit(u32, u64),
     /// Termination detection: report your counters for wave `n` once passive.
     Probe(u64),
     /// Answer to [`Msg::Probe`]: basic messages sent and received so far.
@@ -77,8 +86,8 @@ impl<W: Workload> Msg<W> {
             Msg::Result(_) => Class::Result,
             Msg::Dp(_) => Class::DataParallel,
             Msg::Dd(_) => Class::DemandDriven,
-            Msg::WorkRequest
-            | Msg::Credit(_)
+            Msg::WorkRequest { .. }
+            | Msg::Credit(..)
             | Msg::Probe(_)
             | Msg::ProbeReply { .. }
             | Msg::Terminate => Class::Control,
@@ -91,8 +100,13 @@ impl<W: Workload> Msg<W> {
     pub fn is_basic(&self) -> bool {
         !matches!(
             self,
-            Msg::Credit(_) | Msg::Probe(_) | Msg::ProbeReply { .. } | Msg::Terminate
+            Msg::Credit(..) | Msg::Probe(_) | Msg::ProbeReply { .. } | Msg::Terminate
         )
+    }
+
+    /// Accounted size of a demand-driven task message.
+    pub(crate) fn dd_bytes(task: &W::DdTask) -> usize {
+        8 + task.byte_size()
     }
 
     /// Accounted size in bytes.
@@ -108,7 +122,7 @@ impl<W: Workload> Msg<W> {
             }
             Msg::Result(r) => r.byte_size(),
             Msg::Dp(e) => 8 + e.task.byte_size(),
-            Msg::Dd(e) => 8 + e.task.byte_size(),
+            Msg::Dd(e) => Self::dd_bytes(&e.task),
             _ => 16,
         }
     }
@@ -122,8 +136,8 @@ impl<W: Workload> fmt::Debug for Msg<W> {
             Msg::Result(r) => write!(f, "Result({r:?})"),
             Msg::Dp(e) => write!(f, "Dp({:?})", e.task),
             Msg::Dd(e) => write!(f, "Dd({:?}, handout={})", e.task, e.handout),
-            Msg::WorkRequest => write!(f, "WorkRequest"),
-            Msg::Credit(n) => write!(f, "Credit({n})"),
+            Msg::WorkRequest { roots } => write!(f, "WorkRequest {{ roots: {roots} }}"),
+            Msg::Credit(n, bytes) => write!(f, "Credit({n}, {bytes})"),
             Msg::Probe(w) => write!(f, "Probe({w})"),
             Msg::ProbeReply {
                 wave,

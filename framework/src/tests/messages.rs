@@ -13,6 +13,7 @@ fn packets_round_trip_through_serde() {
                 task: Task { key: 5, depth: 1 },
                 origin: Some(1),
                 handout: false,
+                root: false,
             }),
             Msg::DataReply(vec![(3, Item(vec![1, 2]))]),
             Msg::ProbeReply {
@@ -34,6 +35,7 @@ fn dd(key: u64) -> Msg<Mini> {
         task: Task { key, depth: 0 },
         origin: None,
         handout: false,
+        root: false,
     })
 }
 
@@ -45,7 +47,7 @@ fn outbox_bundles_by_count_and_flush_and_sends_urgent_at_once() {
         max_bytes: 1 << 20,
         max_age: std::time::Duration::from_secs(1),
     };
-    let mut out: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, bundle, 100);
+    let mut out: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, bundle, 100, 1 << 20);
     out.push(Addr::Proc(1), dd(1), 0);
     out.push(Addr::Proc(1), dd(2), 0);
     assert!(!out.has_ready(), "not yet a full bundle");
@@ -70,7 +72,8 @@ fn outbox_bundles_by_count_and_flush_and_sends_urgent_at_once() {
 
 #[test]
 fn outbox_holds_messages_without_credit_and_never_drops() {
-    let mut out: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, BundleConfig::default(), 2);
+    let mut out: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, BundleConfig::default(), 2, 1 << 20);
+    let b = dd(0).byte_size() as u64;
     for k in 0..5 {
         out.push(Addr::Proc(1), dd(k), 0);
     }
@@ -81,7 +84,7 @@ fn outbox_holds_messages_without_credit_and_never_drops() {
     assert_eq!(out.credits_towards(Addr::Proc(1)), 0);
     out.pump(0, true);
     assert!(!out.has_ready(), "no credit, nothing sent");
-    out.grant(Addr::Proc(1), 2, 0);
+    out.grant(Addr::Proc(1), 2, 2 * b, 0);
     out.pump(0, true);
     assert_eq!(
         out.take_ready()
@@ -90,7 +93,7 @@ fn outbox_holds_messages_without_credit_and_never_drops() {
             .sum::<usize>(),
         2
     );
-    out.grant(Addr::Proc(1), 5, 0);
+    out.grant(Addr::Proc(1), 5, 2 * b, 0);
     out.pump(0, true);
     let last = out.take_ready();
     assert_eq!(last.iter().map(|p| p.items.len()).sum::<usize>(), 1);
@@ -101,4 +104,45 @@ fn outbox_holds_messages_without_credit_and_never_drops() {
         out.push(Addr::Proc(1), Msg::DataRequest(vec![1]), 0);
     }
     assert_eq!(out.take_ready().len(), 10);
+}
+
+#[test]
+fn the_byte_window_holds_messages_and_lets_a_large_one_go_alone() {
+    let b = dd(0).byte_size();
+    // Credits for 100 messages, but a window of two and a half messages.
+    let window = 2 * b + b / 2;
+    let mut out: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, BundleConfig::default(), 100, window);
+    for k in 0..5 {
+        out.push(Addr::Proc(1), dd(k), 0);
+    }
+    out.pump(0, true);
+    let sent = |out: &mut Outbox<Mini>| {
+        out.take_ready()
+            .iter()
+            .map(|p| p.items.len())
+            .sum::<usize>()
+    };
+    assert_eq!(sent(&mut out), 2, "two fit the window");
+    assert_eq!((out.backlog(), out.backlog_bytes()), (3, 3 * b));
+    out.pump(0, true);
+    assert_eq!(sent(&mut out), 0, "the window is full: nothing more goes");
+    // One message's bytes come back: one more fits.
+    out.grant(Addr::Proc(1), 1, b as u64, 0);
+    out.pump(0, true);
+    assert_eq!(sent(&mut out), 1);
+    assert_eq!(out.in_flight_bytes(), 2 * b, "two still in the backlog");
+    out.grant(Addr::Proc(1), 2, 2 * b as u64, 0);
+    out.pump(0, true);
+    assert_eq!(sent(&mut out), 2);
+    assert_eq!(out.in_flight_bytes(), 0);
+    // With nothing outstanding, a message larger than the window goes alone.
+    let mut big: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, BundleConfig::default(), 100, 1);
+    big.push(Addr::Proc(1), dd(0), 0);
+    big.push(Addr::Proc(1), dd(1), 0);
+    big.pump(0, true);
+    assert_eq!(sent(&mut big), 1, "alone, never stuck");
+    big.grant(Addr::Proc(1), 1, b as u64, 0);
+    big.pump(0, true);
+    assert_eq!(sent(&mut big), 1);
+    assert!(big.is_empty());
 }

@@ -227,3 +227,104 @@ fn inconsistent_placement_is_a_config_error() {
         "{text}"
     );
 }
+
+/// The tests' workloads with many roots, deep families and long walks.
+fn busy(hotspot: bool) -> Mini {
+    Mini {
+        hotspot,
+        roots: 200,
+        depth: 3,
+        hops: 6,
+        ..Mini::default()
+    }
+}
+
+/// Peak work in flight (input buffer plus send backlog, at one moment) of
+/// every actor stays within `Config::flight_bytes`, and the input buffer
+/// within its half (a hard bound: every message is smaller than a link's
+/// window here), under every policy and cache size, with the sequential
+/// results. Credits alone do not bound it: the same runs without the byte
+/// budget exceed it.
+#[test]
+fn work_in_flight_stays_within_the_byte_budget_under_every_policy() {
+    let budget = 4096;
+    let mut worst_unbounded = 0;
+    for hotspot in [false, true] {
+        let w = busy(hotspot);
+        for policy in Policy::ALL {
+            for cache in [Some(1), Some(200), None] {
+                let base = Config::new(4).with_policy(policy).with_cache_bytes(cache);
+                let cfg = base.clone().with_flight_bytes(budget);
+                let r = run_lockstep(Arc::new(w.clone()), &cfg, 3).expect("terminates");
+                check_against_sequential(&w, &r);
+                for p in r.stats.procs.iter().chain([&r.stats.master]) {
+                    let m = &p.memory;
+                    let case = format!("hot spot {hotspot}, {policy}, cache {cache:?}, {}", p.addr);
+                    assert!(m.in_flight_bytes <= budget, "{case}: {m:?}");
+                    assert!(m.input_buffer_bytes <= budget / 2, "{case}: {m:?}");
+                    assert!(m.in_flight_bytes <= m.input_buffer_bytes + m.send_backlog_bytes);
+                    assert!(m.in_flight_bytes >= m.input_buffer_bytes.max(m.send_backlog_bytes));
+                }
+                let free = base.with_flight_bytes(usize::MAX);
+                let r = run_lockstep(Arc::new(w.clone()), &free, 3).expect("terminates");
+                check_against_sequential(&w, &r);
+                let peak = r
+                    .stats
+                    .procs
+                    .iter()
+                    .chain([&r.stats.master])
+                    .map(|p| p.memory.in_flight_bytes)
+                    .max()
+                    .unwrap_or(0);
+                worst_unbounded = worst_unbounded.max(peak);
+            }
+        }
+    }
+    assert!(
+        worst_unbounded > budget,
+        "credits alone held every run within {budget} bytes ({worst_unbounded}): the test shows nothing"
+    );
+}
+
+/// Back-pressure never loses a task or hangs: with a budget of a few
+/// messages every processor is over it most of the time (it keeps its
+/// children and asks for pooled work only), and
+/// every policy, cache size and interleaving still ends with the
+/// sequential results.
+#[test]
+fn back_pressure_neither_loses_work_nor_deadlocks() {
+    let mut kept = 0;
+    let mut pooled_only = 0;
+    for hotspot in [false, true] {
+        let w = busy(hotspot);
+        for policy in Policy::ALL {
+            for cache in [Some(1), Some(200), None] {
+                for seed in [1, 2] {
+                    let cfg = Config::new(4)
+                        .with_policy(policy)
+                        .with_cache_bytes(cache)
+                        .with_credits(2)
+                        .with_flight_bytes(8);
+                    let r = run_lockstep(Arc::new(w.clone()), &cfg, seed).expect("terminates");
+                    check_against_sequential(&w, &r);
+                    kept += r.stats.sum(|p| p.tasks.kept_over_budget);
+                    pooled_only += r.stats.sum(|p| p.tasks.pooled_only_requests);
+                }
+            }
+            // And on real threads.
+            let cfg = Config::new(4)
+                .with_policy(policy)
+                .with_cache_bytes(Some(200))
+                .with_credits(2)
+                .with_flight_bytes(8)
+                .with_time_limit(std::time::Duration::from_secs(60));
+            let r = run_threads(Arc::new(w.clone()), &cfg).expect("terminates");
+            check_against_sequential(&w, &r);
+        }
+    }
+    assert!(
+        kept > 0,
+        "no child was ever kept: back-pressure never acted"
+    );
+    assert!(pooled_only > 0, "no request for pooled work only");
+}

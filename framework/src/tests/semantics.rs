@@ -26,6 +26,7 @@ fn ready_demand_driven_tasks_run_before_waiting_data_parallel_tasks() {
         task,
         origin: None,
         handout: true,
+        root: false,
     };
     p.deliver(Packet::single(Addr::Master, Addr::Proc(0), Msg::Dd(env)), 0);
     assert_eq!(p.step(1).unwrap(), Step::Worked(State::Selecting));

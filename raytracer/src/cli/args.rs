@@ -559,6 +559,14 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub credits: usize,
+    /// Flow control in bytes: work in flight per processor (task and result messages received and not consumed, plus those waiting to be sent). Half bounds the input buffer, half the send backlog.
+    #[arg(
+        long,
+        default_value_t = hybrid_sched::config::DEFAULT_FLIGHT_BYTES,
+        value_name = "BYTES",
+        help_heading = "Parallel rendering"
+    )]
+    pub flight_bytes: usize,
     /// Ask the master for a new tile only when out of work (the paper's way) instead of one tile ahead.
     #[arg(long, help_heading = "Parallel rendering")]
     pub no_prefetch: bool,
@@ -727,6 +735,7 @@ const VALUE_FLAGS: &[&str] = &[
     "--hemispheres",
     "--network",
     "--credits",
+    "--flight-bytes",
     "--max-procs",
     "--detail-procs",
     "--cache-procs",

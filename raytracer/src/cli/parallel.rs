@@ -86,6 +86,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
         network,
         sim_seed: 0,
         credits: a.credits,
+        flight_bytes: a.flight_bytes,
         prefetch_work: !a.no_prefetch,
     })
 }

@@ -67,6 +67,8 @@ pub(super) struct RunSpec {
     pub(super) cache: CacheSize,
     pub(super) distribution: Distribution,
     pub(super) credits: usize,
+    /// [`hybrid_sched::Config::flight_bytes`].
+    pub(super) flight_bytes: usize,
     pub(super) small: bool,
     pub(super) clip_cache: bool,
     /// [`WorkloadOptions::inline_local_shadows`] (the paper has every
@@ -82,6 +84,7 @@ impl RunSpec {
             cache: CacheSize::Unlimited,
             distribution: Distribution::Octree,
             credits: 64,
+            flight_bytes: hybrid_sched::config::DEFAULT_FLIGHT_BYTES,
             small: false,
             clip_cache: false,
             inline_shadows: false,
@@ -157,6 +160,7 @@ impl Ctx<'_> {
         p.network = s.network.clone();
         p.sim_seed = s.seed;
         p.credits = spec.credits;
+        p.flight_bytes = spec.flight_bytes;
         // The paper's processors ask for a tile when they run dry.
         p.prefetch_work = false;
         let r = Arc::new(render_parallel(

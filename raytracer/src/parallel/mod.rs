@@ -155,6 +155,9 @@ pub struct ParallelOptions {
     pub sim_seed: u64,
     /// Flow control: credits per link (see [`hybrid_sched::Config`]).
     pub credits: usize,
+    /// Flow control in bytes: work in flight per processor, input buffer
+    /// plus send backlog (see [`hybrid_sched::Config::flight_bytes`]).
+    pub flight_bytes: usize,
     /// Ask for the next tile when starting one (see
     /// [`hybrid_sched::Config::prefetch_work`]); `false`: the paper's
     /// ask-when-idle.
@@ -174,6 +177,7 @@ impl ParallelOptions {
             network: Network::ten_gbe(),
             sim_seed: 0,
             credits: Config::new(1).credits_per_link,
+            flight_bytes: Config::new(1).flight_bytes,
             prefetch_work: Config::new(1).prefetch_work,
         }
     }
@@ -208,6 +212,10 @@ pub struct ParallelRender {
     pub cache_bytes: Option<u64>,
     /// Total cell data of the scene.
     pub data_bytes: u64,
+    /// Heap bytes of the octree the run traced, as built
+    /// ([`crate::accel::Octree::memory_bytes`]): replicated, every processor
+    /// holds one.
+    pub octree_bytes: u64,
     pub procs: Vec<ProcSummary>,
     /// The framework's statistics (times per state, traffic, tasks, cache,
     /// memory high-water marks, counted work).
@@ -316,6 +324,7 @@ pub fn render_parallel_with_progress(
     config.threads = popts.threads;
     config.time_limit = popts.time_limit;
     config.credits_per_link = popts.credits;
+    config.flight_bytes = popts.flight_bytes;
     config.prefetch_work = popts.prefetch_work;
     config
         .validate()
@@ -419,6 +428,7 @@ pub fn render_parallel_with_progress(
         options: popts.clone(),
         cache_bytes,
         data_bytes,
+        octree_bytes: wl.renderer().octree().memory_bytes() as u64,
         procs,
         stats: report.stats,
         render_s,

@@ -482,7 +482,7 @@ mod tests {
             from: Addr::Proc(1),
             to: Addr::Master,
             class: Class::Control,
-            items: vec![Msg::WorkRequest, Msg::Credit(3)],
+            items: vec![Msg::WorkRequest { roots: true }, Msg::Credit(3, 120)],
             bytes: 48,
             load: 7,
         }
