@@ -559,10 +559,10 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub credits: usize,
-    /// Flow control in bytes: work in flight per processor (task and result messages received and not consumed, plus those waiting to be sent). Half bounds the input buffer, half the send backlog.
+    /// Flow control in bytes: work in flight per processor (task and result messages received and not consumed, plus those waiting to be sent). Half bounds the input buffer, half the send backlog. The simulated experiments use 1 MiB.
     #[arg(
         long,
-        default_value_t = hybrid_sched::config::DEFAULT_FLIGHT_BYTES,
+        default_value_t = crate::parallel::RENDER_FLIGHT_BYTES,
         value_name = "BYTES",
         help_heading = "Parallel rendering"
     )]
