@@ -17,7 +17,11 @@
 //! is self-contained, so it can be traced, cached and evicted alone).
 //! Copying every object into every leaf instead made the studio's one
 //! processor hold 92 MB more than the whole scene (its walls and floor are
-//! listed in thousands of leaves).
+//! listed in thousands of leaves). Under MPI (one processor per process)
+//! copies that arrive are shared process-wide too
+//! ([`share_copies_in_process`]): a leaf received whose objects the process
+//! already holds (resident, or brought by another leaf) reuses those
+//! copies.
 //!
 //! On the wire (serde) a leaf is its ids and, for each plain surface, its
 //! name, material and defining numbers (a polygon's vertices after the
@@ -27,7 +31,7 @@
 //! rejects data no source could have made.
 
 use std::collections::HashMap;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, Weak};
 
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -102,6 +106,52 @@ pub fn copy_bytes(o: &Object) -> usize {
 
 /// One processor's copies by object id, shared by the leaves it builds.
 pub type ObjectCopies = HashMap<ObjectId, Arc<HeldObject>>;
+
+/// The copies alive in this process by object id, when
+/// [`share_copies_in_process`] turned sharing on; dead entries are swept
+/// when the table doubles.
+struct Shared {
+    live: HashMap<ObjectId, Weak<HeldObject>>,
+    sweep_at: usize,
+}
+
+static SHARED_COPIES: Mutex<Option<Shared>> = Mutex::new(None);
+
+/// Shares copies process-wide from now on: leaves read from the wire reuse
+/// the copies of objects this process holds, and `copies` (the resident
+/// ones) are offered to them. For a process that runs one processor of
+/// one scene (an MPI rank): object ids name the same object everywhere in
+/// it.
+pub fn share_copies_in_process(copies: &ObjectCopies) {
+    let mut g = SHARED_COPIES.lock().unwrap_or_else(|e| e.into_inner());
+    let t = g.get_or_insert_with(|| Shared {
+        live: HashMap::new(),
+        sweep_at: 1024,
+    });
+    for (&id, c) in copies {
+        t.live.insert(id, Arc::downgrade(c));
+    }
+}
+
+/// A copy of object `id` as received (`w`): the process-wide one when
+/// sharing is on and one is alive, else built from `w`.
+fn received_copy(id: ObjectId, w: WireObject) -> Result<Arc<HeldObject>, String> {
+    let mut g = SHARED_COPIES.lock().unwrap_or_else(|e| e.into_inner());
+    let Some(t) = g.as_mut() else {
+        drop(g);
+        return object_from_wire(w).map(HeldObject::new);
+    };
+    if let Some(c) = t.live.get(&id).and_then(Weak::upgrade) {
+        return Ok(c);
+    }
+    let c = HeldObject::new(object_from_wire(w)?);
+    t.live.insert(id, Arc::downgrade(&c));
+    if t.live.len() >= t.sweep_at {
+        t.live.retain(|_, w| w.strong_count() > 0);
+        t.sweep_at = (2 * t.live.len()).max(1024);
+    }
+    Ok(c)
+}
 
 /// Whether a processor keeps its own copy of `o` in the leaves it holds
 /// (plain surfaces) or uses the replicated one (instances).
@@ -317,9 +367,9 @@ impl<'de> Deserialize<'de> for LeafObjects {
             match o {
                 None => slots.push(SHARED),
                 Some(o) => {
-                    let o = object_from_wire(o)
+                    let copy = received_copy(*id, o)
                         .map_err(|e| D::Error::custom(format!("object {id}: {e}")))?;
-                    held.push(HeldObject::new(o));
+                    held.push(copy);
                     slots.push(held.len() as u32 - 1);
                 }
             }

@@ -325,6 +325,13 @@ pub fn render_parallel_with_progress(
         Some(p) => wl.with_progress(p),
         None => wl,
     };
+    // One processor per process: the copies a rank receives share the
+    // ones it holds.
+    let wl = if popts.runtime == RuntimeKind::Mpi {
+        wl.sharing_copies_in_process()
+    } else {
+        wl
+    };
     let data_bytes = wl.data_bytes();
     let cache_bytes = popts.cache.resolve(data_bytes);
     let mut config = Config::new(popts.procs)

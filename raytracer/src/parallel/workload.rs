@@ -109,6 +109,8 @@ pub struct RtWorkload {
     /// Finished pixels, counted for a progress display (see
     /// [`RtWorkload::with_progress`]).
     pub(super) progress: Option<Arc<std::sync::atomic::AtomicU64>>,
+    /// See [`RtWorkload::sharing_copies_in_process`].
+    pub(super) share_in_process: bool,
 }
 
 /// A tile's primary rays by its top-left pixel, row by row (`None`: the
@@ -129,6 +131,14 @@ pub(super) struct ClipEntry {
 }
 
 impl RtWorkload {
+    /// Makes every processor offer its resident copies to the leaves this
+    /// process receives ([`crate::accel::share_copies_in_process`]): for
+    /// runtimes with one processor per process (MPI).
+    pub fn sharing_copies_in_process(mut self) -> Self {
+        self.share_in_process = true;
+        self
+    }
+
     /// Counts finished pixels into `counter` as processors assemble them
     /// (what is computed does not change).
     pub fn with_progress(mut self, counter: Arc<std::sync::atomic::AtomicU64>) -> Self {
@@ -199,6 +209,7 @@ impl RtWorkload {
             cells,
             partition,
             progress: None,
+            share_in_process: false,
         }
     }
 
@@ -331,7 +342,8 @@ impl Workload for RtWorkload {
             self.cells.iter().map(|&(l, n, _)| (l, n)).collect();
         // One copy of each object for all of this processor's leaves.
         let mut copies = ObjectCopies::new();
-        self.owner_table()
+        let cells = self
+            .owner_table()
             .into_iter()
             .filter(|&(_, owner, _)| owner == proc)
             .map(|(leaf, _, bytes)| {
@@ -351,7 +363,11 @@ impl Workload for RtWorkload {
                     },
                 )
             })
-            .collect()
+            .collect::<Vec<_>>();
+        if self.share_in_process {
+            crate::accel::share_copies_in_process(&copies);
+        }
+        cells
     }
 
     fn root_tasks(&self, _procs: usize) -> Vec<DdTask> {
