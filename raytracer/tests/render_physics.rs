@@ -274,8 +274,10 @@ fn tir_reflects_everything_in_shading() {
             normal: Vec3::X,
             object: 0,
             inner: None,
-            material: ctx.scene.objects[0].surface_at(None).0,
-            flat: ctx.scene.objects[0].surface_at(None).1,
+            surface: {
+                let (m, f) = ctx.scene.objects[0].surface_at(None);
+                Hit::surface_word(m, f)
+            },
         };
         let mut out = Vec::new();
         let shaded = shade(&ctx, &task, &hit, &mut out);

@@ -318,8 +318,10 @@ fn dielectric_and_interface_energy() {
                     normal: Vec3::X,
                     object: 0,
                     inner: None,
-                    material: ctx.scene.objects[0].surface_at(None).0,
-                    flat: ctx.scene.objects[0].surface_at(None).1,
+                    surface: {
+                        let (m, f) = ctx.scene.objects[0].surface_at(None);
+                        Hit::surface_word(m, f)
+                    },
                 };
                 let mut out = Vec::new();
                 shade(&ctx, &task, &hit, &mut out);
@@ -814,8 +816,10 @@ fn sampled_rays_stay_sampled_after_mirrors() {
             normal: Vec3::new(-1.0, 0.0, 0.0),
             object: mirror_obj,
             inner: None,
-            material: ctx.scene.objects[mirror_obj as usize].surface_at(None).0,
-            flat: ctx.scene.objects[mirror_obj as usize].surface_at(None).1,
+            surface: {
+                let (m, f) = ctx.scene.objects[mirror_obj as usize].surface_at(None);
+                Hit::surface_word(m, f)
+            },
         };
         let mut out = Vec::new();
         shade(&ctx, &task, &hit, &mut out);

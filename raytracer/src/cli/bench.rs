@@ -230,7 +230,7 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         for (i, hit) in hits.iter().enumerate() {
             let Some(hit) = hit else { continue };
             n_hits += 1;
-            if scene.material(hit.material).is_emitter() {
+            if scene.material(hit.material()).is_emitter() {
                 continue;
             }
             let ray = &rays[i].0;

@@ -137,15 +137,18 @@ pub struct Hit {
     /// For instances: index of the hit object in the instance's geometry (its
     /// material is the one that shades the hit).
     pub inner: Option<u32>,
-    /// The material shading the hit (an instance's: its inner object's).
-    /// A hit carries what shading needs of the object it landed on, so it
-    /// can be shaded by a processor that does not hold that object (a
-    /// migrated ray's nearest hit so far, a shadow bundle's replayed
-    /// answer).
-    pub material: MaterialId,
-    /// Whether the surface hit is flat (a polygon or a ring).
-    pub flat: bool,
+    /// What shading needs of the object hit: its material (an instance's:
+    /// its inner object's) and whether the surface is flat (a polygon or a
+    /// ring), in one word ([`Hit::material`], [`Hit::flat`]) so a hit keeps
+    /// the size it had without them: every migrating ray and replayed
+    /// shadow answer carries one. With it a hit is shaded by a processor
+    /// that holds no copy of the object (a migrated ray's nearest hit so
+    /// far, a shadow bundle's replayed answer).
+    pub surface: u32,
 }
+
+/// The flat bit of [`Hit::surface`]; the material id is the rest.
+const FLAT_BIT: u32 = 1 << 31;
 
 impl Hit {
     /// The hit at distance `t` along `ray` on object `id` (`obj`), with the
@@ -166,9 +169,28 @@ impl Hit {
             normal,
             object: id,
             inner,
-            material,
-            flat,
+            surface: Hit::surface_word(material, flat),
         }
+    }
+
+    /// [`Hit::surface`] for `material` and `flat` (material ids stay below
+    /// 2^31: the loaders make at most one per scene record).
+    #[inline]
+    pub fn surface_word(material: MaterialId, flat: bool) -> u32 {
+        debug_assert!(material < FLAT_BIT);
+        (material & !FLAT_BIT) | if flat { FLAT_BIT } else { 0 }
+    }
+
+    /// The material shading the hit.
+    #[inline]
+    pub fn material(&self) -> MaterialId {
+        self.surface & !FLAT_BIT
+    }
+
+    /// Whether the surface hit is flat (a polygon or a ring).
+    #[inline]
+    pub fn flat(&self) -> bool {
+        self.surface & FLAT_BIT != 0
     }
 }
 

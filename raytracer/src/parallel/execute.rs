@@ -321,7 +321,7 @@ impl RtWorkload {
         }
         let replay = std::mem::take(&mut job.replay);
         let visits = std::cell::Cell::new((0u64, 0u64));
-        let memo = CellMemo::new(data);
+        let memo = CellMemo::new(data, self, ctx.proc_id());
         let caster = PartialCaster::new(
             octree,
             shared,

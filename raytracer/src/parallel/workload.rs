@@ -514,18 +514,24 @@ impl Workload for RtWorkload {
     }
 }
 
-/// [`RtWorkload::cell`] with the last leaves found remembered: a shadow
-/// bundle's rays cross the same few leaves again and again, and a lookup
-/// in the processor's store is a hash lookup.
+/// [`RtWorkload::cell`] with the last resident leaves found remembered: a
+/// shadow bundle's rays cross the same few leaves again and again, and a
+/// lookup in the processor's store is a hash lookup. Cached leaves are
+/// looked up every time, so the cache sees every use (its recency order,
+/// and so what it evicts, is what it would be without the memo).
 pub(super) struct CellMemo<'a, 'v> {
     view: &'a DataView<'v, RtWorkload>,
+    wl: &'a RtWorkload,
+    proc: usize,
     slots: [std::cell::Cell<(NodeId, Option<&'v LeafObjects>)>; 8],
 }
 
 impl<'a, 'v> CellMemo<'a, 'v> {
-    pub(super) fn new(view: &'a DataView<'v, RtWorkload>) -> Self {
+    pub(super) fn new(view: &'a DataView<'v, RtWorkload>, wl: &'a RtWorkload, proc: usize) -> Self {
         CellMemo {
             view,
+            wl,
+            proc,
             slots: std::array::from_fn(|_| std::cell::Cell::new((NodeId::MAX, None))),
         }
     }
@@ -537,7 +543,7 @@ impl<'a, 'v> CellMemo<'a, 'v> {
             (l, Some(c)) if l == leaf => Some(c),
             _ => {
                 let c = RtWorkload::cell(self.view, leaf);
-                if c.is_some() {
+                if c.is_some() && self.wl.owned(self.proc, leaf) {
                     slot.set((leaf, c));
                 }
                 c

@@ -66,8 +66,10 @@ fn shaded(s: &Scene, dir: Vec3) -> (Vec<Request>, Option<FuncBsdf>) {
         normal: Vec3::Z,
         object: 0,
         inner: None,
-        material: ctx.scene.objects[0].surface_at(None).0,
-        flat: ctx.scene.objects[0].surface_at(None).1,
+        surface: {
+            let (m, f) = ctx.scene.objects[0].surface_at(None);
+            Hit::surface_word(m, f)
+        },
     };
     let mut out = Vec::new();
     shade(&ctx, &task, &hit, &mut out);
@@ -322,8 +324,10 @@ fn the_mist_brtdfunc_specular_depends_on_rdot_and_rdotp() {
         normal: Vec3::Z,
         object: 0,
         inner: None,
-        material: s.objects[0].surface_at(None).0,
-        flat: s.objects[0].surface_at(None).1,
+        surface: {
+            let (m, f) = s.objects[0].surface_at(None);
+            Hit::surface_word(m, f)
+        },
     };
     let id = material_id(&s, "brtd_mat");
     let f = shadow_filter(&s, id, &hit, cos(0.9, 1.0).normalize()).unwrap();

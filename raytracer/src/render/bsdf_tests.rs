@@ -138,8 +138,10 @@ fn shaded(s: &Scene, dir: Vec3) -> (Vec<Request>, Option<KlemsSurface>, Color) {
         normal: Vec3::Z,
         object: 0,
         inner: None,
-        material: ctx.scene.objects[0].surface_at(None).0,
-        flat: ctx.scene.objects[0].surface_at(None).1,
+        surface: {
+            let (m, f) = ctx.scene.objects[0].surface_at(None);
+            Hit::surface_word(m, f)
+        },
     };
     let mut out = Vec::new();
     let sh = shade(&ctx, &task, &hit, &mut out);

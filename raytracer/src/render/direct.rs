@@ -321,7 +321,7 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
             }
             return trans * attenuation(medium, remaining);
         };
-        let material_id = hit.material;
+        let material_id = hit.material();
         if let Material::Mist {
             extinction,
             albedo,
@@ -374,7 +374,7 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
                 } else {
                     // Patterns on the mirror colour the relayed light
                     // (m_mirror.c multiplies by the ray's pattern colour).
-                    let mods = ctx.scene.mods(hit.material);
+                    let mods = ctx.scene.mods(hit.material());
                     if !mods.is_empty() {
                         let vars = crate::modifier::RayVars {
                             dir: ray.dir,
@@ -408,9 +408,9 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
                 Color::ZERO
             };
         }
-        let material = ctx.scene.material(hit.material);
+        let material = ctx.scene.material(hit.material());
         let mut next_dir = ray.dir;
-        if let Some(c) = super::clip::pass_through(ctx.scene, clip, ray.dir, &hit, hit.material) {
+        if let Some(c) = super::clip::pass_through(ctx.scene, clip, ray.dir, &hit, hit.material()) {
             clip = c;
         } else if let Some(r) = shadow_refraction(material, ray.dir, hit.normal) {
             trans *= r.coef;
@@ -420,7 +420,7 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
         } else {
             let rod = -ray.dir.dot(hit.normal);
             let filter = if let Material::Brtd { .. } = material {
-                super::brdf::shadow_filter(ctx.scene, hit.material, &hit, ray.dir)
+                super::brdf::shadow_filter(ctx.scene, hit.material(), &hit, ray.dir)
             } else {
                 shadow_filter(ctx.scene, material, rod, aim.weak)
             };

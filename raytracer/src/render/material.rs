@@ -42,7 +42,7 @@ const MAX_ALTERNATES: usize = 8;
 /// Shades `hit` of the ray `task`: returns the local part and appends the
 /// requests (see the module documentation).
 pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Request>) -> Shaded {
-    let flat = hit.flat;
+    let flat = hit.flat();
     let offset_scale = task.ray.origin.abs().max_element().max(hit.t);
     let mut em = Emitter {
         ctx,
@@ -67,7 +67,7 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
         // Antimatter (m_clip.c): clipped surfaces are not there for this
         // ray; an antimatter surface changes the clip set.
         if let Some(clip) =
-            super::clip::pass_through(ctx.scene, task.clip, task.ray.dir, hit, hit.material)
+            super::clip::pass_through(ctx.scene, task.clip, task.ray.dir, hit, hit.material())
         {
             em.spawn(
                 RayKind::PassThrough,
@@ -85,7 +85,7 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
     }
     let (start, uv) = mesh_shading(ctx.scene, hit);
     em.uv = uv;
-    shade_material(&mut em, &mut shaded, hit.material, flat, start, 0);
+    shade_material(&mut em, &mut shaded, hit.material(), flat, start, 0);
     shaded.ambient = em.ambient;
     if shaded.medium.scatter != 0 {
         scatter_requests(ctx, task, shaded.extinction, &shaded.medium, hit.t, em.out);
