@@ -57,7 +57,7 @@ fn received_leaves_share_the_copies_this_process_holds() {
     let mut copies = ObjectCopies::new();
     let resident: Vec<LeafObjects> = mine
         .iter()
-        .map(|&l| LeafObjects::copy_from(&tree, &objects, l, &mut copies))
+        .map(|&l| LeafObjects::copy_from(tree.leaf_objects(l), &objects, &mut copies))
         .collect();
     share_copies_in_process(&copies);
 
@@ -66,7 +66,7 @@ fn received_leaves_share_the_copies_this_process_holds() {
     let received: Vec<LeafObjects> = theirs
         .iter()
         .map(|&l| {
-            let sent = LeafObjects::copy_from(&tree, &objects, l, &mut sender);
+            let sent = LeafObjects::copy_from(tree.leaf_objects(l), &objects, &mut sender);
             postcard::from_bytes(&postcard::to_allocvec(&sent).unwrap()).unwrap()
         })
         .collect();
@@ -101,7 +101,7 @@ fn received_leaves_share_the_copies_this_process_holds() {
     drop(received);
     drop(copies);
     let l = theirs[0];
-    let sent = LeafObjects::copy_from(&tree, &objects, l, &mut ObjectCopies::new());
+    let sent = LeafObjects::copy_from(tree.leaf_objects(l), &objects, &mut ObjectCopies::new());
     let again: LeafObjects = postcard::from_bytes(&postcard::to_allocvec(&sent).unwrap()).unwrap();
     for (k, &id) in again.ids().iter().enumerate() {
         assert_eq!(

@@ -13,15 +13,14 @@
 //! Objects that span several leaves: a processor's leaves share one copy
 //! of each object ([`LeafObjects::copy_from`] takes the processor's
 //! [`ObjectCopies`]); a leaf received in process shares the sender's
-//! copies; a leaf received over the wire brings copies of its own (a leaf
-//! is self-contained, so it can be traced, cached and evicted alone).
+//! copies. A leaf on the wire carries every object it lists (a leaf is
+//! self-contained, so it can be traced, cached and evicted alone); under
+//! MPI (one processor per process) the receiving process reuses the copies
+//! of objects it already holds, resident or brought by another leaf
+//! ([`share_copies_in_process`]), so it keeps one copy per object too.
 //! Copying every object into every leaf instead made the studio's one
 //! processor hold 92 MB more than the whole scene (its walls and floor are
-//! listed in thousands of leaves). Under MPI (one processor per process)
-//! copies that arrive are shared process-wide too
-//! ([`share_copies_in_process`]): a leaf received whose objects the process
-//! already holds (resident, or brought by another leaf) reuses those
-//! copies.
+//! listed in thousands of leaves).
 //!
 //! On the wire (serde) a leaf is its ids and, for each plain surface, its
 //! name, material and defining numbers (a polygon's vertices after the
@@ -36,7 +35,6 @@ use std::sync::{Arc, Mutex, Weak};
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use super::octree::{NodeId, Octree};
 use crate::geometry::prims::Prims;
 use crate::geometry::{MaterialId, Object, ObjectId, Shape, Vec3};
 
@@ -160,15 +158,15 @@ fn is_plain(o: &Object) -> bool {
 }
 
 impl LeafObjects {
-    /// `leaf`'s objects out of `objects` (the objects `octree` was built
-    /// over), sharing the copies in `copies` and adding the missing ones.
+    /// A leaf listing `ids` (its objects in the octree's order, ids into
+    /// `objects`), sharing the copies in `copies` and adding the missing
+    /// ones.
     pub fn copy_from(
-        octree: &Octree,
+        ids: &[ObjectId],
         objects: &[Object],
-        leaf: NodeId,
         copies: &mut ObjectCopies,
     ) -> LeafObjects {
-        let ids = octree.leaf_objects(leaf).to_vec();
+        let ids = ids.to_vec();
         let mut held = Vec::new();
         let slots = ids
             .iter()

@@ -817,9 +817,12 @@ fn resumable_traversal_equals_intersect_and_occluded_wherever_it_stops() {
         let cells: std::collections::HashMap<NodeId, LeafObjects> = tree
             .leaves()
             .map(|l| {
-                let sent =
-                    postcard::to_allocvec(&LeafObjects::copy_from(&tree, &objects, l, &mut copies))
-                        .unwrap();
+                let sent = postcard::to_allocvec(&LeafObjects::copy_from(
+                    tree.leaf_objects(l),
+                    &objects,
+                    &mut copies,
+                ))
+                .unwrap();
                 (l, postcard::from_bytes(&sent).unwrap())
             })
             .collect();
@@ -984,7 +987,7 @@ fn leaf_objects_cross_the_wire_bit_for_bit() {
     let (mut copied, mut shared) = (0, 0);
     let mut copies = ObjectCopies::new();
     for leaf in tree.leaves() {
-        let held = LeafObjects::copy_from(&tree, &objects, leaf, &mut copies);
+        let held = LeafObjects::copy_from(tree.leaf_objects(leaf), &objects, &mut copies);
         let bytes = postcard::to_allocvec(&held).unwrap();
         let got: LeafObjects = postcard::from_bytes(&bytes).unwrap();
         assert_eq!(got.ids(), tree.leaf_objects(leaf));
@@ -1030,7 +1033,7 @@ fn damaged_leaf_data_is_an_error_not_a_panic() {
         .leaves()
         .max_by_key(|&l| tree.leaf_objects(l).len())
         .unwrap();
-    let held = LeafObjects::copy_from(&tree, &objects, leaf, &mut ObjectCopies::new());
+    let held = LeafObjects::copy_from(tree.leaf_objects(leaf), &objects, &mut ObjectCopies::new());
     let bytes = postcard::to_allocvec(&held).unwrap();
     // Every truncation and every single-byte change: an error or a leaf,
     // never a panic.

@@ -348,9 +348,8 @@ impl Workload for RtWorkload {
             .filter(|&(_, owner, _)| owner == proc)
             .map(|(leaf, _, bytes)| {
                 let cell = LeafObjects::copy_from(
-                    self.renderer.octree(),
+                    self.renderer.octree().leaf_objects(leaf),
                     &self.renderer.scene().objects,
-                    leaf,
                     &mut copies,
                 );
                 (

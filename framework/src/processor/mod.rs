@@ -35,11 +35,13 @@ use crate::clock::Time;
 use crate::config::Config;
 use crate::error::RunError;
 use crate::mailbox::Mailbox;
-use crate::policy::{PlaceCtx, Placer, Target};
+use crate::policy::Placer;
 use crate::protocol::message::{DdEnvelope, DpEnvelope, Incoming, Msg, Packet};
-use crate::protocol::workload::{Ctx, WorkKind, Workload};
+use crate::protocol::workload::{Ctx, Workload};
 use crate::protocol::{Addr, Class, DpOutcome};
 use crate::stats::{ProcStats, State};
+
+mod dispatch;
 use crate::store::{Admission, DataStore, Directory, ReadyTask};
 
 /// What one [`Processor::step`] (or [`crate::master::Master::step`]) did.
@@ -489,90 +491,6 @@ impl<W: Workload> Processor<W> {
         ctx
     }
 
-    /// Schedules everything a hook emitted and records its charged work;
-    /// the emptied context becomes the spare.
-    fn dispatch(
-        &mut self,
-        mut ctx: Ctx<W>,
-        origin: Option<usize>,
-        now: Time,
-    ) -> Result<(), String> {
-        let r = self.dispatch_drain(&mut ctx, origin, now);
-        ctx.clear();
-        self.spare_ctx = Some(ctx);
-        r
-    }
-
-    fn dispatch_drain(
-        &mut self,
-        ctx: &mut Ctx<W>,
-        origin: Option<usize>,
-        now: Time,
-    ) -> Result<(), String> {
-        let (mut h1, mut h2) = (0, 0);
-        for &(kind, units) in &ctx.charges {
-            h1 = add_charge(&mut self.pending_work, h1, kind, units);
-            h2 = add_charge(&mut self.last_charges, h2, kind, units);
-        }
-        if !ctx.has_emissions() {
-            return Ok(());
-        }
-        for task in ctx.dd.drain(..) {
-            self.stats.tasks.children_spawned += 1;
-            let env = DdEnvelope {
-                task,
-                origin,
-                handout: false,
-                root: false,
-            };
-            let load = self.load();
-            // Over budget, children stay: sending them would grow the
-            // backlog (placement never changes results, only where work runs).
-            let mut target = self.placer.place(PlaceCtx { origin, load });
-            if target != Target::Local && self.over_budget() {
-                self.stats.tasks.kept_over_budget += 1;
-                target = Target::Local;
-            }
-            match target {
-                Target::Local => self.push_local(Msg::Dd(env)),
-                Target::Master => self.send(Addr::Master, Msg::Dd(env), now),
-                Target::Proc(p) => self.send(Addr::Proc(p), Msg::Dd(env), now),
-            }
-        }
-        for task in ctx.dp.drain(..) {
-            let target = match self.workload.route_dp(&task) {
-                Some(id) if !self.store.is_local(&id) => Some(
-                    self.store
-                        .directory()
-                        .owner(&id)
-                        .ok_or_else(|| format!("data-parallel task needs unknown data {id:?}"))?,
-                ),
-                _ => None,
-            };
-            let msg = Msg::Dp(DpEnvelope { task, origin });
-            match target {
-                Some(owner) => self.send(Addr::Proc(owner), msg, now),
-                None => self.push_local(msg),
-            }
-        }
-        for (dest, result) in ctx.results.drain(..) {
-            match dest {
-                d if d == self.addr => {
-                    self.workload.merge(&mut self.acc, result);
-                    self.stats.tasks.results_merged += 1;
-                }
-                Addr::Proc(p) if p >= self.procs => {
-                    return Err(format!(
-                        "result sent to processor {p} but there are only {}",
-                        self.procs
-                    ))
-                }
-                d => self.send(d, Msg::Result(result), now),
-            }
-        }
-        Ok(())
-    }
-
     fn on_idle(&mut self, now: Time) {
         // Nothing else to do: waiting for fuller bundles would only add
         // latency, so everything with credit goes now, and all owed credits
@@ -650,24 +568,5 @@ impl<W: Workload> Processor<W> {
         m.selection_bytes = self.largest_selection;
         self.stats.cache = self.store.cache().counters();
         (self.acc, self.stats)
-    }
-}
-
-/// Adds `units` of `kind` to `acc`. Hooks charge their kinds in much the
-/// same order every time, so the search starts after the entry `hint`
-/// found last (usually a hit at once); the returned index is the next hint.
-#[inline]
-fn add_charge<K: WorkKind>(acc: &mut Vec<(K, u64)>, hint: usize, kind: K, units: u64) -> usize {
-    let n = acc.len();
-    let i = (0..n).map(|d| (hint + d) % n).find(|&j| acc[j].0 == kind);
-    match i {
-        Some(i) => {
-            acc[i].1 = acc[i].1.saturating_add(units);
-            i + 1
-        }
-        None => {
-            acc.push((kind, units));
-            n + 1
-        }
     }
 }
