@@ -22,8 +22,8 @@ use crate::render::{RayTask, ShadowBundle};
 #[serde(crate = "hybrid_sched::serde")]
 pub struct CellData {
     pub leaf: NodeId,
-    pub objects: u32,
     pub bytes: u64,
+    /// The leaf's objects (their count is `cell.ids().len()`).
     pub cell: LeafObjects,
 }
 

@@ -338,8 +338,6 @@ impl Workload for RtWorkload {
 
     fn load_partition(&self, proc: usize, procs: usize) -> Vec<(NodeId, CellData)> {
         tracing::debug!(proc, procs, "processor starting: loading its partition");
-        let objects: std::collections::HashMap<NodeId, u32> =
-            self.cells.iter().map(|&(l, n, _)| (l, n)).collect();
         // One copy of each object for all of this processor's leaves.
         let mut copies = ObjectCopies::new();
         let cells = self
@@ -352,15 +350,7 @@ impl Workload for RtWorkload {
                     &self.renderer.scene().objects,
                     &mut copies,
                 );
-                (
-                    leaf,
-                    CellData {
-                        leaf,
-                        objects: objects[&leaf],
-                        bytes,
-                        cell,
-                    },
-                )
+                (leaf, CellData { leaf, bytes, cell })
             })
             .collect::<Vec<_>>();
         if self.share_in_process {
