@@ -102,6 +102,20 @@ pub fn copy_bytes(o: &Object) -> usize {
     }
 }
 
+/// Rough memory footprint of one object (its struct plus heap data).
+pub fn object_bytes(o: &Object) -> usize {
+    let heap = match &o.shape {
+        Shape::Polygon(p) => {
+            p.vertices.len() * std::mem::size_of::<Vec3>()
+                + p.triangles.len() * 12
+                + p.tri_verts.len() * 72
+                + p.cdf.len() * 8
+        }
+        _ => 0,
+    };
+    std::mem::size_of::<Object>() + o.name.len() + heap
+}
+
 /// One processor's copies by object id, shared by the leaves it builds.
 pub type ObjectCopies = HashMap<ObjectId, Arc<HeldObject>>;
 
@@ -166,12 +180,21 @@ impl LeafObjects {
         objects: &[Object],
         copies: &mut ObjectCopies,
     ) -> LeafObjects {
+        Self::copy_with(ids, |id| &objects[id as usize], copies)
+    }
+
+    /// [`LeafObjects::copy_from`] with each object found by `object`.
+    pub fn copy_with<'o>(
+        ids: &[ObjectId],
+        object: impl Fn(ObjectId) -> &'o Object,
+        copies: &mut ObjectCopies,
+    ) -> LeafObjects {
         let ids = ids.to_vec();
         let mut held = Vec::new();
         let slots = ids
             .iter()
             .map(|&id| {
-                let o = &objects[id as usize];
+                let o = object(id);
                 if is_plain(o) {
                     let c = copies
                         .entry(id)
@@ -288,6 +311,7 @@ fn wire_object(o: &Object) -> WireObject {
             r_outer,
         },
         Shape::Instance(_) => unreachable!("instances are shared, never copied"),
+        Shape::Absent => unreachable!("a processor copies only surfaces it holds"),
     };
     WireObject {
         name: o.name.clone(),

@@ -8,11 +8,13 @@ pub mod embree;
 mod octree;
 
 pub use crate::geometry::{Bvh, BvhStats, Hit};
-pub use cells::{copy_bytes, share_copies_in_process, HeldObject, LeafObjects, ObjectCopies};
+pub use cells::{
+    copy_bytes, object_bytes, share_copies_in_process, HeldObject, LeafObjects, ObjectCopies,
+};
 pub use clip::{ClipResult, Plane, Pyramid};
 pub use octree::{
     intersect_brute_force, occluded_brute_force, LeafSpan, NodeId, NodeView, Octree, OctreeParams,
-    OctreeStats, Partial, TraceCursor, MAX_DEPTH,
+    OctreeStats, Partial, SkeletonNode, TraceCursor, MAX_DEPTH,
 };
 
 #[cfg(test)]

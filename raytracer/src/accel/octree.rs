@@ -106,6 +106,15 @@ pub enum NodeView<'a> {
     Leaf { objects: &'a [ObjectId] },
 }
 
+/// A node as [`Octree::from_skeleton`] takes it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SkeletonNode<'a> {
+    /// An internal node whose eight children start at `first_child`.
+    Internal { first_child: NodeId },
+    /// A leaf and the ids of its objects, in the octree's order.
+    Leaf(&'a [ObjectId]),
+}
+
 #[derive(Debug, Clone, Copy)]
 enum Node {
     Internal { first_child: u32 },
@@ -382,6 +391,92 @@ impl Octree {
         t.finish(objects.len());
         t.prims = Prims::build(objects);
         t
+    }
+
+    /// The octree of a scene whose objects this process does not all hold,
+    /// from its skeleton: the root cell (`None`: a tree with one empty
+    /// leaf), and per node in the octree's node order its first child or
+    /// its leaf's object ids, as [`Octree::build`] made them. Every cell,
+    /// list and statistic equals the built tree's; there is no
+    /// intersection data, so objects are tested through their shapes or,
+    /// in the partial traversals, through the leaf copies a processor
+    /// holds. `objects` is the scene's object count. An inconsistent
+    /// skeleton (a child outside the node list, a node reached twice or
+    /// never) is an error.
+    pub fn from_skeleton(
+        root: Option<(Vec3, f64)>,
+        objects: usize,
+        nodes: &[SkeletonNode<'_>],
+    ) -> std::result::Result<Octree, String> {
+        let Some((center, half)) = root else {
+            return Ok(Octree::build(&[], &OctreeParams::default()));
+        };
+        if nodes.is_empty() {
+            return Err("the skeleton has a root cell but no nodes".into());
+        }
+        let n = nodes.len();
+        let margin = 1e-9 * (2.0 * half + center.abs().max_element());
+        let mut t = Octree {
+            root_cell: Cell { center, half },
+            nodes: vec![TravNode::EMPTY_LEAF; n],
+            halves: vec![0.0; n],
+            parents: vec![NodeId::MAX; n],
+            depths: vec![0; n],
+            margin,
+            ..Default::default()
+        };
+        // The build's recursion, so leaves' lists lie in the order it
+        // appended them.
+        let mut seen = vec![false; n];
+        let mut stack = vec![(0 as NodeId, t.root_cell, 0u32)];
+        while let Some((id, cell, depth)) = stack.pop() {
+            let i = id as usize;
+            if std::mem::replace(&mut seen[i], true) {
+                return Err(format!("node {id} is reached twice"));
+            }
+            t.halves[i] = cell.half;
+            t.depths[i] = depth.min(u8::MAX as u32) as u8;
+            match nodes[i] {
+                SkeletonNode::Leaf(ids) => {
+                    if ids.iter().any(|&o| o as usize >= objects) {
+                        return Err(format!("leaf {id} lists an object beyond the {objects}"));
+                    }
+                    let start = t.leaf_objects.len() as u32;
+                    t.leaf_objects.extend_from_slice(ids);
+                    let mut w = [0u64; 3];
+                    if ids.len() <= INLINE {
+                        for (k, &o) in ids.iter().enumerate() {
+                            w[k / 2] |= (o as u64) << (32 * (k % 2));
+                        }
+                    }
+                    t.nodes[i] = TravNode {
+                        w,
+                        first: start,
+                        meta: LEAF | ids.len() as u32,
+                    };
+                }
+                SkeletonNode::Internal { first_child } => {
+                    let first = first_child as usize;
+                    if first <= i || first.checked_add(8).is_none_or(|e| e > n) {
+                        return Err(format!("node {id}: children at {first} of {n} nodes"));
+                    }
+                    t.nodes[i] = TravNode {
+                        w: cell.center.to_array().map(f64::to_bits),
+                        first: first_child,
+                        meta: 0,
+                    };
+                    for k in (0..8).rev() {
+                        t.parents[first + k] = id;
+                        stack.push((first_child + k as u32, cell.child(k), depth + 1));
+                    }
+                }
+            }
+        }
+        if let Some(lost) = seen.iter().position(|s| !s) {
+            return Err(format!("node {lost} is not reached from the root"));
+        }
+        t.finish(objects);
+        Ok(t)
     }
 
     fn finish(&mut self, objects: usize) {

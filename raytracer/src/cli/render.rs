@@ -129,6 +129,14 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
     };
 
     let popts = super::parallel::resolve(&a.parallel)?;
+    if let Some(popts) = popts.as_ref().filter(|p| distributes(a, p, &options)) {
+        let Some(view) = view else {
+            return Err(usage(
+                "a distributed render of a compiled scene needs a view: give one (-vf, -vp ...) or compile the scene with one",
+            ));
+        };
+        return run_held(a, options, view, popts, exposure, start);
+    }
     let t0 = std::time::Instant::now();
     let scene = Arc::new(crate::compiled::load(&a.scenes)?);
     print_scene_warnings(&scene);
@@ -301,6 +309,50 @@ fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
     std::fs::write(path, json + "\n").map_err(|e| Error::io(path, e))
 }
 
+/// Whether this render reads a compiled scene processor by processor: a
+/// compiled scene, rendered in parallel with a distribution that gives
+/// each processor its own cells (`octree`, `worst`), without `-ab`.
+fn distributes(a: &RenderArgs, popts: &ParallelOptions, options: &RenderOptions) -> bool {
+    use crate::parallel::Distribution;
+    matches!(a.scenes.as_slice(), [one] if crate::compiled::is_compiled(one))
+        && matches!(
+            popts.workload.distribution,
+            Distribution::Octree | Distribution::Worst
+        )
+        && options.ab == 0
+}
+
+/// A parallel render of a compiled scene in which every processor holds
+/// the replicated part and reads only its own cells.
+fn run_held(
+    a: &RenderArgs,
+    options: RenderOptions,
+    view: View,
+    popts: &ParallelOptions,
+    exposure: Option<f64>,
+    start: Instant,
+) -> Result<()> {
+    let compiled = crate::compiled::CompiledScene::open(&a.scenes[0])?;
+    let part = compiled.held_part(&crate::scene::LoadOptions::from_env())?;
+    drop(compiled);
+    print_scene_warnings(&part.scene);
+    let (view, width, height) = view.fit_aspect(a.width, a.height);
+    let (width, height) = (width as usize, height as usize);
+    check_resolution(width, height)?;
+    let progress = Progress::start((width * height) as u64, "pixels", a.report, true);
+    let out = crate::parallel::render_parallel_held(
+        part,
+        options,
+        &view,
+        width,
+        height,
+        popts,
+        Some(progress.counter()),
+    );
+    progress.finish();
+    finish_parallel(a, out?, &view, width, height, exposure, start)
+}
+
 /// The `--procs` path: the hybrid-scheduled renderer.
 #[allow(clippy::too_many_arguments)]
 fn run_parallel(
@@ -325,7 +377,20 @@ fn run_parallel(
         Some(progress.counter()),
     );
     progress.finish();
-    let Some(out) = out? else {
+    finish_parallel(a, out?, view, width, height, exposure, start)
+}
+
+/// Writes a parallel render's picture and reports (rank 0 only).
+fn finish_parallel(
+    a: &RenderArgs,
+    out: Option<crate::parallel::ParallelRender>,
+    view: &View,
+    width: usize,
+    height: usize,
+    exposure: Option<f64>,
+    start: Instant,
+) -> Result<()> {
+    let Some(out) = out else {
         // An MPI rank other than 0: rank 0 writes the picture and reports.
         return Ok(());
     };

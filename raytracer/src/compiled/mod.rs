@@ -41,22 +41,26 @@
 //! (`hybrid-rt compile` names its sources by absolute paths for this), as
 //! with a Radiance octree that is not frozen.
 
+mod distributed;
+
+pub use distributed::{CellSource, HeldPart};
+
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
 use crate::accel::{NodeView, Octree, OctreeParams};
-use crate::geometry::{Aabb, ObjectId};
+use crate::geometry::{Aabb, MaterialId, ObjectId};
 use crate::scene::record::{self, Program, Surface};
-use crate::scene::{LoadOptions, Scene};
+use crate::scene::{HitRatios, LoadOptions, Scene};
 use crate::{Error, Result, SourceLoc};
 
 /// The first bytes of a compiled scene (the line ending catches a file
 /// mangled by text-mode transfer, as PNG's signature does).
 pub const MAGIC: [u8; 8] = *b"HRTSCN\r\n";
 /// The format version this build reads and writes.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 /// Bytes of the fixed header.
 pub const HEADER_LEN: usize = 44;
 /// Flag: every cell stores a copy of each object it lists.
@@ -86,6 +90,11 @@ pub struct CellInfo {
     pub stored: u32,
     /// Bytes of the cell in the file.
     pub bytes: u64,
+    /// Bytes the parallel renderer accounts for the cell (each object's
+    /// size shared among the leaves listing it, as
+    /// `parallel::RtWorkload` accounts a scene loaded whole), so a
+    /// partition of the compiled scene is the partition of its sources.
+    pub accounted: u64,
 }
 
 /// The octree skeleton: nodes and cells, no objects.
@@ -98,6 +107,10 @@ pub struct Skeleton {
     /// One per leaf listing objects, in node order, then the cell of
     /// unlisted objects.
     pub cells: Vec<CellInfo>,
+    /// Per cell, the object ids its leaf lists (what a processor needs to
+    /// traverse the octree and to know which cells hold what; the cells
+    /// hold them too, for a cell read alone).
+    pub lists: Vec<Vec<ObjectId>>,
 }
 
 impl Skeleton {
@@ -146,8 +159,35 @@ pub struct Replicated {
     pub views: Vec<String>,
     pub program: Program,
     pub skeleton: Skeleton,
-    /// The plain surfaces that are light sources (also in their cells).
-    pub emitters: Vec<(ObjectId, Surface)>,
+    /// The plain surfaces every processor holds (also in their cells):
+    /// light sources, and mirrors and prisms, which make virtual light
+    /// sources (see [`replicated_surface`]).
+    pub shared: Vec<(ObjectId, Surface)>,
+    /// Per object, its material (what a processor that does not hold the
+    /// object knows of it: the materials a scene uses decide the effects
+    /// it renders).
+    pub materials: Vec<MaterialId>,
+    /// The light sources' hit ratios, measured with the whole scene at
+    /// compile time (Radiance's default `-dr`).
+    pub hit_ratios: HitRatios,
+}
+
+/// Whether every processor holds `o`, a top-level surface of `scene`:
+/// light sources (sampled from everywhere), and planar mirrors and prisms
+/// (the renderer's set-up makes virtual light sources of them).
+pub fn replicated_surface(scene: &Scene, o: &crate::geometry::Object) -> bool {
+    use crate::scene::Material;
+    let mut m = scene.material(o.material);
+    if crate::scene::is_light_material(m) {
+        return true;
+    }
+    if let Material::Illum {
+        alternate: Some(a), ..
+    } = m
+    {
+        m = scene.material(*a);
+    }
+    matches!(m, Material::Mirror { .. } | Material::Prism { .. })
 }
 
 /// One cell: the object ids its leaf lists and the surfaces it stores.
@@ -302,6 +342,7 @@ pub fn compile_to_bytes(
             objects: 0,
             stored: 0,
             bytes: 0,
+            accounted: 0,
         })
         .collect();
     infos.push(CellInfo {
@@ -309,23 +350,41 @@ pub fn compile_to_bytes(
         objects: 0,
         stored: 0,
         bytes: 0,
+        accounted: 0,
     });
+    // The parallel renderer's accounting (RtWorkload::new): an object
+    // listed in n leaves puts 1/n of its bytes in each.
+    let mut listed = vec![0u32; scene.objects.len()];
+    for (_, objects) in &leaves {
+        for &o in *objects {
+            listed[o as usize] += 1;
+        }
+    }
+    for (info, (_, objects)) in infos.iter_mut().zip(&leaves) {
+        info.accounted = objects
+            .iter()
+            .map(|&o| {
+                let n = listed[o as usize].max(1) as usize;
+                (crate::accel::object_bytes(&scene.objects[o as usize]).div_ceil(n) + 4) as u64
+            })
+            .sum();
+    }
     for ((info, cell), blob) in infos.iter_mut().zip(&cells).zip(&blobs) {
         info.objects = cell.listed.len() as u32;
         info.stored = cell.stored.len() as u32;
         info.bytes = blob.len() as u64;
     }
-    let emitters = scene
-        .lights
+    let shared = scene
+        .objects
         .iter()
-        .filter_map(|l| match l.kind {
-            crate::scene::LightKind::Area { object } => surfaces
-                .get(object as usize)
-                .and_then(|s| s.clone())
-                .map(|s| (object, s)),
-            crate::scene::LightKind::Distant { .. } => None,
+        .zip(&surfaces)
+        .enumerate()
+        .filter_map(|(id, (o, s))| {
+            let s = s.as_ref()?;
+            replicated_surface(&scene, o).then(|| (id as ObjectId, s.clone()))
         })
         .collect();
+    let hit_ratios = measure_hit_ratios(&scene)?;
     let replicated = Replicated {
         sources: sources.to_vec(),
         views,
@@ -335,8 +394,11 @@ pub fn compile_to_bytes(
             root: octree.root_cell().map(|(c, h)| (c.to_array(), h)),
             nodes,
             cells: infos,
+            lists: cells.iter().map(|c| c.listed.clone()).collect(),
         },
-        emitters,
+        shared,
+        materials: scene.objects.iter().map(|o| o.material).collect(),
+        hit_ratios,
     };
     let rep = encode(&replicated)?;
     // The cell offsets depend on the index's length, which depends on the
@@ -387,6 +449,24 @@ pub fn compile_to_bytes(
         out.extend_from_slice(b);
     }
     Ok(out)
+}
+
+/// The light sources' hit ratios a renderer of the whole scene measures
+/// with the default options.
+fn measure_hit_ratios(scene: &Scene) -> Result<HitRatios> {
+    let options = crate::render::RenderOptions::default();
+    let dr = options.dr;
+    if scene.objects.is_empty() && scene.lights.is_empty() {
+        return Ok(HitRatios {
+            dr,
+            ratios: Vec::new(),
+        });
+    }
+    let r = crate::render::Renderer::new(scene, options)?;
+    Ok(HitRatios {
+        dr,
+        ratios: r.lights().iter().map(|l| l.hit_ratio).collect(),
+    })
 }
 
 fn stats_of(bytes: &[u8]) -> Result<CompileStats> {
@@ -648,7 +728,16 @@ impl CompiledScene {
     /// with a compiled scene).
     pub fn into_scene(self, options: &LoadOptions) -> Result<Scene> {
         let surfaces = self.read_surfaces()?;
-        record::replay(&self.replicated.program, surfaces, options, &self.path)
+        let mut scene = record::replay(
+            &self.replicated.program,
+            surfaces,
+            options,
+            &self.path,
+            None,
+        )?;
+        // The ratios a processor holding part of the scene renders with.
+        scene.hit_ratios = Some(self.replicated.hit_ratios.clone());
+        Ok(scene)
     }
 
     /// Every stored surface by object id (`None` for instances), read

@@ -55,6 +55,12 @@ pub enum Shape {
     },
     /// A transformed reference to shared geometry.
     Instance(Instance),
+    /// A surface this processor does not hold (a distributed scene's
+    /// placeholder, see [`crate::compiled`]): it keeps the object's id and
+    /// material so that ids and the materials a scene uses stay as they
+    /// are, and it has no extent: empty bounds, no area, never hit. Its
+    /// geometry lives with the processors that own its octree cells.
+    Absent,
 }
 
 /// A planar polygon with at least three vertices.

@@ -248,6 +248,7 @@ impl Shape {
                 Aabb::new(*center - e, *center + e)
             }
             Shape::Instance(inst) => transform_bounds(&inst.transform, &inst.geometry.bounds),
+            Shape::Absent => Aabb::EMPTY,
         }
     }
 
@@ -323,6 +324,7 @@ impl Shape {
                     inner: Some(h.object),
                 })
             }
+            Shape::Absent => None,
         }
     }
 
@@ -381,6 +383,7 @@ impl Shape {
                 let s = inst.transform.scale;
                 inst.geometry.area() * s * s
             }
+            Shape::Absent => 0.0,
         }
     }
 
@@ -480,6 +483,9 @@ impl Shape {
                 let (p, n) = o.shape.sample(u, v);
                 (inst.transform.point(p), inst.transform.normal(n))
             }
+            // Never sampled: the surfaces light sources sample are held by
+            // every processor (a distributed scene replicates them).
+            Shape::Absent => (Vec3::ZERO, Vec3::Z),
         }
     }
 
@@ -507,7 +513,7 @@ impl Shape {
                 Some(if *inward { -n } else { n })
             }
             Shape::Ring { normal, .. } => Some(*normal),
-            Shape::Instance(_) => None,
+            Shape::Instance(_) | Shape::Absent => None,
         }
     }
 
@@ -543,6 +549,7 @@ impl Shape {
                 (normal.dot(c - *center)).abs() <= r
             }
             Shape::Cone { .. } | Shape::Instance(_) => true,
+            Shape::Absent => false,
         }
     }
 }

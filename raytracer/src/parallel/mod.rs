@@ -321,6 +321,73 @@ pub fn render_parallel_with_progress(
         popts.procs,
         popts.workload,
     );
+    run_workload(wl, popts, progress, t0)
+}
+
+/// [`render_parallel_with_progress`] for a distributed compiled scene: the
+/// replicated part and the octree skeleton in `part`
+/// ([`crate::compiled::CompiledScene::held_part`]), each processor reading
+/// only its own cells (under MPI, this rank's processor; in one process,
+/// every processor its own). The picture equals the sequential render of
+/// the scene loaded whole. A processor that cannot read its part fails the
+/// render before it starts, saying which part and why.
+pub fn render_parallel_held(
+    part: crate::compiled::HeldPart,
+    options: RenderOptions,
+    view: &View,
+    width: usize,
+    height: usize,
+    popts: &ParallelOptions,
+    progress: Option<Arc<std::sync::atomic::AtomicU64>>,
+) -> Result<Option<ParallelRender>> {
+    check_resolution(width, height)?;
+    if popts.procs == 0 {
+        return Err(Error::Usage("--procs must be at least 1".into()));
+    }
+    let t0 = Instant::now();
+    let renderer = Renderer::with_skeleton(Arc::new(part.scene), options, part.octree)?;
+    ambient::check_hybrid(&renderer)?;
+    let wl = RtWorkload::distributed(
+        renderer,
+        view.clone(),
+        width,
+        height,
+        popts.procs,
+        popts.workload,
+        part.source,
+    )?;
+    let wl = if popts.runtime == RuntimeKind::Mpi {
+        wl.sharing_copies_in_process()
+    } else {
+        wl
+    };
+    match popts.runtime {
+        RuntimeKind::Mpi => wl.read_part(this_rank()?)?,
+        _ => (0..popts.procs).try_for_each(|p| wl.read_part(p))?,
+    }
+    run_workload(wl, popts, progress, t0)
+}
+
+/// This process's MPI rank.
+#[cfg(feature = "mpi")]
+fn this_rank() -> Result<usize> {
+    mpi_world().map(|(rank, _)| rank)
+}
+
+#[cfg(not(feature = "mpi"))]
+fn this_rank() -> Result<usize> {
+    mpi_runtime().map(|_| 0)
+}
+
+/// Runs a workload and assembles the picture and the report.
+fn run_workload(
+    wl: RtWorkload,
+    popts: &ParallelOptions,
+    progress: Option<Arc<std::sync::atomic::AtomicU64>>,
+    t0: Instant,
+) -> Result<Option<ParallelRender>> {
+    let (width, height) = (wl.width, wl.height);
+    let replicated = popts.workload.distribution == Distribution::Replicated;
     let wl = match progress {
         Some(p) => wl.with_progress(p),
         None => wl,
@@ -400,6 +467,17 @@ pub fn render_parallel_with_progress(
             "processor finished"
         );
         let resident = part.resident(p as u32);
+        if let Some((resident_bytes, copy_bytes)) = wl.held_figures(p) {
+            procs.push(ProcSummary {
+                resident_bytes,
+                resident_objects: resident.len(),
+                copy_bytes,
+                cost: part.cost().get(p).copied().unwrap_or(0),
+                pixels: acc.pixels.len(),
+                peak_tree_nodes: acc.peak_pending,
+            });
+            continue;
+        }
         procs.push(ProcSummary {
             // Replicated: every processor reads the whole scene.
             resident_bytes: if replicated {
@@ -412,7 +490,9 @@ pub fn render_parallel_with_progress(
             } else {
                 resident.len()
             },
-            copy_bytes: if replicated {
+            // Another MPI rank's processor of a distributed scene: measured
+            // there, not here.
+            copy_bytes: if replicated || wl.held.is_some() {
                 0
             } else {
                 let objects = &wl.renderer().scene().objects;

@@ -18,7 +18,6 @@
 
 use std::collections::BTreeSet;
 
-use crate::geometry::Shape;
 use crate::scene::{Object, ObjectId};
 
 use crate::accel::{NodeId, Octree};
@@ -42,19 +41,7 @@ pub struct Partition {
     resident_bytes: Vec<usize>,
 }
 
-/// Rough memory footprint of one object (its struct plus heap data).
-pub fn object_bytes(o: &Object) -> usize {
-    let heap = match &o.shape {
-        Shape::Polygon(p) => {
-            p.vertices.len() * std::mem::size_of::<crate::geometry::Vec3>()
-                + p.triangles.len() * 12
-                + p.tri_verts.len() * 72
-                + p.cdf.len() * 8
-        }
-        _ => 0,
-    };
-    std::mem::size_of::<Object>() + o.name.len() + heap
-}
+pub use crate::accel::object_bytes;
 
 impl Partition {
     /// The balanced partition of `octree` (built over `objects`) over

@@ -181,6 +181,15 @@ pub fn prepare_lights(scene: &Scene) -> (Vec<PreparedLight>, Vec<String>) {
                         ));
                         continue;
                     }
+                    // A distributed scene replicates every emitter, so
+                    // this is a damaged one.
+                    Shape::Absent => {
+                        warnings.push(format!(
+                            "light source {:?} is not held here; ignored",
+                            name(*object)
+                        ));
+                        continue;
+                    }
                 }
             }
         };

@@ -195,7 +195,7 @@ impl<'s> Renderer<'s> {
         options: RenderOptions,
         params: &OctreeParams,
     ) -> Result<Self> {
-        Self::build(SceneRef::Borrowed(scene), options, params, true)
+        Self::build(SceneRef::Borrowed(scene), options, params, true, None)
     }
 
     /// A renderer that shares ownership of its scene.
@@ -204,7 +204,7 @@ impl<'s> Renderer<'s> {
         options: RenderOptions,
         params: &OctreeParams,
     ) -> Result<Renderer<'static>> {
-        Renderer::build(SceneRef::Shared(scene), options, params, true)
+        Renderer::build(SceneRef::Shared(scene), options, params, true, None)
     }
 
     /// [`Renderer::shared`] for a caller whose rays go through the octree's
@@ -214,7 +214,25 @@ impl<'s> Renderer<'s> {
         options: RenderOptions,
         params: &OctreeParams,
     ) -> Result<Renderer<'static>> {
-        Renderer::build(SceneRef::Shared(scene), options, params, false)
+        Renderer::build(SceneRef::Shared(scene), options, params, false, None)
+    }
+
+    /// A renderer for a processor holding part of a scene (a
+    /// [`Scene::distributed`] one): `octree` is the whole scene's octree
+    /// skeleton, read with it; rays go through the octree's cells, and
+    /// only the leaves the caller holds can be traced.
+    pub fn with_skeleton(
+        scene: Arc<Scene>,
+        options: RenderOptions,
+        octree: Octree,
+    ) -> Result<Renderer<'static>> {
+        Renderer::build(
+            SceneRef::Shared(scene),
+            options,
+            &OctreeParams::default(),
+            false,
+            Some(octree),
+        )
     }
 
     fn build(
@@ -222,6 +240,7 @@ impl<'s> Renderer<'s> {
         options: RenderOptions,
         params: &OctreeParams,
         hierarchy: bool,
+        prebuilt: Option<Octree>,
     ) -> Result<Self> {
         options.validate()?;
         // An empty scene would render a silently black image.
@@ -233,7 +252,9 @@ impl<'s> Renderer<'s> {
         // The two structures side by side, each timed on its own thread.
         let objects = &scene.objects;
         let bvh = OnceLock::new();
-        let (octree, build_s) = if hierarchy {
+        let (octree, build_s) = if let Some(octree) = prebuilt {
+            (octree, 0.0)
+        } else if hierarchy {
             let (octree, built) = std::thread::scope(|s| {
                 let built = s.spawn(|| timed_build(|| Bvh::build(objects)));
                 let octree = timed_build(|| Octree::build(objects, params));
@@ -274,7 +295,22 @@ impl<'s> Renderer<'s> {
         let effects = EffectsReport::analyse(&scene, &options, &lights);
         let (media, media_warnings) = Media::new(&scene, &options, &lights);
         warnings.extend(media_warnings);
-        if effects.adaptive_shadow_testing.enabled {
+        let stored = scene
+            .hit_ratios
+            .as_ref()
+            .filter(|h| h.dr == options.dr && h.ratios.len() == lights.len());
+        if let Some(h) = stored.filter(|_| effects.adaptive_shadow_testing.enabled) {
+            for (l, &r) in lights.iter_mut().zip(&h.ratios) {
+                l.hit_ratio = r;
+            }
+        } else if effects.adaptive_shadow_testing.enabled && scene.distributed {
+            return Err(Error::Usage(format!(
+                "this processor holds part of the scene, and the compiled scene's hit ratios were measured for {}; this render prepares {} light sources with -dr {} (recompile the scene, or render it whole)",
+                scene.hit_ratios.as_ref().map_or("no light sources".to_string(), |h| format!("{} light sources with -dr {}", h.ratios.len(), h.dr)),
+                lights.len(),
+                options.dr
+            )));
+        } else if effects.adaptive_shadow_testing.enabled {
             let ratios = estimate_hit_ratios(
                 &ShadeContext {
                     scene: &scene,
@@ -379,6 +415,10 @@ impl<'s> Renderer<'s> {
 
     /// The hierarchy rays are traced through (see [`crate::accel::Bvh`]).
     pub fn bvh(&self) -> &Bvh {
+        debug_assert!(
+            !self.scene.distributed,
+            "a hierarchy over a processor's part of a scene"
+        );
         &self
             .bvh
             .get_or_init(|| timed_build(|| Bvh::build(&self.scene.objects)))

@@ -33,6 +33,7 @@ pub mod view;
 mod xform;
 
 pub use crate::input;
+pub(crate) use build::is_light_material;
 pub use build::LoadOptions;
 pub use load::{load, load_obj_str, load_rad_str, load_with};
 pub use model::*;

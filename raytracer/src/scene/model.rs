@@ -267,6 +267,28 @@ pub struct Scene {
     /// Loaded BSDF files (`BSDF`, `aBSDF`), shared by the materials that
     /// name them (empty for most scenes).
     pub bsdfs: Vec<std::sync::Arc<crate::scene::klems::KlemsData>>,
+    /// Light sources' hit ratios (adaptive shadow testing) measured when
+    /// the scene was compiled, used instead of measuring them again (see
+    /// [`HitRatios`]); `None` for scenes loaded from their sources.
+    pub hit_ratios: Option<HitRatios>,
+    /// True when this scene holds only its replicated part: the surfaces
+    /// of other processors' cells are [`crate::geometry::Shape::Absent`]
+    /// placeholders (see `crate::compiled::distributed`). Nothing that
+    /// needs every surface (measuring hit ratios, building a hierarchy)
+    /// may run on it.
+    pub distributed: bool,
+}
+
+/// Light sources' hit ratios measured once with the whole scene (a
+/// compiled scene stores them, so a processor holding part of the scene
+/// renders with the same figures as the whole scene's renderer).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct HitRatios {
+    /// The `-dr` (virtual source relays) they were measured with: it
+    /// decides the list of prepared light sources.
+    pub dr: u32,
+    /// One per prepared light source, in order.
+    pub ratios: Vec<f64>,
 }
 
 impl Scene {

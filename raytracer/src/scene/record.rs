@@ -257,11 +257,17 @@ fn split(prims: &[RawPrim], scene: &Scene) -> Result<(Program, Vec<Option<Surfac
 
 /// Builds the scene of `program` again; `surfaces[id]` is taken for every
 /// plain surface. `file` names the compiled scene in messages.
+///
+/// `absent`: the scene of a processor holding part of it. A plain surface
+/// whose slot is empty becomes a [`crate::geometry::Shape::Absent`]
+/// placeholder with its material `absent[id]`, and the scene is marked
+/// [`Scene::distributed`]; a light source must not be absent.
 pub fn replay(
     program: &Program,
     mut surfaces: Vec<Option<Surface>>,
     options: &LoadOptions,
     file: &Path,
+    absent: Option<&[MaterialId]>,
 ) -> Result<Scene> {
     let bad = |reason: String| Error::parse(SourceLoc::new(file, 0), reason);
     if surfaces.len() != program.objects as usize {
@@ -320,10 +326,31 @@ pub fn replay(
                 };
                 for (k, slot) in slots.iter_mut().enumerate() {
                     let id = *first + k as ObjectId;
-                    let s = slot
-                        .take()
-                        .ok_or_else(|| bad(format!("object {id}: its surface is missing")))?;
-                    objects.push(surface_object(&b, s, id, file)?);
+                    let object = match (slot.take(), absent) {
+                        (Some(s), _) => surface_object(&b, s, id, file)?,
+                        (None, Some(materials)) => {
+                            let material = *materials.get(id as usize).ok_or_else(|| {
+                                bad(format!("object {id}: no material recorded for it"))
+                            })?;
+                            let m = b.scene.materials.get(material as usize).ok_or_else(|| {
+                                bad(format!("object {id}: material {material} does not exist"))
+                            })?;
+                            if is_light_material(m) {
+                                return Err(bad(format!(
+                                    "object {id} is a light source but is not among the surfaces every processor holds"
+                                )));
+                            }
+                            Object {
+                                name: String::new(),
+                                shape: crate::geometry::Shape::Absent,
+                                material,
+                            }
+                        }
+                        (None, None) => {
+                            return Err(bad(format!("object {id}: its surface is missing")))
+                        }
+                    };
+                    objects.push(object);
                     let material = objects[id as usize].material;
                     if is_light_material(b.scene.material(material)) {
                         b.scene.lights.push(Light {
@@ -343,20 +370,46 @@ pub fn replay(
         )));
     }
     b.scene.objects = objects;
-    b.finish()
+    let mut scene = b.finish()?;
+    scene.distributed = absent.is_some();
+    Ok(scene)
+}
+
+/// Stored surfaces as objects (through the loader's shape code, as
+/// [`replay`] makes them), for a scene of `materials` materials.
+pub fn surface_objects(
+    surfaces: impl IntoIterator<Item = (ObjectId, Surface)>,
+    materials: usize,
+    file: &Path,
+) -> Result<Vec<(ObjectId, Object)>> {
+    let b = Builder::new();
+    surfaces
+        .into_iter()
+        .map(|(id, s)| Ok((id, make_object(&b, materials, s, id, file)?)))
+        .collect()
 }
 
 /// A stored surface as an object, through the loader's own shape code.
 fn surface_object(b: &Builder, s: Surface, id: ObjectId, file: &Path) -> Result<Object> {
+    make_object(b, b.scene.materials.len(), s, id, file)
+}
+
+/// [`surface_object`] for a scene of `materials` materials.
+fn make_object(
+    b: &Builder,
+    materials: usize,
+    s: Surface,
+    id: ObjectId,
+    file: &Path,
+) -> Result<Object> {
     let bad = |reason: String| Error::parse(SourceLoc::new(file, 0), reason);
     let ptype = s
         .type_name()
         .ok_or_else(|| bad(format!("object {id}: unknown surface kind {}", s.kind)))?;
-    if s.material as usize >= b.scene.materials.len() {
+    if s.material as usize >= materials {
         return Err(bad(format!(
-            "object {id}: material {} of {}",
+            "object {id}: material {} of {materials}",
             s.material,
-            b.scene.materials.len()
         )));
     }
     let p = RawPrim {

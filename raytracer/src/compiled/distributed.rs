@@ -1,0 +1,242 @@
+//! A processor's part of a compiled scene: what it reads before rendering
+//! ([`HeldPart`]: the replicated part and the octree skeleton) and where it
+//! reads the objects of its own cells ([`CellSource`]).
+//!
+//! The replicated part becomes a scene in which every surface the
+//! processor does not hold is a [`Shape::Absent`](crate::geometry::Shape)
+//! placeholder keeping its id and material, and the surfaces every
+//! processor needs are real: light sources, mirrors and prisms
+//! ([`super::replicated_surface`]). The octree is rebuilt from the
+//! skeleton ([`Octree::from_skeleton`]), equal to the whole scene's octree
+//! but without intersection data. A processor then reads only the cells it
+//! owns (seeking to each; with objects stored once, also the cells where
+//! objects its leaves share with others are stored) and builds its copies
+//! from them.
+//!
+//! What the placeholders cost: one [`Object`] each (its inline size, no
+//! heap) and 4 bytes per object for its material, beside 4 bytes per leaf
+//! listing for the octree's lists: about a fifth of what the whole scene
+//! takes for polygons, and the part of a processor's memory that still
+//! grows with the whole scene.
+
+use std::collections::{HashMap, HashSet};
+use std::io::{Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+
+use super::{file_error, CellEntry, CellObjects, CompiledScene, SkeletonNode};
+use crate::accel::{NodeId, Octree, SkeletonNode as TreeNode};
+use crate::geometry::{Object, ObjectId, Shape};
+use crate::scene::record::{self, Surface};
+use crate::scene::{LoadOptions, Scene};
+use crate::{Error, Result};
+
+/// What a processor holds of a compiled scene before it reads its cells.
+#[derive(Debug)]
+pub struct HeldPart {
+    /// The replicated part: a [`Scene::distributed`] scene.
+    pub scene: Scene,
+    /// The whole scene's octree, from the skeleton.
+    pub octree: Octree,
+    /// Where the cells are.
+    pub source: CellSource,
+}
+
+/// Where a processor reads the objects of its cells.
+#[derive(Debug, Clone)]
+pub struct CellSource {
+    path: PathBuf,
+    index: Vec<CellEntry>,
+    copies: bool,
+    materials: usize,
+    /// Per listing leaf (node order): its node, its cell and its accounted
+    /// bytes.
+    leaves: Vec<(NodeId, u64)>,
+    cell_of: HashMap<NodeId, u32>,
+}
+
+impl CompiledScene {
+    /// Reads what a processor holds of this scene besides its cells: the
+    /// replicated part as a scene with placeholders, and the octree.
+    pub fn held_part(&self, options: &LoadOptions) -> Result<HeldPart> {
+        let rep = &self.replicated;
+        let n = rep.program.objects as usize;
+        if rep.materials.len() != n {
+            return Err(file_error(
+                &self.path,
+                0,
+                format!("{} object materials for {n} objects", rep.materials.len()),
+            ));
+        }
+        let mut surfaces: Vec<Option<Surface>> = vec![None; n];
+        for (id, s) in &rep.shared {
+            let slot = surfaces.get_mut(*id as usize).ok_or_else(|| {
+                file_error(&self.path, 0, format!("shared surface {id} of {n} objects"))
+            })?;
+            *slot = Some(s.clone());
+        }
+        let mut scene = record::replay(
+            &rep.program,
+            surfaces,
+            options,
+            &self.path,
+            Some(&rep.materials),
+        )?;
+        scene.hit_ratios = Some(rep.hit_ratios.clone());
+        let sk = &rep.skeleton;
+        if sk.lists.len() != sk.cells.len() {
+            return Err(file_error(
+                &self.path,
+                0,
+                format!("{} leaf lists for {} cells", sk.lists.len(), sk.cells.len()),
+            ));
+        }
+        let mut nodes = Vec::with_capacity(sk.nodes.len());
+        for (id, node) in sk.nodes.iter().enumerate() {
+            nodes.push(match *node {
+                SkeletonNode::Internal(first_child) => TreeNode::Internal { first_child },
+                SkeletonNode::Empty => TreeNode::Leaf(&[]),
+                SkeletonNode::Leaf(cell) => {
+                    let list = sk.lists.get(cell as usize).ok_or_else(|| {
+                        file_error(&self.path, 0, format!("node {id}: no cell {cell}"))
+                    })?;
+                    TreeNode::Leaf(list)
+                }
+            });
+        }
+        let root = sk
+            .root
+            .map(|(c, h)| (crate::geometry::Vec3::from_array(c), h));
+        let octree = Octree::from_skeleton(root, n, &nodes)
+            .map_err(|e| file_error(&self.path, 0, format!("octree skeleton: {e}")))?;
+        let mut leaves = Vec::new();
+        let mut cell_of = HashMap::new();
+        for (k, c) in sk.cells.iter().enumerate() {
+            if c.node != u32::MAX {
+                leaves.push((c.node, c.accounted));
+                cell_of.insert(c.node, k as u32);
+            }
+        }
+        Ok(HeldPart {
+            source: CellSource {
+                path: self.path.clone(),
+                index: self.index.clone(),
+                copies: self.copies,
+                materials: scene.materials.len(),
+                leaves,
+                cell_of,
+            },
+            scene,
+            octree,
+        })
+    }
+}
+
+impl CellSource {
+    /// The compiled scene's file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Every leaf listing objects, in node order, with the bytes the
+    /// parallel renderer accounts for it.
+    pub fn leaves(&self) -> &[(NodeId, u64)] {
+        &self.leaves
+    }
+
+    /// The surfaces `leaves` list that `scene` (a processor's
+    /// [`HeldPart::scene`]) does not hold, read from the file: the leaves'
+    /// own cells and, where objects are stored once, the cells storing the
+    /// objects they share with leaves stored before them. `octree` gives
+    /// the leaves' lists. Errors name the file, the cell, its byte offset
+    /// and why.
+    pub fn read_objects(
+        &self,
+        scene: &Scene,
+        octree: &Octree,
+        leaves: &[NodeId],
+    ) -> Result<HashMap<ObjectId, Object>> {
+        let mut file = std::fs::File::open(&self.path).map_err(|e| Error::io(&self.path, e))?;
+        let mut wanted: HashSet<ObjectId> = HashSet::new();
+        let mut cells: Vec<u32> = Vec::with_capacity(leaves.len());
+        for &leaf in leaves {
+            let cell = *self.cell_of.get(&leaf).ok_or_else(|| {
+                Error::Other(format!(
+                    "{}: octree leaf {leaf} has no cell",
+                    self.path.display()
+                ))
+            })?;
+            cells.push(cell);
+            wanted.extend(octree.leaf_objects(leaf).iter().filter(|&&o| {
+                scene
+                    .objects
+                    .get(o as usize)
+                    .is_some_and(|o| matches!(o.shape, Shape::Absent))
+            }));
+        }
+        let mut found: Vec<(ObjectId, Surface)> = Vec::with_capacity(wanted.len());
+        let mut got: HashSet<ObjectId> = HashSet::with_capacity(wanted.len());
+        let mut take = |cell: CellObjects, got: &mut HashSet<ObjectId>| {
+            for (id, s) in cell.stored {
+                if wanted.contains(&id) && got.insert(id) {
+                    found.push((id, s));
+                }
+            }
+        };
+        for &k in &cells {
+            take(self.read_cell(&mut file, k as usize)?, &mut got);
+        }
+        if !self.copies && got.len() < wanted.len() {
+            // Stored once, in the first leaf (node order) listing them.
+            let mut more = Vec::new();
+            let mut placed: HashSet<ObjectId> = got.clone();
+            for (k, &(leaf, _)) in self.leaves.iter().enumerate() {
+                let ids = octree.leaf_objects(leaf);
+                let mut needed = false;
+                for &o in ids {
+                    if wanted.contains(&o) && placed.insert(o) {
+                        needed = true;
+                    }
+                }
+                if needed {
+                    more.push(k);
+                }
+                if placed.len() == wanted.len() {
+                    break;
+                }
+            }
+            for k in more {
+                take(self.read_cell(&mut file, k)?, &mut got);
+            }
+        }
+        if got.len() < wanted.len() {
+            let missing = wanted.iter().filter(|o| !got.contains(o)).min();
+            return Err(file_error(
+                &self.path,
+                0,
+                format!(
+                    "{} of the objects these cells list are stored nowhere (object {})",
+                    wanted.len() - got.len(),
+                    missing.copied().unwrap_or_default()
+                ),
+            ));
+        }
+        let objects = record::surface_objects(found, self.materials, &self.path)?;
+        Ok(objects.into_iter().collect())
+    }
+
+    fn read_cell(&self, file: &mut std::fs::File, k: usize) -> Result<CellObjects> {
+        let e = *self.index.get(k).ok_or_else(|| {
+            file_error(
+                &self.path,
+                0,
+                format!("no cell {k} of {}", self.index.len()),
+            )
+        })?;
+        let mut bytes = vec![0u8; e.len as usize];
+        file.seek(SeekFrom::Start(e.offset))
+            .and_then(|_| file.read_exact(&mut bytes))
+            .map_err(|err| Error::io(&self.path, err))?;
+        super::check_crc(&self.path, e.offset, &bytes, e.crc, &format!("cell {k}"))?;
+        super::decode(&self.path, e.offset, &bytes)
+    }
+}
