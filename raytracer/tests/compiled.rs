@@ -178,14 +178,21 @@ fn cells_hold_the_octree_leaves_and_the_skeleton_its_cells() {
     assert_eq!(file_bytes, stats.cell_bytes);
     assert!(stored.iter().all(|&n| n == 1), "each object once");
     assert!(c.read_cell(rep.skeleton.cells.len()).is_err());
-    // The emitting surfaces are in the replicated part.
-    let area = s
+    // The emitting surfaces are in the replicated part (the studio has
+    // no mirror or prism, which would be too).
+    let area: Vec<u32> = s
         .lights
         .iter()
-        .filter(|l| matches!(l.kind, scene::LightKind::Area { .. }))
-        .count();
-    assert!(area > 0);
-    assert_eq!(rep.emitters.len(), area);
+        .filter_map(|l| match l.kind {
+            scene::LightKind::Area { object } => Some(object),
+            _ => None,
+        })
+        .collect();
+    assert!(!area.is_empty());
+    let shared: Vec<u32> = rep.shared.iter().map(|(id, _)| *id).collect();
+    assert_eq!(shared, area);
+    assert_eq!(rep.materials.len(), s.objects.len());
+    assert_eq!(rep.hit_ratios.ratios.len(), area.len());
 }
 
 /// CRC-32 (IEEE), bit by bit: the checksum the format names.
@@ -262,10 +269,16 @@ fn damaged_truncated_and_foreign_files_are_errors_naming_the_offset() {
         bad[40..44].copy_from_slice(&crc.to_le_bytes());
         let _ = load_bytes(&dir, "noise.hrtc", &bad);
     }
-    let mut v2 = good.clone();
-    v2[8] = 2;
-    let e = load_bytes(&dir, "v2.hrtc", &v2).unwrap_err().to_string();
-    assert!(e.contains("version 2") && e.contains("byte 8"), "{e}");
+    let mut other = good.clone();
+    let v = hybrid_rt::compiled::VERSION + 1;
+    other[8..12].copy_from_slice(&v.to_le_bytes());
+    let e = load_bytes(&dir, "other.hrtc", &other)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains(&format!("version {v}")) && e.contains("byte 8"),
+        "{e}"
+    );
     // A file without the magic is a scene source to `render`, and not a
     // compiled scene to the reader.
     let e = load_bytes(&dir, "text.hrtc", b"void plastic x 0 0 5 1 1 1 0 0\n")

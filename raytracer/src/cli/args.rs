@@ -597,6 +597,9 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub parallel_stats: Option<PathBuf>,
+    /// After rendering, print this process's peak resident memory as the operating system measured it (Linux: VmHWM; under MPI one line per rank).
+    #[arg(long = "peak-memory", help_heading = "Parallel rendering")]
+    pub peak_memory: bool,
 }
 
 #[derive(Debug, Args)]

@@ -68,13 +68,7 @@ fn object_bytes(objects: &[Object]) -> usize {
     walk(objects, &mut HashSet::new())
 }
 
-/// The process's peak resident set (`VmHWM` in `/proc/self/status`), in bytes.
-fn peak_rss() -> Option<usize> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: usize = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
+use crate::report::peak_resident_bytes as peak_rss;
 
 fn mib(b: usize) -> f64 {
     b as f64 / (1024.0 * 1024.0)

@@ -109,6 +109,34 @@ pub(super) fn check(a: &RenderArgs) -> Result<()> {
 }
 
 pub(super) fn run(a: &RenderArgs) -> Result<()> {
+    let r = render(a);
+    if a.parallel.peak_memory {
+        print_peak_memory(a);
+    }
+    r
+}
+
+/// This process's peak resident memory, as `--peak-memory` prints it.
+fn print_peak_memory(a: &RenderArgs) {
+    #[cfg(feature = "mpi")]
+    let rank = match a.parallel.runtime {
+        super::args::RuntimeArg::Mpi => crate::parallel::mpi_world()
+            .map(|(r, _)| format!("rank {r}: "))
+            .unwrap_or_default(),
+        _ => String::new(),
+    };
+    #[cfg(not(feature = "mpi"))]
+    let rank = {
+        let _ = a;
+        String::new()
+    };
+    match crate::report::peak_resident_bytes() {
+        Some(b) => eprintln!("{rank}peak resident memory: {} KiB", b / 1024),
+        None => eprintln!("{rank}peak resident memory: not measured on this system"),
+    }
+}
+
+fn render(a: &RenderArgs) -> Result<()> {
     let start = Instant::now();
     if let Some(path) = &a.error_file {
         redirect_stderr(path)?;

@@ -1,0 +1,224 @@
+//! Distributed compiled scenes in one process: every processor holds the
+//! replicated part and reads only its own cells, and the picture equals
+//! the sequential render of the scene loaded whole, bit for bit.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use hybrid_rt::accel::{NodeView, Octree, OctreeParams};
+use hybrid_rt::compiled::{self, CompiledScene, Storage};
+use hybrid_rt::geometry::Shape;
+use hybrid_rt::parallel::{
+    render_parallel_held, CacheSize, Distribution, ParallelOptions, RtWorkload,
+};
+use hybrid_rt::render::{RenderOptions, Renderer};
+use hybrid_rt::scene::{generate, LoadOptions, View};
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("hybrid-rt-held-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Writes a generated scene and compiles it (objects stored once, or a
+/// copy in every leaf).
+fn compiled_scene(dir: &Path, name: &str, storage: Storage) -> (PathBuf, View) {
+    let (text, view) = match name {
+        "cornell" => (generate::cornell(1), generate::cornell_view().to_string()),
+        "studio" => (generate::studio(1), generate::studio_view().to_string()),
+        _ => (generate::city(7, 3000), generate::city_view(3000)),
+    };
+    let rad = dir.join(format!("{name}.rad"));
+    std::fs::write(&rad, text).unwrap();
+    let out = dir.join(format!("{name}-{storage:?}.hrtc"));
+    compiled::compile(
+        std::slice::from_ref(&rad),
+        vec![],
+        &OctreeParams::default(),
+        storage,
+        &out,
+    )
+    .unwrap();
+    let view = View::from_file_text(&view, "generated.vf").unwrap();
+    (out, view)
+}
+
+#[test]
+fn the_skeleton_octree_is_the_whole_scenes_octree() {
+    let dir = tmpdir("octree");
+    for name in ["cornell", "studio", "city"] {
+        let (path, _) = compiled_scene(&dir, name, Storage::Once);
+        let c = CompiledScene::open(&path).unwrap();
+        let whole = c_scene(&path);
+        let built = Octree::build(&whole.objects, &OctreeParams::default());
+        let part = c.held_part(&LoadOptions::default()).unwrap();
+        let t = &part.octree;
+        assert_eq!(t.node_count(), built.node_count(), "{name}");
+        assert_eq!(t.root_cell(), built.root_cell(), "{name}");
+        assert_eq!(t.stats(), built.stats(), "{name}");
+        for id in 0..t.node_count() as u32 {
+            assert_eq!(t.node(id), built.node(id), "{name}: node {id}");
+            assert_eq!(
+                t.node_bounds(id),
+                built.node_bounds(id),
+                "{name}: node {id}"
+            );
+            assert_eq!(t.parent(id), built.parent(id));
+            assert_eq!(t.depth(id), built.depth(id));
+            assert_eq!(t.subtree_refs(id), built.subtree_refs(id));
+        }
+        // The held scene: same ids and materials, light sources real,
+        // every other plain surface a placeholder.
+        let s = &part.scene;
+        assert!(s.distributed);
+        assert_eq!(s.objects.len(), whole.objects.len());
+        assert_eq!(s.lights.len(), whole.lights.len());
+        let mut absent = 0;
+        for (a, b) in s.objects.iter().zip(&whole.objects) {
+            assert_eq!(a.material, b.material);
+            if matches!(a.shape, Shape::Absent) {
+                absent += 1;
+            } else {
+                assert_eq!(a.name, b.name);
+            }
+        }
+        assert!(absent > 0 && absent < s.objects.len(), "{name}: {absent}");
+    }
+}
+
+fn c_scene(path: &Path) -> hybrid_rt::scene::Scene {
+    compiled::load_scene(path).unwrap()
+}
+
+/// What a processor reads: its leaves' objects (and, stored once, nothing
+/// beyond the objects its leaves list), never the whole scene.
+#[test]
+fn a_processor_reads_only_the_objects_of_its_cells() {
+    let dir = tmpdir("reads");
+    for storage in [Storage::Once, Storage::Copies] {
+        let (path, _) = compiled_scene(&dir, "city", storage);
+        let c = CompiledScene::open(&path).unwrap();
+        let part = c.held_part(&LoadOptions::default()).unwrap();
+        let leaves: Vec<u32> = part.source.leaves().iter().map(|l| l.0).collect();
+        let whole = c_scene(&path);
+        for chunk in leaves.chunks(leaves.len().div_ceil(4)) {
+            let read = part
+                .source
+                .read_objects(&part.scene, &part.octree, chunk)
+                .unwrap();
+            let listed: std::collections::HashSet<u32> = chunk
+                .iter()
+                .flat_map(|&l| part.octree.leaf_objects(l).iter().copied())
+                .collect();
+            for (id, o) in &read {
+                assert!(listed.contains(id), "object {id} is not in these cells");
+                assert_eq!(o.name, whole.objects[*id as usize].name);
+            }
+            for id in &listed {
+                let held = &part.scene.objects[*id as usize];
+                assert!(
+                    read.contains_key(id) || !matches!(held.shape, Shape::Absent),
+                    "{storage:?}: object {id} listed but not read"
+                );
+            }
+            assert!(read.len() < whole.objects.len() / 2);
+        }
+    }
+}
+
+#[test]
+fn distributed_renders_equal_the_whole_scenes_sequential_render() {
+    let dir = tmpdir("render");
+    let (w, h) = (48, 36);
+    for (name, storage) in [
+        ("cornell", Storage::Once),
+        ("studio", Storage::Once),
+        ("city", Storage::Copies),
+    ] {
+        let (path, view) = compiled_scene(&dir, name, storage);
+        let whole = c_scene(&path);
+        let options = RenderOptions::default();
+        let want = Renderer::new(&whole, options.clone())
+            .unwrap()
+            .render(&view, w, h)
+            .unwrap()
+            .0;
+        for (procs, distribution, cache) in [
+            (1, Distribution::Octree, CacheSize::Unlimited),
+            (3, Distribution::Octree, CacheSize::Percent(5.0)),
+            (4, Distribution::Worst, CacheSize::Percent(10.0)),
+        ] {
+            let mut popts = ParallelOptions::new(procs);
+            popts.workload.distribution = distribution;
+            popts.cache = cache;
+            popts.threads = Some(2);
+            let part = CompiledScene::open(&path)
+                .unwrap()
+                .held_part(&LoadOptions::default())
+                .unwrap();
+            let out = render_parallel_held(part, options.clone(), &view, w, h, &popts, None)
+                .unwrap()
+                .unwrap();
+            assert!(
+                out.film.pixels() == want.pixels(),
+                "{name}: {procs} processors, {distribution}: the picture differs"
+            );
+            // Every processor measured its own copies.
+            for p in &out.procs {
+                assert!(p.copy_bytes > 0 || p.resident_objects == 0, "{name}");
+            }
+        }
+    }
+}
+
+#[test]
+fn distributions_that_need_every_object_are_refused() {
+    let dir = tmpdir("refused");
+    let (path, view) = compiled_scene(&dir, "cornell", Storage::Once);
+    for d in [Distribution::Replicated, Distribution::Predicted] {
+        let part = CompiledScene::open(&path)
+            .unwrap()
+            .held_part(&LoadOptions::default())
+            .unwrap();
+        let r =
+            Renderer::with_skeleton(Arc::new(part.scene), RenderOptions::default(), part.octree)
+                .unwrap();
+        let mut opts = hybrid_rt::parallel::WorkloadOptions::default();
+        opts.distribution = d;
+        let e = RtWorkload::distributed(r, view.clone(), 8, 8, 2, opts, part.source)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("every object"), "{e}");
+    }
+}
+
+/// A cell that cannot be read fails the render before it starts, naming
+/// the processor, the file and the cell; it does not panic.
+#[test]
+fn a_damaged_cell_names_the_processor_and_the_cell() {
+    let dir = tmpdir("damaged");
+    let (path, view) = compiled_scene(&dir, "studio", Storage::Once);
+    let part = CompiledScene::open(&path)
+        .unwrap()
+        .held_part(&LoadOptions::default())
+        .unwrap();
+    // Damage the file after the replicated part was read: the last cell.
+    let mut bytes = std::fs::read(&path).unwrap();
+    let n = bytes.len();
+    for b in &mut bytes[n - 64..n - 8] {
+        *b ^= 0x5a;
+    }
+    std::fs::write(&path, &bytes).unwrap();
+    let popts = ParallelOptions::new(2);
+    let e = render_parallel_held(part, RenderOptions::default(), &view, 16, 16, &popts, None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("processor") && e.contains("cannot read its part"),
+        "{e}"
+    );
+    assert!(e.contains(&path.display().to_string()), "{e}");
+    assert!(e.contains("cell"), "{e}");
+    let _ = NodeView::Leaf { objects: &[] };
+}
