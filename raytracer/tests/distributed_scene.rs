@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use hybrid_rt::accel::{NodeView, Octree, OctreeParams};
+use hybrid_rt::accel::{Octree, OctreeParams};
 use hybrid_rt::compiled::{self, CompiledScene, Storage};
 use hybrid_rt::geometry::Shape;
 use hybrid_rt::parallel::{
@@ -184,8 +184,10 @@ fn distributions_that_need_every_object_are_refused() {
         let r =
             Renderer::with_skeleton(Arc::new(part.scene), RenderOptions::default(), part.octree)
                 .unwrap();
-        let mut opts = hybrid_rt::parallel::WorkloadOptions::default();
-        opts.distribution = d;
+        let opts = hybrid_rt::parallel::WorkloadOptions {
+            distribution: d,
+            ..Default::default()
+        };
         let e = RtWorkload::distributed(r, view.clone(), 8, 8, 2, opts, part.source)
             .unwrap_err()
             .to_string();
@@ -220,5 +222,4 @@ fn a_damaged_cell_names_the_processor_and_the_cell() {
     );
     assert!(e.contains(&path.display().to_string()), "{e}");
     assert!(e.contains("cell"), "{e}");
-    let _ = NodeView::Leaf { objects: &[] };
 }

@@ -119,6 +119,9 @@ pub struct RtWorkload {
     pub(super) held: Option<Held>,
 }
 
+/// A processor's cells as it loads them.
+type Part = Vec<(NodeId, CellData)>;
+
 /// Where the processors of a distributed compiled scene read their cells,
 /// and what they read.
 #[derive(Debug)]
@@ -126,7 +129,7 @@ pub(super) struct Held {
     source: CellSource,
     /// Per processor, its cells as read before the run
     /// ([`RtWorkload::read_part`]), until its processor starts.
-    parts: Vec<Mutex<Option<Vec<(NodeId, CellData)>>>>,
+    parts: Vec<Mutex<Option<Part>>>,
     /// Per processor: bytes of its resident objects (as
     /// [`Partition::resident_bytes`] counts them for a scene loaded whole)
     /// and of its copies.
