@@ -238,3 +238,104 @@ fn procs_must_match_the_number_of_ranks() {
     );
     assert!(!out.exists());
 }
+
+/// Runs `hybrid-rt ARGS` alone (no mpirun), within the time limit.
+fn hybrid_rt(args: &[&str], dir: &Path, tag: &str) -> Run {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hybrid-rt"));
+    cmd.args(args);
+    run_limited(cmd, dir, tag)
+}
+
+/// `--peak-memory`'s figures in `stderr`, in KiB: one per rank (by rank),
+/// or the one of a process run alone (rank 0).
+fn peaks(stderr: &str) -> Vec<(usize, u64)> {
+    let mut out: Vec<(usize, u64)> = stderr
+        .lines()
+        .filter_map(|l| {
+            let (who, rest) = l.split_once("peak resident memory: ")?;
+            let kib = rest.strip_suffix(" KiB")?.parse().ok()?;
+            let rank = who
+                .strip_prefix("rank ")
+                .and_then(|r| r.strip_suffix(": "))
+                .map_or(Some(0), |r| r.parse().ok())?;
+            Some((rank, kib))
+        })
+        .collect();
+    out.sort();
+    out
+}
+
+/// A generated city, compiled: under MPI every rank holds the replicated
+/// part and reads only its own cells. The picture is the sequential
+/// render's of the whole scene, and every rank's peak memory (as the
+/// operating system measures it) stays below the whole scene's render's.
+#[test]
+fn ranks_of_a_compiled_scene_hold_their_part_not_the_whole_scene() {
+    let d = tmpdir("held");
+    let rad = d.join("city.rad");
+    let hrtc = d.join("city.hrtc");
+    let (rad_s, hrtc_s) = (rad.to_str().unwrap(), hrtc.to_str().unwrap());
+    let vf = d.join("city.vf");
+    let vf_s = vf.to_str().unwrap();
+    let r = hybrid_rt(
+        &["generate", "city", "--size", "200000", "-o", rad_s],
+        &d,
+        "generate",
+    );
+    assert!(r.status.success(), "{}", r.stderr);
+    let r = hybrid_rt(&["compile", rad_s, "-o", hrtc_s], &d, "compile");
+    assert!(r.status.success(), "{}", r.stderr);
+    let size = ["--view-file", vf_s, "--width", "40", "--height", "30"];
+    let seq = d.join("seq.hdr");
+    let mut args = vec![
+        "render",
+        hrtc_s,
+        "--peak-memory",
+        "-o",
+        seq.to_str().unwrap(),
+    ];
+    args.extend(size);
+    let r = hybrid_rt(&args, &d, "whole");
+    assert!(r.status.success(), "{}", r.stderr);
+    let whole = peaks(&r.stderr);
+    assert_eq!(whole.len(), 1, "{}", r.stderr);
+    let whole = whole[0].1;
+    let want = std::fs::read(&seq).unwrap();
+    for np in [2, 4] {
+        let out = d.join(format!("held{np}.hdr"));
+        let mut args = vec![
+            "render",
+            hrtc_s,
+            "--runtime",
+            "mpi",
+            "--cache",
+            "10%",
+            "--peak-memory",
+            "--time-limit",
+            "200",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend(size);
+        let r = mpirun(np, &args, &[], &d, &format!("held{np}"));
+        assert!(r.status.success(), "-np {np}: {}", r.stderr);
+        assert!(
+            std::fs::read(&out).unwrap() == want,
+            "-np {np}: the picture differs from the sequential one"
+        );
+        let ranks = peaks(&r.stderr);
+        assert_eq!(
+            ranks.iter().map(|r| r.0).collect::<Vec<_>>(),
+            (0..np).collect::<Vec<_>>(),
+            "{}",
+            r.stderr
+        );
+        for (rank, kib) in ranks {
+            eprintln!("-np {np}: rank {rank} peaked at {kib} KiB; the whole scene's render at {whole} KiB");
+            assert!(
+                kib < whole,
+                "-np {np}: rank {rank} peaked at {kib} KiB, not below the whole scene's {whole} KiB"
+            );
+        }
+    }
+}

@@ -209,6 +209,48 @@ impl LeafObjects {
         LeafObjects { ids, slots, held }
     }
 
+    /// A leaf listing `ids` whose objects are not all held yet: the copies
+    /// in `copies` are shared, a missing copy is made from what `make`
+    /// gives for its id (an object read for this processor, moved into
+    /// its copy), else from `shared` (the objects every processor holds;
+    /// instances are not copied). An id found nowhere is an error.
+    pub fn copy_made<E>(
+        ids: &[ObjectId],
+        mut make: impl FnMut(ObjectId) -> Option<Result<Object, E>>,
+        shared: crate::geometry::ObjectTable<'_>,
+        copies: &mut ObjectCopies,
+    ) -> Result<LeafObjects, E>
+    where
+        E: From<String>,
+    {
+        let ids = ids.to_vec();
+        let mut held = Vec::new();
+        let mut slots = Vec::with_capacity(ids.len());
+        for &id in &ids {
+            let copy = match copies.get(&id) {
+                Some(c) => Some(c.clone()),
+                None => match make(id) {
+                    Some(o) => Some(HeldObject::new(o?)),
+                    None => {
+                        let o = shared.get(id).ok_or_else(|| {
+                            E::from(format!("object {id} is neither read nor held"))
+                        })?;
+                        is_plain(o).then(|| HeldObject::new(o.clone()))
+                    }
+                },
+            };
+            slots.push(match copy {
+                Some(c) => {
+                    copies.entry(id).or_insert_with(|| c.clone());
+                    held.push(c);
+                    held.len() as u32 - 1
+                }
+                None => SHARED,
+            });
+        }
+        Ok(LeafObjects { ids, slots, held })
+    }
+
     /// The leaf's object ids, in the octree's order.
     pub fn ids(&self) -> &[ObjectId] {
         &self.ids
@@ -311,7 +353,6 @@ fn wire_object(o: &Object) -> WireObject {
             r_outer,
         },
         Shape::Instance(_) => unreachable!("instances are shared, never copied"),
-        Shape::Absent => unreachable!("a processor copies only surfaces it holds"),
     };
     WireObject {
         name: o.name.clone(),

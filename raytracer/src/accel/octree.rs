@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use super::cells::LeafObjects;
 use crate::geometry::prims::{Prims, Tester};
 use crate::geometry::robust::next_up;
-use crate::geometry::{Aabb, Hit, Object, ObjectId, PreparedRay, Ray, ShapeHit, Vec3};
+use crate::geometry::{Aabb, Hit, Object, ObjectId, ObjectTable, PreparedRay, Ray, ShapeHit, Vec3};
 
 /// Index of an octree node (internal or leaf).
 pub type NodeId = u32;
@@ -919,7 +919,7 @@ impl Octree {
     /// leaves held here; `None` for the others), as a traversal that can
     /// stop and resume elsewhere (a migrating ray). Objects are tested from
     /// the leaf's own copies ([`LeafObjects`]); the ones it shares
-    /// (instances) from `shared`, the objects the octree was built over.
+    /// (instances) from `shared`, the objects every processor holds.
     ///
     /// Visits the same leaves in the same order as [`Octree::intersect`],
     /// skipping the `cursor.leaves_done` leaves already handled; at the first
@@ -930,7 +930,7 @@ impl Octree {
     /// same tie rule.
     pub fn intersect_partial<'c, F>(
         &self,
-        shared: &[Object],
+        shared: ObjectTable<'_>,
         ray: &Ray,
         tmin: f64,
         tmax: f64,
@@ -941,7 +941,7 @@ impl Octree {
         F: FnMut(NodeId) -> Option<&'c LeafObjects>,
     {
         let pre = PreparedRay::new(ray);
-        let test = self.tester(shared, &pre);
+        let test = self.tester(&[], &pre);
         let mut best: Option<Hit> = cursor.best;
         let skip = cursor.leaves_done;
         let mut pos = 0u32;
@@ -970,7 +970,15 @@ impl Octree {
                             let (prims, one) = held.parts();
                             (test.intersect_in(prims, one, tmin, bound), &one[0])
                         }
-                        None => (test.intersect(id, tmin, bound), &shared[id as usize]),
+                        // An instance, tested through its shape as the
+                        // octree's own data would (they hold none for it).
+                        None => match shared.get(id) {
+                            Some(o) => (o.shape.intersect_prepared(&pre, tmin, bound), o),
+                            None => {
+                                debug_assert!(false, "object {id} is neither copied nor shared");
+                                continue;
+                            }
+                        },
                     };
                     if let Some(h) = h {
                         if best.is_none_or(|b| h.t < b.t || (h.t == b.t && id < b.object)) {
@@ -1002,7 +1010,7 @@ impl Octree {
     #[allow(clippy::too_many_arguments)]
     pub fn occluded_partial<'c, F>(
         &self,
-        shared: &[Object],
+        shared: ObjectTable<'_>,
         ray: &Ray,
         tmin: f64,
         tmax: f64,
@@ -1014,7 +1022,7 @@ impl Octree {
         F: FnMut(NodeId) -> Option<&'c LeafObjects>,
     {
         let pre = PreparedRay::new(ray);
-        let test = self.tester(shared, &pre);
+        let test = self.tester(&[], &pre);
         let skip = cursor.leaves_done;
         let mut pos = 0u32;
         let mut blocked = None;
@@ -1039,7 +1047,10 @@ impl Octree {
                         let (prims, one) = held.parts();
                         test.occludes_in(prims, one, tmin, tmax)
                     }
-                    None => test.occludes(id, tmin, tmax),
+                    None => shared.get(id).is_some_and(|o| {
+                        debug_assert!(matches!(o.shape, crate::geometry::Shape::Instance(_)));
+                        o.shape.occludes_prepared(&pre, tmin, tmax)
+                    }),
                 };
                 if hit {
                     found = true;

@@ -2,22 +2,18 @@
 //! ([`HeldPart`]: the replicated part and the octree skeleton) and where it
 //! reads the objects of its own cells ([`CellSource`]).
 //!
-//! The replicated part becomes a scene in which every surface the
-//! processor does not hold is a [`Shape::Absent`](crate::geometry::Shape)
-//! placeholder keeping its id and material, and the surfaces every
-//! processor needs are real: light sources, mirrors and prisms
-//! ([`super::replicated_surface`]). The octree is rebuilt from the
+//! The replicated part becomes a [`Scene::distributed`] scene holding only
+//! the objects every processor needs: light sources, mirrors and prisms
+//! ([`super::replicated_surface`]) and instances; the other surfaces are
+//! known by the materials they use. The octree is rebuilt from the
 //! skeleton ([`Octree::from_skeleton`]), equal to the whole scene's octree
 //! but without intersection data. A processor then reads only the cells it
 //! owns (seeking to each; with objects stored once, also the cells where
 //! objects its leaves share with others are stored) and builds its copies
 //! from them.
 //!
-//! What the placeholders cost: one [`Object`] each (its inline size, no
-//! heap) and 4 bytes per object for its material, beside 4 bytes per leaf
-//! listing for the octree's lists: about a fifth of what the whole scene
-//! takes for polygons, and the part of a processor's memory that still
-//! grows with the whole scene.
+//! What grows with the whole scene on every processor: the octree's nodes
+//! and its leaf lists (4 bytes per listing), not the objects.
 
 use std::collections::{HashMap, HashSet};
 use std::io::{Read, Seek, SeekFrom};
@@ -25,7 +21,7 @@ use std::path::{Path, PathBuf};
 
 use super::{file_error, CellEntry, CellObjects, CompiledScene, SkeletonNode};
 use crate::accel::{NodeId, Octree, SkeletonNode as TreeNode};
-use crate::geometry::{Object, ObjectId, Shape};
+use crate::geometry::ObjectId;
 use crate::scene::record::{self, Surface};
 use crate::scene::{LoadOptions, Scene};
 use crate::{Error, Result};
@@ -60,27 +56,19 @@ impl CompiledScene {
     pub fn held_part(&self, options: &LoadOptions) -> Result<HeldPart> {
         let rep = &self.replicated;
         let n = rep.program.objects as usize;
-        if rep.materials.len() != n {
-            return Err(file_error(
-                &self.path,
-                0,
-                format!("{} object materials for {n} objects", rep.materials.len()),
-            ));
-        }
-        let mut surfaces: Vec<Option<Surface>> = vec![None; n];
+        let mut held = std::collections::BTreeMap::new();
         for (id, s) in &rep.shared {
-            let slot = surfaces.get_mut(*id as usize).ok_or_else(|| {
-                file_error(&self.path, 0, format!("shared surface {id} of {n} objects"))
-            })?;
-            *slot = Some(s.clone());
+            if *id as usize >= n {
+                return Err(file_error(
+                    &self.path,
+                    0,
+                    format!("shared surface {id} of {n} objects"),
+                ));
+            }
+            held.insert(*id, s.clone());
         }
-        let mut scene = record::replay(
-            &rep.program,
-            surfaces,
-            options,
-            &self.path,
-            Some(&rep.materials),
-        )?;
+        let mut scene =
+            record::replay_part(&rep.program, held, &rep.elsewhere, options, &self.path)?;
         scene.hit_ratios = Some(rep.hit_ratios.clone());
         let sk = &rep.skeleton;
         if sk.lists.len() != sk.cells.len() {
@@ -143,6 +131,11 @@ impl CellSource {
         &self.leaves
     }
 
+    /// Makes the surfaces [`CellSource::read_objects`] reads into objects.
+    pub fn maker(&self) -> record::SurfaceMaker {
+        record::SurfaceMaker::new(self.materials, &self.path)
+    }
+
     /// The surfaces `leaves` list that `scene` (a processor's
     /// [`HeldPart::scene`]) does not hold, read from the file: the leaves'
     /// own cells and, where objects are stored once, the cells storing the
@@ -154,7 +147,7 @@ impl CellSource {
         scene: &Scene,
         octree: &Octree,
         leaves: &[NodeId],
-    ) -> Result<HashMap<ObjectId, Object>> {
+    ) -> Result<HashMap<ObjectId, Surface>> {
         let mut file = std::fs::File::open(&self.path).map_err(|e| Error::io(&self.path, e))?;
         let mut wanted: HashSet<ObjectId> = HashSet::new();
         let mut cells: Vec<u32> = Vec::with_capacity(leaves.len());
@@ -166,19 +159,19 @@ impl CellSource {
                 ))
             })?;
             cells.push(cell);
-            wanted.extend(octree.leaf_objects(leaf).iter().filter(|&&o| {
-                scene
-                    .objects
-                    .get(o as usize)
-                    .is_some_and(|o| matches!(o.shape, Shape::Absent))
-            }));
+            wanted.extend(
+                octree
+                    .leaf_objects(leaf)
+                    .iter()
+                    .filter(|&&o| scene.object(o).is_none()),
+            );
         }
-        let mut found: Vec<(ObjectId, Surface)> = Vec::with_capacity(wanted.len());
+        let mut found: HashMap<ObjectId, Surface> = HashMap::with_capacity(wanted.len());
         let mut got: HashSet<ObjectId> = HashSet::with_capacity(wanted.len());
         let mut take = |cell: CellObjects, got: &mut HashSet<ObjectId>| {
             for (id, s) in cell.stored {
                 if wanted.contains(&id) && got.insert(id) {
-                    found.push((id, s));
+                    found.insert(id, s);
                 }
             }
         };
@@ -220,8 +213,7 @@ impl CellSource {
                 ),
             ));
         }
-        let objects = record::surface_objects(found, self.materials, &self.path)?;
-        Ok(objects.into_iter().collect())
+        Ok(found)
     }
 
     fn read_cell(&self, file: &mut std::fs::File, k: usize) -> Result<CellObjects> {

@@ -163,10 +163,10 @@ pub struct Replicated {
     /// light sources, and mirrors and prisms, which make virtual light
     /// sources (see [`replicated_surface`]).
     pub shared: Vec<(ObjectId, Surface)>,
-    /// Per object, its material (what a processor that does not hold the
-    /// object knows of it: the materials a scene uses decide the effects
-    /// it renders).
-    pub materials: Vec<MaterialId>,
+    /// The materials of the plain surfaces not in `shared`, each once,
+    /// ascending: what a processor knows of the surfaces it does not hold
+    /// (the materials a scene uses decide the effects it renders).
+    pub elsewhere: Vec<MaterialId>,
     /// The light sources' hit ratios, measured with the whole scene at
     /// compile time (Radiance's default `-dr`).
     pub hit_ratios: HitRatios,
@@ -384,6 +384,15 @@ pub fn compile_to_bytes(
             replicated_surface(&scene, o).then(|| (id as ObjectId, s.clone()))
         })
         .collect();
+    let elsewhere: Vec<MaterialId> = scene
+        .objects
+        .iter()
+        .zip(&surfaces)
+        .filter(|(o, s)| s.is_some() && !replicated_surface(&scene, o))
+        .map(|(o, _)| o.material)
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
     let hit_ratios = measure_hit_ratios(&scene)?;
     let replicated = Replicated {
         sources: sources.to_vec(),
@@ -397,7 +406,7 @@ pub fn compile_to_bytes(
             lists: cells.iter().map(|c| c.listed.clone()).collect(),
         },
         shared,
-        materials: scene.objects.iter().map(|o| o.material).collect(),
+        elsewhere,
         hit_ratios,
     };
     let rep = encode(&replicated)?;
@@ -728,13 +737,7 @@ impl CompiledScene {
     /// with a compiled scene).
     pub fn into_scene(self, options: &LoadOptions) -> Result<Scene> {
         let surfaces = self.read_surfaces()?;
-        let mut scene = record::replay(
-            &self.replicated.program,
-            surfaces,
-            options,
-            &self.path,
-            None,
-        )?;
+        let mut scene = record::replay(&self.replicated.program, surfaces, options, &self.path)?;
         // The ratios a processor holding part of the scene renders with.
         scene.hit_ratios = Some(self.replicated.hit_ratios.clone());
         Ok(scene)

@@ -16,6 +16,52 @@ pub type MaterialId = u32;
 /// Index into [`Scene::objects`](crate::scene::Scene::objects).
 pub type ObjectId = u32;
 
+/// Objects by id: a scene's every object, or the ones a processor of a
+/// distributed scene holds (see `crate::compiled`), with their ids.
+#[derive(Debug, Clone, Copy)]
+pub struct ObjectTable<'a> {
+    objects: &'a [Object],
+    /// `objects[k]` is object `ids[k]` (ascending); `None`: object `k`.
+    ids: Option<&'a [ObjectId]>,
+}
+
+impl<'a> ObjectTable<'a> {
+    /// Every object: object `k` is `objects[k]`.
+    pub fn dense(objects: &'a [Object]) -> Self {
+        ObjectTable { objects, ids: None }
+    }
+
+    /// Some objects: `objects[k]` is object `ids[k]`, ids ascending.
+    pub fn sparse(objects: &'a [Object], ids: &'a [ObjectId]) -> Self {
+        debug_assert_eq!(objects.len(), ids.len());
+        ObjectTable {
+            objects,
+            ids: Some(ids),
+        }
+    }
+
+    /// Object `id`, if held.
+    #[inline]
+    pub fn get(&self, id: ObjectId) -> Option<&'a Object> {
+        match self.ids {
+            None => self.objects.get(id as usize),
+            Some(ids) => ids
+                .binary_search(&id)
+                .ok()
+                .and_then(|k| self.objects.get(k)),
+        }
+    }
+
+    /// The objects held, with their ids, in id order.
+    pub fn iter(&self) -> impl Iterator<Item = (ObjectId, &'a Object)> + 'a {
+        let ids = self.ids;
+        self.objects
+            .iter()
+            .enumerate()
+            .map(move |(k, o)| (ids.map_or(k as ObjectId, |ids| ids[k]), o))
+    }
+}
+
 /// A named surface: one Radiance primitive (or one OBJ face group).
 #[derive(Debug, Clone)]
 pub struct Object {
@@ -55,12 +101,6 @@ pub enum Shape {
     },
     /// A transformed reference to shared geometry.
     Instance(Instance),
-    /// A surface this processor does not hold (a distributed scene's
-    /// placeholder, see [`crate::compiled`]): it keeps the object's id and
-    /// material so that ids and the materials a scene uses stay as they
-    /// are, and it has no extent: empty bounds, no area, never hit. Its
-    /// geometry lives with the processors that own its octree cells.
-    Absent,
 }
 
 /// A planar polygon with at least three vertices.

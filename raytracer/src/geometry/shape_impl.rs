@@ -248,7 +248,6 @@ impl Shape {
                 Aabb::new(*center - e, *center + e)
             }
             Shape::Instance(inst) => transform_bounds(&inst.transform, &inst.geometry.bounds),
-            Shape::Absent => Aabb::EMPTY,
         }
     }
 
@@ -324,7 +323,6 @@ impl Shape {
                     inner: Some(h.object),
                 })
             }
-            Shape::Absent => None,
         }
     }
 
@@ -383,7 +381,6 @@ impl Shape {
                 let s = inst.transform.scale;
                 inst.geometry.area() * s * s
             }
-            Shape::Absent => 0.0,
         }
     }
 
@@ -483,9 +480,6 @@ impl Shape {
                 let (p, n) = o.shape.sample(u, v);
                 (inst.transform.point(p), inst.transform.normal(n))
             }
-            // Never sampled: the surfaces light sources sample are held by
-            // every processor (a distributed scene replicates them).
-            Shape::Absent => (Vec3::ZERO, Vec3::Z),
         }
     }
 
@@ -513,7 +507,7 @@ impl Shape {
                 Some(if *inward { -n } else { n })
             }
             Shape::Ring { normal, .. } => Some(*normal),
-            Shape::Instance(_) | Shape::Absent => None,
+            Shape::Instance(_) => None,
         }
     }
 
@@ -549,7 +543,6 @@ impl Shape {
                 (normal.dot(c - *center)).abs() <= r
             }
             Shape::Cone { .. } | Shape::Instance(_) => true,
-            Shape::Absent => false,
         }
     }
 }

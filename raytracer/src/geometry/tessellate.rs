@@ -87,6 +87,5 @@ pub fn tessellate(shape: &Shape, segments: usize, out: &mut Vec<[Vec3; 3]>) {
                 out.extend(local.iter().map(|t| t.map(|p| inst.transform.point(p))));
             }
         }
-        Shape::Absent => {}
     }
 }

@@ -712,7 +712,7 @@ fn transform_explicitly(objects: &[Object], t: &Transform) -> Vec<Shape> {
                 r_outer * t.scale,
             )
             .unwrap(),
-            Shape::Instance(_) | Shape::Absent => unreachable!(),
+            Shape::Instance(_) => unreachable!(),
         })
         .collect()
 }
@@ -865,7 +865,7 @@ fn tessellation_lies_on_the_surfaces() {
                             || rel_close(r, *r_inner, 1e-12)
                             || rel_close(r, *r_outer, 1e-12))
                 }
-                Shape::Instance(_) | Shape::Absent => unreachable!(),
+                Shape::Instance(_) => unreachable!(),
             };
             assert!(on, "{p} is not on {:?}", o.shape);
         }

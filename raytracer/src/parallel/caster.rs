@@ -19,9 +19,9 @@ use std::cell::{Cell, RefCell};
 use hybrid_sched::serde::{Deserialize, Serialize};
 
 use crate::accel::{Hit, LeafObjects, NodeId, Octree, Partial, TraceCursor};
-use crate::geometry::Ray;
+use crate::geometry::{ObjectTable, Ray};
 use crate::render::RayCaster;
-use crate::scene::{Object, ObjectId};
+use crate::scene::ObjectId;
 
 /// One recorded query answer.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -45,7 +45,7 @@ pub struct Replay {
 /// objects every processor holds (see [`Octree::intersect_partial`]).
 pub struct PartialCaster<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> {
     octree: &'a Octree,
-    shared: &'a [Object],
+    shared: ObjectTable<'a>,
     cell: F,
     replay: RefCell<Replay>,
     next: Cell<usize>,
@@ -55,7 +55,7 @@ pub struct PartialCaster<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> {
 }
 
 impl<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> PartialCaster<'a, 'c, F> {
-    pub fn new(octree: &'a Octree, shared: &'a [Object], cell: F, replay: Replay) -> Self {
+    pub fn new(octree: &'a Octree, shared: ObjectTable<'a>, cell: F, replay: Replay) -> Self {
         PartialCaster {
             octree,
             shared,

@@ -66,7 +66,14 @@ pub(super) fn partition_for(
     procs: usize,
     predicted: &[u64],
 ) -> Partition {
-    let (octree, objects) = (renderer.octree(), &renderer.scene().objects);
+    let scene = renderer.scene();
+    // A processor's part of a distributed scene counts its resident bytes
+    // from the objects it reads (see `RtWorkload::read_part`).
+    let objects: &[crate::geometry::Object] = match scene.distributed {
+        None => &scene.objects,
+        Some(_) => &[],
+    };
+    let octree = renderer.octree();
     let procs = u32::try_from(procs.max(1)).unwrap_or(u32::MAX);
     match d {
         // Replicated: the memory cut, for the per-processor report only.

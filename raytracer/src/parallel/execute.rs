@@ -282,7 +282,7 @@ impl RtWorkload {
         ctx: &mut Ctx<Self>,
     ) -> Option<RayJob> {
         let octree = self.renderer.octree();
-        let shared = &self.renderer.scene().objects;
+        let shared = self.renderer.scene().table();
         let t = &job.task;
         let (mut leaves, mut tests) = (0u64, 0u64);
         let partial =
@@ -315,7 +315,7 @@ impl RtWorkload {
         ctx: &mut Ctx<Self>,
     ) -> Option<ShadowDp> {
         let octree = self.renderer.octree();
-        let shared = &self.renderer.scene().objects;
+        let shared = self.renderer.scene().table();
         if !job.replay.answers.is_empty() || job.replay.cursor != TraceCursor::default() {
             ctx.charge(Work::ShadowRestarts, 1);
         }

@@ -39,7 +39,6 @@ use super::work::Work;
 use crate::accel::{LeafObjects, NodeId, ObjectCopies, TraceCursor};
 use crate::compiled::CellSource;
 use crate::geometry::Aabb;
-use crate::geometry::ObjectId;
 use crate::render::Renderer;
 use crate::scene::View;
 
@@ -255,23 +254,37 @@ impl RtWorkload {
         let leaves: Vec<NodeId> = owned.iter().map(|c| c.0).collect();
         let scene = self.renderer.scene();
         let octree = self.renderer.octree();
-        let read = h.source.read_objects(scene, octree, &leaves).map_err(|e| {
+        let failed = |e: &dyn std::fmt::Display| {
             crate::Error::Other(format!(
                 "processor {proc} cannot read its part of the scene: {e}"
             ))
-        })?;
-        let object = |id: ObjectId| read.get(&id).unwrap_or(&scene.objects[id as usize]);
+        };
+        let mut read = h
+            .source
+            .read_objects(scene, octree, &leaves)
+            .map_err(|e| failed(&e))?;
+        // Each surface read becomes its processor's copy (moved, not
+        // copied again), as the first leaf listing it is built.
+        let maker = h.source.maker();
         let mut copies = ObjectCopies::new();
         let mut resident = HashSet::new();
-        let cells: Vec<(NodeId, CellData)> = owned
-            .into_iter()
-            .map(|(leaf, bytes)| {
-                let ids = octree.leaf_objects(leaf);
-                resident.extend(ids.iter().copied());
-                let cell = LeafObjects::copy_with(ids, object, &mut copies);
-                (leaf, CellData { leaf, bytes, cell })
-            })
-            .collect();
+        let mut cells: Vec<(NodeId, CellData)> = Vec::with_capacity(owned.len());
+        for (leaf, bytes) in owned {
+            let ids = octree.leaf_objects(leaf);
+            resident.extend(ids.iter().copied());
+            let cell = LeafObjects::copy_made(
+                ids,
+                |id| {
+                    read.remove(&id)
+                        .map(|s| maker.make(id, s).map_err(|e| e.to_string()))
+                },
+                scene.table(),
+                &mut copies,
+            )
+            .map_err(|e: String| failed(&e))?;
+            cells.push((leaf, CellData { leaf, bytes, cell }));
+        }
+        drop(read);
         let lists: usize = leaves
             .iter()
             .map(|&l| std::mem::size_of_val(octree.leaf_objects(l)))
@@ -279,7 +292,10 @@ impl RtWorkload {
         let resident_bytes = lists
             + resident
                 .iter()
-                .map(|&id| object_bytes(object(id)))
+                .filter_map(|id| match copies.get(id) {
+                    Some(c) => Some(object_bytes(c.object())),
+                    None => scene.object(*id).map(object_bytes),
+                })
                 .sum::<usize>();
         let copy_bytes: usize = copies.values().map(|c| c.bytes()).sum();
         if let Some(f) = h.figures.get(proc) {

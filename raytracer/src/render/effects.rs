@@ -88,6 +88,13 @@ fn used_materials(scene: &Scene) -> Vec<bool> {
         }
     }
     visit(&scene.objects, &mut used, &mut Vec::new());
+    // A processor's part of a distributed scene: the surfaces held
+    // elsewhere count too.
+    for &m in scene.distributed.iter().flat_map(|d| &d.elsewhere) {
+        if let Some(u) = used.get_mut(m as usize) {
+            *u = true;
+        }
+    }
     // Follow illum alternates.
     let mut changed = true;
     while changed {

@@ -119,13 +119,7 @@ pub fn prepare_lights(scene: &Scene) -> (Vec<PreparedLight>, Vec<String>) {
             ));
             continue;
         };
-        let name = |o: ObjectId| {
-            scene
-                .objects
-                .get(o as usize)
-                .map_or("?", |o| o.name.as_str())
-                .to_string()
-        };
+        let name = |o: ObjectId| scene.object(o).map_or("?", |o| o.name.as_str()).to_string();
         let geometry = match &light.kind {
             LightKind::Distant { dir, solid_angle } => {
                 if matches!(material, Material::Glow { .. }) {
@@ -148,7 +142,7 @@ pub fn prepare_lights(scene: &Scene) -> (Vec<PreparedLight>, Vec<String>) {
                 }
             }
             LightKind::Area { object } => {
-                let Some(obj) = scene.objects.get(*object as usize) else {
+                let Some(obj) = scene.object(*object) else {
                     warnings.push(format!(
                         "light {index}: object {object} does not exist; ignored"
                     ));
@@ -181,15 +175,6 @@ pub fn prepare_lights(scene: &Scene) -> (Vec<PreparedLight>, Vec<String>) {
                         ));
                         continue;
                     }
-                    // A distributed scene replicates every emitter, so
-                    // this is a damaged one.
-                    Shape::Absent => {
-                        warnings.push(format!(
-                            "light source {:?} is not held here; ignored",
-                            name(*object)
-                        ));
-                        continue;
-                    }
                 }
             }
         };
@@ -203,7 +188,7 @@ pub fn prepare_lights(scene: &Scene) -> (Vec<PreparedLight>, Vec<String>) {
                 cos_half: *cos_half,
             }),
             _ => object
-                .and_then(|o| scene.objects.get(o as usize))
+                .and_then(|o| scene.object(o))
                 .map(|o| LightExtent::Finite(o.shape.bounds())),
         };
         let flen = match &material {
@@ -633,7 +618,7 @@ impl PreparedLight {
                 flat_sample(p, *center, *normal, area)
             }
             Geometry::Param { area } => {
-                let shape = &scene.objects[self.object? as usize].shape;
+                let shape = &scene.object(self.object?)?.shape;
                 let c = shape.bounds().center();
                 let d = c - p;
                 let dist = d.length();
@@ -804,7 +789,7 @@ impl PreparedLight {
                 polar_patches(p, *center, *normal, *r_inner, *r_outer, ds, dj, rng, &mut f);
             }
             Geometry::Param { area } => {
-                let Some(obj) = self.object.and_then(|o| scene.objects.get(o as usize)) else {
+                let Some(obj) = self.object.and_then(|o| scene.object(o)) else {
                     return;
                 };
                 let shape = &obj.shape;

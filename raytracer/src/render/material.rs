@@ -97,7 +97,11 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
 /// interpolated vertex normal as a perturbation of the geometric one, and
 /// the interpolated (u, v).
 fn mesh_shading(scene: &Scene, hit: &Hit) -> (Applied, [f64; 2]) {
-    let top = &scene.objects[hit.object as usize];
+    // A surface a processor of a distributed scene does not hold is no
+    // instance (instances are held everywhere).
+    let Some(top) = scene.object(hit.object) else {
+        return (Applied::NONE, [0.0; 2]);
+    };
     let (Shape::Instance(inst), Some(k)) = (&top.shape, hit.inner) else {
         return (Applied::NONE, [0.0; 2]);
     };

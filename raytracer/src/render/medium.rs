@@ -86,7 +86,7 @@ impl Media {
             for s in sources {
                 let found = lights.iter().enumerate().rev().find(|(_, l)| {
                     l.object
-                        .and_then(|o| scene.objects.get(o as usize))
+                        .and_then(|o| scene.object(o))
                         .is_some_and(|o| &o.name == s)
                 });
                 match found {

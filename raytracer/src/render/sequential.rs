@@ -244,7 +244,7 @@ impl<'s> Renderer<'s> {
     ) -> Result<Self> {
         options.validate()?;
         // An empty scene would render a silently black image.
-        if scene.objects.is_empty() && scene.lights.is_empty() {
+        if scene.object_count() == 0 && scene.lights.is_empty() {
             return Err(Error::Other(
                 "the scene is empty: no surfaces and no light sources".into(),
             ));
@@ -303,7 +303,7 @@ impl<'s> Renderer<'s> {
             for (l, &r) in lights.iter_mut().zip(&h.ratios) {
                 l.hit_ratio = r;
             }
-        } else if effects.adaptive_shadow_testing.enabled && scene.distributed {
+        } else if effects.adaptive_shadow_testing.enabled && scene.distributed.is_some() {
             return Err(Error::Usage(format!(
                 "this processor holds part of the scene, and the compiled scene's hit ratios were measured for {}; this render prepares {} light sources with -dr {} (recompile the scene, or render it whole)",
                 scene.hit_ratios.as_ref().map_or("no light sources".to_string(), |h| format!("{} light sources with -dr {}", h.ratios.len(), h.dr)),
@@ -416,7 +416,7 @@ impl<'s> Renderer<'s> {
     /// The hierarchy rays are traced through (see [`crate::accel::Bvh`]).
     pub fn bvh(&self) -> &Bvh {
         debug_assert!(
-            !self.scene.distributed,
+            self.scene.distributed.is_none(),
             "a hierarchy over a processor's part of a scene"
         );
         &self

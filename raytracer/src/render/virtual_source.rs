@@ -84,7 +84,7 @@ fn mirrors(scene: &Scene, warnings: &mut Vec<String>) -> Vec<Mirror> {
     let mut out = Vec::new();
     let mut curved = 0usize;
     let mut first_curved = None;
-    for (i, o) in scene.objects.iter().enumerate() {
+    for (i, o) in scene.table().iter() {
         // vsmaterial(): an illum's alternate decides.
         let mut m = scene.material(o.material);
         if let Material::Illum {
@@ -127,7 +127,7 @@ fn mirrors(scene: &Scene, warnings: &mut Vec<String>) -> Vec<Mirror> {
         let normal = normal / len;
         out.push(Mirror {
             relay: Relay {
-                object: i as ObjectId,
+                object: i,
                 normal,
                 offset: normal.dot(point),
                 color: *color,
@@ -329,7 +329,7 @@ fn add_prism_relays(
     warnings: &mut Vec<String>,
 ) {
     let mut skipped_local = false;
-    for (i, o) in scene.objects.iter().enumerate() {
+    for (i, o) in scene.table().iter() {
         let Material::Prism {
             modifier,
             projections,
@@ -381,7 +381,7 @@ fn add_prism_relays(
                 // Points the redirected light reaches lie on this side.
                 let side = newdot.signum();
                 let relay = Relay {
-                    object: i as ObjectId,
+                    object: i,
                     normal: nv * side,
                     offset: od * side,
                     color: Color::ONE,

@@ -271,12 +271,27 @@ pub struct Scene {
     /// the scene was compiled, used instead of measuring them again (see
     /// [`HitRatios`]); `None` for scenes loaded from their sources.
     pub hit_ratios: Option<HitRatios>,
-    /// True when this scene holds only its replicated part: the surfaces
-    /// of other processors' cells are [`crate::geometry::Shape::Absent`]
-    /// placeholders (see `crate::compiled::distributed`). Nothing that
-    /// needs every surface (measuring hit ratios, building a hierarchy)
-    /// may run on it.
-    pub distributed: bool,
+    /// `Some` when this scene is a processor's part of a distributed
+    /// scene (see `crate::compiled`): `objects` then holds only the
+    /// objects every processor holds (light sources, mirrors, prisms,
+    /// instances), and the surfaces of the octree's cells are read by the
+    /// processors that own them. Nothing that needs every surface
+    /// (measuring hit ratios, building a hierarchy) may run on it. Look
+    /// objects up by id with [`Scene::object`].
+    pub distributed: Option<Distributed>,
+}
+
+/// What a processor's part of a distributed scene says of the objects it
+/// does not hold.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Distributed {
+    /// `objects[k]` is object `ids[k]` (ascending).
+    pub ids: Vec<ObjectId>,
+    /// Objects in the whole scene.
+    pub total: usize,
+    /// The materials of the surfaces not held here, each once, ascending
+    /// (the materials a scene uses decide the effects it renders).
+    pub elsewhere: Vec<MaterialId>,
 }
 
 /// Light sources' hit ratios measured once with the whole scene (a
@@ -292,6 +307,32 @@ pub struct HitRatios {
 }
 
 impl Scene {
+    /// The objects by id (all of them, or a distributed scene's part).
+    #[inline]
+    pub fn table(&self) -> crate::geometry::ObjectTable<'_> {
+        match &self.distributed {
+            None => crate::geometry::ObjectTable::dense(&self.objects),
+            Some(d) => crate::geometry::ObjectTable::sparse(&self.objects, &d.ids),
+        }
+    }
+
+    /// Object `id`, if this scene holds it (every object of a scene loaded
+    /// whole).
+    #[inline]
+    pub fn object(&self, id: ObjectId) -> Option<&Object> {
+        match &self.distributed {
+            None => self.objects.get(id as usize),
+            Some(_) => self.table().get(id),
+        }
+    }
+
+    /// Objects in the whole scene, held here or not.
+    pub fn object_count(&self) -> usize {
+        self.distributed
+            .as_ref()
+            .map_or(self.objects.len(), |d| d.total)
+    }
+
     pub fn material(&self, id: MaterialId) -> &Material {
         &self.materials[id as usize]
     }

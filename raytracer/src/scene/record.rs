@@ -257,35 +257,71 @@ fn split(prims: &[RawPrim], scene: &Scene) -> Result<(Program, Vec<Option<Surfac
 
 /// Builds the scene of `program` again; `surfaces[id]` is taken for every
 /// plain surface. `file` names the compiled scene in messages.
-///
-/// `absent`: the scene of a processor holding part of it. A plain surface
-/// whose slot is empty becomes a [`crate::geometry::Shape::Absent`]
-/// placeholder with its material `absent[id]`, and the scene is marked
-/// [`Scene::distributed`]; a light source must not be absent.
 pub fn replay(
     program: &Program,
-    mut surfaces: Vec<Option<Surface>>,
+    surfaces: Vec<Option<Surface>>,
     options: &LoadOptions,
     file: &Path,
-    absent: Option<&[MaterialId]>,
+) -> Result<Scene> {
+    if surfaces.len() != program.objects as usize {
+        return Err(Error::parse(
+            SourceLoc::new(file, 0),
+            format!(
+                "{} objects stored, the scene program makes {}",
+                surfaces.len(),
+                program.objects
+            ),
+        ));
+    }
+    let mut surfaces = surfaces;
+    replay_with(program, options, file, None, |id| {
+        surfaces.get_mut(id as usize).and_then(Option::take)
+    })
+}
+
+/// [`replay`] for a processor's part of a distributed scene: only the
+/// plain surfaces in `held` (by id) are made; the others are left out, and
+/// the scene is marked [`Scene::distributed`] with `elsewhere`, the
+/// materials those surfaces use. A light source must be held.
+pub fn replay_part(
+    program: &Program,
+    held: std::collections::BTreeMap<ObjectId, Surface>,
+    elsewhere: &[MaterialId],
+    options: &LoadOptions,
+    file: &Path,
+) -> Result<Scene> {
+    let mut held = held;
+    replay_with(program, options, file, Some(elsewhere), |id| {
+        held.remove(&id)
+    })
+}
+
+fn replay_with(
+    program: &Program,
+    options: &LoadOptions,
+    file: &Path,
+    elsewhere: Option<&[MaterialId]>,
+    mut take: impl FnMut(ObjectId) -> Option<Surface>,
 ) -> Result<Scene> {
     let bad = |reason: String| Error::parse(SourceLoc::new(file, 0), reason);
-    if surfaces.len() != program.objects as usize {
-        return Err(bad(format!(
-            "{} objects stored, the scene program makes {}",
-            surfaces.len(),
-            program.objects
-        )));
-    }
     let mut b = builder(options);
-    let mut objects: Vec<Object> = Vec::with_capacity(surfaces.len());
+    let mut objects: Vec<Object> = Vec::new();
+    // A distributed scene's ids of `objects`; `next` is the id the program
+    // is at (`objects.len()` for a whole scene).
+    let mut ids: Vec<ObjectId> = Vec::new();
+    let mut next: ObjectId = 0;
     for step in &program.steps {
         match step {
             Step::Record(r) => {
-                let start = objects.len();
-                b.add_prim(&from_record(r)?, &mut objects, true)?;
-                if objects.len() > start + 1 {
+                let mut made = Vec::new();
+                b.add_prim(&from_record(r)?, &mut made, true)?;
+                if made.len() > 1 {
                     return Err(bad(format!("record '{}' made several objects", r.id)));
+                }
+                for o in made {
+                    objects.push(o);
+                    ids.push(next);
+                    next += 1;
                 }
             }
             Step::Surfaces {
@@ -293,10 +329,9 @@ pub fn replay(
                 count,
                 modifiers,
             } => {
-                if *first as usize != objects.len() {
+                if *first != next {
                     return Err(bad(format!(
-                        "surfaces stored from object {first}, the scene program is at object {}",
-                        objects.len()
+                        "surfaces stored from object {first}, the scene program is at object {next}"
                     )));
                 }
                 for (name, id) in modifiers {
@@ -317,41 +352,26 @@ pub fn replay(
                         )));
                     }
                 }
-                let end = (*first as usize).checked_add(*count as usize);
-                let Some(slots) = end.and_then(|e| surfaces.get_mut(*first as usize..e)) else {
+                let end = first.checked_add(*count).filter(|&e| e <= program.objects);
+                let Some(end) = end else {
                     return Err(bad(format!(
                         "surfaces {first} + {count} lie beyond the {} objects",
                         program.objects
                     )));
                 };
-                for (k, slot) in slots.iter_mut().enumerate() {
-                    let id = *first + k as ObjectId;
-                    let object = match (slot.take(), absent) {
-                        (Some(s), _) => surface_object(&b, s, id, file)?,
-                        (None, Some(materials)) => {
-                            let material = *materials.get(id as usize).ok_or_else(|| {
-                                bad(format!("object {id}: no material recorded for it"))
-                            })?;
-                            let m = b.scene.materials.get(material as usize).ok_or_else(|| {
-                                bad(format!("object {id}: material {material} does not exist"))
-                            })?;
-                            if is_light_material(m) {
-                                return Err(bad(format!(
-                                    "object {id} is a light source but is not among the surfaces every processor holds"
-                                )));
-                            }
-                            Object {
-                                name: String::new(),
-                                shape: crate::geometry::Shape::Absent,
-                                material,
-                            }
-                        }
+                for id in *first..end {
+                    next = id + 1;
+                    let s = match (take(id), elsewhere) {
+                        (Some(s), _) => s,
+                        (None, Some(_)) => continue,
                         (None, None) => {
                             return Err(bad(format!("object {id}: its surface is missing")))
                         }
                     };
+                    let object = surface_object(&b, s, id, file)?;
+                    let material = object.material;
                     objects.push(object);
-                    let material = objects[id as usize].material;
+                    ids.push(id);
                     if is_light_material(b.scene.material(material)) {
                         b.scene.lights.push(Light {
                             kind: LightKind::Area { object: id },
@@ -362,31 +382,72 @@ pub fn replay(
             }
         }
     }
-    if objects.len() != program.objects as usize {
+    if next != program.objects {
         return Err(bad(format!(
-            "the scene program made {} objects, it should make {}",
-            objects.len(),
+            "the scene program made {next} objects, it should make {}",
             program.objects
         )));
     }
     b.scene.objects = objects;
     let mut scene = b.finish()?;
-    scene.distributed = absent.is_some();
+    if let Some(ms) = elsewhere {
+        for &m in ms {
+            match scene.materials.get(m as usize) {
+                None => {
+                    return Err(bad(format!(
+                        "surfaces held elsewhere use material {m}, the scene has {}",
+                        scene.materials.len()
+                    )))
+                }
+                Some(mat) if is_light_material(mat) => {
+                    return Err(bad(format!(
+                        "surfaces of light source material {m} are not among the surfaces every processor holds"
+                    )))
+                }
+                Some(_) => {}
+            }
+        }
+        scene.stats.objects = program.objects as usize;
+        scene.distributed = Some(super::model::Distributed {
+            ids,
+            total: program.objects as usize,
+            elsewhere: ms.to_vec(),
+        });
+    }
     Ok(scene)
 }
 
-/// Stored surfaces as objects (through the loader's shape code, as
-/// [`replay`] makes them), for a scene of `materials` materials.
-pub fn surface_objects(
-    surfaces: impl IntoIterator<Item = (ObjectId, Surface)>,
+/// Makes stored surfaces into objects (through the loader's shape code, as
+/// [`replay`] makes them) for a scene of a given number of materials.
+pub struct SurfaceMaker {
+    b: Builder,
     materials: usize,
-    file: &Path,
-) -> Result<Vec<(ObjectId, Object)>> {
-    let b = Builder::new();
-    surfaces
-        .into_iter()
-        .map(|(id, s)| Ok((id, make_object(&b, materials, s, id, file)?)))
-        .collect()
+    file: std::path::PathBuf,
+}
+
+impl std::fmt::Debug for SurfaceMaker {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SurfaceMaker")
+            .field("materials", &self.materials)
+            .field("file", &self.file)
+            .finish()
+    }
+}
+
+impl SurfaceMaker {
+    /// For a scene of `materials` materials; `file` names it in messages.
+    pub fn new(materials: usize, file: &Path) -> Self {
+        SurfaceMaker {
+            b: Builder::new(),
+            materials,
+            file: file.to_path_buf(),
+        }
+    }
+
+    /// Object `id` from its stored surface.
+    pub fn make(&self, id: ObjectId, s: Surface) -> Result<Object> {
+        make_object(&self.b, self.materials, s, id, &self.file)
+    }
 }
 
 /// A stored surface as an object, through the loader's own shape code.
