@@ -18,6 +18,7 @@ pub mod caster;
 pub mod cost;
 pub mod distribution;
 mod execute;
+mod held;
 pub mod partition;
 pub mod predict;
 mod selection;

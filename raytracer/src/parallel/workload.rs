@@ -37,7 +37,6 @@ use super::tasks::{CellData, DdTask, DpTask, RayJob, ShadowDp, Tile};
 use super::tree::{PixelTrees, RtResult};
 use super::work::Work;
 use crate::accel::{LeafObjects, NodeId, ObjectCopies, TraceCursor};
-use crate::compiled::CellSource;
 use crate::geometry::Aabb;
 use crate::render::Renderer;
 use crate::scene::View;
@@ -115,24 +114,7 @@ pub struct RtWorkload {
     /// A distributed compiled scene: the renderer holds its replicated
     /// part, and each processor reads its own cells (see
     /// [`RtWorkload::distributed`]).
-    pub(super) held: Option<Held>,
-}
-
-/// A processor's cells as it loads them.
-type Part = Vec<(NodeId, CellData)>;
-
-/// Where the processors of a distributed compiled scene read their cells,
-/// and what they read.
-#[derive(Debug)]
-pub(super) struct Held {
-    source: CellSource,
-    /// Per processor, its cells as read before the run
-    /// ([`RtWorkload::read_part`]), until its processor starts.
-    parts: Vec<Mutex<Option<Part>>>,
-    /// Per processor: bytes of its resident objects (as
-    /// [`Partition::resident_bytes`] counts them for a scene loaded whole)
-    /// and of its copies.
-    pub(super) figures: Vec<Mutex<Option<(u64, u64)>>>,
+    pub(super) held: Option<super::held::Held>,
 }
 
 /// A tile's primary rays by its top-left pixel, row by row (`None`: the
@@ -182,140 +164,6 @@ impl RtWorkload {
         Self::assemble(renderer, view, width, height, procs, opts, cells, None)
     }
 
-    /// A workload over a distributed compiled scene: `renderer` holds the
-    /// replicated part ([`crate::compiled::HeldPart`]), and processors read
-    /// their cells from `source` (before the run, [`RtWorkload::read_part`],
-    /// else when they start). The partition is the one of the scene loaded
-    /// whole, and so is the picture. Not for the `replicated` and
-    /// `predicted` distributions, which need every object.
-    pub fn distributed(
-        renderer: Renderer<'static>,
-        view: View,
-        width: usize,
-        height: usize,
-        procs: usize,
-        opts: WorkloadOptions,
-        source: CellSource,
-    ) -> crate::Result<Self> {
-        if matches!(
-            opts.distribution,
-            Distribution::Replicated | Distribution::Predicted
-        ) {
-            return Err(crate::Error::Usage(format!(
-                "distribution {} needs every object on every processor; a processor of a distributed scene holds only its cells (use octree or worst, or render the scene whole)",
-                opts.distribution
-            )));
-        }
-        let octree = renderer.octree();
-        let cells = source
-            .leaves()
-            .iter()
-            .map(|&(leaf, bytes)| (leaf, octree.leaf_objects(leaf).len() as u32, bytes))
-            .collect();
-        let procs = procs.max(1);
-        let held = Held {
-            source,
-            parts: (0..procs).map(|_| Mutex::new(None)).collect(),
-            figures: (0..procs).map(|_| Mutex::new(None)).collect(),
-        };
-        Ok(Self::assemble(
-            renderer,
-            view,
-            width,
-            height,
-            procs,
-            opts,
-            cells,
-            Some(held),
-        ))
-    }
-
-    /// Reads processor `proc`'s cells of a distributed scene (nothing for
-    /// a scene loaded whole), keeping them for the processor: errors name
-    /// the processor, the file and what could not be read.
-    pub fn read_part(&self, proc: usize) -> crate::Result<()> {
-        let Some(h) = &self.held else {
-            return Ok(());
-        };
-        let cells = self.read_cells(h, proc)?;
-        if let Some(slot) = h.parts.get(proc) {
-            *slot.lock().unwrap_or_else(|e| e.into_inner()) = Some(cells);
-        }
-        Ok(())
-    }
-
-    fn read_cells(&self, h: &Held, proc: usize) -> crate::Result<Vec<(NodeId, CellData)>> {
-        let owned: Vec<(NodeId, u64)> = self
-            .owner_table()
-            .into_iter()
-            .filter(|&(_, owner, _)| owner == proc)
-            .map(|(leaf, _, bytes)| (leaf, bytes))
-            .collect();
-        let leaves: Vec<NodeId> = owned.iter().map(|c| c.0).collect();
-        let scene = self.renderer.scene();
-        let octree = self.renderer.octree();
-        let failed = |e: &dyn std::fmt::Display| {
-            crate::Error::Other(format!(
-                "processor {proc} cannot read its part of the scene: {e}"
-            ))
-        };
-        let mut read = h
-            .source
-            .read_objects(scene, octree, &leaves)
-            .map_err(|e| failed(&e))?;
-        // Each surface read becomes its processor's copy (moved, not
-        // copied again), as the first leaf listing it is built.
-        let maker = h.source.maker();
-        let mut copies = ObjectCopies::new();
-        let mut resident = HashSet::new();
-        let mut cells: Vec<(NodeId, CellData)> = Vec::with_capacity(owned.len());
-        for (leaf, bytes) in owned {
-            let ids = octree.leaf_objects(leaf);
-            resident.extend(ids.iter().copied());
-            let cell = LeafObjects::copy_made(
-                ids,
-                |id| {
-                    read.remove(&id)
-                        .map(|s| maker.make(id, s).map_err(|e| e.to_string()))
-                },
-                scene.table(),
-                &mut copies,
-            )
-            .map_err(|e: String| failed(&e))?;
-            cells.push((leaf, CellData { leaf, bytes, cell }));
-        }
-        drop(read);
-        let lists: usize = leaves
-            .iter()
-            .map(|&l| std::mem::size_of_val(octree.leaf_objects(l)))
-            .sum();
-        let resident_bytes = lists
-            + resident
-                .iter()
-                .filter_map(|id| match copies.get(id) {
-                    Some(c) => Some(object_bytes(c.object())),
-                    None => scene.object(*id).map(object_bytes),
-                })
-                .sum::<usize>();
-        let copy_bytes: usize = copies.values().map(|c| c.bytes()).sum();
-        if let Some(f) = h.figures.get(proc) {
-            *f.lock().unwrap_or_else(|e| e.into_inner()) =
-                Some((resident_bytes as u64, copy_bytes as u64));
-        }
-        if self.share_in_process {
-            crate::accel::share_copies_in_process(&copies);
-        }
-        Ok(cells)
-    }
-
-    /// Per processor of a distributed scene: the bytes of its resident
-    /// objects and of its copies, once it has read its cells (`None` for a
-    /// scene loaded whole, or a processor of another MPI rank).
-    pub fn held_figures(&self, proc: usize) -> Option<(u64, u64)> {
-        let f = self.held.as_ref()?.figures.get(proc)?;
-        *f.lock().unwrap_or_else(|e| e.into_inner())
-    }
-
     /// Non-empty leaves with their object count and accounted bytes.
     fn cells_of(renderer: &Renderer<'static>) -> Vec<(NodeId, u32, u64)> {
         let octree = renderer.octree();
@@ -348,7 +196,7 @@ impl RtWorkload {
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn assemble(
+    pub(super) fn assemble(
         renderer: Renderer<'static>,
         view: View,
         width: usize,
@@ -356,7 +204,7 @@ impl RtWorkload {
         procs: usize,
         opts: WorkloadOptions,
         cells: Vec<(NodeId, u32, u64)>,
-        held: Option<Held>,
+        held: Option<super::held::Held>,
     ) -> Self {
         let predicted = if opts.distribution == Distribution::Predicted {
             super::predict::subtree_costs(&renderer, &view, width, height)
@@ -442,7 +290,7 @@ impl RtWorkload {
     }
 
     /// Leaves as data items: (leaf, owner, bytes); none when replicated.
-    fn owner_table(&self) -> Vec<(NodeId, usize, u64)> {
+    pub(super) fn owner_table(&self) -> Vec<(NodeId, usize, u64)> {
         if self.replicated() {
             return Vec::new();
         }

@@ -1,0 +1,171 @@
+//! The processors of a distributed compiled scene: each holds the
+//! replicated part and reads its own cells (see [`crate::compiled`]).
+
+use std::collections::HashSet;
+use std::sync::Mutex;
+
+use super::distribution::Distribution;
+use super::partition::object_bytes;
+use super::tasks::CellData;
+use super::workload::{RtWorkload, WorkloadOptions};
+use crate::accel::{LeafObjects, NodeId, ObjectCopies};
+use crate::compiled::CellSource;
+use crate::render::Renderer;
+use crate::scene::View;
+
+/// A processor's cells as it loads them.
+type Part = Vec<(NodeId, CellData)>;
+
+/// Where the processors of a distributed compiled scene read their cells,
+/// and what they read.
+#[derive(Debug)]
+pub(super) struct Held {
+    pub(super) source: CellSource,
+    /// Per processor, its cells as read before the run
+    /// ([`RtWorkload::read_part`]), until its processor starts.
+    pub(super) parts: Vec<Mutex<Option<Part>>>,
+    /// Per processor: bytes of its resident objects (as
+    /// [`super::Partition::resident_bytes`] counts them for a scene loaded whole)
+    /// and of its copies.
+    pub(super) figures: Vec<Mutex<Option<(u64, u64)>>>,
+}
+
+impl RtWorkload {
+    /// A workload over a distributed compiled scene: `renderer` holds the
+    /// replicated part ([`crate::compiled::HeldPart`]), and processors read
+    /// their cells from `source` (before the run, [`RtWorkload::read_part`],
+    /// else when they start). The partition is the one of the scene loaded
+    /// whole, and so is the picture. Not for the `replicated` and
+    /// `predicted` distributions, which need every object.
+    pub fn distributed(
+        renderer: Renderer<'static>,
+        view: View,
+        width: usize,
+        height: usize,
+        procs: usize,
+        opts: WorkloadOptions,
+        source: CellSource,
+    ) -> crate::Result<Self> {
+        if matches!(
+            opts.distribution,
+            Distribution::Replicated | Distribution::Predicted
+        ) {
+            return Err(crate::Error::Usage(format!(
+                "distribution {} needs every object on every processor; a processor of a distributed scene holds only its cells (use octree or worst, or render the scene whole)",
+                opts.distribution
+            )));
+        }
+        let octree = renderer.octree();
+        let cells = source
+            .leaves()
+            .iter()
+            .map(|&(leaf, bytes)| (leaf, octree.leaf_objects(leaf).len() as u32, bytes))
+            .collect();
+        let procs = procs.max(1);
+        let held = Held {
+            source,
+            parts: (0..procs).map(|_| Mutex::new(None)).collect(),
+            figures: (0..procs).map(|_| Mutex::new(None)).collect(),
+        };
+        Ok(Self::assemble(
+            renderer,
+            view,
+            width,
+            height,
+            procs,
+            opts,
+            cells,
+            Some(held),
+        ))
+    }
+
+    /// Reads processor `proc`'s cells of a distributed scene (nothing for
+    /// a scene loaded whole), keeping them for the processor: errors name
+    /// the processor, the file and what could not be read.
+    pub fn read_part(&self, proc: usize) -> crate::Result<()> {
+        let Some(h) = &self.held else {
+            return Ok(());
+        };
+        let cells = self.read_cells(h, proc)?;
+        if let Some(slot) = h.parts.get(proc) {
+            *slot.lock().unwrap_or_else(|e| e.into_inner()) = Some(cells);
+        }
+        Ok(())
+    }
+
+    pub(super) fn read_cells(
+        &self,
+        h: &Held,
+        proc: usize,
+    ) -> crate::Result<Vec<(NodeId, CellData)>> {
+        let owned: Vec<(NodeId, u64)> = self
+            .owner_table()
+            .into_iter()
+            .filter(|&(_, owner, _)| owner == proc)
+            .map(|(leaf, _, bytes)| (leaf, bytes))
+            .collect();
+        let leaves: Vec<NodeId> = owned.iter().map(|c| c.0).collect();
+        let scene = self.renderer.scene();
+        let octree = self.renderer.octree();
+        let failed = |e: &dyn std::fmt::Display| {
+            crate::Error::Other(format!(
+                "processor {proc} cannot read its part of the scene: {e}"
+            ))
+        };
+        let mut read = h
+            .source
+            .read_objects(scene, octree, &leaves)
+            .map_err(|e| failed(&e))?;
+        // Each surface read becomes its processor's copy (moved, not
+        // copied again), as the first leaf listing it is built.
+        let maker = h.source.maker();
+        let mut copies = ObjectCopies::new();
+        let mut resident = HashSet::new();
+        let mut cells: Vec<(NodeId, CellData)> = Vec::with_capacity(owned.len());
+        for (leaf, bytes) in owned {
+            let ids = octree.leaf_objects(leaf);
+            resident.extend(ids.iter().copied());
+            let cell = LeafObjects::copy_made(
+                ids,
+                |id| {
+                    read.remove(&id)
+                        .map(|s| maker.make(id, s).map_err(|e| e.to_string()))
+                },
+                scene.table(),
+                &mut copies,
+            )
+            .map_err(|e: String| failed(&e))?;
+            cells.push((leaf, CellData { leaf, bytes, cell }));
+        }
+        drop(read);
+        let lists: usize = leaves
+            .iter()
+            .map(|&l| std::mem::size_of_val(octree.leaf_objects(l)))
+            .sum();
+        let resident_bytes = lists
+            + resident
+                .iter()
+                .filter_map(|id| match copies.get(id) {
+                    Some(c) => Some(object_bytes(c.object())),
+                    None => scene.object(*id).map(object_bytes),
+                })
+                .sum::<usize>();
+        let copy_bytes: usize = copies.values().map(|c| c.bytes()).sum();
+        if let Some(f) = h.figures.get(proc) {
+            *f.lock().unwrap_or_else(|e| e.into_inner()) =
+                Some((resident_bytes as u64, copy_bytes as u64));
+        }
+        if self.share_in_process {
+            crate::accel::share_copies_in_process(&copies);
+        }
+        Ok(cells)
+    }
+
+    /// Per processor of a distributed scene: the bytes of its resident
+    /// objects and of its copies, once it has read its cells (`None` for a
+    /// scene loaded whole, or a processor of another MPI rank).
+    pub fn held_figures(&self, proc: usize) -> Option<(u64, u64)> {
+        let f = self.held.as_ref()?.figures.get(proc)?;
+        *f.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
