@@ -8,7 +8,7 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed, TestRunner};
 
 use super::*;
-use crate::geometry::{InstanceGeometry, Ray, Shape, Transform, Vec3};
+use crate::geometry::{InstanceGeometry, ObjectTable, Ray, Shape, Transform, Vec3};
 use crate::scene::{Material, Object, Scene};
 
 fn v(x: f64, y: f64, z: f64) -> Vec3 {
@@ -847,16 +847,29 @@ fn resumable_traversal_equals_intersect_and_occluded_wherever_it_stops() {
                     for tmax in [f64::INFINITY, tm * 8.0] {
                         let want = tree.intersect(&objects, &ray, 0.0, tmax);
                         let (got, h) = migrate(procs, salt, |c, local| {
-                            tree.intersect_partial(&objects, &ray, 0.0, tmax, c, |l| cell(local, l))
+                            tree.intersect_partial(
+                                ObjectTable::dense(&objects),
+                                &ray,
+                                0.0,
+                                tmax,
+                                c,
+                                |l| cell(local, l),
+                            )
                         });
                         prop_assert_eq!(got, want);
                         hops.set(hops.get() + h);
                         let ignore = want.map(|h| h.object);
                         let want = tree.occluded(&objects, &ray, 0.0, tmax, ignore);
                         let (got, _) = migrate(procs, salt, |c, local| {
-                            tree.occluded_partial(&objects, &ray, 0.0, tmax, ignore, c, |l| {
-                                cell(local, l)
-                            })
+                            tree.occluded_partial(
+                                ObjectTable::dense(&objects),
+                                &ray,
+                                0.0,
+                                tmax,
+                                ignore,
+                                c,
+                                |l| cell(local, l),
+                            )
                         });
                         prop_assert_eq!(got, want);
                     }

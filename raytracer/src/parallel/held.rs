@@ -7,28 +7,11 @@ use std::sync::Mutex;
 use super::distribution::Distribution;
 use super::partition::object_bytes;
 use super::tasks::CellData;
-use super::workload::{RtWorkload, WorkloadOptions};
+use super::workload::{Held, RtWorkload, WorkloadOptions};
 use crate::accel::{LeafObjects, NodeId, ObjectCopies};
 use crate::compiled::CellSource;
 use crate::render::Renderer;
 use crate::scene::View;
-
-/// A processor's cells as it loads them.
-type Part = Vec<(NodeId, CellData)>;
-
-/// Where the processors of a distributed compiled scene read their cells,
-/// and what they read.
-#[derive(Debug)]
-pub(super) struct Held {
-    pub(super) source: CellSource,
-    /// Per processor, its cells as read before the run
-    /// ([`RtWorkload::read_part`]), until its processor starts.
-    pub(super) parts: Vec<Mutex<Option<Part>>>,
-    /// Per processor: bytes of its resident objects (as
-    /// [`super::Partition::resident_bytes`] counts them for a scene loaded whole)
-    /// and of its copies.
-    pub(super) figures: Vec<Mutex<Option<(u64, u64)>>>,
-}
 
 impl RtWorkload {
     /// A workload over a distributed compiled scene: `renderer` holds the

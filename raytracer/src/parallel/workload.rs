@@ -114,7 +114,24 @@ pub struct RtWorkload {
     /// A distributed compiled scene: the renderer holds its replicated
     /// part, and each processor reads its own cells (see
     /// [`RtWorkload::distributed`]).
-    pub(super) held: Option<super::held::Held>,
+    pub(super) held: Option<Held>,
+}
+
+/// A processor's cells as it loads them.
+type Part = Vec<(NodeId, CellData)>;
+
+/// Where the processors of a distributed compiled scene read their cells,
+/// and what they read.
+#[derive(Debug)]
+pub(super) struct Held {
+    pub(super) source: crate::compiled::CellSource,
+    /// Per processor, its cells as read before the run
+    /// ([`RtWorkload::read_part`]), until its processor starts.
+    pub(super) parts: Vec<Mutex<Option<Part>>>,
+    /// Per processor: bytes of its resident objects (as
+    /// [`super::Partition::resident_bytes`] counts them for a scene loaded whole)
+    /// and of its copies.
+    pub(super) figures: Vec<Mutex<Option<(u64, u64)>>>,
 }
 
 /// A tile's primary rays by its top-left pixel, row by row (`None`: the
@@ -204,7 +221,7 @@ impl RtWorkload {
         procs: usize,
         opts: WorkloadOptions,
         cells: Vec<(NodeId, u32, u64)>,
-        held: Option<super::held::Held>,
+        held: Option<Held>,
     ) -> Self {
         let predicted = if opts.distribution == Distribution::Predicted {
             super::predict::subtree_costs(&renderer, &view, width, height)
