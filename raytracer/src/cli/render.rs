@@ -120,8 +120,8 @@ pub(super) fn run(a: &RenderArgs) -> Result<()> {
 fn print_peak_memory(a: &RenderArgs) {
     #[cfg(feature = "mpi")]
     let rank = match a.parallel.runtime {
-        super::args::RuntimeArg::Mpi => crate::parallel::mpi_world()
-            .map(|(r, _)| format!("rank {r}: "))
+        super::args::RuntimeArg::Mpi => hybrid_sched::runtime::mpi::last_world()
+            .map(|w| format!("rank {}: ", w.rank))
             .unwrap_or_default(),
         _ => String::new(),
     };

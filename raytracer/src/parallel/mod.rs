@@ -346,6 +346,7 @@ pub fn render_parallel_held(
         return Err(Error::Usage("--procs must be at least 1".into()));
     }
     let t0 = Instant::now();
+    tracing::debug!(peak_kib = crate::report::peak_resident_bytes().map(|b| b / 1024), rss_kib = crate::report::resident_bytes().map(|b| b / 1024), "replicated part and skeleton read");
     let renderer = Renderer::with_skeleton(Arc::new(part.scene), options, part.octree)?;
     ambient::check_hybrid(&renderer)?;
     let wl = RtWorkload::distributed(
@@ -366,6 +367,7 @@ pub fn render_parallel_held(
         RuntimeKind::Mpi => wl.read_part(this_rank()?)?,
         _ => (0..popts.procs).try_for_each(|p| wl.read_part(p))?,
     }
+    tracing::debug!(peak_kib = crate::report::peak_resident_bytes().map(|b| b / 1024), rss_kib = crate::report::resident_bytes().map(|b| b / 1024), "cells read");
     run_workload(wl, popts, progress, t0)
 }
 

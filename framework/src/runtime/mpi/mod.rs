@@ -65,7 +65,7 @@ use crate::runtime::{assemble, Extras, Node, RunReport, Runtime};
 use crate::stats::{ProcStats, RankTraffic, State};
 
 pub use self::transport::{
-    abort, decode_packet, encode_packet, init, world, World, TAG_FINAL, TAG_PACKET,
+    abort, decode_packet, encode_packet, init, last_world, world, World, TAG_FINAL, TAG_PACKET,
 };
 use self::transport::{decode, finish, phase, runtime_err, Cmd, Event, Phase, Session};
 
@@ -134,7 +134,7 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
         .map_or(started, |(d, _)| d)
         .max(Instant::now() + FINISH_GRACE);
     finish(session, finish_by)?;
-    *guard = Phase::Finalized;
+    *guard = Phase::Finalized(world);
     if world.rank != 0 {
         let mut report = assemble("mpi", world.size, Vec::new(), elapsed);
         report.extras = Extras::NotRoot { rank: world.rank };

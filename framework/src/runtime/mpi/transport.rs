@@ -75,7 +75,8 @@ pub(crate) struct Session {
 pub(crate) enum Phase {
     NotStarted,
     Running(Session),
-    Finalized,
+    /// MPI ended; the world it ran in.
+    Finalized(World),
 }
 
 static PHASE: Mutex<Phase> = Mutex::new(Phase::NotStarted);
@@ -94,7 +95,7 @@ pub fn init() -> Result<World, RunError> {
     let mut guard = phase();
     match &*guard {
         Phase::Running(s) => return Ok(s.world),
-        Phase::Finalized => {
+        Phase::Finalized(_) => {
             return Err(runtime_err(
                 "MPI has already been finalised in this process: it runs once per process",
             ))
@@ -128,6 +129,16 @@ pub fn world() -> Option<World> {
     match &*PHASE.try_lock().ok()? {
         Phase::Running(s) => Some(s.world),
         _ => None,
+    }
+}
+
+/// This process's [`World`] once MPI has started in it, also after it
+/// ended (`None` before [`init`]): for what a rank reports after its run.
+pub fn last_world() -> Option<World> {
+    match &*PHASE.try_lock().ok()? {
+        Phase::Running(s) => Some(s.world),
+        Phase::Finalized(w) => Some(*w),
+        Phase::NotStarted => None,
     }
 }
 
