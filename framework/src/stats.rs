@@ -459,4 +459,26 @@ pub struct RankTraffic {
     pub local_packets: u64,
     /// Packets that arrived for an actor that had already finished (dropped).
     pub late_packets: u64,
+    /// Peak resident memory of the rank's process as the operating system
+    /// measured it at the end of its run ([`peak_resident_bytes`]; 0 where
+    /// the system does not say).
+    #[serde(default)]
+    pub peak_resident_bytes: u64,
+}
+
+/// This process's peak resident memory as the operating system measured
+/// it (Linux: `VmHWM` in `/proc/self/status`), in bytes; `None` elsewhere.
+pub fn peak_resident_bytes() -> Option<u64> {
+    proc_status_kib("VmHWM:").map(|k| k * 1024)
+}
+
+/// This process's resident memory now (Linux: `VmRSS`), in bytes.
+pub fn resident_bytes() -> Option<u64> {
+    proc_status_kib("VmRSS:").map(|k| k * 1024)
+}
+
+fn proc_status_kib(key: &str) -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with(key))?;
+    line.split_whitespace().nth(1)?.parse().ok()
 }

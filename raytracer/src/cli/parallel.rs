@@ -191,6 +191,13 @@ pub fn summary(r: &ParallelRender) -> String {
         r.work(Work::ShadowBundlesDp),
         r.work(Work::ClipMisses),
     );
+    if let (Some(b), true) = (r.peak_resident_bytes, r.ranks.is_empty()) {
+        let _ = writeln!(
+            s,
+            "peak resident memory of this process (every processor of the run together, as the OS measured it): {:.1} MiB",
+            b as f64 / (1024.0 * 1024.0)
+        );
+    }
     if let Some(v) = r.simulated_s {
         let _ = writeln!(
             s,
@@ -201,7 +208,7 @@ pub fn summary(r: &ParallelRender) -> String {
     if !r.ranks.is_empty() {
         let _ = writeln!(
             s,
-            "MPI wire traffic (encoded bytes; the master runs on rank 0):\n{:>4} {:>9} {:>10} {:>9} {:>10} {:>9} {:>10} {:>13} {:>8}",
+            "MPI wire traffic (encoded bytes; the master runs on rank 0) and each rank's peak memory (as the OS measured it):\n{:>4} {:>9} {:>10} {:>9} {:>10} {:>9} {:>10} {:>13} {:>8} {:>9}",
             "rank",
             "msgs sent",
             "KiB sent",
@@ -210,7 +217,8 @@ pub fn summary(r: &ParallelRender) -> String {
             "data recv",
             "data KiB",
             "data KiB acct",
-            "local"
+            "local",
+            "peak MiB"
         );
         for t in &r.ranks {
             // What the processor on this rank accounted for the data it
@@ -222,7 +230,7 @@ pub fn summary(r: &ParallelRender) -> String {
                 .map_or(0, |p| p.received.get(Class::Data).bytes);
             let _ = writeln!(
                 s,
-                "{:>4} {:>9} {:>10.1} {:>9} {:>10.1} {:>9} {:>10.1} {:>13.1} {:>8}",
+                "{:>4} {:>9} {:>10.1} {:>9} {:>10.1} {:>9} {:>10.1} {:>13.1} {:>8} {:>9.1}",
                 t.rank,
                 t.messages_sent,
                 t.bytes_sent as f64 / 1024.0,
@@ -231,7 +239,8 @@ pub fn summary(r: &ParallelRender) -> String {
                 t.data_messages_received,
                 t.data_bytes_received as f64 / 1024.0,
                 accounted as f64 / 1024.0,
-                t.local_packets
+                t.local_packets,
+                t.peak_resident_bytes as f64 / (1024.0 * 1024.0)
             );
         }
     }

@@ -242,6 +242,11 @@ pub struct ParallelRender {
     /// Per-state time line of every actor (runtime `sim`).
     #[serde(skip)]
     pub timeline: Option<Timeline>,
+    /// Peak resident memory of this process as the operating system
+    /// measured it after the run (`None` where it does not say): every
+    /// processor of a run in one process together; under MPI, rank 0's
+    /// (each rank's is in [`ParallelRender::ranks`]).
+    pub peak_resident_bytes: Option<u64>,
     /// MPI runtime: what each rank put on and took off the wire (index =
     /// rank); empty for the other runtimes.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -346,7 +351,11 @@ pub fn render_parallel_held(
         return Err(Error::Usage("--procs must be at least 1".into()));
     }
     let t0 = Instant::now();
-    tracing::debug!(peak_kib = crate::report::peak_resident_bytes().map(|b| b / 1024), rss_kib = crate::report::resident_bytes().map(|b| b / 1024), "replicated part and skeleton read");
+    tracing::debug!(
+        peak_kib = crate::report::peak_resident_bytes().map(|b| b / 1024),
+        rss_kib = crate::report::resident_bytes().map(|b| b / 1024),
+        "replicated part and skeleton read"
+    );
     let renderer = Renderer::with_skeleton(Arc::new(part.scene), options, part.octree)?;
     ambient::check_hybrid(&renderer)?;
     let wl = RtWorkload::distributed(
@@ -367,7 +376,11 @@ pub fn render_parallel_held(
         RuntimeKind::Mpi => wl.read_part(this_rank()?)?,
         _ => (0..popts.procs).try_for_each(|p| wl.read_part(p))?,
     }
-    tracing::debug!(peak_kib = crate::report::peak_resident_bytes().map(|b| b / 1024), rss_kib = crate::report::resident_bytes().map(|b| b / 1024), "cells read");
+    tracing::debug!(
+        peak_kib = crate::report::peak_resident_bytes().map(|b| b / 1024),
+        rss_kib = crate::report::resident_bytes().map(|b| b / 1024),
+        "cells read"
+    );
     run_workload(wl, popts, progress, t0)
 }
 
@@ -534,6 +547,7 @@ fn run_workload(
         setup_s,
         simulated_s,
         timeline,
+        peak_resident_bytes: hybrid_sched::stats::peak_resident_bytes(),
         ranks,
     }))
 }

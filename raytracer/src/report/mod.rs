@@ -5,19 +5,13 @@
 pub mod plot;
 pub mod table;
 
-/// The process's peak resident set as the operating system measured it
-/// (`VmHWM` in `/proc/self/status`), in bytes; `None` where there is none.
+/// The process's peak resident memory as the operating system measured it
+/// (`VmHWM`), in bytes; `None` where there is none.
 pub fn peak_resident_bytes() -> Option<usize> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: usize = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
+    hybrid_sched::stats::peak_resident_bytes().map(|b| b as usize)
 }
 
-/// The process's resident set now (`VmRSS`), in bytes.
+/// The process's resident memory now (`VmRSS`), in bytes.
 pub fn resident_bytes() -> Option<usize> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmRSS:"))?;
-    let kb: usize = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
+    hybrid_sched::stats::resident_bytes().map(|b| b as usize)
 }

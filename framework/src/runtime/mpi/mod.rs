@@ -141,7 +141,10 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
         return Ok(report);
     }
     let mut all = finished;
-    let mut ranks = vec![traffic];
+    let mut ranks = vec![RankTraffic {
+        peak_resident_bytes: crate::stats::peak_resident_bytes().unwrap_or(0),
+        ..traffic
+    }];
     for f in finals.into_iter().skip(1).flatten() {
         all.extend(f.nodes);
         ranks.push(f.traffic);
@@ -459,7 +462,10 @@ impl<'s, W: Workload> RankLoop<'s, W> {
         let report = FinalReport::<W> {
             rank: self.rank,
             nodes: std::mem::take(&mut self.finished),
-            traffic: self.traffic,
+            traffic: RankTraffic {
+                peak_resident_bytes: crate::stats::peak_resident_bytes().unwrap_or(0),
+                ..self.traffic
+            },
         };
         let bytes = postcard::to_stdvec(&report).map_err(|e| {
             runtime_err(format!(
