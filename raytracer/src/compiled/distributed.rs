@@ -44,15 +44,16 @@ pub struct CellSource {
     index: Vec<CellEntry>,
     copies: bool,
     materials: usize,
-    /// Per listing leaf (node order): its node, its cell and its accounted
-    /// bytes.
+    /// Per listing leaf, in node order (so its index is its cell's): its
+    /// node and its accounted bytes.
     leaves: Vec<(NodeId, u64)>,
+    /// Each listing leaf's cell.
     cell_of: HashMap<NodeId, u32>,
 }
 
 impl CompiledScene {
     /// Reads what a processor holds of this scene besides its cells: the
-    /// replicated part as a scene with placeholders, and the octree.
+    /// replicated part as a [`Scene::distributed`] scene, and the octree.
     pub fn held_part(&self, options: &LoadOptions) -> Result<HeldPart> {
         let rep = &self.replicated;
         let n = rep.program.objects as usize;

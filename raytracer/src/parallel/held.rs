@@ -144,6 +144,16 @@ impl RtWorkload {
         Ok(cells)
     }
 
+    /// The accounted bytes of the cells processor `proc` owns (its share
+    /// of the scene as the partition counts it).
+    pub fn accounted_share(&self, proc: usize) -> u64 {
+        self.owner_table()
+            .into_iter()
+            .filter(|&(_, owner, _)| owner == proc)
+            .map(|(_, _, bytes)| bytes)
+            .sum()
+    }
+
     /// Per processor of a distributed scene: the bytes of its resident
     /// objects and of its copies, once it has read its cells (`None` for a
     /// scene loaded whole, or a processor of another MPI rank).

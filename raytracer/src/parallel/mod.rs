@@ -210,6 +210,11 @@ pub struct ProcSummary {
     pub pixels: usize,
     /// Most ray-tree nodes held at once while assembling pixels.
     pub peak_tree_nodes: usize,
+    /// False for a processor of another MPI rank holding part of a
+    /// distributed scene, whose objects this rank never saw:
+    /// `resident_bytes` is then its cells' accounted bytes, and
+    /// `copy_bytes` is not known here (0).
+    pub measured: bool,
 }
 
 /// The outcome of [`render_parallel`].
@@ -491,13 +496,17 @@ fn run_workload(
                 cost: part.cost().get(p).copied().unwrap_or(0),
                 pixels: acc.pixels.len(),
                 peak_tree_nodes: acc.peak_pending,
+                measured: true,
             });
             continue;
         }
+        let elsewhere = wl.held.is_some();
         procs.push(ProcSummary {
             // Replicated: every processor reads the whole scene.
             resident_bytes: if replicated {
                 data_bytes
+            } else if elsewhere {
+                wl.accounted_share(p)
             } else {
                 part.resident_bytes().get(p).copied().unwrap_or(0) as u64
             },
@@ -508,7 +517,7 @@ fn run_workload(
             },
             // Another MPI rank's processor of a distributed scene: measured
             // there, not here.
-            copy_bytes: if replicated || wl.held.is_some() {
+            copy_bytes: if replicated || elsewhere {
                 0
             } else {
                 let objects = &wl.renderer().scene().objects;
@@ -520,6 +529,7 @@ fn run_workload(
             cost: part.cost().get(p).copied().unwrap_or(0),
             pixels: acc.pixels.len(),
             peak_tree_nodes: acc.peak_pending,
+            measured: !elsewhere,
         });
     }
     // -ps > 1: replicated tiles sample adaptively; the other distributions
