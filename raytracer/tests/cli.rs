@@ -344,6 +344,8 @@ fn parallel_render_writes_the_sequential_picture_and_a_report() {
             "octree",
             "--tile",
             "8",
+            "--flight-bytes",
+            "4M",
             "--parallel-stats",
             json.to_str().unwrap(),
             "-o",
@@ -375,6 +377,7 @@ fn bad_parallel_options_are_usage_errors() {
         ("--runtime", "quantum", "--runtime"),
         ("--tile", "0", "--tile 0"),
         ("--time-limit", "0", "--time-limit 0"),
+        ("--flight-bytes", "10%", "--flight-bytes"),
     ] {
         let mut args = vec![
             "render",

@@ -564,6 +564,7 @@ pub struct ParallelArgs {
         long,
         default_value_t = crate::parallel::RENDER_FLIGHT_BYTES,
         value_name = "BYTES",
+        value_parser = byte_count,
         help_heading = "Parallel rendering"
     )]
     pub flight_bytes: usize,
@@ -1148,5 +1149,18 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("table1") && e.contains("calibrate"), "{e}");
+    }
+}
+
+/// A byte count with an optional `K`, `M` or `G` suffix (powers of 1024),
+/// as `--cache` takes one.
+fn byte_count(s: &str) -> Result<usize, String> {
+    match s.parse::<crate::parallel::CacheSize>() {
+        Ok(crate::parallel::CacheSize::Bytes(b)) => {
+            usize::try_from(b).map_err(|_| format!("{s:?} is too large"))
+        }
+        _ => Err(format!(
+            "{s:?}: expected a byte count like 1048576, 512K or 64M"
+        )),
     }
 }
