@@ -840,6 +840,19 @@ pub fn translate(args: Vec<String>) -> Vec<String> {
     out
 }
 
+/// A byte count with an optional `K`, `M` or `G` suffix (powers of 1024),
+/// as `--cache` takes one.
+fn byte_count(s: &str) -> Result<usize, String> {
+    match s.parse::<crate::parallel::CacheSize>() {
+        Ok(crate::parallel::CacheSize::Bytes(b)) => {
+            usize::try_from(b).map_err(|_| format!("{s:?} is too large"))
+        }
+        _ => Err(format!(
+            "{s:?}: expected a byte count like 1048576, 512K or 64M"
+        )),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1149,18 +1162,5 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("table1") && e.contains("calibrate"), "{e}");
-    }
-}
-
-/// A byte count with an optional `K`, `M` or `G` suffix (powers of 1024),
-/// as `--cache` takes one.
-fn byte_count(s: &str) -> Result<usize, String> {
-    match s.parse::<crate::parallel::CacheSize>() {
-        Ok(crate::parallel::CacheSize::Bytes(b)) => {
-            usize::try_from(b).map_err(|_| format!("{s:?} is too large"))
-        }
-        _ => Err(format!(
-            "{s:?}: expected a byte count like 1048576, 512K or 64M"
-        )),
     }
 }
