@@ -104,9 +104,19 @@ fn received_leaves_share_the_copies_this_process_holds() {
     let sent = LeafObjects::copy_from(tree.leaf_objects(l), &objects, &mut ObjectCopies::new());
     let again: LeafObjects = postcard::from_bytes(&postcard::to_allocvec(&sent).unwrap()).unwrap();
     for (k, &id) in again.ids().iter().enumerate() {
+        // Equal to the sender's copy of the object (a copy keeps what
+        // tracing and shading read: a polygon's vertices, normal and area).
+        let copy = again.own(k).unwrap().object();
         assert_eq!(
-            format!("{:?}", again.own(k).unwrap().object().shape),
-            format!("{:?}", objects[id as usize].shape)
+            format!("{:?}", copy.shape),
+            format!("{:?}", sent.own(k).unwrap().object().shape)
         );
+        assert_eq!(copy.name, objects[id as usize].name);
+        if let (Shape::Polygon(a), Shape::Polygon(b)) = (&copy.shape, &objects[id as usize].shape) {
+            assert_eq!(
+                (&a.vertices, a.normal, a.area),
+                (&b.vertices, b.normal, b.area)
+            );
+        }
     }
 }

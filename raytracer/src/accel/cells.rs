@@ -59,8 +59,19 @@ pub struct HeldObject {
 
 impl HeldObject {
     fn new(object: Object) -> Arc<HeldObject> {
-        let object = [object];
+        let mut object = [object];
         let prims = Prims::build(&object);
+        // A copy is only traced and shaded: a polygon is tested through its
+        // intersection data alone (built from its triangles whenever it has
+        // any), so its triangulation, flattened triangles and area table
+        // are dropped; its vertices stay, they are what travels.
+        if let Shape::Polygon(p) = &mut object[0].shape {
+            if !p.tri_verts.is_empty() {
+                p.triangles = Vec::new();
+                p.tri_verts = Vec::new();
+                p.cdf = Vec::new();
+            }
+        }
         Arc::new(HeldObject { object, prims })
     }
 

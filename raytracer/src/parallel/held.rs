@@ -104,6 +104,9 @@ impl RtWorkload {
         let maker = h.source.maker();
         let mut copies = ObjectCopies::new();
         let mut resident = HashSet::new();
+        // The bytes of the objects read, as the partition counts a whole
+        // scene's (a copy keeps less of a polygon than the scene does).
+        let mut read_bytes = 0usize;
         let mut cells: Vec<(NodeId, CellData)> = Vec::with_capacity(owned.len());
         for (leaf, bytes) in owned {
             let ids = octree.leaf_objects(leaf);
@@ -111,8 +114,14 @@ impl RtWorkload {
             let cell = LeafObjects::copy_made(
                 ids,
                 |id| {
-                    read.remove(&id)
-                        .map(|s| maker.make(id, s).map_err(|e| e.to_string()))
+                    let s = read.remove(&id)?;
+                    Some(match maker.make(id, s) {
+                        Ok(o) => {
+                            read_bytes += object_bytes(&o);
+                            Ok(o)
+                        }
+                        Err(e) => Err(e.to_string()),
+                    })
                 },
                 scene.table(),
                 &mut copies,
@@ -126,12 +135,11 @@ impl RtWorkload {
             .map(|&l| std::mem::size_of_val(octree.leaf_objects(l)))
             .sum();
         let resident_bytes = lists
+            + read_bytes
             + resident
                 .iter()
-                .filter_map(|id| match copies.get(id) {
-                    Some(c) => Some(object_bytes(c.object())),
-                    None => scene.object(*id).map(object_bytes),
-                })
+                .filter_map(|&id| scene.object(id))
+                .map(object_bytes)
                 .sum::<usize>();
         let copy_bytes: usize = copies.values().map(|c| c.bytes()).sum();
         if let Some(f) = h.figures.get(proc) {
