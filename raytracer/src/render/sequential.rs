@@ -305,7 +305,7 @@ impl<'s> Renderer<'s> {
             }
         } else if effects.adaptive_shadow_testing.enabled && scene.distributed.is_some() {
             return Err(Error::Usage(format!(
-                "this processor holds part of the scene, and the compiled scene's hit ratios were measured for {}; this render prepares {} light sources with -dr {} (recompile the scene, or render it whole)",
+                "this processor holds part of the scene, and the compiled scene's hit ratios were measured for {}; this render prepares {} light sources with -dr {} (render with the -dr the scene was compiled with, or render it whole: --distribution replicated, or no --procs)",
                 scene.hit_ratios.as_ref().map_or("no light sources".to_string(), |h| format!("{} light sources with -dr {}", h.ratios.len(), h.dr)),
                 lights.len(),
                 options.dr
