@@ -244,3 +244,31 @@ fn a_damaged_cell_names_the_processor_and_the_cell() {
     assert!(e.contains(&path.display().to_string()), "{e}");
     assert!(e.contains("cell"), "{e}");
 }
+
+/// The hit ratios stored at compile time serve any `-dr` that makes the
+/// same light sources (the studio relays nothing), and a render of the
+/// compiled scene equals the render of its sources then too.
+#[test]
+fn stored_hit_ratios_serve_a_dr_that_makes_the_same_light_sources() {
+    let dir = tmpdir("dr");
+    let (path, view) = compiled_scene(&dir, "studio", Storage::Once);
+    let options = RenderOptions {
+        dr: 0,
+        ..RenderOptions::default()
+    };
+    assert_ne!(options.dr, RenderOptions::default().dr);
+    let sources = hybrid_rt::scene::load(&[dir.join("studio.rad")]).unwrap();
+    let want = Renderer::new(&sources, options.clone())
+        .unwrap()
+        .render(&view, 32, 24)
+        .unwrap()
+        .0;
+    let part = CompiledScene::open(&path)
+        .unwrap()
+        .held_part(&LoadOptions::default())
+        .unwrap();
+    let out = render_parallel_held(part, options, &view, 32, 24, &ParallelOptions::new(2), None)
+        .unwrap()
+        .unwrap();
+    assert!(out.film.pixels() == want.pixels());
+}

@@ -295,10 +295,13 @@ impl<'s> Renderer<'s> {
         let effects = EffectsReport::analyse(&scene, &options, &lights);
         let (media, media_warnings) = Media::new(&scene, &options, &lights);
         warnings.extend(media_warnings);
-        let stored = scene
-            .hit_ratios
-            .as_ref()
-            .filter(|h| h.dr == options.dr && h.ratios.len() == lights.len());
+        // The stored ratios are for these light sources if there are as
+        // many and `-dr` made the same virtual ones (it makes none where
+        // nothing relays light).
+        let stored = scene.hit_ratios.as_ref().filter(|h| {
+            h.ratios.len() == lights.len()
+                && (h.dr == options.dr || lights.iter().all(|l| l.virt.is_none()))
+        });
         if let Some(h) = stored.filter(|_| effects.adaptive_shadow_testing.enabled) {
             for (l, &r) in lights.iter_mut().zip(&h.ratios) {
                 l.hit_ratio = r;
