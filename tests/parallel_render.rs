@@ -253,6 +253,62 @@ fn shadow_bundles_start_in_the_step_that_shaded_their_point() {
     }
 }
 
+/// The processor's own hierarchy answers the queries its resident
+/// objects decide, the rest walk the octree: the pictures and every ray
+/// and shadow count are those of the walk alone (and of the sequential
+/// renderer), under every policy and distribution, with a cache too small
+/// to hold a cell; on one processor (which holds everything) nothing walks.
+#[test]
+fn the_processors_own_hierarchy_changes_no_answer() {
+    let c = case("studio", 32, 32, RenderOptions::default());
+    let small = CacheSize::Bytes(largest_cell(&c) / 2);
+    let mut runs: Vec<_> = Policy::ALL
+        .iter()
+        .map(|&p| (p, Distribution::Octree, CacheSize::Unlimited))
+        .collect();
+    runs.push((Policy::Local, Distribution::Worst, CacheSize::Unlimited));
+    runs.push((Policy::Local, Distribution::Octree, small));
+    for procs in [1, 3] {
+        for &(policy, distribution, cache) in &runs {
+            let mut on = ParallelOptions::new(procs);
+            on.policy = policy;
+            on.cache = cache;
+            on.workload.distribution = distribution;
+            let mut off = on.clone();
+            off.workload.local_kernel = false;
+            let (a, b) = (check(&c, &on), check(&c, &off));
+            let what = format!("procs {procs} policy {policy} {distribution} {cache:?}");
+            for w in [
+                Work::RaysRetired,
+                Work::ShadowRetired,
+                Work::ShadowTested,
+                Work::ShadowUnoccluded,
+                Work::ShadowSegments,
+            ] {
+                assert_eq!(a.work(w), b.work(w), "{what}: {w:?}");
+            }
+            assert_eq!(b.work(Work::TraceLocal), 0, "{what}");
+            assert!(
+                a.work(Work::TraceLocal) > 0,
+                "{what}: nothing answered locally"
+            );
+            assert!(
+                a.work(Work::TraceLeaves) < b.work(Work::TraceLeaves),
+                "{what}: no walk saved"
+            );
+            if procs == 1 {
+                assert_eq!(a.work(Work::TraceLeaves), 0, "{what}: a query walked");
+            }
+        }
+    }
+    // The simulator prices the walk: it runs without the hierarchy.
+    let mut sim = ParallelOptions::new(2);
+    sim.runtime = RuntimeKind::Sim;
+    assert!(!sim.workload_options().local_kernel);
+    let out = check(&c, &sim);
+    assert_eq!(out.work(Work::TraceLocal), 0);
+}
+
 /// Views whose tiles have no bounding pyramid (fisheye, parallel): a
 /// tile's selection walks its primary rays and leaves them for its
 /// execution or its data-parallel fallback, which must still trace each

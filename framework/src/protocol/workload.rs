@@ -46,6 +46,15 @@ pub trait WorkKind: Copy + Eq + Ord + Hash + Debug + Send + Sync + 'static {
     fn from_name(name: &str) -> Option<Self> {
         Self::ALL.iter().copied().find(|k| k.name() == name)
     }
+
+    /// The kind's position in [`WorkKind::ALL`] ([`work_kinds!`] makes it
+    /// the discriminant): what [`Ctx::charge`] indexes by.
+    fn index(self) -> usize {
+        Self::ALL
+            .iter()
+            .position(|&k| k == self)
+            .unwrap_or(usize::MAX)
+    }
 }
 
 /// Declares an enum of work kinds and implements [`WorkKind`] for it, each
@@ -93,6 +102,10 @@ macro_rules! work_kinds {
             const ALL: &'static [Self] = &[$($name::$variant),*];
             fn name(self) -> &'static str {
                 $name::name(self)
+            }
+            #[inline]
+            fn index(self) -> usize {
+                self as usize
             }
         }
     };
@@ -313,6 +326,9 @@ pub struct Ctx<W: Workload> {
     procs: usize,
     pub(crate) origin: usize,
     pub(crate) charges: Vec<(W::Work, u64)>,
+    /// Per kind ([`WorkKind::index`]): 1 + its entry in `charges`, 0 for
+    /// none yet (kinds beyond 255 entries are searched for).
+    slots: Vec<u8>,
     pub(crate) dd: Vec<W::DdTask>,
     pub(crate) dp: Vec<W::DpTask>,
     pub(crate) results: Vec<(Addr, W::Result)>,
@@ -327,6 +343,7 @@ impl<W: Workload> Ctx<W> {
             procs,
             origin: proc,
             charges: Vec::new(),
+            slots: vec![0; <W::Work as WorkKind>::ALL.len()],
             dd: Vec::new(),
             dp: Vec::new(),
             results: Vec::new(),
@@ -335,6 +352,11 @@ impl<W: Workload> Ctx<W> {
 
     /// Empties the context for reuse (keeping its buffers).
     pub(crate) fn clear(&mut self) {
+        for &(k, _) in &self.charges {
+            if let Some(s) = self.slots.get_mut(k.index()) {
+                *s = 0;
+            }
+        }
         self.charges.clear();
         self.dd.clear();
         self.dp.clear();
@@ -372,10 +394,20 @@ impl<W: Workload> Ctx<W> {
     /// cost model; all runtimes report them in the statistics, by
     /// [`WorkKind::name`].
     pub fn charge(&mut self, kind: W::Work, units: u64) {
-        if let Some(entry) = self.charges.iter_mut().find(|(k, _)| *k == kind) {
+        // Kinds keep the order they were first charged in (what the
+        // simulator sums in), found by index rather than by search.
+        let slot = self.slots.get(kind.index()).copied().unwrap_or(0);
+        if slot != 0 {
+            let entry = &mut self.charges[slot as usize - 1];
+            entry.1 = entry.1.saturating_add(units);
+        } else if let Some(entry) = self.charges.iter_mut().find(|(k, _)| *k == kind) {
             entry.1 = entry.1.saturating_add(units);
         } else {
             self.charges.push((kind, units));
+            let n = self.charges.len();
+            if let (Some(s), Ok(n)) = (self.slots.get_mut(kind.index()), u8::try_from(n)) {
+                *s = n;
+            }
         }
     }
 

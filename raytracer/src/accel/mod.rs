@@ -5,6 +5,7 @@ mod cells;
 pub mod clip;
 #[cfg(feature = "embree")]
 pub mod embree;
+mod local;
 mod octree;
 
 pub use crate::geometry::{Bvh, BvhStats, Hit};
@@ -12,6 +13,7 @@ pub use cells::{
     copy_bytes, object_bytes, share_copies_in_process, HeldObject, LeafObjects, ObjectCopies,
 };
 pub use clip::{ClipResult, Plane, Pyramid};
+pub use local::{Hierarchy, LocalKernel, ProcessorKernel};
 pub use octree::{
     intersect_brute_force, occluded_brute_force, LeafSpan, NodeId, NodeView, Octree, OctreeParams,
     OctreeStats, Partial, SkeletonNode, TraceCursor, MAX_DEPTH,
@@ -19,5 +21,7 @@ pub use octree::{
 
 #[cfg(test)]
 mod clip_tests;
+#[cfg(test)]
+mod local_tests;
 #[cfg(test)]
 mod tests;

@@ -1085,6 +1085,102 @@ impl Octree {
         self.traverse::<ALL, _>(ray, inv, tmin, tmax, &mut visit);
     }
 
+    /// True if `ok(leaf)` holds for every non-empty leaf that a traversal
+    /// of `[tmin, tmax]` with cut-off distance `cut` visits (those the ray
+    /// enters at or before `cut`), without visiting the subtrees `skip`
+    /// vouches for. The same intervals as [`Octree::intersect_partial`]'s
+    /// traversal, computed the same way, so the leaves judged are exactly
+    /// the ones it would visit up to `cut` (a leaf entered exactly at `cut`
+    /// included). Used to decide that a query answered from the objects
+    /// of some leaves is the octree's answer (see [`crate::accel::LocalKernel`]).
+    pub fn leaves_along_all(
+        &self,
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+        cut: f64,
+        skip: &dyn Fn(NodeId) -> bool,
+        ok: &dyn Fn(NodeId) -> bool,
+    ) -> bool {
+        if self.nodes.is_empty() || skip(0) {
+            return true;
+        }
+        let inv = Vec3::ONE / ray.dir;
+        let Some((t0, t1)) = self.root_interval(ray, inv, tmin, tmax) else {
+            return true;
+        };
+        let d = ray.dir.to_array();
+        let r = RayTrav {
+            o: ray.origin.to_array(),
+            inv: inv.to_array(),
+            flat: [d[0] == 0.0, d[1] == 0.0, d[2] == 0.0],
+            pos: [d[0] > 0.0, d[1] > 0.0, d[2] > 0.0],
+        };
+        self.judge_node(&r, 0, t0, t1, cut, skip, ok)
+    }
+
+    /// [`Octree::leaves_along_all`] below node `id`, entered over `[t0,
+    /// t1]`: [`Octree::visit_node`]'s child order and intervals.
+    #[allow(clippy::too_many_arguments)]
+    fn judge_node(
+        &self,
+        r: &RayTrav,
+        id: NodeId,
+        t0: f64,
+        t1: f64,
+        cut: f64,
+        skip: &dyn Fn(NodeId) -> bool,
+        ok: &dyn Fn(NodeId) -> bool,
+    ) -> bool {
+        if t0 > cut || skip(id) {
+            return true;
+        }
+        let node = &self.nodes[id as usize];
+        if node.is_leaf() {
+            return node.meta & !LEAF == 0 || ok(id);
+        }
+        let (first, c) = (node.first, node.center());
+        let (o, inv) = (r.o, r.inv);
+        let mut tm = [f64::INFINITY; 3];
+        let mut child = 0u32;
+        for a in 0..3 {
+            let t = (c[a] - o[a]) * inv[a];
+            let bit = if r.flat[a] || t.is_nan() {
+                o[a] >= c[a]
+            } else {
+                tm[a] = t;
+                (t <= t0) == r.pos[a]
+            };
+            child |= (bit as u32) << a;
+        }
+        let mut order = [0usize, 1, 2];
+        if tm[order[0]] > tm[order[1]] {
+            order.swap(0, 1);
+        }
+        if tm[order[1]] > tm[order[2]] {
+            order.swap(1, 2);
+        }
+        if tm[order[0]] > tm[order[1]] {
+            order.swap(0, 1);
+        }
+        // Children without objects hold no leaf to judge.
+        let full = node.meta;
+        let mut t = t0;
+        for a in order {
+            let ta = tm[a];
+            if ta > t0 && ta < t1 {
+                if full & (1 << child) != 0
+                    && !self.judge_node(r, first + child, t, ta, cut, skip, ok)
+                {
+                    return false;
+                }
+                child ^= 1 << a;
+                t = ta;
+            }
+        }
+        full & (1 << child) == 0 || self.judge_node(r, first + child, t, t1, cut, skip, ok)
+    }
+
     /// The leaves a ray passes through, in order along the ray (the cells a
     /// migrating ray visits). Zero-length spans appear where the ray passes
     /// exactly through a cell edge or corner.

@@ -11,11 +11,11 @@ use super::*;
 use crate::geometry::{InstanceGeometry, ObjectTable, Ray, Shape, Transform, Vec3};
 use crate::scene::{Material, Object, Scene};
 
-fn v(x: f64, y: f64, z: f64) -> Vec3 {
+pub(super) fn v(x: f64, y: f64, z: f64) -> Vec3 {
     Vec3::new(x, y, z)
 }
 
-fn obj(shape: Shape) -> Object {
+pub(super) fn obj(shape: Shape) -> Object {
     Object {
         name: String::new(),
         shape,
@@ -23,7 +23,7 @@ fn obj(shape: Shape) -> Object {
     }
 }
 
-fn cube(lo: Vec3, hi: Vec3) -> Vec<Object> {
+pub(super) fn cube(lo: Vec3, hi: Vec3) -> Vec<Object> {
     let c = |i: usize| {
         v(
             if i & 1 == 0 { lo.x } else { hi.x },
@@ -46,7 +46,7 @@ fn cube(lo: Vec3, hi: Vec3) -> Vec<Object> {
 }
 
 /// A deterministic pseudo-random scene of `n` objects of all kinds in a box of size `size`.
-fn random_scene(seed: u64, n: usize, size: f64) -> Vec<Object> {
+pub(super) fn random_scene(seed: u64, n: usize, size: f64) -> Vec<Object> {
     let mut s = seed
         .wrapping_mul(6364136223846793005)
         .wrapping_add(1442695040888963407);
@@ -311,7 +311,7 @@ fn early_out_does_not_stop_at_far_hit_of_earlier_cell() {
     assert_same(&objs, &tree, &bvh, &ray, 0.0, f64::INFINITY);
 }
 
-fn arb_dir() -> impl Strategy<Value = Vec3> {
+pub(super) fn arb_dir() -> impl Strategy<Value = Vec3> {
     (-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0)
         .prop_filter("non-zero", |(x, y, z)| x * x + y * y + z * z > 1e-4)
         .prop_map(|(x, y, z)| v(x, y, z).normalize())

@@ -541,6 +541,17 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub inline_shadows: bool,
+    /// Answer a ray or shadow query through the processor's own hierarchy over its resident objects when they decide the answer, instead of walking the octree leaf by leaf (pictures do not change; `--runtime sim` always walks, as its cost model prices the walk); `--local-kernel false`: every query walks.
+    #[arg(
+        long = "local-kernel",
+        value_name = "BOOL",
+        default_value_t = true,
+        num_args = 0..=1,
+        default_missing_value = "true",
+        action = clap::ArgAction::Set,
+        help_heading = "Parallel rendering"
+    )]
+    pub local_kernel: bool,
     /// Simulated machine for --runtime sim: parsytec-cc (the paper's) or 10gbe.
     #[arg(
         long,

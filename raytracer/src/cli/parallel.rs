@@ -80,6 +80,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
             distribution: a.distribution.into(),
             clip_cache: a.clip_cache,
             inline_local_shadows: a.inline_shadows,
+            local_kernel: a.local_kernel,
         },
         threads: a.threads,
         time_limit,

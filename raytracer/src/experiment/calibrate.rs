@@ -229,6 +229,8 @@ pub fn calibrate(
             // (the check below says by how much).
             WorkloadOptions {
                 inline_local_shadows: false,
+                // The model prices the octree walk.
+                local_kernel: false,
                 ..WorkloadOptions::default()
             },
         );
@@ -303,7 +305,10 @@ pub fn calibrate(
         width,
         height,
         1,
-        WorkloadOptions::default(),
+        WorkloadOptions {
+            local_kernel: false,
+            ..WorkloadOptions::default()
+        },
     ));
     let coef = nnls(&ata, &atb);
     let predict = |x: &[f64]| x.iter().zip(&coef).map(|(a, b)| a * b).sum::<f64>();

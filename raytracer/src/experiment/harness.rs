@@ -155,6 +155,9 @@ impl Ctx<'_> {
             distribution: spec.distribution,
             clip_cache: spec.clip_cache,
             inline_local_shadows: spec.inline_shadows,
+            // The simulated machine walks the octree (the cost model
+            // prices the walk).
+            local_kernel: false,
             ..WorkloadOptions::default()
         };
         p.network = s.network.clone();
@@ -191,7 +194,10 @@ impl Ctx<'_> {
             s.width,
             s.height,
             1,
-            WorkloadOptions::default(),
+            WorkloadOptions {
+                local_kernel: false,
+                ..WorkloadOptions::default()
+            },
         );
         let report = Sequential
             .run_blocking(Arc::new(wl), &hybrid_sched::Config::new(1))

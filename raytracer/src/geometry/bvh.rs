@@ -563,6 +563,13 @@ impl Bvh {
     /// `objects`). Objects with empty bounds are left out, like the
     /// octree's. Deterministic: the same objects give the same tree.
     pub fn build(objects: &[Object]) -> Bvh {
+        Self::build_with(objects, Prims::build(objects))
+    }
+
+    /// [`Bvh::build`] with the objects' intersection data given (built for
+    /// `objects`, in order: [`Prims::concat`] of copies' data).
+    pub(crate) fn build_with(objects: &[Object], prims: Prims) -> Bvh {
+        debug_assert!(prims.matches(objects));
         let mut unbounded = Vec::new();
         let mut boxes = Vec::with_capacity(objects.len());
         let mut scene = Aabb::EMPTY;
@@ -580,7 +587,7 @@ impl Bvh {
         }
         let mut bvh = Bvh {
             unbounded,
-            prims: Prims::build(objects),
+            prims,
             ..Default::default()
         };
         if boxes.is_empty() {

@@ -173,6 +173,32 @@ impl Prims {
         p
     }
 
+    /// The data of several objects' data laid end to end, in order (object
+    /// `i` of the result is the `i`-th object of the parts): the data of
+    /// copies whose own objects no longer say how it was built (a polygon
+    /// copy without its triangulation).
+    pub(crate) fn concat<'a>(parts: impl IntoIterator<Item = &'a Prims>) -> Prims {
+        let mut p = Prims::default();
+        for q in parts {
+            let (pairs, quadrics) = (p.pairs.len() as u32, p.quadrics.len() as u32);
+            p.refs.extend(q.refs.iter().map(|r| match *r {
+                r if r.start == NONE => r,
+                PrimRef { start, pairs: 0 } => PrimRef {
+                    start: start + quadrics,
+                    pairs: 0,
+                },
+                PrimRef { start, pairs: n } => PrimRef {
+                    start: start + pairs,
+                    pairs: n,
+                },
+            }));
+            p.pairs.extend_from_slice(&q.pairs);
+            p.quadrics.extend_from_slice(&q.quadrics);
+            p.normals.extend_from_slice(&q.normals);
+        }
+        p
+    }
+
     /// True if this data was built for `objects` (callers fall back to the
     /// shapes otherwise).
     #[inline]

@@ -40,6 +40,13 @@ pub struct Replay {
     pub cursor: TraceCursor,
 }
 
+/// Queries a processor may answer without walking the octree (its own
+/// hierarchy): `None` where its objects do not decide the answer.
+pub trait LocalQueries {
+    fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Option<Hit>>;
+    fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> Option<bool>;
+}
+
 /// See the module documentation. `cell(leaf)` gives a non-empty leaf's
 /// objects where they are held here (`None` elsewhere); `shared` are the
 /// objects every processor holds (see [`Octree::intersect_partial`]).
@@ -52,11 +59,23 @@ pub struct PartialCaster<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> {
     blocked: Cell<Option<NodeId>>,
     /// Octree leaves visited by new (not replayed) queries.
     pub queries: Cell<u64>,
+    /// The processor's own hierarchy, tried first by fresh queries.
+    local: Option<&'a dyn LocalQueries>,
+    /// Queries it answered.
+    pub local_answers: Cell<u64>,
 }
 
 impl<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> PartialCaster<'a, 'c, F> {
-    pub fn new(octree: &'a Octree, shared: ObjectTable<'a>, cell: F, replay: Replay) -> Self {
+    pub fn new(
+        octree: &'a Octree,
+        shared: ObjectTable<'a>,
+        cell: F,
+        replay: Replay,
+        local: Option<&'a dyn LocalQueries>,
+    ) -> Self {
         PartialCaster {
+            local,
+            local_answers: Cell::new(0),
             octree,
             shared,
             cell,
@@ -115,6 +134,13 @@ impl<'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> RayCaster for PartialCaster<'
             }
             Err(c) => c,
         };
+        if cursor == TraceCursor::default() {
+            if let Some(h) = self.local.and_then(|l| l.intersect(ray, tmin, tmax)) {
+                self.local_answers.set(self.local_answers.get() + 1);
+                self.record(Answer::Nearest(h));
+                return h;
+            }
+        }
         self.queries.set(self.queries.get() + 1);
         match self
             .octree
@@ -143,6 +169,13 @@ impl<'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> RayCaster for PartialCaster<'
             }
             Err(c) => c,
         };
+        if cursor == TraceCursor::default() {
+            if let Some(b) = self.local.and_then(|l| l.occluded(ray, tmin, tmax, ignore)) {
+                self.local_answers.set(self.local_answers.get() + 1);
+                self.record(Answer::Occluded(b));
+                return b;
+            }
+        }
         self.queries.set(self.queries.get() + 1);
         match self.octree.occluded_partial(
             self.shared,

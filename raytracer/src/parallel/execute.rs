@@ -5,12 +5,13 @@
 
 use hybrid_sched::{Addr, Ctx, DataView};
 
-use super::caster::PartialCaster;
 use super::caster::Replay;
+use super::caster::{LocalQueries, PartialCaster};
+use super::kernel::CellMemo;
 use super::tasks::{DdTask, DpTask, RayJob, ShadowDp, ShadowJob, Tile};
 use super::tree::{Child, NodeKey, Record, RtResult};
 use super::work::Work;
-use super::workload::{CellMemo, RtWorkload};
+use super::workload::RtWorkload;
 use crate::accel::{Hit, Partial, TraceCursor};
 use crate::render::direct::{run_shadow_bundle, ShadowCounts};
 use crate::render::light::LightExtent;
@@ -227,7 +228,7 @@ impl RtWorkload {
                             // Its first step would run here (it names no
                             // cell yet): run it now.
                             ctx.charge(Work::ShadowBundlesInline, 1);
-                            if let Some(job) = self.advance_shadow(job, data, ctx) {
+                            if let Some(job) = self.advance_shadow(job, data, ctx, true) {
                                 ctx.spawn_dp(DpTask::Shadow(job));
                             }
                         } else {
@@ -238,7 +239,7 @@ impl RtWorkload {
                         // ray still leave the resident cells, the bundle
                         // migrates as a data-parallel one).
                         ctx.charge(Work::ShadowBundlesInline, 1);
-                        if let Some(job) = self.advance_shadow(job, data, ctx) {
+                        if let Some(job) = self.advance_shadow(job, data, ctx, true) {
                             ctx.charge(Work::ClipMisses, 1);
                             ctx.spawn_dp(DpTask::Shadow(job));
                         }
@@ -281,6 +282,17 @@ impl RtWorkload {
         data: &DataView<'_, Self>,
         ctx: &mut Ctx<Self>,
     ) -> Option<RayJob> {
+        if job.cursor == TraceCursor::default() {
+            if let Some(local) = self.local_path(ctx.proc_id()) {
+                let t = &job.task;
+                if let Some(hit) = local.intersect(&t.ray, t.tmin, t.tmax) {
+                    ctx.charge(Work::TraceLocal, 1);
+                    let task = job.task;
+                    self.finish_ray(job.key, &task, hit, data, ctx);
+                    return None;
+                }
+            }
+        }
         let octree = self.renderer.octree();
         let shared = self.renderer.scene().table();
         let t = &job.task;
@@ -307,12 +319,16 @@ impl RtWorkload {
     }
 
     /// Runs a shadow bundle as far as the local cells allow: finished, or
-    /// the bundle to migrate with its recorded answers.
+    /// the bundle to migrate with its recorded answers. `try_local`: fresh
+    /// queries try the processor's hierarchy first (not worth it for a
+    /// bundle whose data was selected because it leaves the processor's
+    /// cells: the walk would answer most of its queries anyway).
     pub(super) fn advance_shadow(
         &self,
         mut job: ShadowDp,
         data: &DataView<'_, Self>,
         ctx: &mut Ctx<Self>,
+        try_local: bool,
     ) -> Option<ShadowDp> {
         let octree = self.renderer.octree();
         let shared = self.renderer.scene().table();
@@ -322,6 +338,7 @@ impl RtWorkload {
         let replay = std::mem::take(&mut job.replay);
         let visits = std::cell::Cell::new((0u64, 0u64));
         let memo = CellMemo::new(data, self, ctx.proc_id());
+        let local = try_local.then(|| self.local_path(ctx.proc_id())).flatten();
         let caster = PartialCaster::new(
             octree,
             shared,
@@ -331,6 +348,7 @@ impl RtWorkload {
                 memo.get(l)
             },
             replay,
+            local.as_ref().map(|l| l as &dyn LocalQueries),
         );
         let mut counts = ShadowCounts::default();
         let value = SCRATCH.with_borrow_mut(|scratch| {
@@ -345,6 +363,7 @@ impl RtWorkload {
         let (leaves, tests) = visits.get();
         ctx.charge(Work::TraceLeaves, leaves);
         ctx.charge(Work::TraceObjects, tests);
+        ctx.charge(Work::TraceLocal, caster.local_answers.get());
         if let Some(leaf) = caster.blocked() {
             job.replay = caster.into_replay();
             job.next = Some(leaf);

@@ -19,6 +19,7 @@ pub mod cost;
 pub mod distribution;
 mod execute;
 mod held;
+mod kernel;
 pub mod partition;
 pub mod predict;
 mod selection;
@@ -175,6 +176,17 @@ pub struct ParallelOptions {
 }
 
 impl ParallelOptions {
+    /// The workload's options as this runtime runs them: the simulator
+    /// prices the octree walk leaf by leaf, so it runs without
+    /// [`WorkloadOptions::local_kernel`].
+    pub fn workload_options(&self) -> WorkloadOptions {
+        let mut w = self.workload;
+        if self.runtime == RuntimeKind::Sim {
+            w.local_kernel = false;
+        }
+        w
+    }
+
     pub fn new(procs: usize) -> Self {
         ParallelOptions {
             procs,
@@ -330,7 +342,7 @@ pub fn render_parallel_with_progress(
         width,
         height,
         popts.procs,
-        popts.workload,
+        popts.workload_options(),
     );
     run_workload(wl, popts, progress, t0)
 }
@@ -369,7 +381,7 @@ pub fn render_parallel_held(
         width,
         height,
         popts.procs,
-        popts.workload,
+        popts.workload_options(),
         part.source,
     )?;
     let wl = if popts.runtime == RuntimeKind::Mpi {

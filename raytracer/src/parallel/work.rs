@@ -39,6 +39,9 @@ hybrid_sched::work_kinds! {
         /// Objects listed in those leaves (intersection tests, counting an
         /// object once per leaf; an any-hit query may stop earlier).
         TraceObjects = "trace.objects",
+        /// Queries answered by the processor's own hierarchy (option
+        /// `local_kernel`): no leaves walked.
+        TraceLocal = "trace.local",
         Shade = "shade",
     }
 }

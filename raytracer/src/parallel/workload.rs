@@ -67,6 +67,14 @@ pub struct WorkloadOptions {
     /// bundle is scheduled as the paper schedules it.
     #[serde(default = "yes")]
     pub inline_local_shadows: bool,
+    /// Beyond the paper: each processor builds a hierarchy over its
+    /// resident objects and answers a fresh query through it when its
+    /// objects decide the answer ([`crate::accel::LocalKernel`]), instead
+    /// of walking the octree leaf by leaf. Pictures do not change; the
+    /// queries answered so are charged as `trace.local`, not as leaves and
+    /// objects, so the simulator (which prices the walk) runs without it.
+    #[serde(default = "yes")]
+    pub local_kernel: bool,
 }
 
 fn yes() -> bool {
@@ -81,6 +89,7 @@ impl Default for WorkloadOptions {
             distribution: Distribution::Octree,
             clip_cache: false,
             inline_local_shadows: true,
+            local_kernel: true,
         }
     }
 }
@@ -111,6 +120,8 @@ pub struct RtWorkload {
     pub(super) progress: Option<Arc<std::sync::atomic::AtomicU64>>,
     /// See [`RtWorkload::sharing_copies_in_process`].
     pub(super) share_in_process: bool,
+    /// Per processor, its hierarchy (option `local_kernel`).
+    pub(super) kernels: Vec<std::sync::OnceLock<crate::accel::ProcessorKernel>>,
     /// A distributed compiled scene: the renderer holds its replicated
     /// part, and each processor reads its own cells (see
     /// [`RtWorkload::distributed`]).
@@ -238,6 +249,7 @@ impl RtWorkload {
             tile_rays: (0..procs.max(1))
                 .map(|_| Mutex::new(HashMap::new()))
                 .collect(),
+            kernels: (0..procs.max(1)).map(|_| Default::default()).collect(),
             renderer,
             view,
             width,
@@ -386,10 +398,12 @@ impl Workload for RtWorkload {
                 .and_then(|s| s.lock().unwrap_or_else(|e| e.into_inner()).take());
             // Read before the run (render_parallel does, and reports what
             // it cannot read); a second run of the workload reads again.
-            return match read {
+            let cells = match read {
                 Some(cells) => cells,
                 None => self.read_cells(h, proc).unwrap_or_else(|e| panic!("{e}")),
             };
+            self.make_kernel(proc, &cells);
+            return cells;
         }
         // One copy of each object for all of this processor's leaves.
         let mut copies = ObjectCopies::new();
@@ -409,6 +423,7 @@ impl Workload for RtWorkload {
         if self.share_in_process {
             crate::accel::share_copies_in_process(&copies);
         }
+        self.make_kernel(proc, &cells);
         cells
     }
 
@@ -485,7 +500,7 @@ impl Workload for RtWorkload {
                         replay: Replay::default(),
                         next: None,
                     };
-                    if let Some(job) = self.advance_shadow(job, data, ctx) {
+                    if let Some(job) = self.advance_shadow(job, data, ctx, false) {
                         ctx.charge(Work::ClipMisses, 1);
                         ctx.spawn_dp(DpTask::Shadow(job));
                     }
@@ -536,7 +551,7 @@ impl Workload for RtWorkload {
     ) -> DpOutcome<DpTask> {
         let next = match task {
             DpTask::Ray(j) => self.advance_ray(j, data, ctx).map(DpTask::Ray),
-            DpTask::Shadow(s) => self.advance_shadow(s, data, ctx).map(DpTask::Shadow),
+            DpTask::Shadow(s) => self.advance_shadow(s, data, ctx, true).map(DpTask::Shadow),
         };
         match next {
             Some(t) => DpOutcome::Migrate(t),
@@ -551,44 +566,6 @@ impl Workload for RtWorkload {
             let done = acc.pixels.len().saturating_sub(before) as u64;
             if done > 0 {
                 p.fetch_add(done, std::sync::atomic::Ordering::Relaxed);
-            }
-        }
-    }
-}
-
-/// [`RtWorkload::cell`] with the last resident leaves found remembered: a
-/// shadow bundle's rays cross the same few leaves again and again, and a
-/// lookup in the processor's store is a hash lookup. Cached leaves are
-/// looked up every time, so the cache sees every use (its recency order,
-/// and so what it evicts, is what it would be without the memo).
-pub(super) struct CellMemo<'a, 'v> {
-    view: &'a DataView<'v, RtWorkload>,
-    wl: &'a RtWorkload,
-    proc: usize,
-    slots: [std::cell::Cell<(NodeId, Option<&'v LeafObjects>)>; 8],
-}
-
-impl<'a, 'v> CellMemo<'a, 'v> {
-    pub(super) fn new(view: &'a DataView<'v, RtWorkload>, wl: &'a RtWorkload, proc: usize) -> Self {
-        CellMemo {
-            view,
-            wl,
-            proc,
-            slots: std::array::from_fn(|_| std::cell::Cell::new((NodeId::MAX, None))),
-        }
-    }
-
-    #[inline]
-    pub(super) fn get(&self, leaf: NodeId) -> Option<&'v LeafObjects> {
-        let slot = &self.slots[leaf as usize & 7];
-        match slot.get() {
-            (l, Some(c)) if l == leaf => Some(c),
-            _ => {
-                let c = RtWorkload::cell(self.view, leaf);
-                if c.is_some() && self.wl.owned(self.proc, leaf) {
-                    slot.set((leaf, c));
-                }
-                c
             }
         }
     }

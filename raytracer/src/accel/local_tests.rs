@@ -1,0 +1,274 @@
+//! The processor's own hierarchy ([`LocalKernel`]): wherever it decides a
+//! query, its answer is the octree's, for random scenes at every scale,
+//! random splits of the leaves among processors, and rays exactly along
+//! cell faces; and it does decide the queries that stay among its cells.
+
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngSeed, TestRunner};
+
+use super::tests::{arb_dir, cube, obj, random_scene, v};
+use super::*;
+use crate::geometry::{ObjectTable, Ray, Shape, Vec3};
+use crate::scene::Object;
+
+/// Leaf `l`'s processor: a hash of its id.
+fn home(l: NodeId, places: u32, salt: u32) -> u32 {
+    l.wrapping_mul(2654435761).wrapping_add(salt) % places
+}
+
+/// One processor of a split: its kernel and who owns what.
+struct Place {
+    kernel: LocalKernel,
+    /// Per node: the one place owning every non-empty leaf below, or
+    /// `MIXED`; `EMPTY` for none.
+    owner: Vec<u32>,
+    me: u32,
+    places: u32,
+    salt: u32,
+}
+
+const EMPTY: u32 = u32::MAX - 1;
+const MIXED: u32 = u32::MAX;
+
+impl Place {
+    fn new(tree: &Octree, objects: &[Object], places: u32, salt: u32, me: u32) -> Place {
+        let mut copies = ObjectCopies::new();
+        let cells: Vec<LeafObjects> = tree
+            .leaves()
+            .filter(|&l| !tree.leaf_objects(l).is_empty() && home(l, places, salt) == me)
+            .map(|l| LeafObjects::copy_from(tree.leaf_objects(l), objects, &mut copies))
+            .collect();
+        let kernel = LocalKernel::build(&cells, ObjectTable::dense(objects));
+        let n = tree.node_count();
+        let mut owner = vec![EMPTY; n];
+        for id in (0..n as NodeId).rev() {
+            owner[id as usize] = match tree.children(id) {
+                None if tree.leaf_objects(id).is_empty() => EMPTY,
+                None => home(id, places, salt),
+                Some(ch) => ch
+                    .iter()
+                    .fold(EMPTY, |acc, &c| match (acc, owner[c as usize]) {
+                        (a, EMPTY) => a,
+                        (EMPTY, b) => b,
+                        (a, b) if a == b => a,
+                        _ => MIXED,
+                    }),
+            };
+        }
+        Place {
+            kernel,
+            owner,
+            me,
+            places,
+            salt,
+        }
+    }
+
+    fn owned(&self, n: NodeId) -> bool {
+        let o = self.owner[n as usize];
+        o == EMPTY || o == self.me
+    }
+
+    fn resident(&self, l: NodeId) -> bool {
+        home(l, self.places, self.salt) == self.me
+    }
+}
+
+/// Checks every place's decided answers against the octree's; returns
+/// how many queries were decided and asked.
+fn check_ray(
+    tree: &Octree,
+    objects: &[Object],
+    places: &[Place],
+    ray: &Ray,
+    tmax: f64,
+) -> Result<(u32, u32), TestCaseError> {
+    let want = tree.intersect(objects, ray, 0.0, tmax);
+    let ignore = want.map(|h| h.object);
+    let blocked = tree.occluded(objects, ray, 0.0, tmax, ignore);
+    let (mut decided, mut asked) = (0, 0);
+    for p in places {
+        let h = p.kernel.hierarchy();
+        let owned = |n| p.owned(n);
+        let resident = |l| p.resident(l);
+        if let Some(got) = h.intersect(tree, ray, 0.0, tmax, &owned, &resident) {
+            prop_assert_eq!(got, want);
+            decided += 1;
+        }
+        if let Some(got) = h.occluded(tree, ray, 0.0, tmax, ignore, &owned, &resident) {
+            prop_assert_eq!(got, blocked);
+            decided += 1;
+        }
+        asked += 2;
+    }
+    Ok((decided, asked))
+}
+
+#[test]
+fn a_decided_answer_is_the_octrees_at_every_scale_and_split() {
+    for (seed, n, size, max_objects) in [
+        (11u64, 400usize, 10.0f64, 4usize),
+        (12, 150, 1e-5, 2),
+        (13, 150, 1e5, 6),
+        (14, 80, 10.0, 1),
+    ] {
+        let objects = random_scene(seed, n, size);
+        let tree = Octree::build(
+            &objects,
+            &OctreeParams {
+                max_objects,
+                ..OctreeParams::default()
+            },
+        );
+        let mut runner = TestRunner::new(Config {
+            cases: 60,
+            rng_seed: RngSeed::Fixed(seed),
+            ..Config::default()
+        });
+        let totals = std::cell::Cell::new((0u32, 0u32));
+        runner
+            .run(&(1u32..5, any::<u32>()), |(places, salt)| {
+                let split: Vec<Place> = (0..places)
+                    .map(|me| Place::new(&tree, &objects, places, salt, me))
+                    .collect();
+                // Every object is in some place's kernel.
+                let held: usize = split.iter().map(|p| p.kernel.len()).sum();
+                prop_assert!(held >= objects.len() - 2 || objects.is_empty());
+                let mut s = u64::from(salt) | 1;
+                let mut rnd = move || {
+                    s = s
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    ((s >> 11) as f64) / ((1u64 << 53) as f64)
+                };
+                for _ in 0..25 {
+                    let (x, y, z) = (rnd() * 1.4 - 0.2, rnd() * 1.4 - 0.2, rnd() * 1.4 - 0.2);
+                    let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5 + 1e-3).normalize();
+                    let tm = rnd();
+                    let ray = Ray::new(Vec3::new(x, y, z) * size, d);
+                    for tmax in [f64::INFINITY, tm * 0.8 * size] {
+                        let (a, b) = check_ray(&tree, &objects, &split, &ray, tmax)?;
+                        let (ta, tb) = totals.get();
+                        totals.set((ta + a, tb + b));
+                    }
+                }
+                Ok(())
+            })
+            .unwrap();
+        let (decided, asked) = totals.get();
+        // One place holds everything now and then: plenty is decided, and
+        // not everything (the rest walks).
+        assert!(
+            decided * 5 > asked && decided < asked,
+            "seed {seed}: {decided} of {asked} decided"
+        );
+    }
+}
+
+#[test]
+fn rays_exactly_along_cell_faces_decide_the_octrees_answer() {
+    let (objects, tree, rays) = boundary_scene();
+    let mut decided = 0;
+    for (places, salt) in [(1u32, 0u32), (2, 7), (3, 1), (5, 99)] {
+        let split: Vec<Place> = (0..places)
+            .map(|me| Place::new(&tree, &objects, places, salt, me))
+            .collect();
+        for ray in &rays {
+            for tmax in [f64::INFINITY, 3.0] {
+                decided += check_ray(&tree, &objects, &split, ray, tmax).unwrap().0;
+            }
+        }
+    }
+    assert!(decided as usize > rays.len(), "{decided} decided");
+}
+
+#[test]
+fn one_processor_decides_every_query() {
+    let objects = random_scene(21, 300, 10.0);
+    let tree = Octree::build(&objects, &OctreeParams::default());
+    let place = Place::new(&tree, &objects, 1, 0, 0);
+    assert_eq!(place.kernel.len(), objects.len());
+    let mut runner = TestRunner::new(Config {
+        cases: 200,
+        rng_seed: RngSeed::Fixed(21),
+        ..Config::default()
+    });
+    runner
+        .run(
+            &((-2.0f64..12.0, -2.0f64..12.0, -2.0f64..12.0), arb_dir()),
+            |((x, y, z), d)| {
+                let ray = Ray::new(Vec3::new(x, y, z), d);
+                let (decided, asked) =
+                    check_ray(&tree, &objects, std::slice::from_ref(&place), &ray, 1e9)?;
+                prop_assert_eq!(decided, asked);
+                Ok(())
+            },
+        )
+        .unwrap();
+}
+
+/// Cubes and spheres centred exactly on the planes that split the root
+/// into 8 x 8 x 8 cells, and axis-parallel rays along those planes (two
+/// coordinates on planes), both ways, and diagonal rays through corners.
+fn boundary_scene() -> (Vec<Object>, Octree, Vec<Ray>) {
+    let frame = vec![
+        obj(Shape::sphere(v(0.0, 0.0, 0.0), 1e-3, false).unwrap()),
+        obj(Shape::sphere(v(8.0, 8.0, 8.0), 1e-3, false).unwrap()),
+    ];
+    let root = Octree::build(&frame, &OctreeParams::default()).root_bounds();
+    let step = root.extent().x / 8.0;
+    let g = |k: usize, a: usize| root.min[a] + k as f64 * step;
+    let mut objects = frame;
+    for i in 1..=7 {
+        for j in 1..=7 {
+            let (x, y, z) = (g(i, 0), g(j, 1), g(4, 2));
+            if (i + j) % 2 == 0 {
+                objects.extend(cube(
+                    v(x - 0.1, y - 0.1, z - 0.1),
+                    v(x + 0.1, y + 0.1, z + 0.1),
+                ));
+            } else {
+                objects.push(obj(Shape::sphere(v(x, y, z), 0.1, false).unwrap()));
+            }
+        }
+    }
+    let tree = Octree::build(
+        &objects,
+        &OctreeParams {
+            max_objects: 2,
+            ..OctreeParams::default()
+        },
+    );
+    let mut rays = Vec::new();
+    for axis in 0..3 {
+        let (u, w) = ((axis + 1) % 3, (axis + 2) % 3);
+        for i in 0..=8 {
+            for j in 0..=8 {
+                for sign in [1.0, -1.0] {
+                    let mut o = Vec3::ZERO;
+                    o[axis] = if sign > 0.0 {
+                        root.min[axis] - 1.0
+                    } else {
+                        root.max[axis] + 1.0
+                    };
+                    o[u] = g(i, u);
+                    o[w] = g(j, w);
+                    let mut d = Vec3::ZERO;
+                    d[axis] = sign;
+                    rays.push(Ray { origin: o, dir: d });
+                    // Starting on a cell corner inside the tree.
+                    o[axis] = g((i + j) % 9, axis);
+                    rays.push(Ray { origin: o, dir: d });
+                }
+            }
+        }
+    }
+    for i in 0..=8 {
+        let p = v(g(i, 0), g((i * 3) % 9, 1), g((i * 7) % 9, 2));
+        for d in [v(1.0, 1.0, 1.0), v(1.0, -1.0, 0.0), v(-1.0, -1.0, 1.0)] {
+            rays.push(Ray::new(p, d));
+            rays.push(Ray::new(p - d * 20.0, d));
+        }
+    }
+    (objects, tree, rays)
+}
