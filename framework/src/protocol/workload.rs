@@ -47,7 +47,7 @@ pub trait WorkKind: Copy + Eq + Ord + Hash + Debug + Send + Sync + 'static {
         Self::ALL.iter().copied().find(|k| k.name() == name)
     }
 
-    /// The kind's position in [`WorkKind::ALL`] ([`work_kinds!`] makes it
+    /// The kind's position in [`WorkKind::ALL`] ([`work_kinds!`](crate::work_kinds) makes it
     /// the discriminant): what [`Ctx::charge`] indexes by.
     fn index(self) -> usize {
         Self::ALL
