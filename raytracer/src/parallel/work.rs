@@ -24,8 +24,13 @@ hybrid_sched::work_kinds! {
         ShadowBundlesDp = "shadow.bundles_dp",
         /// Bundles started in the step that shaded their point: every
         /// data-parallel one, and demand-driven ones whose cells are all
-        /// resident (option `inline_local_shadows`).
+        /// resident, or (a processor with its own hierarchy) that needed no
+        /// cell from elsewhere (option `inline_local_shadows`).
         ShadowBundlesInline = "shadow.bundles_inline",
+        /// Demand-driven bundles tried in the step that shaded their point
+        /// (a processor with its own hierarchy) that needed a cell held
+        /// elsewhere, and were scheduled as usual.
+        ShadowTriedElsewhere = "shadow.tried_elsewhere",
         ShadowSpawned = "shadow.spawned",
         ShadowRetired = "shadow.retired",
         ShadowPatches = "shadow.patches",
