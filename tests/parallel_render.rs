@@ -258,8 +258,8 @@ fn shadow_bundles_start_in_the_step_that_shaded_their_point() {
 /// and shadow count are those of the walk alone (and of the sequential
 /// renderer), under every policy and distribution, with a cache too small
 /// to hold a cell; on one processor (which holds everything) nothing walks.
-/// (On several, a bundle tried where it was shaded and then scheduled walks
-/// twice, so leaves walked need not fall.)
+/// On several, more bundles run where their point was shaded (one tried
+/// there and then scheduled walks twice, so leaves walked need not fall).
 #[test]
 fn the_processors_own_hierarchy_changes_no_answer() {
     let c = case("studio", 32, 32, RenderOptions::default());
@@ -294,6 +294,15 @@ fn the_processors_own_hierarchy_changes_no_answer() {
                 a.work(Work::TraceLocal) > 0,
                 "{what}: nothing answered locally"
             );
+            assert_eq!(b.work(Work::ShadowTriedElsewhere), 0, "{what}");
+            // (With `worst`, processor 0 holds every cell and the others
+            // none: no bundle can be tried anywhere it was not before.)
+            if procs > 1 && distribution == Distribution::Octree {
+                assert!(
+                    a.work(Work::ShadowBundlesInline) > b.work(Work::ShadowBundlesInline),
+                    "{what}: no bundle ran where its point was shaded"
+                );
+            }
             if procs == 1 {
                 assert!(
                     a.work(Work::TraceLeaves) < b.work(Work::TraceLeaves),

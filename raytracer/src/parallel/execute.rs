@@ -243,23 +243,22 @@ impl RtWorkload {
                             ctx.charge(Work::ClipMisses, 1);
                             ctx.spawn_dp(DpTask::Shadow(job));
                         }
-                    } else if inline && self.local_path(ctx.proc_id()).is_some() {
-                        // The processor has its own hierarchy (option
-                        // `local_kernel`): try the bundle on what it holds
-                        // and has cached before paying for a selection;
-                        // should it need a cell from elsewhere, it is
-                        // scheduled as if it had not been tried.
-                        match self.advance_shadow(job, data, ctx, true) {
-                            Some(job) => {
-                                ctx.charge(Work::ShadowTriedElsewhere, 1);
-                                scheduled.push(ShadowJob {
-                                    key: job.key,
-                                    bundle: job.bundle,
-                                });
-                            }
-                            None => ctx.charge(Work::ShadowBundlesInline, 1),
-                        }
                     } else {
+                        // With its own hierarchy (option `local_kernel`), the
+                        // processor tries the bundle on what it holds and has
+                        // cached before paying for a selection; should it
+                        // need a cell from elsewhere, it is scheduled as if
+                        // it had not been tried.
+                        let job = if inline && self.local_path(ctx.proc_id()).is_some() {
+                            let Some(job) = self.advance_shadow(job, data, ctx, true) else {
+                                ctx.charge(Work::ShadowBundlesInline, 1);
+                                continue;
+                            };
+                            ctx.charge(Work::ShadowTriedElsewhere, 1);
+                            job
+                        } else {
+                            job
+                        };
                         scheduled.push(ShadowJob {
                             key: job.key,
                             bundle: job.bundle,
