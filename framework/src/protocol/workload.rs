@@ -393,6 +393,7 @@ impl<W: Workload> Ctx<W> {
     /// clipped nodes). The simulator turns these into virtual time with a
     /// cost model; all runtimes report them in the statistics, by
     /// [`WorkKind::name`].
+    #[inline]
     pub fn charge(&mut self, kind: W::Work, units: u64) {
         // Kinds keep the order they were first charged in (what the
         // simulator sums in), found by index rather than by search.

@@ -63,6 +63,8 @@ pub struct PartialCaster<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> {
     local: Option<&'a dyn LocalQueries>,
     /// Queries it answered.
     pub local_answers: Cell<u64>,
+    /// Record answers for a replay (off where no query can block).
+    recording: bool,
 }
 
 impl<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> PartialCaster<'a, 'c, F> {
@@ -83,7 +85,17 @@ impl<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> PartialCaster<'a, 'c, F> 
             next: Cell::new(0),
             blocked: Cell::new(None),
             queries: Cell::new(0),
+            recording: true,
         }
+    }
+
+    /// `true` where every leaf is held here (one processor, or the `worst`
+    /// distribution's), so no query can block and no answer need be
+    /// recorded for a replay. Wrong anywhere else: a blocked bundle's
+    /// replay would miss the answers before the block.
+    pub fn never_blocks(mut self, never: bool) -> Self {
+        self.recording = !never;
+        self
     }
 
     /// The leaf a query was blocked on, if any.
@@ -110,12 +122,20 @@ impl<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> PartialCaster<'a, 'c, F> 
     }
 
     fn record(&self, a: Answer) {
+        if !self.recording {
+            debug_assert!(self.blocked.get().is_none());
+            return;
+        }
         let mut r = self.replay.borrow_mut();
         r.answers.push(a);
         r.cursor = TraceCursor::default();
     }
 
     fn block(&self, leaf: NodeId, cursor: TraceCursor) {
+        assert!(
+            self.recording,
+            "a query blocked on leaf {leaf} where every leaf was said to be held"
+        );
         self.blocked.set(Some(leaf));
         self.replay.borrow_mut().cursor = cursor;
     }

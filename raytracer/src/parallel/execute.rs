@@ -12,7 +12,7 @@ use super::tasks::{DdTask, DpTask, RayJob, ShadowDp, ShadowJob, Tile};
 use super::tree::{Child, NodeKey, Record, RtResult};
 use super::work::Work;
 use super::workload::RtWorkload;
-use crate::accel::{Hit, Partial, TraceCursor};
+use crate::accel::{Hit, NodeId, Partial, TraceCursor};
 use crate::render::direct::{run_shadow_bundle, ShadowCounts};
 use crate::render::light::LightExtent;
 use crate::render::material::shade;
@@ -190,7 +190,9 @@ impl RtWorkload {
         };
         ctx.charge(Work::Shade, 1);
         let sctx = self.renderer.context();
-        let mut requests = Vec::new();
+        // A bundle per light and a few rays: room for them up front (a
+        // request is large, and growing the vector copies them).
+        let mut requests = Vec::with_capacity((self.renderer.lights().len() + 2).min(32));
         let shaded = shade(&sctx, task, &hit, &mut requests);
         let mut children = Vec::with_capacity(requests.len());
         // Bundles that need cells held elsewhere: one task for them all.
@@ -215,33 +217,50 @@ impl RtWorkload {
                     });
                     ctx.charge(Work::ShadowSpawned, 1);
                     let key = key.child(i);
-                    let job = ShadowDp {
+                    // A bundle tried here is run by reference and becomes a
+                    // task only where it must travel (a request is large:
+                    // moving it costs).
+                    let fresh = |key, bundle, replay, next| ShadowDp {
                         key,
                         bundle,
-                        replay: Replay::default(),
-                        next: None,
+                        replay,
+                        next,
                     };
                     let inline = self.opts.inline_local_shadows;
-                    if self.shadow_goes_dp(&job.bundle) {
+                    if self.shadow_goes_dp(&bundle) {
                         ctx.charge(Work::ShadowBundlesDp, 1);
                         if inline {
                             // Its first step would run here (it names no
                             // cell yet): run it now.
                             ctx.charge(Work::ShadowBundlesInline, 1);
-                            if let Some(job) = self.advance_shadow(job, data, ctx, true) {
-                                ctx.spawn_dp(DpTask::Shadow(job));
+                            if let Some(Blocked { key, replay, leaf }) =
+                                self.try_shadow(key, &bundle, Replay::default(), data, ctx, true)
+                            {
+                                ctx.spawn_dp(DpTask::Shadow(fresh(
+                                    key,
+                                    bundle,
+                                    replay,
+                                    Some(leaf),
+                                )));
                             }
                         } else {
-                            ctx.spawn_dp(DpTask::Shadow(job));
+                            ctx.spawn_dp(DpTask::Shadow(fresh(
+                                key,
+                                bundle,
+                                Replay::default(),
+                                None,
+                            )));
                         }
-                    } else if inline && self.shadow_all_resident(&job.bundle, ctx.proc_id()) {
+                    } else if inline && self.shadow_all_resident(&bundle, ctx.proc_id()) {
                         // Nothing to select or fetch: run it now (should a
                         // ray still leave the resident cells, the bundle
                         // migrates as a data-parallel one).
                         ctx.charge(Work::ShadowBundlesInline, 1);
-                        if let Some(job) = self.advance_shadow(job, data, ctx, true) {
+                        if let Some(Blocked { key, replay, leaf }) =
+                            self.try_shadow(key, &bundle, Replay::default(), data, ctx, true)
+                        {
                             ctx.charge(Work::ClipMisses, 1);
-                            ctx.spawn_dp(DpTask::Shadow(job));
+                            ctx.spawn_dp(DpTask::Shadow(fresh(key, bundle, replay, Some(leaf))));
                         }
                     } else {
                         // With its own hierarchy (option `local_kernel`), the
@@ -249,20 +268,22 @@ impl RtWorkload {
                         // cached before paying for a selection; should it
                         // need a cell from elsewhere, it is scheduled as if
                         // it had not been tried.
-                        let job = if inline && self.local_path(ctx.proc_id()).is_some() {
-                            let Some(job) = self.advance_shadow(job, data, ctx, true) else {
-                                ctx.charge(Work::ShadowBundlesInline, 1);
-                                continue;
-                            };
-                            ctx.charge(Work::ShadowTriedElsewhere, 1);
-                            job
+                        let key = if inline && self.local_path(ctx.proc_id()).is_some() {
+                            match self.try_shadow(key, &bundle, Replay::default(), data, ctx, true)
+                            {
+                                None => {
+                                    ctx.charge(Work::ShadowBundlesInline, 1);
+                                    continue;
+                                }
+                                Some(Blocked { key, .. }) => {
+                                    ctx.charge(Work::ShadowTriedElsewhere, 1);
+                                    key
+                                }
+                            }
                         } else {
-                            job
+                            key
                         };
-                        scheduled.push(ShadowJob {
-                            key: job.key,
-                            bundle: job.bundle,
-                        });
+                        scheduled.push(ShadowJob { key, bundle });
                     }
                 }
             }
@@ -345,12 +366,35 @@ impl RtWorkload {
         ctx: &mut Ctx<Self>,
         try_local: bool,
     ) -> Option<ShadowDp> {
+        let replay = std::mem::take(&mut job.replay);
+        let key = std::mem::take(&mut job.key);
+        match self.try_shadow(key, &job.bundle, replay, data, ctx, try_local) {
+            None => None,
+            Some(Blocked { key, replay, leaf }) => {
+                job.key = key;
+                job.replay = replay;
+                job.next = Some(leaf);
+                Some(job)
+            }
+        }
+    }
+
+    /// [`Self::advance_shadow`] on a bundle by reference: `None` when it
+    /// finished (its result emitted), else where it stopped.
+    pub(super) fn try_shadow(
+        &self,
+        key: NodeKey,
+        bundle: &ShadowBundle,
+        replay: Replay,
+        data: &DataView<'_, Self>,
+        ctx: &mut Ctx<Self>,
+        try_local: bool,
+    ) -> Option<Blocked> {
         let octree = self.renderer.octree();
         let shared = self.renderer.scene().table();
-        if !job.replay.answers.is_empty() || job.replay.cursor != TraceCursor::default() {
+        if !replay.answers.is_empty() || replay.cursor != TraceCursor::default() {
             ctx.charge(Work::ShadowRestarts, 1);
         }
-        let replay = std::mem::take(&mut job.replay);
         let visits = std::cell::Cell::new((0u64, 0u64));
         let memo = CellMemo::new(data, self, ctx.proc_id());
         let local = try_local.then(|| self.local_path(ctx.proc_id())).flatten();
@@ -364,13 +408,14 @@ impl RtWorkload {
             },
             replay,
             local.as_ref().map(|l| l as &dyn LocalQueries),
-        );
+        )
+        .never_blocks(self.holds_everything(ctx.proc_id()));
         let mut counts = ShadowCounts::default();
         let value = SCRATCH.with_borrow_mut(|scratch| {
             run_shadow_bundle(
                 &self.renderer.context(),
                 &caster,
-                &job.bundle,
+                bundle,
                 scratch,
                 &mut counts,
             )
@@ -380,20 +425,30 @@ impl RtWorkload {
         ctx.charge(Work::TraceObjects, tests);
         ctx.charge(Work::TraceLocal, caster.local_answers.get());
         if let Some(leaf) = caster.blocked() {
-            job.replay = caster.into_replay();
-            job.next = Some(leaf);
-            return Some(job);
+            return Some(Blocked {
+                key,
+                replay: caster.into_replay(),
+                leaf,
+            });
         }
         charge_shadow(ctx, &counts);
         ctx.emit_result(
             Addr::Proc(ctx.origin()),
             RtResult {
-                key: job.key,
+                key,
                 record: Record::Value(value),
             },
         );
         None
     }
+}
+
+/// A bundle that needs a leaf held elsewhere: its key, the answers recorded
+/// so far, and the leaf.
+pub(super) struct Blocked {
+    key: NodeKey,
+    replay: Replay,
+    leaf: NodeId,
 }
 
 fn charge_shadow(ctx: &mut Ctx<RtWorkload>, c: &ShadowCounts) {

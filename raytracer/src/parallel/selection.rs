@@ -88,6 +88,9 @@ impl RtWorkload {
     /// origin offsets; the whole scene for a distant source) lies in
     /// subtrees `proc` owns.
     pub(super) fn shadow_all_resident(&self, b: &ShadowBundle, proc: usize) -> bool {
+        if self.holds_everything(proc) {
+            return true;
+        }
         let bounds = self
             .renderer
             .lights()

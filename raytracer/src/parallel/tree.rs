@@ -14,8 +14,6 @@
 //! when its root is. Only the trees of pixels still in flight are held, so
 //! memory does not grow with the image beyond the finished pixel values.
 
-use std::collections::HashMap;
-
 use hybrid_sched::serde::{Deserialize, Serialize};
 use hybrid_sched::ByteSize;
 
@@ -23,7 +21,7 @@ use crate::scene::Color;
 
 /// Names one node of a pixel's ray tree: the pixel (row-major index) and
 /// the request indices leading to it from the primary ray.
-#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(crate = "hybrid_sched::serde")]
 pub struct NodeKey {
     pub pixel: u32,
@@ -122,7 +120,7 @@ pub struct PixelTrees {
     /// Finished pixels: (row-major index, radiance).
     pub pixels: Vec<(u32, Color)>,
     /// Nodes in flight, per pixel (a pixel's tree is small: linear search).
-    pending: HashMap<u32, Vec<(Vec<u16>, Pending)>>,
+    pending: hybrid_sched::IdMap<u32, Vec<(Vec<u16>, Pending)>>,
     /// Number of nodes in `pending`.
     nodes: usize,
     /// Most nodes held at once (memory high-water of the assembly).

@@ -24,7 +24,7 @@
 //! bundle continues data-parallel from where it stopped, and the event is
 //! counted as `clip.misses`.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashSet;
 use std::sync::{Arc, Mutex};
 
 use hybrid_sched::serde::{Deserialize, Serialize};
@@ -147,10 +147,10 @@ pub(super) struct Held {
 
 /// A tile's primary rays by its top-left pixel, row by row (`None`: the
 /// view has no ray through that pixel).
-pub(super) type TileRays = HashMap<(u32, u32), Vec<Option<crate::render::RayTask>>>;
+pub(super) type TileRays = hybrid_sched::IdMap<(u32, u32), Vec<Option<crate::render::RayTask>>>;
 
 /// Shadow selections per (processor, cell, light).
-pub(super) type ClipCache = HashMap<(u32, NodeId, u32), ClipEntry>;
+pub(super) type ClipCache = hybrid_sched::IdMap<(u32, NodeId, u32), ClipEntry>;
 
 /// One cached shadow selection.
 #[derive(Debug)]
@@ -244,10 +244,10 @@ impl RtWorkload {
         RtWorkload {
             subtree_owner,
             clip_cache: (0..procs.max(1))
-                .map(|_| Mutex::new(HashMap::new()))
+                .map(|_| Mutex::new(Default::default()))
                 .collect(),
             tile_rays: (0..procs.max(1))
-                .map(|_| Mutex::new(HashMap::new()))
+                .map(|_| Mutex::new(Default::default()))
                 .collect(),
             kernels: (0..procs.max(1)).map(|_| Default::default()).collect(),
             renderer,
@@ -273,6 +273,9 @@ impl RtWorkload {
         if self.subtree_owner.is_empty() {
             return false;
         }
+        if self.holds_everything(proc) {
+            return true;
+        }
         let octree = self.renderer.octree();
         let mut node: NodeId = 0;
         if let Some(b) = bounds {
@@ -289,6 +292,14 @@ impl RtWorkload {
         }
         let o = self.subtree_owner[node as usize];
         o == EMPTY || o as usize == proc
+    }
+
+    /// True if processor `proc` holds every non-empty cell (one processor,
+    /// or the `worst` distribution's): no bundle of it needs a selection.
+    pub(super) fn holds_everything(&self, proc: usize) -> bool {
+        self.subtree_owner
+            .first()
+            .is_some_and(|&o| o == EMPTY || o as usize == proc)
     }
 
     pub fn renderer(&self) -> &Renderer<'static> {
