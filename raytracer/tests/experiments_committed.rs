@@ -13,7 +13,11 @@
 //! - `experiments/ci/cornell`: seconds in a debug build, run everywhere;
 //! - `experiments/ci/studio`: the studio scene small, about 6 s of CPU in a
 //!   release build; release only (`scripts/test.sh` runs it);
-//! - `experiments/studio` and `experiments/conference`: minutes each,
+//! - `experiments/ci/studio-soft`: the paper-like workload (the studio
+//!   with soft shadows, `-ds 0.05 -dt 0`: 33 shadow rays per bundle) on a
+//!   tiny picture; release only;
+//! - `experiments/studio`, `experiments/studio-soft` (the paper-like
+//!   workload at full size) and `experiments/conference`: minutes each,
 //!   ignored by default; `cargo test --release -p hybrid-rt --test
 //!   experiments_committed -- --ignored` checks them.
 //!
@@ -115,7 +119,7 @@ fn check(dir: &str, args: &[&str]) {
     }
     assert!(
         report.is_empty(),
-        "experiments/{dir} differs from what the code writes now{report}\nIf the change is intended, regenerate it with\n  {regenerate}\nand with it the other directories of experiments/ (ci/cornell, ci/studio, studio, conference: the commands are in this test file and in EXPERIMENTS.md), and update EXPERIMENTS.md where its figures changed"
+        "experiments/{dir} differs from what the code writes now{report}\nIf the change is intended, regenerate it with\n  {regenerate}\nand with it the other directories of experiments/ (ci/cornell, ci/studio, ci/studio-soft, studio, studio-soft, conference: the commands are in this test file and in EXPERIMENTS.md), and update EXPERIMENTS.md where its figures changed"
     );
     let _ = std::fs::remove_dir_all(&out);
 }
@@ -157,6 +161,32 @@ const STUDIO_SMALL: &[&str] = &[
     "32",
 ];
 
+/// The paper-like workload's render options: soft shadows from the
+/// studio's large area sources, every patch tested (EXPERIMENTS.md).
+const SOFT: &[&str] = &["-ds", "0.05", "-dt", "0"];
+
+/// The arguments of `experiments/ci/studio-soft`.
+const STUDIO_SOFT_SMALL: &[&str] = &[
+    "--scene",
+    "studio",
+    "--width",
+    "32",
+    "--height",
+    "24",
+    "--max-procs",
+    "8",
+    "--detail-procs",
+    "4",
+    "--cache-procs",
+    "4",
+    "--cache-size",
+    "16",
+    "-ds",
+    "0.05",
+    "-dt",
+    "0",
+];
+
 #[test]
 fn cornell_experiments_equal_the_committed_files() {
     check("ci/cornell", CORNELL);
@@ -172,9 +202,25 @@ fn small_studio_experiments_equal_the_committed_files() {
 }
 
 #[test]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "release only (minutes in debug): scripts/test.sh runs it with --release"
+)]
+fn small_paper_like_experiments_equal_the_committed_files() {
+    check("ci/studio-soft", STUDIO_SOFT_SMALL);
+}
+
+#[test]
 #[ignore = "minutes in release: run with --release -- --ignored"]
 fn studio_experiments_equal_the_committed_files() {
     check("studio", &["--scene", "studio"]);
+}
+
+#[test]
+#[ignore = "half an hour in release: run with --release -- --ignored"]
+fn paper_like_studio_experiments_equal_the_committed_files() {
+    let args: Vec<&str> = ["--scene", "studio"].iter().chain(SOFT).copied().collect();
+    check("studio-soft", &args);
 }
 
 #[test]

@@ -46,6 +46,7 @@ pub(super) fn run(a: &ExperimentArgs) -> Result<()> {
         scene,
         view,
         options,
+        options_words: options_words(&a.radiance),
         width: w as usize,
         height: h as usize,
         small: (cw as usize, ch as usize),
@@ -60,6 +61,25 @@ pub(super) fn run(a: &ExperimentArgs) -> Result<()> {
         outln!("{}", o.path.display());
     }
     Ok(())
+}
+
+/// The render options given, as Radiance writes them (`-ds 0.05 -dt 0`),
+/// after the quality preset if one is named.
+fn options_words(r: &super::args::RadianceArgs) -> String {
+    let mut words: Vec<String> = r
+        .quality
+        .iter()
+        .map(|q| format!("--quality {}", super::args::value_name(q)))
+        .collect();
+    for (name, values) in r.given() {
+        words.push(
+            std::iter::once(format!("-{name}"))
+                .chain(values.iter().map(|v| v.to_string()))
+                .collect::<Vec<_>>()
+                .join(" "),
+        );
+    }
+    words.join(" ")
 }
 
 /// `experiment calibrate`: fits the model on this machine, writes it to

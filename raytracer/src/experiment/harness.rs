@@ -30,6 +30,9 @@ pub struct Setup {
     pub scene: Arc<Scene>,
     pub view: View,
     pub options: RenderOptions,
+    /// The render options as given on the command line (`-ds 0.05 -dt 0`;
+    /// empty for the defaults), named in every table's setup line.
+    pub options_words: String,
     /// Image size of the speed-up and per-processor experiments.
     pub width: usize,
     pub height: usize,
@@ -259,7 +262,11 @@ impl Ctx<'_> {
             cost::MODEL_PATH,
             model.date,
             model.machine
-        )
+        ) + &if s.options_words.is_empty() {
+            String::new()
+        } else {
+            format!("Render options: `{}`.\n", s.options_words)
+        }
     }
 
     pub(super) fn detail(&mut self) -> Result<Arc<ParallelRender>> {
