@@ -23,6 +23,12 @@ thread_local! {
     /// thread runs (a fresh one per bundle grew on the hot path).
     static SCRATCH: std::cell::RefCell<Vec<crate::render::direct::Contribution>> =
         const { std::cell::RefCell::new(Vec::new()) };
+    /// A shaded point's requests, reused by every point a thread shades: a
+    /// request is large, and a point lit by hundreds of sources grew a
+    /// fresh vector through several copies (a sixth of the conference
+    /// room's instructions on one processor).
+    static REQUESTS: std::cell::RefCell<Vec<Request>> =
+        const { std::cell::RefCell::new(Vec::new()) };
 }
 
 impl RtWorkload {
@@ -190,21 +196,20 @@ impl RtWorkload {
         };
         ctx.charge(Work::Shade, 1);
         let sctx = self.renderer.context();
-        // A bundle per light and a few rays: room for them up front (a
-        // request is large, and growing the vector copies them).
-        let mut requests = Vec::with_capacity((self.renderer.lights().len() + 2).min(32));
+        let mut requests = REQUESTS.take();
+        requests.clear();
         let shaded = shade(&sctx, task, &hit, &mut requests);
         let mut children = Vec::with_capacity(requests.len());
         // Bundles that need cells held elsewhere: one task for them all.
         let mut scheduled = Vec::new();
-        for (i, r) in requests.into_iter().enumerate() {
+        for (i, r) in requests.iter().enumerate() {
             match r {
                 Request::Trace { task: child, coef } => {
-                    children.push(Child::Trace(coef));
+                    children.push(Child::Trace(*coef));
                     ctx.charge(Work::RaysSpawned, 1);
                     ctx.spawn_dp(DpTask::Ray(RayJob {
                         key: key.child(i),
-                        task: child,
+                        task: *child,
                         cursor: TraceCursor::default(),
                         next: None,
                     }));
@@ -217,24 +222,24 @@ impl RtWorkload {
                     });
                     ctx.charge(Work::ShadowSpawned, 1);
                     let key = key.child(i);
-                    // A bundle tried here is run by reference and becomes a
-                    // task only where it must travel (a request is large:
-                    // moving it costs).
-                    let fresh = |key, bundle, replay, next| ShadowDp {
+                    // A bundle tried here is run by reference and copied
+                    // into a task only where it must travel (a request is
+                    // large: moving it costs).
+                    let fresh = |key, bundle: &ShadowBundle, replay, next| ShadowDp {
                         key,
-                        bundle,
+                        bundle: *bundle,
                         replay,
                         next,
                     };
                     let inline = self.opts.inline_local_shadows;
-                    if self.shadow_goes_dp(&bundle) {
+                    if self.shadow_goes_dp(bundle) {
                         ctx.charge(Work::ShadowBundlesDp, 1);
                         if inline {
                             // Its first step would run here (it names no
                             // cell yet): run it now.
                             ctx.charge(Work::ShadowBundlesInline, 1);
                             if let Some(Blocked { key, replay, leaf }) =
-                                self.try_shadow(key, &bundle, Replay::default(), data, ctx, true)
+                                self.try_shadow(key, bundle, Replay::default(), data, ctx, true)
                             {
                                 ctx.spawn_dp(DpTask::Shadow(fresh(
                                     key,
@@ -251,13 +256,13 @@ impl RtWorkload {
                                 None,
                             )));
                         }
-                    } else if inline && self.shadow_all_resident(&bundle, ctx.proc_id()) {
+                    } else if inline && self.shadow_all_resident(bundle, ctx.proc_id()) {
                         // Nothing to select or fetch: run it now (should a
                         // ray still leave the resident cells, the bundle
                         // migrates as a data-parallel one).
                         ctx.charge(Work::ShadowBundlesInline, 1);
                         if let Some(Blocked { key, replay, leaf }) =
-                            self.try_shadow(key, &bundle, Replay::default(), data, ctx, true)
+                            self.try_shadow(key, bundle, Replay::default(), data, ctx, true)
                         {
                             ctx.charge(Work::ClipMisses, 1);
                             ctx.spawn_dp(DpTask::Shadow(fresh(key, bundle, replay, Some(leaf))));
@@ -269,8 +274,7 @@ impl RtWorkload {
                         // need a cell from elsewhere, it is scheduled as if
                         // it had not been tried.
                         let key = if inline && self.local_path(ctx.proc_id()).is_some() {
-                            match self.try_shadow(key, &bundle, Replay::default(), data, ctx, true)
-                            {
+                            match self.try_shadow(key, bundle, Replay::default(), data, ctx, true) {
                                 None => {
                                     ctx.charge(Work::ShadowBundlesInline, 1);
                                     continue;
@@ -283,11 +287,16 @@ impl RtWorkload {
                         } else {
                             key
                         };
-                        scheduled.push(ShadowJob { key, bundle });
+                        scheduled.push(ShadowJob {
+                            key,
+                            bundle: *bundle,
+                        });
                     }
                 }
             }
         }
+        requests.clear();
+        REQUESTS.set(requests);
         if !scheduled.is_empty() {
             ctx.spawn_dd(DdTask::Shadows(scheduled));
         }
