@@ -17,6 +17,7 @@ use crate::render::direct::{run_shadow_bundle, ShadowCounts};
 use crate::render::light::LightExtent;
 use crate::render::material::shade;
 use crate::render::{RayKind, RayTask, Request, ShadowBundle};
+use crate::scene::Color;
 
 thread_local! {
     /// The patch list of [`run_shadow_bundle`], reused by every bundle a
@@ -215,57 +216,48 @@ impl RtWorkload {
                     }));
                 }
                 Request::Shadow(bundle) | Request::Scatter(bundle) => {
-                    children.push(if matches!(r, Request::Scatter(_)) {
-                        Child::Scatter
-                    } else {
-                        Child::Shadow
-                    });
+                    let scatter = matches!(r, Request::Scatter(_));
                     ctx.charge(Work::ShadowSpawned, 1);
-                    let key = key.child(i);
-                    // A bundle tried here is run by reference and copied
-                    // into a task only where it must travel (a request is
-                    // large: moving it costs).
-                    let fresh = |key, bundle: &ShadowBundle, replay, next| ShadowDp {
-                        key,
+                    // A bundle run here is run by reference and its value
+                    // goes into the point's record (`Child::Known`): no key,
+                    // task or result of its own. One that must travel is
+                    // copied into a task, keyed by its request index.
+                    let fresh = |bundle: &ShadowBundle, replay, next| ShadowDp {
+                        key: key.child(i),
                         bundle: *bundle,
                         replay,
                         next,
                     };
                     let inline = self.opts.inline_local_shadows;
-                    if self.shadow_goes_dp(bundle) {
+                    let run = if self.shadow_goes_dp(bundle) {
                         ctx.charge(Work::ShadowBundlesDp, 1);
                         if inline {
                             // Its first step would run here (it names no
                             // cell yet): run it now.
                             ctx.charge(Work::ShadowBundlesInline, 1);
-                            if let Some(Blocked { key, replay, leaf }) =
-                                self.try_shadow(key, bundle, Replay::default(), data, ctx, true)
-                            {
-                                ctx.spawn_dp(DpTask::Shadow(fresh(
-                                    key,
-                                    bundle,
-                                    replay,
-                                    Some(leaf),
-                                )));
+                            match self.try_shadow(bundle, Replay::default(), data, ctx, true) {
+                                ShadowRun::Done(v) => Some(v),
+                                ShadowRun::Blocked(replay, leaf) => {
+                                    ctx.spawn_dp(DpTask::Shadow(fresh(bundle, replay, Some(leaf))));
+                                    None
+                                }
                             }
                         } else {
-                            ctx.spawn_dp(DpTask::Shadow(fresh(
-                                key,
-                                bundle,
-                                Replay::default(),
-                                None,
-                            )));
+                            ctx.spawn_dp(DpTask::Shadow(fresh(bundle, Replay::default(), None)));
+                            None
                         }
                     } else if inline && self.shadow_all_resident(bundle, ctx.proc_id()) {
                         // Nothing to select or fetch: run it now (should a
                         // ray still leave the resident cells, the bundle
                         // migrates as a data-parallel one).
                         ctx.charge(Work::ShadowBundlesInline, 1);
-                        if let Some(Blocked { key, replay, leaf }) =
-                            self.try_shadow(key, bundle, Replay::default(), data, ctx, true)
-                        {
-                            ctx.charge(Work::ClipMisses, 1);
-                            ctx.spawn_dp(DpTask::Shadow(fresh(key, bundle, replay, Some(leaf))));
+                        match self.try_shadow(bundle, Replay::default(), data, ctx, true) {
+                            ShadowRun::Done(v) => Some(v),
+                            ShadowRun::Blocked(replay, leaf) => {
+                                ctx.charge(Work::ClipMisses, 1);
+                                ctx.spawn_dp(DpTask::Shadow(fresh(bundle, replay, Some(leaf))));
+                                None
+                            }
                         }
                     } else {
                         // With its own hierarchy (option `local_kernel`), the
@@ -273,25 +265,31 @@ impl RtWorkload {
                         // cached before paying for a selection; should it
                         // need a cell from elsewhere, it is scheduled as if
                         // it had not been tried.
-                        let key = if inline && self.local_path(ctx.proc_id()).is_some() {
-                            match self.try_shadow(key, bundle, Replay::default(), data, ctx, true) {
-                                None => {
-                                    ctx.charge(Work::ShadowBundlesInline, 1);
-                                    continue;
-                                }
-                                Some(Blocked { key, .. }) => {
-                                    ctx.charge(Work::ShadowTriedElsewhere, 1);
-                                    key
-                                }
+                        let tried = (inline && self.local_path(ctx.proc_id()).is_some())
+                            .then(|| self.try_shadow(bundle, Replay::default(), data, ctx, true));
+                        match tried {
+                            Some(ShadowRun::Done(v)) => {
+                                ctx.charge(Work::ShadowBundlesInline, 1);
+                                Some(v)
                             }
-                        } else {
-                            key
-                        };
-                        scheduled.push(ShadowJob {
-                            key,
-                            bundle: *bundle,
-                        });
-                    }
+                            tried => {
+                                if tried.is_some() {
+                                    ctx.charge(Work::ShadowTriedElsewhere, 1);
+                                }
+                                scheduled.push(ShadowJob {
+                                    key: key.child(i),
+                                    bundle: *bundle,
+                                });
+                                None
+                            }
+                        }
+                    };
+                    children.push(match (run, scatter) {
+                        (Some(v), false) => Child::Known(v),
+                        (Some(v), true) => Child::KnownScatter(v),
+                        (None, false) => Child::Shadow,
+                        (None, true) => Child::Scatter,
+                    });
                 }
             }
         }
@@ -376,11 +374,18 @@ impl RtWorkload {
         try_local: bool,
     ) -> Option<ShadowDp> {
         let replay = std::mem::take(&mut job.replay);
-        let key = std::mem::take(&mut job.key);
-        match self.try_shadow(key, &job.bundle, replay, data, ctx, try_local) {
-            None => None,
-            Some(Blocked { key, replay, leaf }) => {
-                job.key = key;
+        match self.try_shadow(&job.bundle, replay, data, ctx, try_local) {
+            ShadowRun::Done(value) => {
+                ctx.emit_result(
+                    Addr::Proc(ctx.origin()),
+                    RtResult {
+                        key: job.key,
+                        record: Record::Value(value),
+                    },
+                );
+                None
+            }
+            ShadowRun::Blocked(replay, leaf) => {
                 job.replay = replay;
                 job.next = Some(leaf);
                 Some(job)
@@ -388,17 +393,16 @@ impl RtWorkload {
         }
     }
 
-    /// [`Self::advance_shadow`] on a bundle by reference: `None` when it
-    /// finished (its result emitted), else where it stopped.
+    /// [`Self::advance_shadow`] on a bundle by reference, emitting nothing:
+    /// its value, or where it stopped.
     pub(super) fn try_shadow(
         &self,
-        key: NodeKey,
         bundle: &ShadowBundle,
         replay: Replay,
         data: &DataView<'_, Self>,
         ctx: &mut Ctx<Self>,
         try_local: bool,
-    ) -> Option<Blocked> {
+    ) -> ShadowRun {
         let octree = self.renderer.octree();
         let shared = self.renderer.scene().table();
         if !replay.answers.is_empty() || replay.cursor != TraceCursor::default() {
@@ -434,30 +438,20 @@ impl RtWorkload {
         ctx.charge(Work::TraceObjects, tests);
         ctx.charge(Work::TraceLocal, caster.local_answers.get());
         if let Some(leaf) = caster.blocked() {
-            return Some(Blocked {
-                key,
-                replay: caster.into_replay(),
-                leaf,
-            });
+            return ShadowRun::Blocked(caster.into_replay(), leaf);
         }
         charge_shadow(ctx, &counts);
-        ctx.emit_result(
-            Addr::Proc(ctx.origin()),
-            RtResult {
-                key,
-                record: Record::Value(value),
-            },
-        );
-        None
+        ShadowRun::Done(value)
     }
 }
 
-/// A bundle that needs a leaf held elsewhere: its key, the answers recorded
-/// so far, and the leaf.
-pub(super) struct Blocked {
-    key: NodeKey,
-    replay: Replay,
-    leaf: NodeId,
+/// What running a shadow bundle here came to.
+pub(super) enum ShadowRun {
+    /// Finished: its (weighted) value.
+    Done(Color),
+    /// It needs a leaf held elsewhere: the answers recorded so far, and
+    /// the leaf.
+    Blocked(Replay, NodeId),
 }
 
 fn charge_shadow(ctx: &mut Ctx<RtWorkload>, c: &ShadowCounts) {

@@ -10,7 +10,9 @@
 //! the processor that owns the pixel, keyed by its path in the tree; a node
 //! is evaluated, with exactly the sequential renderer's operations in
 //! exactly its order, as soon as its record and all its children's values
-//! are present, and the value moves up to its parent. The pixel is final
+//! are present, and the value moves up to its parent. A shadow bundle run in
+//! the step that shaded its point has its value carried in the point's
+//! record ([`Child::Known`]) instead of a result of its own. The pixel is final
 //! when its root is. Only the trees of pixels still in flight are held, so
 //! memory does not grow with the image beyond the finished pixel values.
 
@@ -64,6 +66,18 @@ pub enum Child {
     /// An in-scattering shadow bundle: its result, added after the
     /// attenuation (these come last).
     Scatter,
+    /// A shadow bundle run in the step that shaded its point: its result,
+    /// carried in the record (no result of its own travels).
+    Known(Color),
+    /// An in-scattering bundle run there: as [`Child::Scatter`], carried.
+    KnownScatter(Color),
+}
+
+impl Child {
+    /// Whether its value arrives as a result of its own.
+    fn awaited(&self) -> bool {
+        !matches!(self, Child::Known(_) | Child::KnownScatter(_))
+    }
 }
 
 /// A medium's effect on a ray's value: the factor it is multiplied by,
@@ -109,6 +123,8 @@ impl ByteSize for RtResult {
 #[serde(crate = "hybrid_sched::serde")]
 struct Pending {
     record: Option<(Color, Vec<Child>, Option<Attenuation>)>,
+    /// Children whose values arrive as results (known once the record is).
+    awaited: usize,
     /// Child values by request index (may arrive before the record).
     values: Vec<(u16, Color)>,
 }
@@ -179,7 +195,9 @@ impl PixelTrees {
                 children,
                 attenuation,
             } => {
-                if children.is_empty() {
+                let awaited = children.iter().filter(|c| c.awaited()).count();
+                if awaited == 0 {
+                    // Nothing to wait for: no entry at all.
                     let v = evaluate(base, &children, &[], attenuation);
                     self.deliver(r.key, v);
                     return;
@@ -187,6 +205,7 @@ impl PixelTrees {
                 let entry = self.entry(r.key.pixel, &r.key.path);
                 debug_assert!(entry.record.is_none(), "node {:?} shaded twice", r.key);
                 entry.record = Some((base, children, attenuation));
+                entry.awaited = awaited;
                 if let Some(v) = self.complete(r.key.pixel, &r.key.path) {
                     self.deliver(r.key, v);
                 }
@@ -213,40 +232,53 @@ impl PixelTrees {
     /// removes it and returns its value.
     fn complete(&mut self, pixel: u32, path: &[u16]) -> Option<Color> {
         let entry = self.get(pixel, path)?;
-        let (_, children, _) = entry.record.as_ref()?;
-        if entry.values.len() < children.len() {
+        entry.record.as_ref()?;
+        if entry.values.len() < entry.awaited {
             return None;
         }
         let mut entry = self.remove(pixel, path)?;
         let (base, children, attenuation) = entry.record.take()?;
-        entry.values.sort_by_key(|&(i, _)| i);
-        let values: Vec<Color> = entry.values.iter().map(|&(_, c)| c).collect();
-        Some(evaluate(base, &children, &values, attenuation))
+        Some(evaluate(base, &children, &entry.values, attenuation))
     }
 }
 
 /// A node's value from its parts, with the sequential renderer's operations
 /// in its order (`Renderer::radiance`).
+///
+/// `arrived` holds the values of the awaited children by request index, in
+/// any order; the others carry theirs.
 fn evaluate(
     base: Color,
     children: &[Child],
-    values: &[Color],
+    arrived: &[(u16, Color)],
     attenuation: Option<Attenuation>,
 ) -> Color {
+    let mut values: Vec<Color> = children
+        .iter()
+        .map(|c| match c {
+            Child::Known(v) | Child::KnownScatter(v) => *v,
+            _ => Color::ZERO,
+        })
+        .collect();
+    for &(i, v) in arrived {
+        if let Some(slot) = values.get_mut(i as usize) {
+            *slot = v;
+        }
+    }
     let mut sum = base;
-    for (child, &v) in children.iter().zip(values) {
+    for (child, &v) in children.iter().zip(&values) {
         match child {
             Child::Trace(coef) => sum += *coef * v,
-            Child::Shadow => sum += v,
-            Child::Scatter => {}
+            Child::Shadow | Child::Known(_) => sum += v,
+            Child::Scatter | Child::KnownScatter(_) => {}
         }
     }
     if let Some((factor, add)) = attenuation {
         sum *= factor;
         sum += add;
     }
-    for (child, &v) in children.iter().zip(values) {
-        if let Child::Scatter = child {
+    for (child, &v) in children.iter().zip(&values) {
+        if let Child::Scatter | Child::KnownScatter(_) = child {
             sum += v;
         }
     }
@@ -348,5 +380,52 @@ mod tests {
         });
         assert!(t.pixels.is_empty());
         assert_eq!(t.pending(), 1);
+    }
+
+    /// A bundle run where its point was shaded carries its value in the
+    /// record: the pixel equals the one whose every bundle sent a result,
+    /// bit for bit, with scattering added after the attenuation either way,
+    /// and a record awaiting nothing is never held.
+    #[test]
+    fn carried_values_give_the_value_of_results_sent() {
+        let key = NodeKey::root(3);
+        let record = |children| RtResult {
+            key: key.clone(),
+            record: Record::Shaded {
+                base: c(0.1),
+                children,
+                attenuation: Some((c(0.7), c(0.01))),
+            },
+        };
+        let value = |i: usize, v: f64| RtResult {
+            key: key.child(i),
+            record: Record::Value(c(v)),
+        };
+        let mut sent = PixelTrees::default();
+        sent.merge(value(2, 0.3));
+        sent.merge(record(vec![Child::Shadow, Child::Shadow, Child::Scatter]));
+        sent.merge(value(0, 0.123));
+        sent.merge(value(1, 0.456));
+        let mut mixed = PixelTrees::default();
+        mixed.merge(record(vec![
+            Child::Known(c(0.123)),
+            Child::Shadow,
+            Child::KnownScatter(c(0.3)),
+        ]));
+        assert!(mixed.pixels.is_empty());
+        assert_eq!(mixed.pending(), 1);
+        mixed.merge(value(1, 0.456));
+        let mut carried = PixelTrees::default();
+        carried.merge(record(vec![
+            Child::Known(c(0.123)),
+            Child::Known(c(0.456)),
+            Child::KnownScatter(c(0.3)),
+        ]));
+        assert_eq!(carried.peak_pending, 0, "nothing awaited, nothing held");
+        let expected = (c(0.1) + c(0.123) + c(0.456)) * c(0.7) + c(0.01) + c(0.3);
+        for t in [&sent, &mixed, &carried] {
+            assert_eq!(t.pixels, vec![(3, expected)]);
+            assert_eq!(t.pending(), 0);
+        }
     }
 }
