@@ -320,6 +320,43 @@ fn the_processors_own_hierarchy_changes_no_answer() {
     assert_eq!(out.work(Work::TraceLocal), 0);
 }
 
+/// With a cache that never evicts, a processor's hierarchy grows over what
+/// it has cached: more queries are answered without walking the octree,
+/// and no answer changes. A bounded cache (here one that could hold the
+/// whole scene, so nothing is evicted either) keeps the hierarchy over the
+/// resident objects only: the same run, for comparison.
+#[test]
+fn a_hierarchy_grown_over_the_cache_changes_no_answer() {
+    let c = case("studio", 48, 36, RenderOptions::default());
+    let whole = largest_cell(&c) * 1_000_000;
+    for procs in [2, 3] {
+        let mut grown = ParallelOptions::new(procs);
+        grown.cache = CacheSize::Unlimited;
+        let mut resident = grown.clone();
+        resident.cache = CacheSize::Bytes(whole);
+        let (a, b) = (check(&c, &grown), check(&c, &resident));
+        for w in [
+            Work::RaysRetired,
+            Work::ShadowRetired,
+            Work::ShadowTested,
+            Work::ShadowUnoccluded,
+            Work::ShadowSegments,
+        ] {
+            assert_eq!(a.work(w), b.work(w), "procs {procs}: {w:?}");
+        }
+        assert!(
+            a.work(Work::TraceLocal) > b.work(Work::TraceLocal),
+            "procs {procs}: the grown hierarchy answered no more ({} against {})",
+            a.work(Work::TraceLocal),
+            b.work(Work::TraceLocal)
+        );
+        assert!(
+            a.work(Work::TraceLeaves) < b.work(Work::TraceLeaves),
+            "procs {procs}: no walk saved"
+        );
+    }
+}
+
 /// Views whose tiles have no bounding pyramid (fisheye, parallel): a
 /// tile's selection walks its primary rays and leaves them for its
 /// execution or its data-parallel fallback, which must still trace each

@@ -157,6 +157,12 @@ impl<K: Hash + Eq + Clone, V> ByteLru<K, V> {
         self.lru.peek(key).map(|e| &e.value)
     }
 
+    /// Every held item, most recently used first, without touching recency
+    /// or counters.
+    pub fn iter(&self) -> impl Iterator<Item = (&K, &V)> {
+        self.lru.iter().map(|(k, e)| (k, &e.value))
+    }
+
     /// A counted lookup: refreshes recency and counts a hit or a miss.
     pub fn get(&mut self, key: &K) -> Option<&V> {
         match self.lru.get(key) {

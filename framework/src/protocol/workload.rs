@@ -490,6 +490,19 @@ impl<'a, W: Workload> DataView<'a, W> {
         self.cache.is_none_or(|c| c.budget() == u64::MAX)
     }
 
+    /// Items in the cache (resident ones not counted).
+    pub fn cached_len(&self) -> usize {
+        self.cache.map_or(0, |c| c.len())
+    }
+
+    /// Every item held here, resident then cached, without touching the
+    /// cache's recency (a workload indexing what it holds, not using it).
+    pub fn local_items(&self) -> impl Iterator<Item = (&'a W::DataId, &'a W::DataItem)> {
+        self.resident
+            .iter()
+            .chain(self.cache.into_iter().flat_map(|c| c.iter()))
+    }
+
     pub(crate) fn into_touched(self) -> Vec<W::DataId> {
         self.touched.into_inner()
     }

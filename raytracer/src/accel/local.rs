@@ -215,3 +215,124 @@ pub enum ProcessorKernel {
     /// Its own, over its resident copies.
     Own(Box<LocalKernel>),
 }
+
+/// A set of octree nodes, a bit each.
+#[derive(Debug)]
+struct NodeSet(Vec<u64>);
+
+impl NodeSet {
+    fn new(nodes: usize) -> Self {
+        NodeSet(vec![0; nodes.div_ceil(64)])
+    }
+
+    #[inline]
+    fn has(&self, n: NodeId) -> bool {
+        self.0
+            .get(n as usize / 64)
+            .is_some_and(|w| w >> (n % 64) & 1 == 1)
+    }
+
+    fn set(&mut self, n: NodeId) {
+        if let Some(w) = self.0.get_mut(n as usize / 64) {
+            *w |= 1 << (n % 64);
+        }
+    }
+}
+
+/// A processor's hierarchy over the leaves it holds, resident and cached
+/// (the parallel renderer grows one over its cache where the cache never
+/// evicts): the kernel, and which leaves and subtrees it was built over,
+/// for the judgement of [`Hierarchy::intersect`] and
+/// [`Hierarchy::occluded`].
+#[derive(Debug)]
+pub struct GrownKernel {
+    kernel: LocalKernel,
+    /// The leaves it was built over.
+    held: NodeSet,
+    /// Nodes whose every non-empty leaf it was built over.
+    covered: NodeSet,
+    /// How many leaves it was built over.
+    leaves: usize,
+}
+
+impl GrownKernel {
+    /// The kernel over `cells` (leaf, its objects) of `octree`, with the
+    /// objects every processor holds from `shared` (see
+    /// [`LocalKernel::build`]).
+    pub fn build<'a>(
+        octree: &Octree,
+        cells: impl IntoIterator<Item = (NodeId, &'a LeafObjects)>,
+        shared: ObjectTable<'_>,
+    ) -> GrownKernel {
+        let n = octree.node_count();
+        let mut held = NodeSet::new(n);
+        let mut objects: Vec<&LeafObjects> = Vec::new();
+        for (leaf, c) in cells {
+            held.set(leaf);
+            objects.push(c);
+        }
+        let kernel = LocalKernel::build(objects.iter().copied(), shared);
+        // Children always have larger ids than their parent.
+        let mut covered = NodeSet::new(n);
+        for id in (0..n as NodeId).rev() {
+            let all = match octree.children(id) {
+                None => octree.leaf_objects(id).is_empty() || held.has(id),
+                Some(ch) => ch.iter().all(|&c| covered.has(c)),
+            };
+            if all {
+                covered.set(id);
+            }
+        }
+        GrownKernel {
+            leaves: objects.len(),
+            kernel,
+            held,
+            covered,
+        }
+    }
+
+    /// Whether it was built over `leaf`.
+    #[inline]
+    pub fn holds(&self, leaf: NodeId) -> bool {
+        self.held.has(leaf)
+    }
+
+    /// Whether it was built over every non-empty leaf below `node`.
+    #[inline]
+    pub fn covers(&self, node: NodeId) -> bool {
+        self.covered.has(node)
+    }
+
+    /// Leaves it was built over.
+    pub fn leaves(&self) -> usize {
+        self.leaves
+    }
+
+    /// Objects in it.
+    pub fn len(&self) -> usize {
+        self.kernel.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.kernel.is_empty()
+    }
+
+    /// Heap bytes (see [`LocalKernel::memory_bytes`]) and its node sets.
+    pub fn memory_bytes(&self) -> usize {
+        self.kernel.memory_bytes() + (self.held.0.capacity() + self.covered.0.capacity()) * 8
+    }
+
+    /// The kernel as queries read it.
+    pub fn hierarchy(&self) -> Hierarchy<'_> {
+        self.kernel.hierarchy()
+    }
+}
+
+/// Per processor, where the parallel renderer keeps its grown hierarchy:
+/// the latest build, and the number of cached items at which the next one
+/// is due.
+#[derive(Debug, Default)]
+pub struct GrownSlot {
+    pub kernel: Option<std::sync::Arc<GrownKernel>>,
+    pub next_build: usize,
+}

@@ -541,7 +541,7 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub inline_shadows: bool,
-    /// Answer a ray or shadow query through the processor's own hierarchy over its resident objects when they decide the answer, instead of walking the octree leaf by leaf (pictures do not change; `--runtime sim` always walks, as its cost model prices the walk); `--local-kernel false`: every query walks.
+    /// Answer a ray or shadow query through the processor's own hierarchy over its resident objects (and, with an unlimited cache, the cells it has cached: the hierarchy is rebuilt as the cache grows by a quarter) when they decide the answer, instead of walking the octree leaf by leaf (pictures do not change; `--runtime sim` always walks, as its cost model prices the walk); `--local-kernel false`: every query walks.
     #[arg(
         long = "local-kernel",
         value_name = "BOOL",

@@ -265,7 +265,7 @@ impl RtWorkload {
                         // cached before paying for a selection; should it
                         // need a cell from elsewhere, it is scheduled as if
                         // it had not been tried.
-                        let tried = (inline && self.local_path(ctx.proc_id()).is_some())
+                        let tried = (inline && self.has_local_path(ctx.proc_id()))
                             .then(|| self.try_shadow(bundle, Replay::default(), data, ctx, true));
                         match tried {
                             Some(ShadowRun::Done(v)) => {
@@ -326,7 +326,7 @@ impl RtWorkload {
         ctx: &mut Ctx<Self>,
     ) -> Option<RayJob> {
         if job.cursor == TraceCursor::default() {
-            if let Some(local) = self.local_path(ctx.proc_id()) {
+            if let Some(local) = self.local_path(ctx.proc_id(), data) {
                 let t = &job.task;
                 if let Some(hit) = local.intersect(&t.ray, t.tmin, t.tmax) {
                     ctx.charge(Work::TraceLocal, 1);
@@ -410,7 +410,9 @@ impl RtWorkload {
         }
         let visits = std::cell::Cell::new((0u64, 0u64));
         let memo = CellMemo::new(data, self, ctx.proc_id());
-        let local = try_local.then(|| self.local_path(ctx.proc_id())).flatten();
+        let local = try_local
+            .then(|| self.local_path(ctx.proc_id(), data))
+            .flatten();
         let caster = PartialCaster::new(
             octree,
             shared,

@@ -1,8 +1,22 @@
 //! The processor's own hierarchy ([`LocalKernel`]): fresh queries whose
-//! answer the processor's resident objects decide are answered through it
-//! instead of the leaf-by-leaf octree walk that migrating rays need (see
+//! answer the processor's objects decide are answered through it instead
+//! of the leaf-by-leaf octree walk that migrating rays need (see
 //! [`crate::accel::LocalKernel`] for why the answers are the same); and
 //! [`CellMemo`], the walk's memo of resident leaves.
+//!
+//! With a cache that never evicts, what a processor has fetched stays
+//! local for the rest of the run, so its hierarchy *grows*: it is rebuilt
+//! over its resident and cached leaves whenever the cache has grown by a
+//! quarter since the last build ([`GrownKernel`]). The rule of the answers
+//! is the same, with "held by the hierarchy" for "resident": a query is answered
+//! by it only if every non-empty leaf it enters is one the hierarchy was
+//! built over. A leaf cached since is walked as before until the next
+//! build. The rebuilds cost at most about five builds of the final
+//! hierarchy in all (each is at least a quarter larger than the one
+//! before), and they spare the walk for every query that stays among the
+//! cells the processor has come to hold.
+
+use std::sync::Arc;
 
 use hybrid_sched::DataView;
 
@@ -10,16 +24,24 @@ use super::caster::LocalQueries;
 use super::distribution::EMPTY;
 use super::tasks::CellData;
 use super::workload::RtWorkload;
-use crate::accel::{Hierarchy, Hit, LeafObjects, LocalKernel, NodeId, ProcessorKernel as Kernel};
+use crate::accel::{
+    GrownKernel, Hierarchy, Hit, LeafObjects, LocalKernel, NodeId, ProcessorKernel as Kernel,
+};
 use crate::geometry::Ray;
 use crate::scene::ObjectId;
 
 /// What one step's queries read to try the processor's hierarchy first.
-#[derive(Clone, Copy)]
 pub struct LocalPath<'a> {
-    hierarchy: Hierarchy<'a>,
+    source: Source<'a>,
     wl: &'a RtWorkload,
     proc: u32,
+}
+
+enum Source<'a> {
+    /// Over the resident objects (or the whole scene's).
+    Resident(Hierarchy<'a>),
+    /// Over the resident and cached objects.
+    Grown(Arc<GrownKernel>),
 }
 
 impl LocalQueries for LocalPath<'_> {
@@ -45,19 +67,21 @@ impl LocalPath<'_> {
         self.wl.partition.owner(leaf) == self.proc
     }
 
-    /// The octree's nearest hit, if the resident objects decide it.
+    /// The octree's nearest hit, if the objects here decide it.
     pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Option<Hit>> {
-        self.hierarchy.intersect(
-            self.wl.renderer.octree(),
-            ray,
-            tmin,
-            tmax,
-            &|n| self.owned(n),
-            &|l| self.resident(l),
-        )
+        let octree = self.wl.renderer.octree();
+        match &self.source {
+            Source::Resident(h) => h.intersect(octree, ray, tmin, tmax, &|n| self.owned(n), &|l| {
+                self.resident(l)
+            }),
+            Source::Grown(g) => {
+                g.hierarchy()
+                    .intersect(octree, ray, tmin, tmax, &|n| g.covers(n), &|l| g.holds(l))
+            }
+        }
     }
 
-    /// The octree's any-hit answer, if the resident objects decide it.
+    /// The octree's any-hit answer, if the objects here decide it.
     pub fn occluded(
         &self,
         ray: &Ray,
@@ -65,17 +89,25 @@ impl LocalPath<'_> {
         tmax: f64,
         ignore: Option<ObjectId>,
     ) -> Option<bool> {
-        self.hierarchy.occluded(
-            self.wl.renderer.octree(),
-            ray,
-            tmin,
-            tmax,
-            ignore,
-            &|n| self.owned(n),
-            &|l| self.resident(l),
-        )
+        let octree = self.wl.renderer.octree();
+        match &self.source {
+            Source::Resident(h) => {
+                h.occluded(octree, ray, tmin, tmax, ignore, &|n| self.owned(n), &|l| {
+                    self.resident(l)
+                })
+            }
+            Source::Grown(g) => {
+                g.hierarchy()
+                    .occluded(octree, ray, tmin, tmax, ignore, &|n| g.covers(n), &|l| {
+                        g.holds(l)
+                    })
+            }
+        }
     }
 }
+
+/// Cached leaves before a processor's first grown hierarchy.
+const FIRST_GROWTH: usize = 16;
 
 impl RtWorkload {
     /// Builds processor `proc`'s hierarchy over `cells`, its resident
@@ -120,23 +152,78 @@ impl RtWorkload {
         });
     }
 
-    /// Processor `proc`'s hierarchy, if it has one.
+    /// Whether processor `proc` has a hierarchy of its own (option
+    /// `local_kernel`): [`Self::local_path`] may answer.
     #[inline]
-    pub(super) fn local_path(&self, proc: usize) -> Option<LocalPath<'_>> {
-        let hierarchy = match self.kernels.get(proc)?.get()? {
-            Kernel::Nothing => return None,
-            Kernel::Whole => Hierarchy {
+    pub(super) fn has_local_path(&self, proc: usize) -> bool {
+        self.kernels.get(proc).is_some_and(|k| k.get().is_some())
+    }
+
+    /// Processor `proc`'s hierarchy, if it has one: the whole scene's
+    /// where it holds everything, else its grown one where its cache keeps
+    /// everything (built or rebuilt here when the cache has grown enough),
+    /// else the one over its resident objects.
+    #[inline]
+    pub(super) fn local_path(
+        &self,
+        proc: usize,
+        data: &DataView<'_, Self>,
+    ) -> Option<LocalPath<'_>> {
+        let base = self.kernels.get(proc)?.get()?;
+        let source = match base {
+            Kernel::Whole => Source::Resident(Hierarchy {
                 bvh: self.renderer.bvh(),
                 objects: &self.renderer.scene().objects,
                 ids: None,
+            }),
+            _ => match self.grown_kernel(proc, data) {
+                Some(g) => Source::Grown(g),
+                None => match base {
+                    Kernel::Own(k) => Source::Resident(k.hierarchy()),
+                    _ => return None,
+                },
             },
-            Kernel::Own(k) => k.hierarchy(),
         };
         Some(LocalPath {
-            hierarchy,
+            source,
             wl: self,
             proc: proc as u32,
         })
+    }
+
+    /// Processor `proc`'s grown hierarchy, rebuilt first if its cache has
+    /// grown by a quarter of what it holds since the last build; `None`
+    /// while the cache can evict (copies in a hierarchy would outlive the
+    /// budget) or before enough is cached.
+    fn grown_kernel(&self, proc: usize, data: &DataView<'_, Self>) -> Option<Arc<GrownKernel>> {
+        if !data.keeps_everything() {
+            return None;
+        }
+        let cached = data.cached_len();
+        let mut slot = self
+            .grown
+            .get(proc)?
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        if cached >= slot.next_build.max(FIRST_GROWTH) {
+            let t0 = std::time::Instant::now();
+            let g = GrownKernel::build(
+                self.renderer.octree(),
+                data.local_items().map(|(&leaf, c)| (leaf, &c.cell)),
+                self.renderer.scene().table(),
+            );
+            tracing::debug!(
+                proc,
+                cached,
+                objects = g.len(),
+                bytes = g.memory_bytes(),
+                seconds = t0.elapsed().as_secs_f64(),
+                "processor's hierarchy grown over its cache"
+            );
+            slot.next_build = cached + g.leaves().div_ceil(4).max(1);
+            slot.kernel = Some(Arc::new(g));
+        }
+        slot.kernel.clone()
     }
 }
 

@@ -122,6 +122,8 @@ pub struct RtWorkload {
     pub(super) share_in_process: bool,
     /// Per processor, its hierarchy (option `local_kernel`).
     pub(super) kernels: Vec<std::sync::OnceLock<crate::accel::ProcessorKernel>>,
+    /// Per processor, its hierarchy grown over its cache (see [`super::kernel`]).
+    pub(super) grown: Vec<Mutex<crate::accel::GrownSlot>>,
     /// A distributed compiled scene: the renderer holds its replicated
     /// part, and each processor reads its own cells (see
     /// [`RtWorkload::distributed`]).
@@ -250,6 +252,7 @@ impl RtWorkload {
                 .map(|_| Mutex::new(Default::default()))
                 .collect(),
             kernels: (0..procs.max(1)).map(|_| Default::default()).collect(),
+            grown: (0..procs.max(1)).map(|_| Default::default()).collect(),
             renderer,
             view,
             width,
