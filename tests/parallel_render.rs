@@ -253,6 +253,20 @@ fn shadow_bundles_start_in_the_step_that_shaded_their_point() {
     }
 }
 
+/// Two runs traced and shaded the same rays and shadow rays (and so gave
+/// every query the same answer).
+fn assert_same_rays(a: &ParallelRender, b: &ParallelRender, what: &str) {
+    for w in [
+        Work::RaysRetired,
+        Work::ShadowRetired,
+        Work::ShadowTested,
+        Work::ShadowUnoccluded,
+        Work::ShadowSegments,
+    ] {
+        assert_eq!(a.work(w), b.work(w), "{what}: {w:?}");
+    }
+}
+
 /// The processor's own hierarchy answers the queries its resident
 /// objects decide, the rest walk the octree: the pictures and every ray
 /// and shadow count are those of the walk alone (and of the sequential
@@ -280,15 +294,7 @@ fn the_processors_own_hierarchy_changes_no_answer() {
             off.workload.local_kernel = false;
             let (a, b) = (check(&c, &on), check(&c, &off));
             let what = format!("procs {procs} policy {policy} {distribution} {cache:?}");
-            for w in [
-                Work::RaysRetired,
-                Work::ShadowRetired,
-                Work::ShadowTested,
-                Work::ShadowUnoccluded,
-                Work::ShadowSegments,
-            ] {
-                assert_eq!(a.work(w), b.work(w), "{what}: {w:?}");
-            }
+            assert_same_rays(&a, &b, &what);
             assert_eq!(b.work(Work::TraceLocal), 0, "{what}");
             assert!(
                 a.work(Work::TraceLocal) > 0,
@@ -335,15 +341,7 @@ fn a_hierarchy_grown_over_the_cache_changes_no_answer() {
         let mut resident = grown.clone();
         resident.cache = CacheSize::Bytes(whole);
         let (a, b) = (check(&c, &grown), check(&c, &resident));
-        for w in [
-            Work::RaysRetired,
-            Work::ShadowRetired,
-            Work::ShadowTested,
-            Work::ShadowUnoccluded,
-            Work::ShadowSegments,
-        ] {
-            assert_eq!(a.work(w), b.work(w), "procs {procs}: {w:?}");
-        }
+        assert_same_rays(&a, &b, &format!("procs {procs}"));
         assert!(
             a.work(Work::TraceLocal) > b.work(Work::TraceLocal),
             "procs {procs}: the grown hierarchy answered no more ({} against {})",

@@ -7,10 +7,10 @@
 //! With a cache that never evicts, what a processor has fetched stays
 //! local for the rest of the run, so its hierarchy *grows*: it is rebuilt
 //! over its resident and cached leaves whenever the cache has grown by a
-//! quarter since the last build ([`GrownKernel`]). The rule of the answers
-//! is the same, with "held by the hierarchy" for "resident": a query is answered
-//! by it only if every non-empty leaf it enters is one the hierarchy was
-//! built over. A leaf cached since is walked as before until the next
+//! quarter since the last build ([`GrownKernel`]). The rule of the
+//! answers is the same, with "held by the hierarchy" for "resident": a
+//! query is answered by it only if every non-empty leaf it enters is one
+//! the hierarchy was built over. A leaf cached since is walked as before until the next
 //! build. The rebuilds cost at most about five builds of the final
 //! hierarchy in all (each is at least a quarter larger than the one
 //! before), and they spare the walk for every query that stays among the
@@ -67,18 +67,24 @@ impl LocalPath<'_> {
         self.wl.partition.owner(leaf) == self.proc
     }
 
+    /// `f` given the hierarchy and the judgement of what it was built
+    /// over: subtrees whose every non-empty leaf it holds, and the leaves
+    /// it holds.
+    #[inline]
+    fn judged<R>(
+        &self,
+        f: impl FnOnce(Hierarchy<'_>, &dyn Fn(NodeId) -> bool, &dyn Fn(NodeId) -> bool) -> R,
+    ) -> R {
+        match &self.source {
+            Source::Resident(h) => f(*h, &|n| self.owned(n), &|l| self.resident(l)),
+            Source::Grown(g) => f(g.hierarchy(), &|n| g.covers(n), &|l| g.holds(l)),
+        }
+    }
+
     /// The octree's nearest hit, if the objects here decide it.
     pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Option<Hit>> {
         let octree = self.wl.renderer.octree();
-        match &self.source {
-            Source::Resident(h) => h.intersect(octree, ray, tmin, tmax, &|n| self.owned(n), &|l| {
-                self.resident(l)
-            }),
-            Source::Grown(g) => {
-                g.hierarchy()
-                    .intersect(octree, ray, tmin, tmax, &|n| g.covers(n), &|l| g.holds(l))
-            }
-        }
+        self.judged(|h, covered, held| h.intersect(octree, ray, tmin, tmax, covered, held))
     }
 
     /// The octree's any-hit answer, if the objects here decide it.
@@ -90,19 +96,7 @@ impl LocalPath<'_> {
         ignore: Option<ObjectId>,
     ) -> Option<bool> {
         let octree = self.wl.renderer.octree();
-        match &self.source {
-            Source::Resident(h) => {
-                h.occluded(octree, ray, tmin, tmax, ignore, &|n| self.owned(n), &|l| {
-                    self.resident(l)
-                })
-            }
-            Source::Grown(g) => {
-                g.hierarchy()
-                    .occluded(octree, ray, tmin, tmax, ignore, &|n| g.covers(n), &|l| {
-                        g.holds(l)
-                    })
-            }
-        }
+        self.judged(|h, covered, held| h.occluded(octree, ray, tmin, tmax, ignore, covered, held))
     }
 }
 
