@@ -437,7 +437,7 @@ fn embree_run(_: &BenchArgs) -> Result<()> {
 #[cfg(feature = "embree")]
 fn embree_run(a: &BenchArgs) -> Result<()> {
     use crate::accel::embree::{self as rtc, Embree, RtcRayHit, INVALID_ID};
-    use crate::geometry::{tessellate, Bvh, Vec3};
+    use crate::geometry::{tessellate, Bvh, Segment, Vec3, PACKET};
     use crate::render::Camera;
     use crate::scene::LightKind;
 
@@ -500,14 +500,25 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
 
     // Primary rays.
     let mut primary = Vec::with_capacity(w * h);
+    // Each tile of 8 x 8 pixels: the indices into `primary` of its rays.
+    let tiles_x = w.div_ceil(8);
+    let mut tiles: Vec<Vec<usize>> = vec![Vec::new(); tiles_x * h.div_ceil(8)];
     for p in 0..w * h {
         let (x, y) = (p % w, p / w);
         let fx = (x as f64 + 0.5) / w as f64;
         let fy = 1.0 - (y as f64 + 0.5) / h as f64;
         if let Some(r) = Camera::ray(&view, fx, fy) {
+            tiles[(y / 8) * tiles_x + x / 8].push(primary.len());
             primary.push(r);
         }
     }
+    tiles.retain(|t| !t.is_empty());
+    let packets: Vec<Vec<Segment>> = tiles
+        .iter()
+        .map(|t| t.iter().map(|&i| primary[i]).collect())
+        .collect();
+    let mut packet_hits: Vec<Option<crate::accel::Hit>> = vec![None; primary.len()];
+    let mut buf_hits = [None; PACKET];
     let primary_rtc: Vec<RtcRayHit> = primary
         .iter()
         .map(|(r, t0, t1)| RtcRayHit {
@@ -521,6 +532,7 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
     let mut ours: Vec<Option<crate::accel::Hit>> = Vec::new();
     let (mut e1, mut em) = (primary_rtc.clone(), primary_rtc.clone());
     let (mut t_ours, mut t_e1, mut t_em) = (Vec::new(), Vec::new(), Vec::new());
+    let mut t_packets = Vec::new();
     for _ in 0..a.repeat {
         let t0 = Instant::now();
         ours.clear();
@@ -530,6 +542,14 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
                 .map(|(r, t0, t1)| bvh.intersect(&objects, r, *t0, *t1)),
         );
         t_ours.push(t0.elapsed().as_secs_f64());
+        let t0 = Instant::now();
+        for (tile, rays) in tiles.iter().zip(&packets) {
+            bvh.intersect_packet(&objects, rays, &mut buf_hits);
+            for (&i, h) in tile.iter().zip(&buf_hits) {
+                packet_hits[i] = *h;
+            }
+        }
+        t_packets.push(t0.elapsed().as_secs_f64());
         e1.copy_from_slice(&primary_rtc);
         let t0 = Instant::now();
         rtc_scene.intersect1(&mut e1);
@@ -575,7 +595,15 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
         .collect();
     let tmin = 1e-4 * extent;
     let mut shadow = Vec::new();
-    for ((r, _, _), h) in primary.iter().zip(&ours) {
+    // Each shadow ray's tile and light, to bundle them as packets.
+    let mut tile_of = vec![0usize; primary.len()];
+    for (k, t) in tiles.iter().enumerate() {
+        for &i in t {
+            tile_of[i] = k;
+        }
+    }
+    let mut bundle_of = Vec::new();
+    for (i, ((r, _, _), h)) in primary.iter().zip(&ours).enumerate() {
         let Some(h) = h else { continue };
         let o = &scene.objects[owner[h.object as usize] as usize];
         if scene.material(o.material).is_emitter() {
@@ -586,14 +614,30 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
         } else {
             h.normal
         };
-        for &c in &centres {
+        for (l, &c) in centres.iter().enumerate() {
             let d = c - h.point;
             let dist = d.length();
             if dist > 0.0 && d.dot(n) > 0.0 {
+                bundle_of.push((tile_of[i], l, shadow.len()));
                 shadow.push((Ray::new(h.point, d), dist * (1.0 - 1e-4)));
             }
         }
     }
+    // Packets: the rays of one tile towards one light, at most PACKET.
+    bundle_of.sort_unstable();
+    let mut shadow_packets: Vec<(Vec<usize>, Vec<Segment>)> = Vec::new();
+    for run in bundle_of.chunk_by(|a, b| (a.0, a.1) == (b.0, b.1)) {
+        for part in run.chunks(PACKET) {
+            let idx: Vec<usize> = part.iter().map(|b| b.2).collect();
+            let rays = idx
+                .iter()
+                .map(|&k| (shadow[k].0, tmin, shadow[k].1))
+                .collect();
+            shadow_packets.push((idx, rays));
+        }
+    }
+    let mut packet_blocked = vec![false; shadow.len()];
+    let mut buf_blocked = [false; PACKET];
     let shadow_rtc: Vec<rtc::RtcRay> = shadow
         .iter()
         .map(|(r, tmax)| rtc::ray(r.origin, r.dir, tmin, *tmax))
@@ -601,6 +645,7 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
     let mut blocked: Vec<bool> = Vec::new();
     let (mut s1, mut sm) = (shadow_rtc.clone(), shadow_rtc.clone());
     let (mut ts_ours, mut ts_e1, mut ts_em) = (Vec::new(), Vec::new(), Vec::new());
+    let mut ts_packets = Vec::new();
     for _ in 0..a.repeat {
         let t0 = Instant::now();
         blocked.clear();
@@ -610,6 +655,14 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
                 .map(|(r, tmax)| bvh.occluded(&objects, r, tmin, *tmax, None)),
         );
         ts_ours.push(t0.elapsed().as_secs_f64());
+        let t0 = Instant::now();
+        for (idx, rays) in &shadow_packets {
+            bvh.occluded_packet(&objects, rays, None, &mut buf_blocked);
+            for (&k, &b) in idx.iter().zip(&buf_blocked) {
+                packet_blocked[k] = b;
+            }
+        }
+        ts_packets.push(t0.elapsed().as_secs_f64());
         s1.copy_from_slice(&shadow_rtc);
         let t0 = Instant::now();
         rtc_scene.occluded1(&mut s1);
@@ -633,7 +686,11 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
     let (p, s) = (primary.len(), shadow.len());
     let (b_o, b_e) = (median(&mut build_ours), median(&mut build_embree));
     let (po, p1, pm) = (median(&mut t_ours), median(&mut t_e1), median(&mut t_em));
+    let pp = median(&mut t_packets);
+    let packets_differ = differing(&ours, &packet_hits);
     let (so, s1t, smt) = (median(&mut ts_ours), median(&mut ts_e1), median(&mut ts_em));
+    let sp = median(&mut ts_packets);
+    let shadow_packets_differ = differing(&blocked, &packet_blocked);
     outln!(
         "{} at {w}x{h}: {} objects as {} triangles ({} too thin, left out; curved surfaces in {SEGMENTS} steps), {} area lights; median of {} rounds",
         path.display(),
@@ -658,6 +715,15 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
         pm / po.max(1e-12)
     );
     outln!(
+        "| primary rays as packets of 8x8 ({} tiles), Mrays/s | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+        packets.len(),
+        mrays(p, pp),
+        mrays(p, p1),
+        mrays(p, pm),
+        p1 / pp.max(1e-12),
+        pm / pp.max(1e-12)
+    );
+    outln!(
         "| shadow rays ({s}), Mrays/s | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
         mrays(s, so),
         mrays(s, s1t),
@@ -666,10 +732,19 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
         smt / so.max(1e-12)
     );
     outln!(
-        "primary hits: {hits_ours} here, {hits_e1} Embree one at a time, {hits_em} streams; {other_prim} rays hit another triangle (or only one kernel hits); largest distance difference on the same triangle {worst_dt:.1e} (relative); {streams_differ} rays differ between Embree's two modes"
+        "| shadow rays as packets ({} of one tile towards one light), Mrays/s | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+        shadow_packets.len(),
+        mrays(s, sp),
+        mrays(s, s1t),
+        mrays(s, smt),
+        s1t / sp.max(1e-12),
+        smt / sp.max(1e-12)
     );
     outln!(
-        "shadow rays blocked: {blocked_ours} here, {blocked_e1} Embree one at a time, {blocked_em} streams; {shadow_differ} rays answered differently"
+        "primary hits: {hits_ours} here ({packets_differ} answered differently as packets), {hits_e1} Embree one at a time, {hits_em} streams; {other_prim} rays hit another triangle (or only one kernel hits); largest distance difference on the same triangle {worst_dt:.1e} (relative); {streams_differ} rays differ between Embree's two modes"
+    );
+    outln!(
+        "shadow rays blocked: {blocked_ours} here ({shadow_packets_differ} answered differently as packets), {blocked_e1} Embree one at a time, {blocked_em} streams; {shadow_differ} rays answered differently"
     );
     Ok(())
 }

@@ -22,6 +22,15 @@
 //! component gives an infinite inverse; the `0 * inf` NaN of a ray exactly
 //! on a box plane leaves that axis unconstrained).
 
+mod packet;
+
+#[cfg(target_arch = "x86_64")]
+use packet::Avx2;
+use packet::{Enter, Portable};
+pub use packet::{Segment, PACKET};
+
+use std::mem::MaybeUninit;
+
 use super::prims::{Prims, Tester};
 use super::robust::next_up;
 use super::shape::{Hit, InstanceGeometry, Object, ObjectId, ObjectIndex, ShapeHit};
@@ -671,10 +680,13 @@ impl Bvh {
             // SAFETY: the processor has AVX2.
             return unsafe { self.intersect_avx2(objects, ray, tmin, tmax) };
         }
-        if self.depth as usize <= SHALLOW {
-            self.intersect_impl::<{ 3 * SHALLOW + 1 }>(objects, ray, tmin, tmax)
-        } else {
-            self.intersect_impl::<{ 3 * STACK + 1 }>(objects, ray, tmin, tmax)
+        // SAFETY: portable code.
+        unsafe {
+            if self.depth as usize <= SHALLOW {
+                self.intersect_impl::<{ 3 * SHALLOW + 1 }, Portable>(objects, ray, tmin, tmax)
+            } else {
+                self.intersect_impl::<{ 3 * STACK + 1 }, Portable>(objects, ray, tmin, tmax)
+            }
         }
     }
 
@@ -693,14 +705,16 @@ impl Bvh {
         tmax: f64,
     ) -> Option<Hit> {
         if self.depth as usize <= SHALLOW {
-            self.intersect_impl::<{ 3 * SHALLOW + 1 }>(objects, ray, tmin, tmax)
+            self.intersect_impl::<{ 3 * SHALLOW + 1 }, Avx2>(objects, ray, tmin, tmax)
         } else {
-            self.intersect_impl::<{ 3 * STACK + 1 }>(objects, ray, tmin, tmax)
+            self.intersect_impl::<{ 3 * STACK + 1 }, Avx2>(objects, ray, tmin, tmax)
         }
     }
 
+    /// # Safety
+    /// `E`'s instructions must be available.
     #[inline(always)]
-    fn intersect_impl<const N: usize>(
+    unsafe fn intersect_impl<const N: usize, E: Enter>(
         &self,
         objects: &[Object],
         ray: &Ray,
@@ -725,8 +739,10 @@ impl Bvh {
         }
         if !self.nodes.is_empty() {
             let slab = Slab::new(ray, pre.inv_dir);
-            // Pending children, nearest on top: (link, count, entry distance).
-            let mut stack = [(0u32, 0u32, 0.0f64); N];
+            // Pending children, nearest on top: (link, count, entry
+            // distance). Not zeroed (it is as large as the deepest tree
+            // needs): entries below `sp` are the ones written.
+            let mut stack = [const { MaybeUninit::<(u32, u32, f64)>::uninit() }; N];
             let mut sp = 0usize;
             let (mut link, mut count) = (0u32, 0u32);
             loop {
@@ -737,19 +753,22 @@ impl Bvh {
                     }
                 } else {
                     let n = &self.nodes[link as usize];
-                    let (t0, t1) = slab.test4(n, tmin, cut);
+                    let (mut m, t0) = E::enter4(&slab, n, tmin, cut);
                     // The children entered, farthest pushed first (ties
                     // by lane: deterministic).
                     let base = sp;
-                    for lane in 0..4 {
-                        if t0[lane] <= t1[lane] {
+                    while m != 0 {
+                        let lane = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        {
                             let e = (n.link[lane], n.count[lane], t0[lane]);
                             let mut j = sp;
-                            while j > base && stack[j - 1].2 < e.2 {
+                            // SAFETY: `j - 1 < sp`: written.
+                            while j > base && unsafe { stack[j - 1].assume_init() }.2 < e.2 {
                                 stack[j] = stack[j - 1];
                                 j -= 1;
                             }
-                            stack[j] = e;
+                            stack[j] = MaybeUninit::new(e);
                             sp += 1;
                         }
                     }
@@ -758,7 +777,8 @@ impl Bvh {
                 let mut next = None;
                 while sp > 0 {
                     sp -= 1;
-                    let (l, c, t) = stack[sp];
+                    // SAFETY: below the old `sp`: written.
+                    let (l, c, t) = unsafe { stack[sp].assume_init() };
                     if t <= cut {
                         next = Some((l, c));
                         break;

@@ -19,7 +19,7 @@ mod transform;
 mod triangulate;
 
 pub use aabb::Aabb;
-pub use bvh::{Bvh, BvhStats};
+pub use bvh::{Bvh, BvhStats, Segment, PACKET};
 pub use ray::{PreparedRay, Ray};
 pub use robust::{offset_origin, offset_origin_scaled, FTINY};
 pub use shape::{
@@ -39,5 +39,7 @@ pub type Vec3 = glam::DVec3;
 /// RGB radiometric colour (Radiance's units: watts/sr/m^2 per channel).
 pub type Color = glam::DVec3;
 
+#[cfg(test)]
+mod packet_tests;
 #[cfg(test)]
 mod tests;

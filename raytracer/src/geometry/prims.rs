@@ -421,8 +421,8 @@ impl std::ops::Div for F2 {
 #[inline(always)]
 fn pair_hits(tr: &TriRay, p: &TriPair) -> [f64; 2] {
     #[cfg(target_arch = "x86_64")]
-    if sse2::both_miss(tr, p) {
-        return [f64::NAN; 2];
+    if let Some(t) = sse2::pair_hits(tr, p) {
+        return t;
     }
     pair_hits_lanes(tr, p)
 }
@@ -474,10 +474,11 @@ fn pair_hits_lanes(tr: &TriRay, p: &TriPair) -> [f64; 2] {
 
 /// The common case of the pair test with explicit SSE2 (part of every
 /// x86_64 target): the three edge functions of both triangles, computed
-/// with the scalar test's operations in its order, and the answer "both
-/// triangles are missed" where every lane's edge functions are non-zero
-/// with mixed signs (the scalar test returns `None` there without further
-/// work). Anything else goes through the full test.
+/// with the scalar test's operations in its order; where none of them is
+/// zero (the scalar test recomputes those with exact signs), the scalar
+/// test's answer for both lanes: a miss where a lane's signs are mixed or
+/// its determinant is zero, else its distance, with the same operations
+/// in the same order. Anything else goes through the full test.
 #[cfg(target_arch = "x86_64")]
 mod sse2 {
     use std::arch::x86_64::*;
@@ -485,7 +486,7 @@ mod sse2 {
     use super::{TriPair, TriRay};
 
     #[inline(always)]
-    pub(super) fn both_miss(tr: &TriRay, p: &TriPair) -> bool {
+    pub(super) fn pair_hits(tr: &TriRay, p: &TriPair) -> Option<[f64; 2]> {
         let [kx, ky, kz] = tr.k;
         let [a, b, c] = &p.v;
         // SAFETY: SSE2 is enabled on every x86_64 target (the intrinsics
@@ -511,6 +512,13 @@ mod sse2 {
             let v = _mm_sub_pd(_mm_mul_pd(ax, cy), _mm_mul_pd(ay, cx));
             let w = _mm_sub_pd(_mm_mul_pd(bx, ay), _mm_mul_pd(by, ax));
             let z = _mm_setzero_pd();
+            let zero = _mm_or_pd(
+                _mm_or_pd(_mm_cmpeq_pd(u, z), _mm_cmpeq_pd(v, z)),
+                _mm_cmpeq_pd(w, z),
+            );
+            if _mm_movemask_pd(zero) != 0 {
+                return None;
+            }
             let neg = _mm_or_pd(
                 _mm_or_pd(_mm_cmplt_pd(u, z), _mm_cmplt_pd(v, z)),
                 _mm_cmplt_pd(w, z),
@@ -519,12 +527,33 @@ mod sse2 {
                 _mm_or_pd(_mm_cmpgt_pd(u, z), _mm_cmpgt_pd(v, z)),
                 _mm_cmpgt_pd(w, z),
             );
-            let zero = _mm_or_pd(
-                _mm_or_pd(_mm_cmpeq_pd(u, z), _mm_cmpeq_pd(v, z)),
-                _mm_cmpeq_pd(w, z),
+            // No edge function is zero (nor NaN: a NaN compares unequal
+            // and neither below nor above zero, so it is no miss here and
+            // goes on to a NaN distance, as in the scalar test).
+            let mut miss = _mm_and_pd(neg, pos);
+            if _mm_movemask_pd(miss) == 3 {
+                return Some([f64::NAN; 2]);
+            }
+            let det = _mm_add_pd(_mm_add_pd(u, v), w);
+            miss = _mm_or_pd(miss, _mm_cmpeq_pd(det, z));
+            let sz = _mm_set1_pd(tr.sz);
+            let (az, bz, cz) = (
+                _mm_mul_pd(sz, a_z),
+                _mm_mul_pd(sz, b_z),
+                _mm_mul_pd(sz, c_z),
             );
-            let miss = _mm_andnot_pd(zero, _mm_and_pd(neg, pos));
-            _mm_movemask_pd(miss) == 3
+            let num = _mm_add_pd(
+                _mm_add_pd(_mm_mul_pd(u, az), _mm_mul_pd(v, bz)),
+                _mm_mul_pd(w, cz),
+            );
+            let t = _mm_div_pd(num, det);
+            let t = _mm_or_pd(
+                _mm_andnot_pd(miss, t),
+                _mm_and_pd(miss, _mm_set1_pd(f64::NAN)),
+            );
+            let mut out = [0.0; 2];
+            _mm_storeu_pd(out.as_mut_ptr(), t);
+            Some(out)
         }
     }
 }

@@ -1,0 +1,484 @@
+//! Coherent rays through the hierarchy as packets: a screen tile's primary
+//! rays, a shaded point's shadow rays towards one light.
+//!
+//! The nodes are visited once for the whole packet. At each node an
+//! interval test ([`Frustum`]) rejects the children no ray of the packet can
+//! enter, with one slab test for all of them; of the rest, a child is
+//! entered with the first ray (in packet order) whose own slab test enters
+//! it, and rays before that one are never tested below it (they did not
+//! enter, and their segment only shrinks). At a node whose children are
+//! leaves every ray still in play is tested on its own, so below the upper
+//! levels a packet costs what its rays would cost alone; above them, where
+//! a tile's rays go the same way, it costs one ray.
+//!
+//! **Same answers as one ray at a time.** The interval test is
+//! conservative for the rounded arithmetic of the per-ray test: the entry
+//! distance of a ray, `(plane - origin) * inverse`, rounded twice, is
+//! monotone in the origin and in the inverse direction (rounding to nearest
+//! is monotone), so its least and greatest values over the packet lie at
+//! the corners of the packet's ranges; an axis whose inverse directions
+//! change sign within the packet (or are infinite) is left out of the test,
+//! which only weakens it. The objects a ray meets are tested with the same
+//! code ([`Tester`]), and the answer (the nearest hit, the smaller id of
+//! equal ones; any hit) does not depend on the order objects are tested in.
+
+use super::{Bvh, Slab, Tester, Wide, SHALLOW, STACK};
+use crate::geometry::robust::next_up;
+use crate::geometry::shape::{Hit, Object, ObjectId, ShapeHit};
+use crate::geometry::{PreparedRay, Ray};
+
+/// Most rays in one packet (an 8 x 8 tile).
+pub const PACKET: usize = 64;
+
+/// A ray of a packet: the ray and its segment `(tmin, tmax)`.
+pub type Segment = (Ray, f64, f64);
+
+/// The packet's ranges, for the interval test.
+struct Frustum {
+    /// Axes in the test: the packet's inverse directions on them are
+    /// finite and of one sign.
+    axes: [bool; 3],
+    o_lo: [f64; 3],
+    o_hi: [f64; 3],
+    inv_lo: [f64; 3],
+    inv_hi: [f64; 3],
+    /// Index (0 lower, 1 upper) of the plane the packet enters by.
+    near: [usize; 3],
+    /// The least `tmin` of the packet.
+    tmin: f64,
+}
+
+impl Frustum {
+    fn new(pre: &[PreparedRay], tmin: &[f64]) -> Self {
+        let mut f = Frustum {
+            axes: [true; 3],
+            o_lo: [f64::INFINITY; 3],
+            o_hi: [f64::NEG_INFINITY; 3],
+            inv_lo: [f64::INFINITY; 3],
+            inv_hi: [f64::NEG_INFINITY; 3],
+            near: [0; 3],
+            tmin: tmin.iter().copied().fold(f64::INFINITY, f64::min),
+        };
+        for a in 0..3 {
+            let mut neg = 0usize;
+            for p in pre {
+                let (o, inv) = (p.ray.origin[a], p.inv_dir[a]);
+                f.o_lo[a] = f.o_lo[a].min(o);
+                f.o_hi[a] = f.o_hi[a].max(o);
+                f.inv_lo[a] = f.inv_lo[a].min(inv);
+                f.inv_hi[a] = f.inv_hi[a].max(inv);
+                neg += inv.is_sign_negative() as usize;
+                if !inv.is_finite() || !o.is_finite() {
+                    f.axes[a] = false;
+                }
+            }
+            if neg != 0 && neg != pre.len() {
+                f.axes[a] = false;
+            }
+            f.near[a] = (neg != 0) as usize;
+        }
+        f
+    }
+
+    /// The lanes of `n` some ray of the packet may enter before `cut` (a
+    /// bound on every ray's segment end): bit `i` for child `i`.
+    #[inline(always)]
+    fn test4(&self, n: &Wide, cut: f64) -> u32 {
+        let mut t0 = [self.tmin; 4];
+        let mut t1 = [cut; 4];
+        for a in 0..3 {
+            if !self.axes[a] {
+                continue;
+            }
+            let lo = &n.b[a][self.near[a]];
+            let hi = &n.b[a][1 - self.near[a]];
+            for l in 0..4 {
+                // The least entry and the greatest exit over the packet.
+                let (e0, e1) = (lo[l] - self.o_hi[a], lo[l] - self.o_lo[a]);
+                let e = (e0 * self.inv_lo[a])
+                    .min(e0 * self.inv_hi[a])
+                    .min(e1 * self.inv_lo[a])
+                    .min(e1 * self.inv_hi[a]);
+                let (x0, x1) = (hi[l] - self.o_hi[a], hi[l] - self.o_lo[a]);
+                let x = (x0 * self.inv_lo[a])
+                    .max(x0 * self.inv_hi[a])
+                    .max(x1 * self.inv_lo[a])
+                    .max(x1 * self.inv_hi[a]);
+                t0[l] = if e > t0[l] { e } else { t0[l] };
+                t1[l] = if x < t1[l] { x } else { t1[l] };
+            }
+        }
+        let mut mask = 0;
+        for l in 0..4 {
+            // A NaN (an empty lane's infinite planes) rejects nothing.
+            if t0[l].partial_cmp(&t1[l]) != Some(std::cmp::Ordering::Greater) {
+                mask |= 1 << l;
+            }
+        }
+        mask
+    }
+}
+
+/// The slab test of one ray against a node's four children: the mask of
+/// children entered (bit `i` for child `i`) and their entry distances.
+/// Every implementation does [`Slab::test4`]'s IEEE operations in its
+/// order, so all give the same answers.
+pub(super) trait Enter {
+    /// # Safety
+    /// The implementation's instructions must be available.
+    unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]);
+}
+
+/// Portable code.
+pub(super) struct Portable;
+
+impl Enter for Portable {
+    #[inline(always)]
+    unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]) {
+        let (t0, t1) = s.test4(n, tmin, tmax);
+        let mut m = 0;
+        for l in 0..4 {
+            m |= ((t0[l] <= t1[l]) as u32) << l;
+        }
+        (m, t0)
+    }
+}
+
+/// AVX2: the four children in one register per quantity. `maxpd(e, t0)`
+/// is `if e > t0 { e } else { t0 }` and `minpd(x, t1)` is `if x < t1 { x }
+/// else { t1 }`, the scalar test's choices, NaN included.
+#[cfg(target_arch = "x86_64")]
+pub(super) struct Avx2;
+
+#[cfg(target_arch = "x86_64")]
+impl Enter for Avx2 {
+    #[inline(always)]
+    unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]) {
+        use std::arch::x86_64::*;
+        let mut t0 = _mm256_set1_pd(tmin);
+        let mut t1 = _mm256_set1_pd(tmax);
+        for a in 0..3 {
+            let o = _mm256_set1_pd(s.o[a]);
+            let inv = _mm256_set1_pd(s.inv[a]);
+            // `Wide` is aligned to 32 bytes, each `[f64; 4]` of it too.
+            let lo = _mm256_load_pd(n.b[a][s.near[a]].as_ptr());
+            let hi = _mm256_load_pd(n.b[a][1 - s.near[a]].as_ptr());
+            let e = _mm256_mul_pd(_mm256_sub_pd(lo, o), inv);
+            let x = _mm256_mul_pd(_mm256_sub_pd(hi, o), inv);
+            t0 = _mm256_max_pd(e, t0);
+            t1 = _mm256_min_pd(x, t1);
+        }
+        let m = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(t0, t1)) as u32;
+        let mut out = [0.0; 4];
+        _mm256_storeu_pd(out.as_mut_ptr(), t0);
+        (m, out)
+    }
+}
+
+impl Bvh {
+    /// Nearest hits of a packet of at most [`PACKET`] rays, each with its
+    /// segment: `out[i]` is what [`Bvh::intersect`] answers for `rays[i]`,
+    /// bit for bit. The rays should be coherent (one tile's primary rays):
+    /// any rays give the right answers, coherent ones give them faster.
+    ///
+    /// # Panics
+    /// If there are more than [`PACKET`] rays or `out` is shorter.
+    pub fn intersect_packet(&self, objects: &[Object], rays: &[Segment], out: &mut [Option<Hit>]) {
+        assert!(rays.len() <= PACKET && out.len() >= rays.len());
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2.
+            return unsafe { self.intersect_packet_avx2(objects, rays, out) };
+        }
+        // SAFETY: portable code.
+        unsafe { self.intersect_packet_impl::<Portable>(objects, rays, out) }
+    }
+
+    /// [`Bvh::intersect_packet`] compiled for AVX2 (the same IEEE
+    /// operations in the same order: the same answers).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn intersect_packet_avx2(
+        &self,
+        objects: &[Object],
+        rays: &[Segment],
+        out: &mut [Option<Hit>],
+    ) {
+        self.intersect_packet_impl::<Avx2>(objects, rays, out)
+    }
+
+    /// # Safety
+    /// `E`'s instructions must be available.
+    #[inline(always)]
+    unsafe fn intersect_packet_impl<E: Enter>(
+        &self,
+        objects: &[Object],
+        rays: &[Segment],
+        out: &mut [Option<Hit>],
+    ) {
+        let n = rays.len();
+        let pre: Vec<PreparedRay> = rays.iter().map(|(r, ..)| PreparedRay::new(r)).collect();
+        let test: Vec<Tester> = pre
+            .iter()
+            .map(|p| Tester::new(&self.prims, objects, p))
+            .collect();
+        let tmin: Vec<f64> = rays.iter().map(|r| r.1).collect();
+        let mut cut: Vec<f64> = rays.iter().map(|r| r.2).collect();
+        let mut best: Vec<Option<(f64, ObjectId, ShapeHit)>> = vec![None; n];
+        // Object `id` for ray `r` (the single-ray traversal's `consider`).
+        let consider = |r: usize,
+                        id: ObjectId,
+                        cut: &mut [f64],
+                        best: &mut [Option<(f64, ObjectId, ShapeHit)>]| {
+            let bound = if best[r].is_some() {
+                next_up(cut[r])
+            } else {
+                cut[r]
+            };
+            if let Some(h) = test[r].intersect(id, tmin[r], bound) {
+                if best[r].is_none_or(|(bt, bid, _)| h.t < bt || (h.t == bt && id < bid)) {
+                    best[r] = Some((h.t, id, h));
+                    cut[r] = h.t;
+                }
+            }
+        };
+        for &id in &self.unbounded {
+            for r in 0..n {
+                consider(r, id, &mut cut, &mut best);
+            }
+        }
+        if !self.nodes.is_empty() && n > 0 {
+            let slabs: Vec<Slab> = pre.iter().map(|p| Slab::new(&p.ray, p.inv_dir)).collect();
+            let frustum = Frustum::new(&pre, &tmin);
+            let cap = 3 * if self.depth as usize <= SHALLOW {
+                SHALLOW
+            } else {
+                STACK
+            } + 1;
+            // Pending nodes, nearest on top: (node, first ray, entry of
+            // that ray).
+            let mut stack: Vec<(u32, u32, f64)> = Vec::with_capacity(cap);
+            stack.push((0, 0, 0.0));
+            while let Some((node, first, _)) = stack.pop() {
+                let first = first as usize;
+                let n_ = &self.nodes[node as usize];
+                let hi = cut[first..n]
+                    .iter()
+                    .copied()
+                    .fold(f64::NEG_INFINITY, f64::max);
+                let mask = frustum.test4(n_, hi);
+                if mask == 0 {
+                    continue;
+                }
+                let mut leaves = 0u32;
+                let mut inner = 0u32;
+                for l in 0..4 {
+                    if mask & (1 << l) != 0 {
+                        if n_.count[l] > 0 {
+                            leaves |= 1 << l;
+                        } else {
+                            inner |= 1 << l;
+                        }
+                    }
+                }
+                // Each inner child's first ray and its entry.
+                let mut enter = [(u32::MAX, 0.0f64); 4];
+                let mut open = inner;
+                for r in first..n {
+                    if open == 0 && leaves == 0 {
+                        break;
+                    }
+                    let (m, t0) = E::enter4(&slabs[r], n_, tmin[r], cut[r]);
+                    let mut newly = m & open;
+                    open &= !m;
+                    while newly != 0 {
+                        let l = newly.trailing_zeros() as usize;
+                        newly &= newly - 1;
+                        enter[l] = (r as u32, t0[l]);
+                    }
+                    let mut lm = m & leaves;
+                    if lm == 0 {
+                        continue;
+                    }
+                    // This ray's leaves, nearest first, each while still
+                    // in front of the ray's cut.
+                    let mut order = [(0usize, 0.0f64); 4];
+                    let mut k = 0;
+                    while lm != 0 {
+                        let l = lm.trailing_zeros() as usize;
+                        lm &= lm - 1;
+                        let mut j = k;
+                        while j > 0 && order[j - 1].1 > t0[l] {
+                            order[j] = order[j - 1];
+                            j -= 1;
+                        }
+                        order[j] = (l, t0[l]);
+                        k += 1;
+                    }
+                    for &(l, t) in &order[..k] {
+                        if t > cut[r] {
+                            break;
+                        }
+                        let s = n_.link[l] as usize;
+                        for &id in &self.ids[s..s + n_.count[l] as usize] {
+                            consider(r, id, &mut cut, &mut best);
+                        }
+                    }
+                }
+                // Inner children entered, farthest pushed first (ties by
+                // lane: deterministic).
+                let base = stack.len();
+                for (l, &(r, t)) in enter.iter().enumerate() {
+                    if r == u32::MAX {
+                        continue;
+                    }
+                    let e = (n_.link[l], r, t);
+                    stack.push(e);
+                    let mut j = stack.len() - 1;
+                    while j > base && stack[j - 1].2 < e.2 {
+                        stack[j] = stack[j - 1];
+                        j -= 1;
+                    }
+                    stack[j] = e;
+                }
+            }
+        }
+        for (r, o) in out[..n].iter_mut().enumerate() {
+            *o = best[r].map(|(t, id, h)| {
+                Hit::on(&objects[id as usize], id, &rays[r].0, t, h.normal, h.inner)
+            });
+        }
+    }
+    /// Shadow rays as a packet of at most [`PACKET`] rays: `out[i]` is what
+    /// [`Bvh::occluded`] answers for `rays[i]` with `ignore`. The rays
+    /// should be coherent (from neighbouring points towards one light, or
+    /// from one point towards one area light).
+    ///
+    /// # Panics
+    /// If there are more than [`PACKET`] rays or `out` is shorter.
+    pub fn occluded_packet(
+        &self,
+        objects: &[Object],
+        rays: &[Segment],
+        ignore: Option<ObjectId>,
+        out: &mut [bool],
+    ) {
+        assert!(rays.len() <= PACKET && out.len() >= rays.len());
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2.
+            return unsafe { self.occluded_packet_avx2(objects, rays, ignore, out) };
+        }
+        // SAFETY: portable code.
+        unsafe { self.occluded_packet_impl::<Portable>(objects, rays, ignore, out) }
+    }
+
+    /// [`Bvh::occluded_packet`] compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn occluded_packet_avx2(
+        &self,
+        objects: &[Object],
+        rays: &[Segment],
+        ignore: Option<ObjectId>,
+        out: &mut [bool],
+    ) {
+        self.occluded_packet_impl::<Avx2>(objects, rays, ignore, out)
+    }
+
+    /// # Safety
+    /// `E`'s instructions must be available.
+    #[inline(always)]
+    unsafe fn occluded_packet_impl<E: Enter>(
+        &self,
+        objects: &[Object],
+        rays: &[Segment],
+        ignore: Option<ObjectId>,
+        out: &mut [bool],
+    ) {
+        let n = rays.len();
+        let out = &mut out[..n];
+        out.fill(false);
+        let pre: Vec<PreparedRay> = rays.iter().map(|(r, ..)| PreparedRay::new(r)).collect();
+        let test: Vec<Tester> = pre
+            .iter()
+            .map(|p| Tester::new(&self.prims, objects, p))
+            .collect();
+        let blocks = |r: usize, id: ObjectId| {
+            Some(id) != ignore && test[r].occludes(id, rays[r].1, rays[r].2)
+        };
+        let mut open = n;
+        for (r, o) in out.iter_mut().enumerate() {
+            if self.unbounded.iter().any(|&id| blocks(r, id)) {
+                *o = true;
+                open -= 1;
+            }
+        }
+        if self.nodes.is_empty() || open == 0 {
+            return;
+        }
+        let slabs: Vec<Slab> = pre.iter().map(|p| Slab::new(&p.ray, p.inv_dir)).collect();
+        let tmin: Vec<f64> = rays.iter().map(|r| r.1).collect();
+        let frustum = Frustum::new(&pre, &tmin);
+        let hi = rays.iter().map(|r| r.2).fold(f64::NEG_INFINITY, f64::max);
+        // Pending nodes: (node, first ray).
+        let mut stack: Vec<(u32, u32)> = vec![(0, 0)];
+        while let Some((node, first)) = stack.pop() {
+            let n_ = &self.nodes[node as usize];
+            let mask = frustum.test4(n_, hi);
+            if mask == 0 {
+                continue;
+            }
+            let (mut leaves, mut inner) = (0u32, 0u32);
+            for l in 0..4 {
+                if mask & (1 << l) != 0 {
+                    if n_.count[l] > 0 {
+                        leaves |= 1 << l;
+                    } else {
+                        inner |= 1 << l;
+                    }
+                }
+            }
+            let mut enter = [u32::MAX; 4];
+            let mut todo = inner;
+            for r in first as usize..n {
+                if todo == 0 && leaves == 0 {
+                    break;
+                }
+                if out[r] {
+                    continue;
+                }
+                let (m, _) = E::enter4(&slabs[r], n_, rays[r].1, rays[r].2);
+                let mut newly = m & todo;
+                todo &= !m;
+                while newly != 0 {
+                    let l = newly.trailing_zeros() as usize;
+                    newly &= newly - 1;
+                    enter[l] = r as u32;
+                }
+                let mut lm = m & leaves;
+                while lm != 0 {
+                    let l = lm.trailing_zeros() as usize;
+                    lm &= lm - 1;
+                    let s = n_.link[l] as usize;
+                    if self.ids[s..s + n_.count[l] as usize]
+                        .iter()
+                        .any(|&id| blocks(r, id))
+                    {
+                        out[r] = true;
+                        open -= 1;
+                        break;
+                    }
+                }
+            }
+            if open == 0 {
+                return;
+            }
+            for (l, &r) in enter.iter().enumerate() {
+                if r != u32::MAX {
+                    stack.push((n_.link[l], r));
+                }
+            }
+        }
+    }
+}
