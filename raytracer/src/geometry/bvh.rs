@@ -754,23 +754,27 @@ impl Bvh {
                 } else {
                     let n = &self.nodes[link as usize];
                     let (mut m, t0) = E::enter4(&slab, n, tmin, cut);
+                    if m != 0 && m & (m - 1) == 0 {
+                        // One child entered (the common case): on to it.
+                        let lane = m.trailing_zeros() as usize;
+                        (link, count) = (n.link[lane], n.count[lane]);
+                        continue;
+                    }
                     // The children entered, farthest pushed first (ties
                     // by lane: deterministic).
                     let base = sp;
                     while m != 0 {
                         let lane = m.trailing_zeros() as usize;
                         m &= m - 1;
-                        {
-                            let e = (n.link[lane], n.count[lane], t0[lane]);
-                            let mut j = sp;
-                            // SAFETY: `j - 1 < sp`: written.
-                            while j > base && unsafe { stack[j - 1].assume_init() }.2 < e.2 {
-                                stack[j] = stack[j - 1];
-                                j -= 1;
-                            }
-                            stack[j] = MaybeUninit::new(e);
-                            sp += 1;
+                        let e = (n.link[lane], n.count[lane], t0[lane]);
+                        let mut j = sp;
+                        // SAFETY: `j - 1 < sp`: written.
+                        while j > base && unsafe { stack[j - 1].assume_init() }.2 < e.2 {
+                            stack[j] = stack[j - 1];
+                            j -= 1;
                         }
+                        stack[j] = MaybeUninit::new(e);
+                        sp += 1;
                     }
                 }
                 // The nearest pending child still in front of the cut.

@@ -216,7 +216,7 @@ impl Prims {
 
     /// Nearest hit of object `id` with `tmin < t < tmax`: exactly
     /// `objects[id].shape.intersect_prepared(pre, tmin, tmax)`.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn intersect(
         &self,
         objects: &[Object],
@@ -228,7 +228,41 @@ impl Prims {
     ) -> Option<ShapeHit> {
         let r = self.refs[id as usize];
         if r.pairs == 0 {
-            return match self.quadrics.get(r.start as usize) {
+            return self.intersect_other(objects, id, r, pre, tmin, tmax);
+        }
+        // The scalar loop keeps the nearest hit, the first of equal ones:
+        // the smallest `t` in range.
+        let mut best = tmax;
+        let mut hit = false;
+        for p in &self.pairs[r.start as usize..(r.start + r.pairs) as usize] {
+            for t in pair_hits(tr, p) {
+                if t > tmin && t < best {
+                    best = t;
+                    hit = true;
+                }
+            }
+        }
+        hit.then(|| ShapeHit {
+            t: best,
+            normal: self.normals[id as usize],
+            inner: None,
+        })
+    }
+
+    /// [`Prims::intersect`] of a quadric or another shape (out of line: the
+    /// polygons' test is the one inlined into the traversals).
+    #[inline(never)]
+    fn intersect_other(
+        &self,
+        objects: &[Object],
+        id: ObjectId,
+        r: PrimRef,
+        pre: &PreparedRay,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<ShapeHit> {
+        {
+            match self.quadrics.get(r.start as usize) {
                 Some(&Quadric::Sphere {
                     center,
                     radius,
@@ -252,25 +286,8 @@ impl Prims {
                 None => objects[id as usize]
                     .shape
                     .intersect_prepared(pre, tmin, tmax),
-            };
-        }
-        // The scalar loop keeps the nearest hit, the first of equal ones:
-        // the smallest `t` in range.
-        let mut best = tmax;
-        let mut hit = false;
-        for p in &self.pairs[r.start as usize..(r.start + r.pairs) as usize] {
-            for t in pair_hits(tr, p) {
-                if t > tmin && t < best {
-                    best = t;
-                    hit = true;
-                }
             }
         }
-        hit.then(|| ShapeHit {
-            t: best,
-            normal: self.normals[id as usize],
-            inner: None,
-        })
     }
 
     /// True if object `id` has a hit with `tmin < t < tmax`: exactly
@@ -287,7 +304,29 @@ impl Prims {
     ) -> bool {
         let r = self.refs[id as usize];
         if r.pairs == 0 {
-            return match self.quadrics.get(r.start as usize) {
+            return self.occludes_other(objects, id, r, pre, tmin, tmax);
+        }
+        self.pairs[r.start as usize..(r.start + r.pairs) as usize]
+            .iter()
+            .any(|p| {
+                let [t0, t1] = pair_hits(tr, p);
+                (t0 > tmin && t0 < tmax) || (t1 > tmin && t1 < tmax)
+            })
+    }
+
+    /// [`Prims::occludes`] of a quadric or another shape (out of line).
+    #[inline(never)]
+    fn occludes_other(
+        &self,
+        objects: &[Object],
+        id: ObjectId,
+        r: PrimRef,
+        pre: &PreparedRay,
+        tmin: f64,
+        tmax: f64,
+    ) -> bool {
+        {
+            match self.quadrics.get(r.start as usize) {
                 Some(&Quadric::Sphere { center, radius, .. }) => {
                     intersect_sphere(&pre.ray, center, radius, tmin, tmax).is_some()
                 }
@@ -297,14 +336,8 @@ impl Prims {
                 None => objects[id as usize]
                     .shape
                     .occludes_prepared(pre, tmin, tmax),
-            };
+            }
         }
-        self.pairs[r.start as usize..(r.start + r.pairs) as usize]
-            .iter()
-            .any(|p| {
-                let [t0, t1] = pair_hits(tr, p);
-                (t0 > tmin && t0 < tmax) || (t1 > tmin && t1 < tmax)
-            })
     }
 }
 
@@ -349,7 +382,7 @@ impl<'a> Tester<'a> {
     }
 
     /// Nearest hit of object `id` with `tmin < t < tmax`.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn intersect(&self, id: ObjectId, tmin: f64, tmax: f64) -> Option<ShapeHit> {
         match self.prims {
             Some(p) => p.intersect(self.objects, id, self.pre, &self.tr, tmin, tmax),
@@ -427,8 +460,10 @@ fn pair_hits(tr: &TriRay, p: &TriPair) -> [f64; 2] {
     pair_hits_lanes(tr, p)
 }
 
-/// [`pair_hits`] lane by lane in portable code.
-#[inline(always)]
+/// [`pair_hits`] lane by lane in portable code (out of line on x86_64,
+/// where it only takes the rare pairs with an edge function of zero).
+#[cfg_attr(target_arch = "x86_64", inline(never))]
+#[cfg_attr(not(target_arch = "x86_64"), inline(always))]
 fn pair_hits_lanes(tr: &TriRay, p: &TriPair) -> [f64; 2] {
     let [kx, ky, kz] = tr.k;
     let [a, b, c] = &p.v;
