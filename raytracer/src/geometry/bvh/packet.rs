@@ -57,21 +57,36 @@ impl Frustum {
             inv_lo: [f64::INFINITY; 3],
             inv_hi: [f64::NEG_INFINITY; 3],
             near: [0; 3],
-            tmin: tmin.iter().copied().fold(f64::INFINITY, f64::min),
+            tmin: f64::INFINITY,
         };
-        for a in 0..3 {
-            let mut neg = 0usize;
-            for p in pre {
-                let (o, inv) = (p.ray.origin[a], p.inv_dir[a]);
-                f.o_lo[a] = f.o_lo[a].min(o);
-                f.o_hi[a] = f.o_hi[a].max(o);
-                f.inv_lo[a] = f.inv_lo[a].min(inv);
-                f.inv_hi[a] = f.inv_hi[a].max(inv);
-                neg += inv.is_sign_negative() as usize;
-                if !inv.is_finite() || !o.is_finite() {
-                    f.axes[a] = false;
-                }
+        for &t in tmin {
+            if t < f.tmin {
+                f.tmin = t;
             }
+        }
+        // One pass over the rays, all three axes (a NaN origin or an
+        // infinite inverse takes its axis out of the test).
+        let mut neg = [0usize; 3];
+        for p in pre {
+            let (o, inv) = (p.ray.origin.to_array(), p.inv_dir.to_array());
+            for a in 0..3 {
+                if o[a] < f.o_lo[a] {
+                    f.o_lo[a] = o[a];
+                }
+                if o[a] > f.o_hi[a] {
+                    f.o_hi[a] = o[a];
+                }
+                if inv[a] < f.inv_lo[a] {
+                    f.inv_lo[a] = inv[a];
+                }
+                if inv[a] > f.inv_hi[a] {
+                    f.inv_hi[a] = inv[a];
+                }
+                neg[a] += inv[a].is_sign_negative() as usize;
+                f.axes[a] &= inv[a].is_finite() & o[a].is_finite();
+            }
+        }
+        for (a, &neg) in neg.iter().enumerate() {
             if neg != 0 && neg != pre.len() {
                 f.axes[a] = false;
             }
@@ -175,6 +190,25 @@ impl Enter for Avx2 {
     }
 }
 
+/// Object `id` for one ray of a packet: the single-ray traversal's test
+/// (the nearest hit, the smaller id of equal ones).
+#[inline(always)]
+fn consider(
+    test: &Tester,
+    tmin: f64,
+    id: ObjectId,
+    cut: &mut f64,
+    best: &mut Option<(f64, ObjectId, ShapeHit)>,
+) {
+    let bound = if best.is_some() { next_up(*cut) } else { *cut };
+    if let Some(h) = test.intersect(id, tmin, bound) {
+        if best.is_none_or(|(bt, bid, _)| h.t < bt || (h.t == bt && id < bid)) {
+            *best = Some((h.t, id, h));
+            *cut = h.t;
+        }
+    }
+}
+
 impl Bvh {
     /// Nearest hits of a packet of at most [`PACKET`] rays, each with its
     /// segment: `out[i]` is what [`Bvh::intersect`] answers for `rays[i]`,
@@ -226,25 +260,9 @@ impl Bvh {
         let mut cut: Vec<f64> = rays.iter().map(|r| r.2).collect();
         let mut best: Vec<Option<(f64, ObjectId, ShapeHit)>> = vec![None; n];
         // Object `id` for ray `r` (the single-ray traversal's `consider`).
-        let consider = |r: usize,
-                        id: ObjectId,
-                        cut: &mut [f64],
-                        best: &mut [Option<(f64, ObjectId, ShapeHit)>]| {
-            let bound = if best[r].is_some() {
-                next_up(cut[r])
-            } else {
-                cut[r]
-            };
-            if let Some(h) = test[r].intersect(id, tmin[r], bound) {
-                if best[r].is_none_or(|(bt, bid, _)| h.t < bt || (h.t == bt && id < bid)) {
-                    best[r] = Some((h.t, id, h));
-                    cut[r] = h.t;
-                }
-            }
-        };
         for &id in &self.unbounded {
             for r in 0..n {
-                consider(r, id, &mut cut, &mut best);
+                consider(&test[r], tmin[r], id, &mut cut[r], &mut best[r]);
             }
         }
         if !self.nodes.is_empty() && n > 0 {
@@ -321,7 +339,7 @@ impl Bvh {
                         }
                         let s = n_.link[l] as usize;
                         for &id in &self.ids[s..s + n_.count[l] as usize] {
-                            consider(r, id, &mut cut, &mut best);
+                            consider(&test[r], tmin[r], id, &mut cut[r], &mut best[r]);
                         }
                     }
                 }
