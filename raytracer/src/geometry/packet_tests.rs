@@ -179,7 +179,7 @@ fn packets_at_every_scale() {
         let bvh = Bvh::build(&objects);
         for (k, cone) in [0.01, 0.3, 2.0].into_iter().enumerate() {
             let rays = packet(
-                e as u64 * 10 + k as u64,
+                (e + 5) as u64 * 10 + k as u64,
                 PACKET,
                 Vec3::new(-2.0, 4.0, 5.0) * s,
                 Vec3::new(1.0, 0.1, 0.05),
