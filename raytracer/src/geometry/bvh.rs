@@ -24,9 +24,6 @@
 
 mod packet;
 
-#[cfg(target_arch = "x86_64")]
-use packet::Avx2;
-use packet::{Enter, Portable};
 pub use packet::{Segment, PACKET};
 
 use std::mem::MaybeUninit;
@@ -115,6 +112,62 @@ impl Slab {
             }
         }
         (t0, t1)
+    }
+}
+
+/// The slab test of one ray against a node's four children: the mask of
+/// children entered (bit `i` for child `i`) and their entry distances.
+/// Every implementation does [`Slab::test4`]'s IEEE operations in its
+/// order, so all give the same answers.
+trait Enter {
+    /// # Safety
+    /// The implementation's instructions must be available.
+    unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]);
+}
+
+/// Portable code.
+struct Portable;
+
+impl Enter for Portable {
+    #[inline(always)]
+    unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]) {
+        let (t0, t1) = s.test4(n, tmin, tmax);
+        let mut m = 0;
+        for l in 0..4 {
+            m |= ((t0[l] <= t1[l]) as u32) << l;
+        }
+        (m, t0)
+    }
+}
+
+/// AVX2: the four children in one register per quantity. `maxpd(e, t0)`
+/// is `if e > t0 { e } else { t0 }` and `minpd(x, t1)` is `if x < t1 { x }
+/// else { t1 }`, the scalar test's choices, NaN included.
+#[cfg(target_arch = "x86_64")]
+struct Avx2;
+
+#[cfg(target_arch = "x86_64")]
+impl Enter for Avx2 {
+    #[inline(always)]
+    unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]) {
+        use std::arch::x86_64::*;
+        let mut t0 = _mm256_set1_pd(tmin);
+        let mut t1 = _mm256_set1_pd(tmax);
+        for a in 0..3 {
+            let o = _mm256_set1_pd(s.o[a]);
+            let inv = _mm256_set1_pd(s.inv[a]);
+            // `Wide` is aligned to 32 bytes, each `[f64; 4]` of it too.
+            let lo = _mm256_load_pd(n.b[a][s.near[a]].as_ptr());
+            let hi = _mm256_load_pd(n.b[a][1 - s.near[a]].as_ptr());
+            let e = _mm256_mul_pd(_mm256_sub_pd(lo, o), inv);
+            let x = _mm256_mul_pd(_mm256_sub_pd(hi, o), inv);
+            t0 = _mm256_max_pd(e, t0);
+            t1 = _mm256_min_pd(x, t1);
+        }
+        let m = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(t0, t1)) as u32;
+        let mut out = [0.0; 4];
+        _mm256_storeu_pd(out.as_mut_ptr(), t0);
+        (m, out)
     }
 }
 
