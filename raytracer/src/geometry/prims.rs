@@ -261,32 +261,30 @@ impl Prims {
         tmin: f64,
         tmax: f64,
     ) -> Option<ShapeHit> {
-        {
-            match self.quadrics.get(r.start as usize) {
-                Some(&Quadric::Sphere {
-                    center,
-                    radius,
-                    inward,
-                }) => {
-                    let t = intersect_sphere(&pre.ray, center, radius, tmin, tmax)?;
-                    Some(ShapeHit {
-                        t,
-                        normal: sphere_normal(pre.ray.at(t), center, inward),
-                        inner: None,
-                    })
-                }
-                Some(Quadric::Cone { c, inward }) => {
-                    let (t, n) = intersect_cone_consts(&pre.ray, c, tmin, tmax)?;
-                    Some(ShapeHit {
-                        t,
-                        normal: if *inward { -n } else { n },
-                        inner: None,
-                    })
-                }
-                None => objects[id as usize]
-                    .shape
-                    .intersect_prepared(pre, tmin, tmax),
+        match self.quadrics.get(r.start as usize) {
+            Some(&Quadric::Sphere {
+                center,
+                radius,
+                inward,
+            }) => {
+                let t = intersect_sphere(&pre.ray, center, radius, tmin, tmax)?;
+                Some(ShapeHit {
+                    t,
+                    normal: sphere_normal(pre.ray.at(t), center, inward),
+                    inner: None,
+                })
             }
+            Some(Quadric::Cone { c, inward }) => {
+                let (t, n) = intersect_cone_consts(&pre.ray, c, tmin, tmax)?;
+                Some(ShapeHit {
+                    t,
+                    normal: if *inward { -n } else { n },
+                    inner: None,
+                })
+            }
+            None => objects[id as usize]
+                .shape
+                .intersect_prepared(pre, tmin, tmax),
         }
     }
 
@@ -325,18 +323,16 @@ impl Prims {
         tmin: f64,
         tmax: f64,
     ) -> bool {
-        {
-            match self.quadrics.get(r.start as usize) {
-                Some(&Quadric::Sphere { center, radius, .. }) => {
-                    intersect_sphere(&pre.ray, center, radius, tmin, tmax).is_some()
-                }
-                Some(Quadric::Cone { c, .. }) => {
-                    intersect_cone_consts(&pre.ray, c, tmin, tmax).is_some()
-                }
-                None => objects[id as usize]
-                    .shape
-                    .occludes_prepared(pre, tmin, tmax),
+        match self.quadrics.get(r.start as usize) {
+            Some(&Quadric::Sphere { center, radius, .. }) => {
+                intersect_sphere(&pre.ray, center, radius, tmin, tmax).is_some()
             }
+            Some(Quadric::Cone { c, .. }) => {
+                intersect_cone_consts(&pre.ray, c, tmin, tmax).is_some()
+            }
+            None => objects[id as usize]
+                .shape
+                .occludes_prepared(pre, tmin, tmax),
         }
     }
 }
