@@ -130,10 +130,15 @@ fn print_peak_memory(a: &RenderArgs) {
         let _ = a;
         String::new()
     };
-    match crate::report::peak_resident_bytes() {
-        Some(b) => eprintln!("{rank}peak resident memory: {} KiB", b / 1024),
-        None => eprintln!("{rank}peak resident memory: not measured on this system"),
-    }
+    let line = match crate::report::peak_resident_bytes() {
+        Some(b) => format!("{rank}peak resident memory: {} KiB\n", b / 1024),
+        None => format!("{rank}peak resident memory: not measured on this system\n"),
+    };
+    // One write for the whole line: `eprintln!` writes its pieces one by
+    // one to the unbuffered stderr, and under `mpirun` another rank's line
+    // could land between them ("rank 2: rank 3: peak ...").
+    use std::io::Write;
+    let _ = std::io::stderr().lock().write_all(line.as_bytes());
 }
 
 fn render(a: &RenderArgs) -> Result<()> {
