@@ -706,39 +706,36 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
         "| build (s) | {b_o:.3} | {b_e:.3} | - | {:.2} | - |",
         b_e / b_o.max(1e-12)
     );
-    outln!(
-        "| primary rays ({p}), Mrays/s | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
-        mrays(p, po),
-        mrays(p, p1),
-        mrays(p, pm),
-        p1 / po.max(1e-12),
-        pm / po.max(1e-12)
+    // A row of rays: here (time `here`) against Embree one at a time and
+    // in streams.
+    let row = |what: String, n: usize, here: f64, one: f64, streams: f64| {
+        outln!(
+            "| {what}, Mrays/s | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+            mrays(n, here),
+            mrays(n, one),
+            mrays(n, streams),
+            one / here.max(1e-12),
+            streams / here.max(1e-12)
+        );
+    };
+    row(format!("primary rays ({p})"), p, po, p1, pm);
+    row(
+        format!("primary rays as packets of 8x8 ({} tiles)", packets.len()),
+        p,
+        pp,
+        p1,
+        pm,
     );
-    outln!(
-        "| primary rays as packets of 8x8 ({} tiles), Mrays/s | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
-        packets.len(),
-        mrays(p, pp),
-        mrays(p, p1),
-        mrays(p, pm),
-        p1 / pp.max(1e-12),
-        pm / pp.max(1e-12)
-    );
-    outln!(
-        "| shadow rays ({s}), Mrays/s | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
-        mrays(s, so),
-        mrays(s, s1t),
-        mrays(s, smt),
-        s1t / so.max(1e-12),
-        smt / so.max(1e-12)
-    );
-    outln!(
-        "| shadow rays as packets ({} of one tile towards one light), Mrays/s | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
-        shadow_packets.len(),
-        mrays(s, sp),
-        mrays(s, s1t),
-        mrays(s, smt),
-        s1t / sp.max(1e-12),
-        smt / sp.max(1e-12)
+    row(format!("shadow rays ({s})"), s, so, s1t, smt);
+    row(
+        format!(
+            "shadow rays as packets ({} of one tile towards one light)",
+            shadow_packets.len()
+        ),
+        s,
+        sp,
+        s1t,
+        smt,
     );
     outln!(
         "primary hits: {hits_ours} here ({packets_differ} answered differently as packets), {hits_e1} Embree one at a time, {hits_em} streams; {other_prim} rays hit another triangle (or only one kernel hits); largest distance difference on the same triangle {worst_dt:.1e} (relative); {streams_differ} rays differ between Embree's two modes"

@@ -136,6 +136,17 @@ impl Frustum {
     }
 }
 
+/// The children of `n` in `mask` that are leaves, and those that are
+/// inner nodes.
+#[inline(always)]
+fn split(n: &Wide, mask: u32) -> (u32, u32) {
+    let mut leaves = 0u32;
+    for (l, &count) in n.count.iter().enumerate() {
+        leaves |= ((count > 0) as u32) << l;
+    }
+    (mask & leaves, mask & !leaves)
+}
+
 /// Object `id` for one ray of a packet: the single-ray traversal's test
 /// (the nearest hit, the smaller id of equal ones).
 #[inline(always)]
@@ -205,7 +216,7 @@ impl Bvh {
         let tmin: Vec<f64> = rays.iter().map(|r| r.1).collect();
         let mut cut: Vec<f64> = rays.iter().map(|r| r.2).collect();
         let mut best: Vec<Option<(f64, ObjectId, ShapeHit)>> = vec![None; n];
-        // Object `id` for ray `r` (the single-ray traversal's `consider`).
+        // Objects without finite bounds: tested by every ray.
         for &id in &self.unbounded {
             for r in 0..n {
                 consider(&test[r], tmin[r], id, &mut cut[r], &mut best[r]);
@@ -234,17 +245,7 @@ impl Bvh {
                 if mask == 0 {
                     continue;
                 }
-                let mut leaves = 0u32;
-                let mut inner = 0u32;
-                for l in 0..4 {
-                    if mask & (1 << l) != 0 {
-                        if n_.count[l] > 0 {
-                            leaves |= 1 << l;
-                        } else {
-                            inner |= 1 << l;
-                        }
-                    }
-                }
+                let (leaves, inner) = split(n_, mask);
                 // Each inner child's first ray and its entry.
                 let mut enter = [(u32::MAX, 0.0f64); 4];
                 let mut open = inner;
@@ -393,16 +394,7 @@ impl Bvh {
             if mask == 0 {
                 continue;
             }
-            let (mut leaves, mut inner) = (0u32, 0u32);
-            for l in 0..4 {
-                if mask & (1 << l) != 0 {
-                    if n_.count[l] > 0 {
-                        leaves |= 1 << l;
-                    } else {
-                        inner |= 1 << l;
-                    }
-                }
-            }
+            let (leaves, inner) = split(n_, mask);
             let mut enter = [u32::MAX; 4];
             let mut todo = inner;
             for r in first as usize..n {
