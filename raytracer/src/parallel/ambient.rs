@@ -220,14 +220,24 @@ impl Shared<'_, '_> {
                 return;
             }
         }
-        let rec = state.hemisphere.finish(s);
+        // With a cache (the only case that defers hemispheres) there is
+        // always a record.
+        let (_, rec) = state.hemisphere.finish(s);
         drop(state);
-        let mut cache = self.cache.write().unwrap_or_else(|e| e.into_inner());
-        if cache.covered_since(s, rec.point, rec.normal, rec.level, t.slot.started_at) {
-            self.redundant.fetch_add(1, Ordering::Relaxed);
+        if let Some(rec) = rec {
+            let mut cache = self.cache.write().unwrap_or_else(|e| e.into_inner());
+            if cache.covered_since(
+                s,
+                rec.point,
+                rec.normal,
+                rec.level,
+                rec.weight,
+                t.slot.started_at,
+            ) {
+                self.redundant.fetch_add(1, Ordering::Relaxed);
+            }
+            cache.insert(s, rec);
         }
-        cache.insert(s, rec);
-        drop(cache);
         t.slot.done.store(true, Ordering::Release);
         self.in_flight.fetch_sub(1, Ordering::AcqRel);
         self.wake.notify_all();

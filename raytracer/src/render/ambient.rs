@@ -1,27 +1,32 @@
-//! Diffuse inter-reflection with an irradiance cache, after Ward,
-//! Rubinstein and Clear, "A Ray Tracing Solution for Diffuse
-//! Interreflection" (SIGGRAPH 1988), as in Radiance's `ambient.c`.
+//! Diffuse inter-reflection with an irradiance cache, as Radiance 5.4
+//! computes it (`ambient.c` 2.110 and `ambcomp.c` 2.86): Ward, Rubinstein
+//! and Clear's cache ("A Ray Tracing Solution for Diffuse
+//! Interreflection", SIGGRAPH 1988) with Ward and Heckbert's gradients
+//! (1992) and the Hessian-based radii of Schwarzhaupt, Jensen and Jarosz
+//! (SIGGRAPH Asia 2012).
 //!
 //! Where a diffuse surface needs the light arriving from all other
-//! surfaces (`-ab` > 0), it first asks the cache: records made at nearby
-//! points with similar normals are averaged with Ward's weights
+//! surfaces (`-ab` > 0), it first asks the cache. A record made at `P_i`
+//! with normal `N_i`, axes `U_i, V_i` and radii `R_u <= R_v` serves a point
+//! `P` with normal `N` (`sumambient`) when
 //!
 //! ```text
-//! w_i(P) = 1 / ( |P - P_i| / R_i + sqrt(1 - N . N_i) )
+//! angle(N, N_i) < maxangle        (10 degrees plus -aa radians)
+//! d_t^2 = ((P-P_i).N_i / R_u)^2 + ((P-P_i).U_i / R_u)^2 + ((P-P_i).V_i / R_v)^2 < a^2
 //! ```
 //!
-//! using every record with `w_i > 1 / a` (`a` = `-aa`), and rejecting
-//! records whose point lies in front of `P`. Only when no record qualifies
-//! is a new hemisphere sampled: `-ad` cosine-weighted rays in `nt x np`
-//! strata (`nt = sqrt(ad / pi)`, `np = pi nt`), then `-as` extra rays into
-//! the strata whose neighbours differ most. The mean sample radiance is the
-//! record's value (an ambient *radiance*, multiplied by the diffuse
-//! reflectance as `-av` is), and the harmonic mean distance of the sample
-//! hits is its radius `R_i`, clamped to `[size / ar, 64 size / ar]`. As
-//! in Radiance's `doambient`, lighter sample rays get fewer divisions
-//! (`-ad` and `-as` times the weight the sample rays carry, at least 6).
-//! Sample rays see sources that direct lighting samples as black (no
-//! double counting) and, after `-ab` bounces, surfaces use `-av`.
+//! (`a` = `-aa`; a record lying more than a little in front of `P` is not
+//! used), and its value, extrapolated along its translational and
+//! rotational gradients, counts with the weight
+//! `(1 - angle / maxangle) (1 - d_t / a)`. Records of deeper ambient
+//! levels are not used by shallower lookups, and a record of the same level
+//! only by rays not much heavier than the one it was made for. For rays
+//! lighter than 0.6 the angle limit widens towards 90 degrees.
+//!
+//! Only when no record qualifies is a new hemisphere sampled
+//! ([`Hemisphere`]): its mean radiance is the value, and its record is
+//! stored. Radii lie in `[size / ar, min(64 size / ar, size / 5)]`, the
+//! larger at most twice the smaller.
 //!
 //! **Evaluation order.** A cache makes a pixel depend on which records
 //! existed when it was shaded, so an image depends on the order in which
@@ -32,8 +37,9 @@
 //! tolerance (the parallel renderer's ambient pass). With `-aa 0` there is no
 //! cache and the image is again independent of the order.
 //!
-//! Not implemented: Ward and Heckbert's irradiance gradients (1992) and
-//! Radiance's ambient file; `-aa` is not scaled by ray weight.
+//! Not implemented: Radiance's leak test for records near occluders
+//! (`plugaleak`), its ambient file (`-af`), and the rotational gradient of
+//! a textured normal without a cache.
 
 use std::collections::HashMap;
 use std::f64::consts::PI;
@@ -42,20 +48,20 @@ use std::sync::{Arc, RwLock};
 use serde::{Deserialize, Serialize};
 
 use super::options::RenderOptions;
-use super::rng::{child_seed, Rng};
-use super::task::{intens, RayKind, RayTask};
-use crate::geometry::robust::orthonormal_basis;
+use crate::geometry::Vec3;
 use crate::geometry::FTINY;
-use crate::geometry::{offset_origin_scaled, Ray, Vec3};
-use crate::image::brightness;
 use crate::scene::Color;
 
-/// Records may be at most this many times `size / ar` wide (Radiance's
-/// `maxarad = 64 minarad`).
-const MAX_RADIUS_FACTOR: f64 = 64.0;
-/// A record lying more than this fraction of its radius in front of the
-/// point is not used (Ward 1988's "in front" test).
-const FRONT_TOLERANCE: f64 = 0.05;
+mod hemisphere;
+
+pub use hemisphere::Hemisphere;
+
+/// Radiance's assumed average reflectance (`AVGREFL`): ambient sample rays
+/// carry this share of the weight of the ray they start from, and a record
+/// of ambient level `l` is made for rays of weight `AVGREFL^l`.
+const AVGREFL: f64 = 0.5;
+/// Fewest strata per side of a hemisphere with a cache (`MINADIV`).
+const MINADIV: u32 = 7;
 
 /// Where a diffuse surface asks for the ambient light: what
 /// [`super::material::shade`] returns instead of the `-av` term.
@@ -79,84 +85,132 @@ pub struct AmbientSettings {
     pub accuracy: f64,
     pub min_radius: f64,
     pub max_radius: f64,
-    /// Strata in theta and phi.
-    pub nt: u32,
-    pub np: u32,
     pub super_samples: u32,
+    /// Side of the scene's bounding cube.
+    pub scene_size: f64,
     /// Side of the finest cell of the record grid.
     pub base_cell: f64,
 }
 
 impl AmbientSettings {
-    /// Settings for a scene whose bounding cube has side `scene_size`.
+    /// Settings for a scene whose bounding cube has side `scene_size`
+    /// (Radiance's `setambres`).
     pub fn new(o: &RenderOptions, scene_size: f64) -> Self {
         let size = if scene_size.is_finite() && scene_size > 0.0 {
             scene_size
         } else {
             1.0
         };
-        let (min_radius, max_radius) = if o.ar > 0 {
+        let (mut min_radius, mut max_radius) = if o.ar > 0 {
             let m = size / o.ar as f64;
-            (m, MAX_RADIUS_FACTOR * m)
+            (m, (64.0 * m).min(0.2 * size))
         } else {
-            (size * 1e-9, size / 2.0)
+            (0.0, 0.2 * size)
         };
-        let nt = ((o.ad as f64 / PI).sqrt().round() as u32).max(1);
-        let np = ((PI * nt as f64).round() as u32).max(1);
+        if min_radius <= FTINY {
+            min_radius = 10.0 * FTINY;
+        }
+        if max_radius <= min_radius {
+            max_radius = 64.0 * min_radius;
+        }
         let base_cell = (o.aa.max(0.01) * min_radius).max(size * 1e-9);
         Self {
             bounces: o.ab,
             accuracy: o.aa,
             min_radius,
             max_radius,
-            nt,
-            np,
             super_samples: o.as_,
+            scene_size: size,
             base_cell,
         }
     }
-
-    /// Hemisphere rays of the first pass at full weight.
-    pub fn divisions(&self) -> usize {
-        (self.nt * self.np) as usize
-    }
-
-    /// Strata for sample rays of weight `w` (at most 1): `-ad w` divisions,
-    /// at least 6 (Radiance's minimum with a cache).
-    pub fn strata(&self, w: f64) -> (u32, u32) {
-        if w >= 1.0 {
-            return (self.nt, self.np);
-        }
-        let ad = (self.nt * self.np) as f64 * w.max(0.0);
-        let nt = ((ad / PI).sqrt().round() as u32).clamp(1, self.nt);
-        let np = ((PI * nt as f64).round() as u32).clamp(2, self.np.max(2));
-        (nt, np)
-    }
 }
 
-/// One cached hemisphere: Ward's `(P_i, N_i, E_i, R_i)` plus the ambient
-/// level it was computed at (records of deeper levels, with fewer bounces
-/// left, are not used by shallower ones).
+/// One cached hemisphere (Radiance's `AMBVAL`): where and for which
+/// normal it was made, its value (a radiance, multiplied by the diffuse
+/// reflectance as `-av` is), its radii along `u` and along `normal x u`,
+/// its gradients along those axes, its ambient level and the ray weight it
+/// was made for.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct AmbientRecord {
     pub point: Vec3,
     pub normal: Vec3,
+    /// First tangent axis (the smaller radius's).
+    pub u: Vec3,
     pub value: Color,
-    pub radius: f64,
+    pub radii: [f64; 2],
+    /// Translational gradient (relative change per unit length).
+    pub gpos: [f64; 2],
+    /// Rotational gradient (relative change per radian).
+    pub gdir: [f64; 2],
     pub level: u32,
+    pub weight: f64,
 }
 
+/// Radiance's starting angle limit: 10 degrees (plus `-aa` radians).
+const MIN_ANGLE: f64 = 10.0 * PI / 180.0;
+
 impl AmbientRecord {
-    /// Ward's error estimate `e_i(P)`: the record is usable where it is
-    /// below `a`; `None` if the record lies in front of the point.
-    pub fn error(&self, p: Vec3, n: Vec3) -> Option<f64> {
-        let d = p - self.point;
-        let along = d.dot(n + self.normal) * 0.5;
-        if along < -FRONT_TOLERANCE * self.radius {
+    /// The second tangent axis.
+    pub fn v(&self) -> Vec3 {
+        self.normal.cross(self.u)
+    }
+
+    /// How far the record reaches: no point farther than `a` times this
+    /// from it can use it.
+    pub fn reach(&self) -> f64 {
+        self.radii[0].max(self.radii[1])
+    }
+
+    /// The record's value at `p` with normal `n` and its weight there, for
+    /// a lookup of accuracy `a` and angle limit `max_angle`, with Radiance's
+    /// minimum radius `min_radius`; `None` where the record does not serve
+    /// the point.
+    pub fn serve(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        a: f64,
+        max_angle: f64,
+        min_radius: f64,
+    ) -> Option<(Color, f64)> {
+        let cos = self.normal.dot(n);
+        if cos <= 0.0 {
             return None;
         }
-        let cos = n.dot(self.normal).min(1.0);
-        Some(d.length() / self.radius + (1.0 - cos).max(0.0).sqrt())
+        let dr2 = 2.0 - 2.0 * cos;
+        if dr2 >= max_angle * max_angle {
+            return None;
+        }
+        let ck = p - self.point;
+        let d = ck.dot(self.normal);
+        if d < -min_radius * a - 0.001 {
+            return None;
+        }
+        let d = d / self.radii[0];
+        let mut dt2 = d * d;
+        if dt2 >= a * a {
+            return None;
+        }
+        let (u, v) = (self.u, self.v());
+        let du = ck.dot(u) / self.radii[0];
+        let dv = ck.dot(v) / self.radii[1];
+        dt2 += du * du + dv * dv;
+        if dt2 >= a * a {
+            return None;
+        }
+        // Extrapolated along the gradients (extambient).
+        let mut f = 1.0 + ck.dot(u * self.gpos[0] + v * self.gpos[1]);
+        f += self
+            .normal
+            .cross(n)
+            .dot(u * self.gdir[0] + v * self.gdir[1]);
+        let f = f.clamp(0.05, 20.0);
+        if f <= 0.05 {
+            return None;
+        }
+        let w = (1.0 - dr2.sqrt() / max_angle) * (1.0 - dt2.sqrt() / a);
+        Some((self.value * f, w))
     }
 }
 
@@ -224,19 +278,27 @@ impl AmbientCache {
         l
     }
 
-    /// Records usable at `p` with normal `n` and ambient level `level`,
-    /// as (index, weight); only records with index >= `from`.
+    /// Records usable at `p` with normal `n` by a ray of ambient level
+    /// `level` and weight `weight`, as (index, extrapolated value, weight);
+    /// only records with index >= `from`.
+    #[allow(clippy::too_many_arguments)]
     fn candidates(
         &self,
         s: &AmbientSettings,
         p: Vec3,
         n: Vec3,
         level: u32,
+        weight: f64,
         from: usize,
-        mut f: impl FnMut(usize, f64),
+        mut f: impl FnMut(usize, Color, f64),
     ) {
         if s.accuracy <= 0.0 || !p.is_finite() {
             return;
+        }
+        let mut max_angle = MIN_ANGLE + s.accuracy;
+        if weight < 0.6 {
+            // Lighter rays accept records of larger angles.
+            max_angle = (max_angle - PI / 2.0) * weight.max(0.0).powf(0.13) + PI / 2.0;
         }
         let mut levels = self.levels;
         while levels != 0 {
@@ -252,52 +314,60 @@ impl AmbientCache {
                     continue;
                 }
                 let r = &self.records[i];
-                if r.level > level {
+                if r.level > level || (r.level == level && r.weight < 0.9 * weight) {
                     continue;
                 }
-                if let Some(e) = r.error(p, n) {
-                    if e < s.accuracy {
-                        f(i, 1.0 / e.max(1e-9));
-                    }
+                if let Some((v, w)) = r.serve(p, n, s.accuracy, max_angle, s.min_radius) {
+                    f(i, v, w);
                 }
             }
         }
     }
 
-    /// Ward's interpolation at `p`, or `None` if no record qualifies.
-    pub fn lookup(&self, s: &AmbientSettings, p: Vec3, n: Vec3, level: u32) -> Option<Color> {
+    /// The interpolated value at `p` for a ray of ambient level `level`
+    /// and weight `weight`, or `None` if no record qualifies.
+    pub fn lookup(
+        &self,
+        s: &AmbientSettings,
+        p: Vec3,
+        n: Vec3,
+        level: u32,
+        weight: f64,
+    ) -> Option<Color> {
         let mut sum = Color::ZERO;
         let mut wsum = 0.0;
-        self.candidates(s, p, n, level, 0, |i, w| {
-            sum += self.records[i].value * w;
+        self.candidates(s, p, n, level, weight, 0, |_, v, w| {
+            sum += v * w;
             wsum += w;
         });
-        (wsum > 0.0).then(|| sum / wsum)
+        (wsum > FTINY).then(|| sum / wsum)
     }
 
     /// True if a record with index >= `from` would answer a lookup at `p`.
+    #[allow(clippy::too_many_arguments)]
     pub fn covered_since(
         &self,
         s: &AmbientSettings,
         p: Vec3,
         n: Vec3,
         level: u32,
+        weight: f64,
         from: usize,
     ) -> bool {
-        let mut any = false;
-        self.candidates(s, p, n, level, from, |_, _| any = true);
-        any
+        let mut wsum = 0.0;
+        self.candidates(s, p, n, level, weight, from, |_, _, w| wsum += w);
+        wsum > FTINY
     }
 
     /// Stores a record (ignored if it is not finite or caching is off).
     pub fn insert(&mut self, s: &AmbientSettings, r: AmbientRecord) {
         if s.accuracy <= 0.0
             || !(r.point.is_finite() && r.normal.is_finite() && r.value.is_finite())
-            || !(r.radius.is_finite() && r.radius > 0.0)
+            || !(r.radii.iter().all(|x| x.is_finite() && *x > 0.0))
         {
             return;
         }
-        let influence = s.accuracy * r.radius;
+        let influence = s.accuracy * r.reach();
         let l = Self::level_for(s, influence);
         let cell = s.base_cell * (1u64 << l) as f64;
         let lo = cell_of(r.point - Vec3::splat(influence), cell);
@@ -330,13 +400,20 @@ impl Default for AmbientStore {
 }
 
 impl AmbientStore {
-    pub fn lookup(&self, s: &AmbientSettings, p: Vec3, n: Vec3, level: u32) -> Option<Color> {
+    pub fn lookup(
+        &self,
+        s: &AmbientSettings,
+        p: Vec3,
+        n: Vec3,
+        level: u32,
+        weight: f64,
+    ) -> Option<Color> {
         match self {
-            AmbientStore::Local(c) => c.lookup(s, p, n, level),
+            AmbientStore::Local(c) => c.lookup(s, p, n, level, weight),
             AmbientStore::Shared(c) => c
                 .read()
                 .unwrap_or_else(|e| e.into_inner())
-                .lookup(s, p, n, level),
+                .lookup(s, p, n, level, weight),
         }
     }
 
@@ -360,349 +437,6 @@ impl AmbientStore {
     }
 }
 
-/// One hemisphere being sampled. The sequential renderer traces its rays
-/// at once; the parallel one hands them out as separate tasks and adds
-/// their results in any order: the record depends only on the results.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Hemisphere {
-    pub point: Vec3,
-    pub normal: Vec3,
-    /// Ambient level of the point (bounces already taken above it).
-    pub level: u32,
-    depth: u32,
-    weight: f64,
-    seed: u64,
-    extinction: Color,
-    #[serde(default)]
-    medium: crate::render::medium::Medium,
-    offset_scale: f64,
-    nt: u32,
-    np: u32,
-    sums: Vec<Color>,
-    counts: Vec<u32>,
-    inv_dist: f64,
-    samples: u32,
-}
-
-impl Hemisphere {
-    /// A hemisphere for `req` at the hit of `task`, or `None` where the
-    /// sample rays would exceed `-lr` or fall below `-lw` (the caller then
-    /// uses `-av`, as Radiance does).
-    pub fn new(
-        s: &AmbientSettings,
-        o: &RenderOptions,
-        task: &RayTask,
-        req: &AmbientRequest,
-    ) -> Option<Self> {
-        let depth = task.depth + 1;
-        let weight = task.weight * intens(req.coef);
-        if depth > o.lr || !(weight >= o.lw && weight > 0.0) {
-            return None;
-        }
-        let len = req.normal.length();
-        if !(len > 0.0 && len.is_finite() && req.point.is_finite()) {
-            return None;
-        }
-        // Fewer divisions for lighter rays (Radiance's doambient): a
-        // hemisphere deep in the tree matters less.
-        let (nt, np) = s.strata(weight);
-        let n = (nt * np) as usize;
-        Some(Self {
-            point: req.point,
-            normal: req.normal / len,
-            level: task.ambient,
-            depth,
-            weight,
-            seed: child_seed(task.seed, 0x616d_0000 + req.side),
-            extinction: task.extinction,
-            medium: task.medium,
-            offset_scale: req.offset_scale,
-            nt,
-            np,
-            sums: vec![Color::ZERO; n],
-            counts: vec![0; n],
-            inv_dist: 0.0,
-            samples: 0,
-        })
-    }
-
-    /// The sample ray into division `div`; `pass` 0 for the first pass,
-    /// 1 for super-samples (a different random draw).
-    fn ray(&self, div: usize, pass: u32) -> RayTask {
-        let seed = child_seed(self.seed, (div as u32) | (pass << 24));
-        let mut rng = Rng::new(seed);
-        let (t, p) = (div as u32 / self.np, div as u32 % self.np);
-        let s2 = (t as f64 + rng.next_f64()) / self.nt as f64; // sin^2 theta
-        let phi = 2.0 * PI * (p as f64 + rng.next_f64()) / self.np as f64;
-        let st = s2.sqrt();
-        let (u, v) = orthonormal_basis(self.normal);
-        let dir = u * (phi.cos() * st) + v * (phi.sin() * st) + self.normal * (1.0 - s2).sqrt();
-        let dir = dir.normalize();
-        let origin = offset_origin_scaled(self.point, self.normal, dir, self.offset_scale);
-        RayTask {
-            ray: Ray { origin, dir },
-            tmin: 0.0,
-            tmax: f64::INFINITY,
-            kind: RayKind::Ambient,
-            depth: self.depth,
-            weight: self.weight,
-            seed: rng.next_u64(),
-            extinction: self.extinction,
-            // Sources that direct lighting samples are already counted.
-            sampled: true,
-            ambient: self.level + 1,
-            clip: 0,
-            medium: self.medium,
-        }
-    }
-
-    /// The first pass: one ray per division, as (division, task).
-    pub fn first_pass(&self) -> Vec<(usize, RayTask)> {
-        (0..self.sums.len()).map(|d| (d, self.ray(d, 0))).collect()
-    }
-
-    /// Super-samples: one more ray into each of the `as` divisions whose
-    /// brightness differs most from their neighbours' (call after the
-    /// first pass's results are in).
-    pub fn second_pass(&self, super_samples: u32) -> Vec<(usize, RayTask)> {
-        let n = self.sums.len();
-        let super_samples = (super_samples as f64 * self.weight.min(1.0)).round() as u32;
-        if super_samples == 0 || n < 2 {
-            return Vec::new();
-        }
-        let b = |i: usize| brightness(self.sums[i] / self.counts[i].max(1) as f64);
-        let (nt, np) = (self.nt as usize, self.np as usize);
-        let mut var: Vec<(f64, usize)> = (0..n)
-            .map(|i| {
-                let (t, p) = (i / np, i % np);
-                let mut d = 0.0;
-                if t > 0 {
-                    d += (b(i) - b(i - np)).powi(2);
-                }
-                if t + 1 < nt {
-                    d += (b(i) - b(i + np)).powi(2);
-                }
-                let left = t * np + (p + np - 1) % np;
-                d += (b(i) - b(left)).powi(2);
-                (d, i)
-            })
-            .collect();
-        // Largest first; ties by index keep the choice deterministic.
-        var.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-        var.iter()
-            .take(super_samples as usize)
-            .filter(|(d, _)| *d > 0.0)
-            .map(|&(_, i)| (i, self.ray(i, 1)))
-            .collect()
-    }
-
-    /// Adds the result of the ray into `div`: its radiance and the
-    /// distance to what it hit (infinite for a miss).
-    pub fn add(&mut self, div: usize, value: Color, distance: f64) {
-        if let (Some(s), Some(c)) = (self.sums.get_mut(div), self.counts.get_mut(div)) {
-            if value.is_finite() {
-                *s += value;
-            }
-            *c += 1;
-            if distance.is_finite() && distance > 0.0 {
-                self.inv_dist += 1.0 / distance;
-            }
-            self.samples += 1;
-        }
-    }
-
-    /// The record: mean radiance over the divisions and harmonic mean
-    /// distance, clamped.
-    pub fn finish(&self, s: &AmbientSettings) -> AmbientRecord {
-        let mut v = Color::ZERO;
-        for (sum, &c) in self.sums.iter().zip(&self.counts) {
-            if c > 0 {
-                v += *sum / c as f64;
-            }
-        }
-        v /= self.sums.len().max(1) as f64;
-        let harmonic = if self.inv_dist > FTINY * FTINY {
-            self.samples as f64 / self.inv_dist
-        } else {
-            f64::INFINITY
-        };
-        AmbientRecord {
-            point: self.point,
-            normal: self.normal,
-            value: v,
-            radius: harmonic.clamp(s.min_radius, s.max_radius),
-            level: self.level,
-        }
-    }
-}
-
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn settings(aa: f64) -> AmbientSettings {
-        AmbientSettings::new(
-            &RenderOptions {
-                ab: 1,
-                aa,
-                ar: 16,
-                ad: 64,
-                ..Default::default()
-            },
-            16.0,
-        )
-    }
-
-    fn rec(p: Vec3, r: f64, v: f64) -> AmbientRecord {
-        AmbientRecord {
-            point: p,
-            normal: Vec3::Z,
-            value: Color::splat(v),
-            radius: r,
-            level: 0,
-        }
-    }
-
-    #[test]
-    fn ward_weights_select_and_interpolate() {
-        let s = settings(0.2);
-        let mut c = AmbientCache::default();
-        assert_eq!(c.lookup(&s, Vec3::ZERO, Vec3::Z, 0), None);
-        c.insert(&s, rec(Vec3::ZERO, 1.0, 1.0));
-        c.insert(&s, rec(Vec3::new(0.3, 0.0, 0.0), 1.0, 3.0));
-        // Exactly at a record: that record dominates.
-        let at0 = c.lookup(&s, Vec3::ZERO, Vec3::Z, 0).unwrap();
-        assert!((at0.x - 1.0).abs() < 1e-6, "{at0}");
-        // Half way: equal weights.
-        let mid = c.lookup(&s, Vec3::new(0.15, 0.0, 0.0), Vec3::Z, 0).unwrap();
-        assert!((mid.x - 2.0).abs() < 1e-9, "{mid}");
-        // Beyond a * R of both: no answer.
-        assert!(c.lookup(&s, Vec3::new(5.0, 0.0, 0.0), Vec3::Z, 0).is_none());
-        // A tilted normal raises the error: 45 degrees is far beyond a = 0.2.
-        let tilted = Vec3::new(1.0, 0.0, 1.0).normalize();
-        assert!(c.lookup(&s, Vec3::ZERO, tilted, 0).is_none());
-        // A record in front of the point is not used.
-        assert!(c
-            .lookup(&s, Vec3::new(0.0, 0.0, -0.1), Vec3::Z, 0)
-            .is_none());
-        // Deeper records are not used by shallower lookups.
-        let mut d = AmbientCache::default();
-        d.insert(
-            &s,
-            AmbientRecord {
-                level: 1,
-                ..rec(Vec3::ZERO, 1.0, 1.0)
-            },
-        );
-        assert!(d.lookup(&s, Vec3::ZERO, Vec3::Z, 0).is_none());
-        assert!(d.lookup(&s, Vec3::ZERO, Vec3::Z, 1).is_some());
-        assert!(c.covered_since(&s, Vec3::new(0.2, 0.0, 0.0), Vec3::Z, 0, 1));
-        assert!(!c.covered_since(&s, Vec3::ZERO, Vec3::Z, 0, 2));
-    }
-
-    #[test]
-    fn grid_finds_records_of_every_size() {
-        let s = settings(0.5);
-        let mut c = AmbientCache::default();
-        let mut rng = Rng::new(3);
-        let recs: Vec<AmbientRecord> = (0..300)
-            .map(|i| {
-                let p = Vec3::new(rng.next_f64(), rng.next_f64(), 0.0) * 16.0 - 8.0;
-                let r = s.min_radius * (1.0 + 63.0 * rng.next_f64());
-                rec(p, r, i as f64)
-            })
-            .collect();
-        for r in &recs {
-            c.insert(&s, *r);
-        }
-        // Compare against brute force at random points.
-        for _ in 0..500 {
-            let p = Vec3::new(rng.next_f64(), rng.next_f64(), 0.0) * 16.0 - 8.0;
-            let mut sum = 0.0;
-            let mut w = 0.0;
-            for r in &recs {
-                if let Some(e) = r.error(p, Vec3::Z) {
-                    if e < s.accuracy {
-                        sum += r.value.x / e.max(1e-9);
-                        w += 1.0 / e.max(1e-9);
-                    }
-                }
-            }
-            let brute = (w > 0.0).then(|| sum / w);
-            let got = c.lookup(&s, p, Vec3::Z, 0).map(|c| c.x);
-            match (brute, got) {
-                (None, None) => {}
-                (Some(a), Some(b)) => assert!((a - b).abs() < 1e-9 * a.abs().max(1.0)),
-                other => panic!("{other:?} at {p}"),
-            }
-        }
-    }
-
-    #[test]
-    fn no_cache_at_aa_zero_and_bad_records_ignored() {
-        let s = settings(0.0);
-        let mut c = AmbientCache::default();
-        c.insert(&s, rec(Vec3::ZERO, 1.0, 1.0));
-        assert!(c.is_empty());
-        let s = settings(0.1);
-        c.insert(&s, rec(Vec3::splat(f64::NAN), 1.0, 1.0));
-        c.insert(&s, rec(Vec3::ZERO, 0.0, 1.0));
-        assert!(c.is_empty());
-        c.insert(&s, rec(Vec3::splat(1e300), 1.0, 1.0));
-        assert_eq!(c.len(), 1);
-        assert!(c.lookup(&s, Vec3::splat(1e300), Vec3::Z, 0).is_some());
-    }
-
-    #[test]
-    fn hemisphere_rays_are_cosine_distributed_and_stratified() {
-        let s = settings(0.1);
-        let o = RenderOptions {
-            ab: 1,
-            ..Default::default()
-        };
-        let task = RayTask::primary(
-            Ray {
-                origin: Vec3::Z,
-                dir: -Vec3::Z,
-            },
-            0.0,
-            f64::INFINITY,
-            7,
-        );
-        let req = AmbientRequest {
-            point: Vec3::ZERO,
-            normal: Vec3::Z,
-            coef: Color::ONE,
-            offset_scale: 1.0,
-            side: 0,
-        };
-        let h = Hemisphere::new(&s, &o, &task, &req).unwrap();
-        let rays = h.first_pass();
-        assert_eq!(rays.len(), s.divisions());
-        // E[cos] = 2/3 for a cosine-weighted hemisphere.
-        let mean_cos: f64 = rays.iter().map(|(_, t)| t.ray.dir.z).sum::<f64>() / rays.len() as f64;
-        assert!((mean_cos - 2.0 / 3.0).abs() < 0.01, "{mean_cos}");
-        for (_, t) in &rays {
-            assert!(t.ray.dir.z > 0.0 && t.ray.origin.z > 0.0);
-            assert_eq!((t.kind, t.ambient, t.sampled), (RayKind::Ambient, 1, true));
-        }
-        // Constant radiance and distance: the record holds them exactly.
-        let mut h2 = h.clone();
-        for (d, _) in &rays {
-            h2.add(*d, Color::splat(2.0), 4.0);
-        }
-        assert!(
-            h2.second_pass(16).is_empty(),
-            "no variance, no super-samples"
-        );
-        let r = h2.finish(&s);
-        assert!((r.value.x - 2.0).abs() < 1e-12);
-        assert!((r.radius - 4.0).abs() < 1e-9);
-        // Too light a ray: no hemisphere.
-        let light = RayTask {
-            weight: 1e-3,
-            ..task
-        };
-        assert!(Hemisphere::new(&s, &o, &light, &req).is_none());
-    }
-}
+#[path = "ambient/tests.rs"]
+mod tests;

@@ -569,7 +569,10 @@ impl<'s> Renderer<'s> {
     fn ambient_value(&self, task: &RayTask, req: &AmbientRequest, st: &mut TraceState) -> Color {
         let s = &self.ambient;
         st.counts.ambient_cache.lookups += 1;
-        if let Some(v) = st.ambient.lookup(s, req.point, req.normal, task.ambient) {
+        if let Some(v) = st
+            .ambient
+            .lookup(s, req.point, req.normal, task.ambient, task.weight)
+        {
             st.counts.ambient_cache.hits += 1;
             return v;
         }
@@ -590,9 +593,11 @@ impl<'s> Renderer<'s> {
             let (c, d) = self.trace(&t, st);
             h.add(div, c, d);
         }
-        let rec = h.finish(s);
-        st.ambient.insert(s, rec);
-        rec.value
+        let (value, rec) = h.finish(s);
+        if let Some(rec) = rec {
+            st.ambient.insert(s, rec);
+        }
+        value
     }
 
     /// What a ray that leaves the scene brings back: [`Self::sky`] through

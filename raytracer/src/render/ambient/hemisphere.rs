@@ -1,0 +1,761 @@
+//! One hemisphere of diffuse inter-reflection, sampled and turned into an
+//! irradiance-cache record as Radiance 5.4 does (`ambcomp.c` 2.86):
+//!
+//! * `n x n` strata of the unit square (`n = sqrt(-ad w) + 1/2`, at least
+//!   7 with a cache), each mapped to the disk by Shirley and Chiu's
+//!   concentric map and lifted to the hemisphere: cosine-weighted
+//!   directions. A first sample that would lie within a quarter stratum
+//!   of an already chosen neighbour is drawn again (`ambcollision`).
+//! * `-as` super-samples, spread over the strata in proportion to how much
+//!   each one's brightness differs from its eight neighbours' (`ambsupersamp`).
+//! * The record's two radii and their axes come from the Hessian of the
+//!   irradiance over the hemisphere's triangulated sample points, after
+//!   Schwarzhaupt, Jensen and Jarosz, "Practical Hessian-Based Error
+//!   Control for Irradiance Caching" (SIGGRAPH Asia 2012): `ambHessian`.
+//!   The same triangles give the translational gradient, and the samples'
+//!   directions the rotational one (Ward and Heckbert 1992).
+//!
+//! The sequential renderer traces a hemisphere's rays at once; the
+//! parallel one hands them out as separate tasks and adds their results in
+//! any order. The first pass's rays are known when the hemisphere is made;
+//! the super-samples once the first pass's results are in.
+
+use std::f64::consts::PI;
+
+use serde::{Deserialize, Serialize};
+
+use super::{AmbientRecord, AmbientRequest, AmbientSettings, AVGREFL, MINADIV};
+use crate::geometry::robust::orthonormal_basis;
+use crate::geometry::FTINY;
+use crate::geometry::{offset_origin_scaled, Ray, Vec3};
+use crate::image::brightness;
+use crate::render::options::RenderOptions;
+use crate::render::rng::{child_seed, Rng};
+use crate::render::task::{intens, RayKind, RayTask};
+use crate::scene::Color;
+
+/// One hemisphere being sampled.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Hemisphere {
+    pub point: Vec3,
+    pub normal: Vec3,
+    /// Ambient level of the point (bounces already taken above it).
+    pub level: u32,
+    depth: u32,
+    /// Weight of the sample rays (the hit ray's times `AVGREFL`, as
+    /// Radiance's `rayorigin` gives them).
+    weight: f64,
+    /// Weight the strata, super-samples and radii are reckoned with
+    /// (`wt` of `doambient`).
+    wt: f64,
+    /// The record's weight (`makeambient`'s `amb.weight`).
+    record_weight: f64,
+    /// A cache is in use (`-aa` > 0): the record's radii are wanted.
+    cached: bool,
+    seed: u64,
+    extinction: Color,
+    #[serde(default)]
+    medium: crate::render::medium::Medium,
+    offset_scale: f64,
+    /// Strata per side.
+    ns: u32,
+    ux: Vec3,
+    uy: Vec3,
+    /// Direction of each stratum's first sample, and the seed of its ray.
+    first: Vec<(Vec3, u64)>,
+    sums: Vec<Color>,
+    counts: Vec<u32>,
+    /// Distance of each stratum's first sample.
+    first_dist: Vec<f64>,
+    /// Reciprocal of each stratum's nearest sample distance.
+    inv_near: Vec<f64>,
+}
+
+/// Shirley and Chiu's concentric map of the unit square onto the unit
+/// disk (Radiance's `SDsquare2disk`).
+fn square_to_disk(x: f64, y: f64) -> (f64, f64) {
+    let a = 2.0 * x - 1.0;
+    let b = 2.0 * y - 1.0;
+    let (r, phi) = if a > -b && a > b {
+        (a, (PI / 4.0) * (b / a))
+    } else if a < b && a > -b {
+        (b, (PI / 4.0) * (2.0 - a / b))
+    } else if a < b && a < -b {
+        (-a, (PI / 4.0) * (4.0 + b / a))
+    } else if b.abs() > 0.0 {
+        (-b, (PI / 4.0) * (6.0 - a / b))
+    } else {
+        (-b, 0.0)
+    };
+    (r * phi.cos(), r * phi.sin())
+}
+
+impl Hemisphere {
+    /// A hemisphere for `req` at the hit of `task`, or `None` where the
+    /// sample rays would exceed `-lr` or fall below `-lw` (the caller then
+    /// uses `-av`, as Radiance does).
+    pub fn new(
+        s: &AmbientSettings,
+        o: &RenderOptions,
+        task: &RayTask,
+        req: &AmbientRequest,
+    ) -> Option<Self> {
+        let depth = task.depth + 1;
+        let weight = task.weight * AVGREFL;
+        if depth > o.lr || !(weight >= o.lw && weight > 0.0) {
+            return None;
+        }
+        let len = req.normal.length();
+        if !(len > 0.0 && len.is_finite() && req.point.is_finite()) {
+            return None;
+        }
+        let normal = req.normal / len;
+        let cached = s.accuracy > 0.0;
+        // makeambient: the weight of a record of this level.
+        let mut record_weight = AVGREFL.powi(task.ambient.min(1000) as i32);
+        if task.weight < 0.1 * record_weight {
+            record_weight = 1.25 * task.weight;
+        }
+        let mut wt = if cached { record_weight } else { task.weight };
+        if !cached && o.lw > 0.0 {
+            // Avoid sample rays too light to be traced.
+            let d = 0.8 * intens(req.coef) * task.weight / (o.ad.max(1) as f64 * o.lw);
+            if wt > d {
+                wt = d;
+            }
+        }
+        let ns = ((o.ad as f64 * wt).max(0.0).sqrt() + 0.5) as u32;
+        let ns = ns.clamp(if cached { MINADIV } else { 1 }, 4096);
+        let seed = child_seed(task.seed, 0x616d_0000 + req.side);
+        // Tangent axes turned by a random angle (getperpendicular's
+        // randomised axis).
+        let (u0, v0) = orthonormal_basis(normal);
+        let turn = 2.0 * PI * Rng::new(child_seed(seed, 0x00ff_ffff)).next_f64();
+        let ux = (u0 * turn.cos() + v0 * turn.sin()).normalize();
+        let uy = normal.cross(ux);
+        let n = (ns * ns) as usize;
+        let mut h = Self {
+            point: req.point,
+            normal,
+            level: task.ambient,
+            depth,
+            weight,
+            wt,
+            record_weight,
+            cached,
+            seed,
+            extinction: task.extinction,
+            medium: task.medium,
+            offset_scale: req.offset_scale,
+            ns,
+            ux,
+            uy,
+            first: Vec::with_capacity(n),
+            sums: vec![Color::ZERO; n],
+            counts: vec![0; n],
+            first_dist: vec![f64::INFINITY; n],
+            inv_near: vec![0.0; n],
+        };
+        h.choose_first_directions();
+        Some(h)
+    }
+
+    /// Strata (divisions) of the hemisphere.
+    pub fn divisions(&self) -> usize {
+        self.sums.len()
+    }
+
+    /// The direction through the point `(x, y)` of the unit square.
+    fn direction(&self, x: f64, y: f64) -> Vec3 {
+        let (dx, dy) = square_to_disk(x, y);
+        let dz = (1.0 - dx * dx - dy * dy).max(0.0).sqrt();
+        (self.ux * dx + self.uy * dy + self.normal * dz).normalize()
+    }
+
+    /// A jittered direction in stratum `div` for sample `pass` (0 the
+    /// first), and the generator it was drawn from.
+    fn jittered(&self, div: usize, pass: u32) -> (Vec3, Rng) {
+        let ns = self.ns as usize;
+        let (i, j) = (div / ns, div % ns);
+        let mut rng = Rng::new(child_seed(self.seed, (div as u32) | (pass << 24)));
+        let (s0, s1) = (rng.next_f64(), rng.next_f64());
+        let dir = self.direction((j as f64 + s1) / ns as f64, (i as f64 + s0) / ns as f64);
+        (dir, rng)
+    }
+
+    /// The first samples' directions, in Radiance's order (last stratum
+    /// first), each drawn again while it collides with a neighbour chosen
+    /// before it.
+    fn choose_first_directions(&mut self) {
+        let ns = self.ns as usize;
+        let n = ns * ns;
+        let mut dirs = vec![Vec3::ZERO; n];
+        let mut seeds = vec![0u64; n];
+        // Minimum spacing: a quarter stratum.
+        let a = (PI / 4.0) / ns as f64;
+        let cos_thresh = 1.0 - 0.5 * a * a;
+        for div in (0..n).rev() {
+            let (i, j) = (div / ns, div % ns);
+            let (mut dir, mut rng) = self.jittered(div, 0);
+            for _ in 0..64 {
+                let collides = (i.saturating_sub(1)..=(i + 1).min(ns - 1)).any(|ii| {
+                    (j.saturating_sub(1)..=(j + 1).min(ns - 1)).any(|jj| {
+                        let k = ii * ns + jj;
+                        k > div && dirs[k].dot(dir) >= cos_thresh
+                    })
+                });
+                if !collides {
+                    break;
+                }
+                let (x, y) = (rng.next_f64(), rng.next_f64());
+                dir = self.direction((j as f64 + y) / ns as f64, (i as f64 + x) / ns as f64);
+            }
+            dirs[div] = dir;
+            seeds[div] = rng.next_u64();
+        }
+        self.first = dirs.into_iter().zip(seeds).collect();
+    }
+
+    fn task(&self, dir: Vec3, seed: u64) -> RayTask {
+        let origin = offset_origin_scaled(self.point, self.normal, dir, self.offset_scale);
+        RayTask {
+            ray: Ray { origin, dir },
+            tmin: 0.0,
+            tmax: f64::INFINITY,
+            kind: RayKind::Ambient,
+            depth: self.depth,
+            weight: self.weight,
+            seed,
+            extinction: self.extinction,
+            // Sources that direct lighting samples are already counted.
+            sampled: true,
+            ambient: self.level + 1,
+            clip: 0,
+            medium: self.medium,
+        }
+    }
+
+    /// The first pass: one ray per stratum, as (stratum, task).
+    pub fn first_pass(&self) -> Vec<(usize, RayTask)> {
+        self.first
+            .iter()
+            .enumerate()
+            .map(|(d, &(dir, seed))| (d, self.task(dir, seed)))
+            .collect()
+    }
+
+    /// Mean radiance of stratum `k` so far.
+    fn mean(&self, k: usize) -> Color {
+        self.sums[k] / self.counts[k].max(1) as f64
+    }
+
+    /// Radiance's estimate of each stratum's variance from its neighbours
+    /// (`getambdiffs`).
+    fn differences(&self) -> Vec<f64> {
+        let ns = self.ns as usize;
+        let b: Vec<f64> = (0..ns * ns).map(|k| brightness(self.mean(k))).collect();
+        let mut e = vec![0.0; ns * ns];
+        let pair = |e: &mut Vec<f64>, k0: usize, k1: usize| {
+            let s = b[k0] + b[k1];
+            if s > 0.0 {
+                let d = b[k0] - b[k1];
+                let d2 = d * d / s;
+                e[k0] += d2;
+                e[k1] += d2;
+            }
+        };
+        for i in 0..ns {
+            for j in 0..ns {
+                let k = i * ns + j;
+                if i > 0 {
+                    pair(&mut e, k, k - ns);
+                }
+                if j > 0 {
+                    pair(&mut e, k, k - 1);
+                    if i > 0 {
+                        pair(&mut e, k, k - ns - 1);
+                    }
+                }
+            }
+        }
+        // Corners and edges have fewer neighbours.
+        for k in [0, ns - 1, (ns - 1) * ns, ns * ns - 1] {
+            e[k] *= 8.0 / 3.0;
+        }
+        for i in 1..ns.saturating_sub(1) {
+            e[i * ns] *= 8.0 / 5.0;
+            e[i * ns + ns - 1] *= 8.0 / 5.0;
+            e[i] *= 8.0 / 5.0;
+            e[(ns - 1) * ns + i] *= 8.0 / 5.0;
+        }
+        e
+    }
+
+    /// Super-samples (call after the first pass's results are in):
+    /// `super_samples` times the hemisphere's weight, spread over the
+    /// strata in proportion to their estimated variance; none for
+    /// hemispheres of at most 7 x 7 strata or fewer than 9 super-samples.
+    pub fn second_pass(&self, super_samples: u32) -> Vec<(usize, RayTask)> {
+        let ns = self.ns as usize;
+        if ns * ns <= (MINADIV * MINADIV) as usize {
+            return Vec::new();
+        }
+        let mut cnt = (super_samples as f64 * self.wt + 0.5) as i64;
+        if cnt <= 8 {
+            return Vec::new();
+        }
+        let e = self.differences();
+        let mut rest: f64 = e.iter().sum();
+        let mut rng = Rng::new(child_seed(self.seed, 0x7fff_0000));
+        let mut out = Vec::new();
+        for (k, &ek) in e.iter().enumerate() {
+            if rest <= FTINY || cnt <= 0 {
+                break;
+            }
+            let nss = (ek / rest * cnt as f64 + rng.next_f64()) as i64;
+            for n in 1..=nss.max(0) {
+                let (dir, mut r) = self.jittered(k, n as u32);
+                out.push((k, self.task(dir, r.next_u64())));
+                cnt -= 1;
+                if cnt == 0 {
+                    break;
+                }
+            }
+            rest -= ek;
+        }
+        out
+    }
+
+    /// Adds the result of a ray into stratum `div`: its radiance and the
+    /// distance to what it hit (infinite for a miss). A stratum's first
+    /// result is its first sample's (every first-pass result comes in
+    /// before any super-sample is made).
+    pub fn add(&mut self, div: usize, value: Color, distance: f64) {
+        let Some(c) = self.counts.get_mut(div) else {
+            return;
+        };
+        if *c == 0 {
+            self.first_dist[div] = distance;
+        }
+        *c += 1;
+        if value.is_finite() {
+            self.sums[div] += value;
+        }
+        let d = distance.max(FTINY);
+        if d.is_finite() && d * self.inv_near[div] < 1.0 {
+            self.inv_near[div] = 1.0 / d;
+        }
+    }
+
+    /// The hemisphere's value (the mean radiance over the strata) and,
+    /// with a cache, its record.
+    pub fn finish(&self, s: &AmbientSettings) -> (Color, Option<AmbientRecord>) {
+        let n = self.sums.len();
+        let mut value = Color::ZERO;
+        for k in 0..n {
+            value += self.mean(k);
+        }
+        value /= n.max(1) as f64;
+        if !self.cached || self.ns < MINADIV || !value.is_finite() {
+            return (value, None);
+        }
+        let far = 10.0 * s.scene_size + 1000.0;
+        let total: f64 = (0..n).map(|k| brightness(self.mean(k))).sum();
+        // Relative brightness (Radiance's normalised Y channel); without
+        // light, the geometric Hessian alone.
+        let lit = AVGREFL * total / n as f64 > FTINY;
+        let samples: Vec<Sample> = (0..n)
+            .map(|k| {
+                let dir = self.first[k].0;
+                let dist = self.first_dist[k].clamp(FTINY, far);
+                Sample {
+                    y: if lit {
+                        0.99 * n as f64 * brightness(self.mean(k)) / total + 0.01
+                    } else {
+                        1.0
+                    },
+                    inv_dist: self.inv_near[k],
+                    p: self.point + dir * dist,
+                }
+            })
+            .collect();
+        let grid = Grid {
+            ns: self.ns as usize,
+            samples: &samples,
+            origin: self.point,
+            normal: self.normal,
+        };
+        let (uv, mut ra, pg) = grid.hessian(self.ux, self.uy, s.max_radius);
+        let (mut pg, mut dg) = if lit {
+            (pg, grid.direction_gradient(uv))
+        } else {
+            ([0.0; 2], [0.0; 2])
+        };
+        // Radii limited by the gradient, clamped (doambient).
+        if lit {
+            for a in 0..2 {
+                let d = pg[a].abs();
+                if ra[a] * d > 1.0 {
+                    ra[a] = 1.0 / d;
+                }
+            }
+            if ra[0] > ra[1] {
+                ra[0] = ra[1];
+            }
+        }
+        if ra[0] < s.min_radius {
+            ra[0] = s.min_radius;
+            if ra[1] < s.min_radius {
+                ra[1] = s.min_radius;
+            }
+        }
+        let scale = 1.0 / self.wt.sqrt();
+        ra[0] *= scale;
+        ra[1] *= scale;
+        if ra[1] > 2.0 * ra[0] {
+            ra[1] = 2.0 * ra[0];
+        }
+        if ra[1] > s.max_radius {
+            ra[1] = s.max_radius;
+            if ra[0] > s.max_radius {
+                ra[0] = s.max_radius;
+            }
+        }
+        let d = pg[0] * pg[0] * ra[0] * ra[0] + pg[1] * pg[1] * ra[1] * ra[1];
+        if d > 1.0 {
+            let d = 1.0 / d.sqrt();
+            pg[0] *= d;
+            pg[1] *= d;
+        }
+        let mut u = uv[0].normalize();
+        let finite = ra.iter().chain(&pg).chain(&dg).all(|x| x.is_finite()) && u.is_finite();
+        if !finite || ra[0] <= FTINY {
+            // A degenerate sample set (where Radiance would keep the value
+            // and store nothing): the smallest record, without gradients,
+            // so that a lookup here finds it.
+            ra = [s.min_radius; 2];
+            pg = [0.0; 2];
+            dg = [0.0; 2];
+            u = self.ux;
+        }
+        let record = AmbientRecord {
+            point: self.point,
+            normal: self.normal,
+            u,
+            value,
+            radii: ra,
+            gpos: pg,
+            gdir: dg,
+            level: self.level,
+            weight: self.record_weight,
+        };
+        (value, Some(record))
+    }
+}
+
+/// A stratum's first sample as the Hessian reads it.
+struct Sample {
+    /// Relative brightness.
+    y: f64,
+    /// Reciprocal of the nearest distance sampled in the stratum.
+    inv_dist: f64,
+    /// Where the first sample hit (clamped to a far distance).
+    p: Vec3,
+}
+
+/// The hemisphere's samples as a grid of triangles, seen from `origin`.
+struct Grid<'a> {
+    ns: usize,
+    samples: &'a [Sample],
+    origin: Vec3,
+    normal: Vec3,
+}
+
+/// Edge terms of the Hessian and gradient (Radiance's `FFTRI`).
+struct Edge {
+    r_i: Vec3,
+    r_i1: Vec3,
+    e_i: Vec3,
+    rcp: Vec3,
+    ri2_ej2: Vec3,
+    i1: f64,
+    i2: f64,
+}
+
+type Mat3 = [[f64; 3]; 3];
+
+/// `va vb^T + vb va^T`.
+fn compose(va: Vec3, vb: Vec3) -> Mat3 {
+    let (a, b) = (va.to_array(), vb.to_array());
+    let mut m = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            m[i][j] = a[i] * b[j] + a[j] * b[i];
+        }
+    }
+    m
+}
+
+fn neg(m: &mut Mat3) {
+    for row in m.iter_mut() {
+        for x in row.iter_mut() {
+            *x = -*x;
+        }
+    }
+}
+
+impl Grid<'_> {
+    fn at(&self, i: usize, j: usize) -> usize {
+        i * self.ns + j
+    }
+
+    /// Brightness of the farthest of three samples.
+    fn back(&self, n1: usize, n2: usize, n3: usize) -> f64 {
+        let s = self.samples;
+        if s[n1].inv_dist <= s[n2].inv_dist {
+            if s[n1].inv_dist <= s[n3].inv_dist {
+                return s[n1].y;
+            }
+            return s[n3].y;
+        }
+        if s[n2].inv_dist <= s[n3].inv_dist {
+            return s[n2].y;
+        }
+        s[n3].y
+    }
+
+    fn edge(&self, n0: usize, n1: usize) -> Edge {
+        let r_i = self.samples[n0].p - self.origin;
+        let r_i1 = self.samples[n1].p - self.origin;
+        let e_i = self.samples[n1].p - self.samples[n0].p;
+        let rcp = r_i.cross(r_i1);
+        let rdot_cp = 1.0 / rcp.dot(rcp);
+        let dot_e = e_i.dot(e_i);
+        let dot_er = e_i.dot(r_i);
+        let rdot_r = 1.0 / r_i.dot(r_i);
+        let rdot_r1 = 1.0 / r_i1.dot(r_i1);
+        let cos = (r_i.dot(r_i1) * (rdot_r * rdot_r1).sqrt()).clamp(-1.0, 1.0);
+        let i1 = cos.acos() * rdot_cp.sqrt();
+        let i2 = (e_i.dot(r_i1) * rdot_r1 - dot_er * rdot_r + dot_e * i1) * 0.5 * rdot_cp;
+        let j2 = (0.5 * (rdot_r - rdot_r1) - dot_er * i2) / dot_e;
+        Edge {
+            r_i,
+            r_i1,
+            e_i,
+            rcp,
+            ri2_ej2: r_i * i2 + e_i * j2,
+            i1,
+            i2,
+        }
+    }
+
+    fn edge_hessian(&self, f: &Edge) -> Mat3 {
+        let nrm = self.normal;
+        let d1 = 1.0 / f.r_i.dot(f.r_i);
+        let d2 = 1.0 / f.r_i1.dot(f.r_i1);
+        let d3 = 1.0 / f.e_i.dot(f.e_i);
+        let d4 = f.e_i.dot(f.r_i);
+        let i3 = (f.e_i.dot(f.r_i1) * d2 * d2 - d4 * d1 * d1 + 3.0 / d3 * f.i2)
+            / (4.0 * f.rcp.dot(f.rcp));
+        let j3 = 0.25 * d3 * (d1 * d1 - d2 * d2) - d4 * d3 * i3;
+        let k3 = d3 * (f.i2 - i3 / d1 - 2.0 * d4 * j3);
+        let ncp = nrm.cross(f.e_i);
+        let m1 = compose(ncp, f.ri2_ej2);
+        let m2 = compose(f.r_i, f.r_i);
+        let m3 = compose(f.e_i, f.e_i);
+        let m4 = compose(f.r_i, f.e_i);
+        let dn = nrm.dot(f.rcp);
+        let diag = -dn * f.i2;
+        let dn = 2.0 * dn;
+        let mut h = [[0.0; 3]; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                let mut v = m1[i][j] + dn * (i3 * m2[i][j] + k3 * m3[i][j] + 2.0 * j3 * m4[i][j]);
+                if i == j {
+                    v += diag;
+                }
+                h[i][j] = v * (-1.0 / PI);
+            }
+        }
+        h
+    }
+
+    fn edge_gradient(&self, f: &Edge) -> Vec3 {
+        let f1 = 2.0 * self.normal.dot(f.rcp);
+        let ncp = self.normal.cross(f.e_i);
+        (ncp * f.i1 + f.ri2_ej2 * f1) * (0.5 / PI)
+    }
+
+    /// The Hessian's axes in the tangent plane and the radii along them,
+    /// and the translational gradient along those axes (`ambHessian`).
+    fn hessian(&self, ux: Vec3, uy: Vec3, max_radius: f64) -> ([Vec3; 2], [f64; 2], [f64; 2]) {
+        let ns = self.ns;
+        let mut hess = [[0.0; 3]; 3];
+        let mut grad = Vec3::ZERO;
+        let add = |hess: &mut Mat3, grad: &mut Vec3, e: [(&Mat3, Vec3); 3], v: f64| {
+            for (m, g) in e {
+                for i in 0..3 {
+                    for j in 0..3 {
+                        hess[i][j] += v * m[i][j];
+                    }
+                }
+                *grad += g * v;
+            }
+        };
+        // Clockwise around each triangle as seen from the point.
+        let mut row: Vec<(Mat3, Vec3)> = (0..ns - 1)
+            .map(|j| {
+                let f = self.edge(self.at(0, j), self.at(0, j + 1));
+                (self.edge_hessian(&f), self.edge_gradient(&f))
+            })
+            .collect();
+        for i in 0..ns - 1 {
+            let f = self.edge(self.at(i, 0), self.at(i + 1, 0));
+            let (mut hcol, mut gcol) = (self.edge_hessian(&f), self.edge_gradient(&f));
+            for (j, rj) in row.iter_mut().enumerate() {
+                let back = self.back(self.at(i, j), self.at(i, j + 1), self.at(i + 1, j));
+                let f = self.edge(self.at(i, j + 1), self.at(i + 1, j));
+                let (mut hdia, mut gdia) = (self.edge_hessian(&f), self.edge_gradient(&f));
+                neg(&mut hcol);
+                gcol = -gcol;
+                add(
+                    &mut hess,
+                    &mut grad,
+                    [(&rj.0, rj.1), (&hdia, gdia), (&hcol, gcol)],
+                    back,
+                );
+                let f = self.edge(self.at(i + 1, j + 1), self.at(i + 1, j));
+                *rj = (self.edge_hessian(&f), self.edge_gradient(&f));
+                let back = self.back(self.at(i + 1, j + 1), self.at(i + 1, j), self.at(i, j + 1));
+                let f = self.edge(self.at(i, j + 1), self.at(i + 1, j + 1));
+                hcol = self.edge_hessian(&f);
+                gcol = self.edge_gradient(&f);
+                neg(&mut hdia);
+                gdia = -gdia;
+                add(
+                    &mut hess,
+                    &mut grad,
+                    [(&rj.0, rj.1), (&hdia, gdia), (&hcol, gcol)],
+                    back,
+                );
+                if i < ns - 2 {
+                    neg(&mut rj.0);
+                    rj.1 = -rj.1;
+                }
+            }
+        }
+        let (uv, ra) = eigenvectors([ux, uy], &hess, max_radius);
+        let pg = [grad.dot(uv[0]), grad.dot(uv[1])];
+        (uv, ra, pg)
+    }
+
+    /// The rotational gradient along `uv` (`ambdirgrad`).
+    fn direction_gradient(&self, uv: [Vec3; 2]) -> [f64; 2] {
+        let mut g = [0.0; 2];
+        for s in self.samples {
+            let vd = s.p - self.origin;
+            let f = s.y / self.normal.dot(vd);
+            g[0] -= uv[1].dot(vd) * f;
+            g[1] += uv[0].dot(vd) * f;
+        }
+        let n = self.samples.len() as f64;
+        [g[0] / n, g[1] / n]
+    }
+}
+
+/// Real roots of `a x^2 + b x + c` (Radiance's `quadratic`).
+fn quadratic(a: f64, b: f64, c: f64) -> Vec<f64> {
+    let first = if a < -FTINY {
+        1
+    } else if a > FTINY {
+        0
+    } else if b.abs() > FTINY {
+        return vec![-c / b];
+    } else {
+        return Vec::new();
+    };
+    let b = 0.5 * b;
+    let disc = b * b - a * c;
+    if disc < -FTINY * FTINY {
+        return Vec::new();
+    }
+    if disc <= FTINY * FTINY {
+        return vec![-b / a];
+    }
+    let disc = disc.sqrt();
+    let mut r = [0.0; 2];
+    r[first] = (-b - disc) / a;
+    r[1 - first] = (-b + disc) / a;
+    r.to_vec()
+}
+
+/// The Hessian projected on the tangent plane: its eigenvectors and the
+/// radii `(4 / |eigenvalue|)^(1/4)`, the smaller first (`eigenvectors`).
+fn eigenvectors(uv: [Vec3; 2], hess: &Mat3, max_radius: f64) -> ([Vec3; 2], [f64; 2]) {
+    let row = |v: Vec3| {
+        Vec3::new(
+            hess[0][0] * v.x + hess[0][1] * v.y + hess[0][2] * v.z,
+            hess[1][0] * v.x + hess[1][1] * v.y + hess[1][2] * v.z,
+            hess[2][0] * v.x + hess[2][1] * v.y + hess[2][2] * v.z,
+        )
+    };
+    let (a, b) = (row(uv[0]), row(uv[1]));
+    let h00 = uv[0].dot(a);
+    let h01 = uv[0].dot(b);
+    let h10 = uv[1].dot(a);
+    let h11 = uv[1].dot(b);
+    let roots = quadratic(1.0, -h00 - h11, h00 * h11 - h01 * h10);
+    let (e0, e1) = match roots.as_slice() {
+        [r] => (r.abs(), r.abs()),
+        [r0, r1] => (r0.abs(), r1.abs()),
+        _ => return (uv, [max_radius; 2]),
+    };
+    if !(e0 > FTINY * FTINY && e1 > FTINY * FTINY) {
+        return (uv, [max_radius; 2]);
+    }
+    let (ra, slope) = if e0 > e1 {
+        ([(4.0 / e0).sqrt().sqrt(), (4.0 / e1).sqrt().sqrt()], e1)
+    } else {
+        ([(4.0 / e1).sqrt().sqrt(), (4.0 / e0).sqrt().sqrt()], e0)
+    };
+    if h01.abs() <= FTINY {
+        return (uv, ra);
+    }
+    let slope = (slope - h00) / h01;
+    let xmag = (1.0 / (1.0 + slope * slope)).sqrt();
+    let b = uv[0] * xmag + uv[1] * (slope * xmag);
+    let a = uv[0] * (slope * xmag) - uv[1] * xmag;
+    ([a, b], ra)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn concentric_map_fills_the_disk_and_keeps_areas() {
+        // Equal areas of the square map to equal areas of the disk: the
+        // mean squared radius over a fine grid is 1/2.
+        let n = 200;
+        let mut r2 = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                let (x, y) =
+                    square_to_disk((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+                let r = x * x + y * y;
+                assert!(r <= 1.0 + 1e-12);
+                r2 += r;
+            }
+        }
+        assert!((r2 / (n * n) as f64 - 0.5).abs() < 1e-3);
+        assert_eq!(square_to_disk(0.5, 0.5), (0.0, 0.0));
+    }
+
+    #[test]
+    fn quadratic_roots() {
+        assert_eq!(quadratic(1.0, -3.0, 2.0), vec![1.0, 2.0]);
+        assert_eq!(quadratic(1.0, 2.0, 1.0), vec![-1.0]);
+        assert!(quadratic(1.0, 0.0, 1.0).is_empty());
+        assert_eq!(quadratic(0.0, 2.0, -4.0), vec![2.0]);
+    }
+}
