@@ -429,9 +429,15 @@ fn degenerate_hemispheres_give_finite_records_that_serve_their_point() {
         // In a corner: everything at distance zero.
         ("touching", Box::new(|_: &Ray| (Color::ONE, 0.0))),
         // Nothing in sight.
-        ("open sky", Box::new(|_: &Ray| (Color::splat(2.0), f64::INFINITY))),
+        (
+            "open sky",
+            Box::new(|_: &Ray| (Color::splat(2.0), f64::INFINITY)),
+        ),
         // No light at all: the geometric Hessian alone.
-        ("dark", Box::new(|r: &Ray| (Color::ZERO, 1.0 / r.dir.z.max(1e-3)))),
+        (
+            "dark",
+            Box::new(|r: &Ray| (Color::ZERO, 1.0 / r.dir.z.max(1e-3))),
+        ),
         // A few samples without a value.
         (
             "nan",
@@ -443,7 +449,12 @@ fn degenerate_hemispheres_give_finite_records_that_serve_their_point() {
         // Radiance spanning 300 orders of magnitude.
         (
             "extreme",
-            Box::new(|r: &Ray| (Color::splat(if r.dir.x > 0.0 { 1e150 } else { 1e-150 }), 2.0)),
+            Box::new(|r: &Ray| {
+                (
+                    Color::splat(if r.dir.x > 0.0 { 1e150 } else { 1e-150 }),
+                    2.0,
+                )
+            }),
         ),
     ];
     for (name, scene) in cases {
@@ -451,12 +462,21 @@ fn degenerate_hemispheres_give_finite_records_that_serve_their_point() {
         assert!(v.is_finite(), "{name}: {v}");
         let rec = rec.unwrap_or_else(|| panic!("{name}: no record"));
         assert!(
-            rec.radii.iter().all(|r| *r >= s.min_radius * 0.999 && *r <= s.max_radius * 1.001),
+            rec.radii
+                .iter()
+                .all(|r| *r >= s.min_radius * 0.999 && *r <= s.max_radius * 1.001),
             "{name}: {rec:?}"
         );
-        assert!(rec.gpos.iter().chain(&rec.gdir).all(|g| g.is_finite()), "{name}: {rec:?}");
+        assert!(
+            rec.gpos.iter().chain(&rec.gdir).all(|g| g.is_finite()),
+            "{name}: {rec:?}"
+        );
         let mut c = AmbientCache::default();
         c.insert(&s, rec);
-        assert_eq!(c.lookup(&s, rec.point, rec.normal, 0, 1.0), Some(rec.value), "{name}");
+        assert_eq!(
+            c.lookup(&s, rec.point, rec.normal, 0, 1.0),
+            Some(rec.value),
+            "{name}"
+        );
     }
 }
