@@ -425,7 +425,8 @@ fn super_samples_go_where_the_light_changes() {
 fn degenerate_hemispheres_give_finite_records_that_serve_their_point() {
     let o = options(0.1, 256, 64);
     let s = AmbientSettings::new(&o, 10.0);
-    let cases: Vec<(&str, Box<dyn Fn(&Ray) -> (Color, f64)>)> = vec![
+    type Scene = Box<dyn Fn(&Ray) -> (Color, f64)>;
+    let cases: Vec<(&str, Scene)> = vec![
         // In a corner: everything at distance zero.
         ("touching", Box::new(|_: &Ray| (Color::ONE, 0.0))),
         // Nothing in sight.
