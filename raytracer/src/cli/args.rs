@@ -775,9 +775,21 @@ fn view_arity(word: &str) -> Option<usize> {
 /// `--width`, `--height`, `--error-file`), `-i` becomes `--i=+`, and view options
 /// (`-vtv -vp 0 0 1 ...`) are collected into one hidden `--view-words`
 /// argument each. Everything else passes through unchanged. Values are
-/// taken verbatim (a negative number is a value, not an option).
+/// taken verbatim (a negative number is a value, not an option). As in
+/// rpict, a Radiance-style option given twice takes its last value
+/// (`rad` writes `-ps 3 -pt .08 -ps 1`).
 pub fn translate(args: Vec<String>) -> Vec<String> {
     let mut out = Vec::with_capacity(args.len());
+    // Where each Radiance-style option was last written: (first word,
+    // words); an earlier occurrence is dropped when it comes again.
+    let mut seen: std::collections::HashMap<String, (usize, usize)> = Default::default();
+    let mut dropped = vec![false; 0];
+    let mut note = |out: &Vec<String>, dropped: &mut Vec<bool>, key: String, start: usize| {
+        dropped.resize(out.len(), false);
+        if let Some((s0, n)) = seen.insert(key, (start, out.len() - start)) {
+            dropped[s0..s0 + n].iter_mut().for_each(|d| *d = true);
+        }
+    };
     let mut it = args.into_iter().peekable();
     if let Some(prog) = it.next() {
         out.push(prog);
@@ -808,15 +820,19 @@ pub fn translate(args: Vec<String>) -> Vec<String> {
                 .any(|o| o.name == base && o.arity == 0);
             (switch && (last == "+" || last == "-")).then_some((base, last))
         }) {
+            let start = out.len();
             out.push(format!("--{base}={state}"));
+            note(&out, &mut dropped, base.to_string(), start);
             continue;
         }
         if let Some(opt) = name.and_then(|n| RADIANCE_OPTIONS.iter().find(|o| o.name == n)) {
+            let start = out.len();
             if opt.arity == 0 {
                 // A bare switch toggles rpict's default (off for -i, on
                 // for the others).
                 let state = if opt.name == "i" { "+" } else { "-" };
                 out.push(format!("--{}={state}", opt.name));
+                note(&out, &mut dropped, opt.name.to_string(), start);
                 continue;
             }
             out.push(format!("--{}", opt.name));
@@ -825,6 +841,7 @@ pub fn translate(args: Vec<String>) -> Vec<String> {
                     out.push(v);
                 }
             }
+            note(&out, &mut dropped, opt.name.to_string(), start);
         } else if let Some(long) = match a.as_str() {
             "-vf" => Some("--view-file"),
             "-x" => Some("--width"),
@@ -832,10 +849,12 @@ pub fn translate(args: Vec<String>) -> Vec<String> {
             "-e" => Some("--error-file"),
             _ => None,
         } {
+            let start = out.len();
             out.push(long.into());
             if let Some(v) = it.next() {
                 out.push(v);
             }
+            note(&out, &mut dropped, long.to_string(), start);
         } else if let Some(n) = view_arity(&a) {
             let mut words = vec![a];
             for _ in 0..n {
@@ -848,7 +867,11 @@ pub fn translate(args: Vec<String>) -> Vec<String> {
             out.push(a);
         }
     }
-    out
+    dropped.resize(out.len(), false);
+    out.into_iter()
+        .zip(dropped)
+        .filter_map(|(w, d)| (!d).then_some(w))
+        .collect()
 }
 
 /// A byte count with an optional `K`, `M` or `G` suffix (powers of 1024),
@@ -893,7 +916,6 @@ mod tests {
                 "hybrid-rt",
                 "render",
                 "a.rad",
-                "--bv=-",
                 "--ms",
                 "0.27",
                 "--me",
@@ -901,6 +923,53 @@ mod tests {
                 "2",
                 "3",
                 "--bv=+",
+            ])
+        );
+    }
+
+    #[test]
+    fn a_repeated_radiance_option_takes_its_last_value() {
+        assert_eq!(
+            translate(s(&[
+                "hybrid-rt",
+                "render",
+                "a.rad",
+                "-ps",
+                "3",
+                "-pt",
+                ".08",
+                "-ps",
+                "1",
+                "-av",
+                "1",
+                "1",
+                "1",
+                "-bv-",
+                "-x",
+                "8",
+                "-av",
+                "2",
+                "2",
+                "2",
+                "-bv+",
+                "-x",
+                "16"
+            ])),
+            s(&[
+                "hybrid-rt",
+                "render",
+                "a.rad",
+                "--pt",
+                ".08",
+                "--ps",
+                "1",
+                "--av",
+                "2",
+                "2",
+                "2",
+                "--bv=+",
+                "--width",
+                "16"
             ])
         );
     }
