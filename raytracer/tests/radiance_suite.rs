@@ -28,18 +28,16 @@
 //! ours are held to 5%, 6% and 20-35%.
 //!
 //! `glass_up` (the torus from below, its sun highlight, the ceiling lit
-//! only indirectly) gives 0.967 mean and 7.7% nRMSE (Radiance's own
-//! 512-pixel runs: 16-18%); it is held to 4% and 15%. With `-dt 0` it
-//! gives 0.992: most of what is left is adaptive shadow testing, whose
-//! untested light Radiance estimates from hit rates it gathers across all
-//! sources of a point as it renders (here each source's bundle on its own,
-//! see `render::direct`). The irradiance cache, since it follows Radiance
-//! 5 (Hessian radii, gradients), is no longer part of the difference:
-//! with Radiance 3's cache this view gave 0.945 and 12%, its ceiling
-//! blotched 25-50% dark near the window. `glass_fish` waits
-//! (`--ignored`): mean 0.92 with the cache and the same without it (`-aa
-//! 0`): its deficit is not the cache and is not found. The reference's
-//! ambient file (`-af glass.amb`) was shared with the other views' renders.
+//! only indirectly) and `glass_fish` (the room, the sun's streak on the
+//! wall) were 3% and 8% too dark until adaptive shadow testing stopped
+//! counting a sun the point cannot see as light already found (every
+//! other source's full potential was in a bundle's threshold, so the
+//! window went untested at most points ambient rays reach; see
+//! `render::direct`), and 5.5% and 8% before the irradiance cache
+//! followed Radiance 5 (Hessian radii, gradients; Radiance 3's cache
+//! blotched `glass_up`'s ceiling 25-50% dark near the window). The
+//! reference's ambient file (`-af glass.amb`) was shared with the other
+//! views' renders.
 //! Scenes that need files the suite lacks (`sunset.hdr`, `vase.rtm`,
 //! `blinds20c.xml`) are loaded by unit tests, not compared.
 //!
@@ -331,7 +329,10 @@ const GLASS: &[&str] = &[
 ];
 
 #[test]
-#[ignore = "mean 0.921, nRMSE 0.153; the same mean with -aa 0 (no cache): a deficit of 8% not found"]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "renders for minutes unoptimised: scripts/test.sh runs it with --release"
+)]
 fn glass_fish() {
     run(&Case {
         name: "glass_fish",
@@ -341,8 +342,8 @@ fn glass_fish() {
         allowed_warning: Some("sunset.hdr"),
         scale: 2,
         shrink: 1,
-        mean_tol: 0.05,
-        rms_tol: 0.5,
+        mean_tol: 0.02,
+        rms_tol: 0.2,
     });
 }
 
@@ -360,7 +361,7 @@ fn glass_up() {
         allowed_warning: Some("sunset.hdr"),
         scale: 4,
         shrink: 1,
-        mean_tol: 0.04,
+        mean_tol: 0.02,
         rms_tol: 0.15,
     });
 }

@@ -33,6 +33,11 @@ pub(crate) const MAX_SPECULAR_RAYS: usize = 1024;
 pub struct ShadowBundle {
     /// Index into the prepared lights.
     pub light: u32,
+    /// Some other source has a larger potential at this point: Radiance
+    /// would have tested it first, and estimates this source's untested
+    /// light from the hit rates found there (see [`super::direct`]).
+    #[serde(default)]
+    pub brighter: bool,
     /// The surface point and its geometric normal (shadow ray origins are
     /// offset from it to the side each ray leaves through).
     pub point: Vec3,
@@ -40,8 +45,11 @@ pub struct ShadowBundle {
     /// Magnitude the origin offset must cover (see [`offset_origin_scaled`]).
     pub offset_scale: f64,
     pub surface: Surface,
-    /// Brightness already known at this point (ambient term plus the rough
-    /// potential of the *other* sources): the base of the `-dt` threshold.
+    /// Brightness expected at this point before this source is tested:
+    /// the ambient term, plus the rough potential of each brighter source
+    /// times its hit ratio (Radiance tests sources brightest first and
+    /// compares with what the visible ones gave): the base of the `-dt`
+    /// threshold.
     pub reference: f64,
     /// Weight of the ray that hit the point (the threshold is `-dt / weight`).
     pub weight: f64,
@@ -98,9 +106,18 @@ pub struct ShadeContext<'a> {
     pub media: &'a Media,
 }
 
+/// Scratch of [`Emitter::direct`], per source: its rough potential, the
+/// expected light of the sources brighter than it, and the sources in
+/// order of potential.
+#[derive(Default)]
+struct Potentials {
+    pot: Vec<f64>,
+    ahead: Vec<f64>,
+    order: Vec<u32>,
+}
+
 thread_local! {
-    /// Scratch of [`Emitter::direct`]: one rough potential per source.
-    static POTENTIALS: std::cell::RefCell<Vec<f64>> = const { std::cell::RefCell::new(Vec::new()) };
+    static POTENTIALS: std::cell::RefCell<Potentials> = std::cell::RefCell::new(Potentials::default());
 }
 
 /// Writes requests for one hit point; see the module documentation.
@@ -238,22 +255,45 @@ impl Emitter<'_, '_> {
                 brightness(bsdf.coefficient(ctx.scene, s.dir, s.omega) * l.emission(point, &s))
             })
         };
-        POTENTIALS.with_borrow_mut(|pot| {
-            pot.clear();
-            pot.extend(ctx.lights.iter().map(potential));
-            let total: f64 = pot.iter().sum();
-            self.bundles(bsdf, base, total, pot);
+        POTENTIALS.with_borrow_mut(|p| {
+            p.pot.clear();
+            p.pot.extend(ctx.lights.iter().map(potential));
+            // Brightest first (ties by index): each source's reference
+            // holds what the brighter ones are expected to give.
+            p.order.clear();
+            p.order.extend(0..ctx.lights.len() as u32);
+            let pot = &p.pot;
+            p.order.sort_unstable_by(|&a, &b| {
+                pot[b as usize].total_cmp(&pot[a as usize]).then(a.cmp(&b))
+            });
+            p.ahead.clear();
+            p.ahead.resize(pot.len(), 0.0);
+            let mut acc = 0.0;
+            for &k in &p.order {
+                p.ahead[k as usize] = acc;
+                acc += pot[k as usize] * ctx.lights[k as usize].hit_ratio;
+            }
+            let first = p.order.first().map(|&k| k as usize);
+            self.bundles(bsdf, base, &p.pot, &p.ahead, first);
         });
     }
 
-    fn bundles(&mut self, bsdf: &Surface, base: Color, total: f64, potentials: &[f64]) {
+    fn bundles(
+        &mut self,
+        bsdf: &Surface,
+        base: Color,
+        potentials: &[f64],
+        ahead: &[f64],
+        brightest: Option<usize>,
+    ) {
         let ctx = self.ctx;
         let point = self.hit.point;
+        let top = brightest.map_or(0.0, |k| potentials[k]);
         for (i, (l, &own)) in ctx.lights.iter().zip(potentials).enumerate() {
             if !l.may_reach(point) {
                 continue;
             }
-            let others = (total - own).max(0.0);
+            let brighter = brightest != Some(i) && top > 0.0 && top >= own;
             // Seeded by the light's index, not the request's position.
             let mut seed = child_seed(self.task.seed, 0x1_0000 + i as u32);
             if self.salt != 0 {
@@ -265,11 +305,12 @@ impl Emitter<'_, '_> {
             }
             self.out.push(Request::Shadow(ShadowBundle {
                 light: i as u32,
+                brighter,
                 point,
                 normal: self.hit.normal,
                 offset_scale: self.offset_scale,
                 surface,
-                reference: brightness(base) + others,
+                reference: brightness(base) + ahead[i],
                 weight: self.task.weight,
                 seed,
                 clip: self.task.clip,
@@ -403,6 +444,7 @@ pub fn scatter_requests(
                     continue;
                 }
                 out.push(Request::Scatter(ShadowBundle {
+                    brighter: false,
                     light,
                     point,
                     normal: Vec3::ZERO,
