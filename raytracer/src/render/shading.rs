@@ -107,13 +107,15 @@ pub struct ShadeContext<'a> {
 }
 
 /// Scratch of [`Emitter::direct`], per source: its rough potential, the
-/// expected light of the sources brighter than it, and the sources in
-/// order of potential.
+/// expected light of the sources brighter than it, and the sources of
+/// positive potential in order (as sort keys: the potential's bits
+/// inverted above the source's index, so that an integer sort puts the
+/// brightest first and ties in index order).
 #[derive(Default)]
 struct Potentials {
     pot: Vec<f64>,
     ahead: Vec<f64>,
-    order: Vec<u32>,
+    order: Vec<u128>,
 }
 
 thread_local! {
@@ -259,21 +261,32 @@ impl Emitter<'_, '_> {
             p.pot.clear();
             p.pot.extend(ctx.lights.iter().map(potential));
             // Brightest first (ties by index): each source's reference
-            // holds what the brighter ones are expected to give.
+            // holds what the brighter ones are expected to give. Sources
+            // without potential come last (their reference: all of it).
+            // The bits of a positive float order as the float does.
             p.order.clear();
-            p.order.extend(0..ctx.lights.len() as u32);
-            let pot = &p.pot;
-            p.order.sort_unstable_by(|&a, &b| {
-                pot[b as usize].total_cmp(&pot[a as usize]).then(a.cmp(&b))
-            });
+            p.order.extend(
+                p.pot
+                    .iter()
+                    .enumerate()
+                    .filter(|&(_, &v)| v > 0.0)
+                    .map(|(k, &v)| (u128::from(!v.to_bits()) << 32) | k as u128),
+            );
+            p.order.sort_unstable();
             p.ahead.clear();
-            p.ahead.resize(pot.len(), 0.0);
+            p.ahead.resize(p.pot.len(), 0.0);
             let mut acc = 0.0;
-            for &k in &p.order {
-                p.ahead[k as usize] = acc;
-                acc += pot[k as usize] * ctx.lights[k as usize].hit_ratio;
+            for &key in &p.order {
+                let k = key as u32 as usize;
+                p.ahead[k] = acc;
+                acc += p.pot[k] * ctx.lights[k].hit_ratio;
             }
-            let first = p.order.first().map(|&k| k as usize);
+            for (a, &v) in p.ahead.iter_mut().zip(&p.pot) {
+                if v.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                    *a = acc;
+                }
+            }
+            let first = p.order.first().map(|&key| key as u32 as usize);
             self.bundles(bsdf, base, &p.pot, &p.ahead, first);
         });
     }
