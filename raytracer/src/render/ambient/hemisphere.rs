@@ -116,6 +116,14 @@ impl Hemisphere {
         if task.weight < 0.1 * record_weight {
             record_weight = 1.25 * task.weight;
         }
+        // A ray heavier than its level's weight (a reflectance above 1 on
+        // its way): Radiance's record would not serve the very point it
+        // was made for, and a deferred lookup (the parallel renderer's)
+        // would sample it again forever. Such a record carries the ray's
+        // weight.
+        if task.weight > record_weight {
+            record_weight = task.weight;
+        }
         let mut wt = if cached { record_weight } else { task.weight };
         if !cached && o.lw > 0.0 {
             // Avoid sample rays too light to be traced.

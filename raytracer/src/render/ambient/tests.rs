@@ -481,3 +481,28 @@ fn degenerate_hemispheres_give_finite_records_that_serve_their_point() {
         );
     }
 }
+
+#[test]
+fn a_record_serves_the_point_it_was_made_for_whatever_the_ray_weight() {
+    let o = options(0.1, 64, 0);
+    let s = AmbientSettings::new(&o, 10.0);
+    for w in [0.05, 0.3, 1.0, 1.5, 4.0] {
+        let task = RayTask {
+            weight: w,
+            ..primary_at_origin()
+        };
+        let mut h = Hemisphere::new(&s, &o, &task, &request(Vec3::Z)).unwrap();
+        let scene = ceiling(1.0, |_| 1.0);
+        for (d, t) in h.first_pass() {
+            let (c, dist) = scene(&t.ray);
+            h.add(d, c, dist);
+        }
+        let (_, rec) = h.finish(&s);
+        let mut c = AmbientCache::default();
+        c.insert(&s, rec.unwrap());
+        assert!(
+            c.lookup(&s, Vec3::ZERO, Vec3::Z, 0, w).is_some(),
+            "weight {w}"
+        );
+    }
+}
