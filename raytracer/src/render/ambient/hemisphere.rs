@@ -180,15 +180,19 @@ impl Hemisphere {
         (self.ux * dx + self.uy * dy + self.normal * dz).normalize()
     }
 
+    /// The direction through stratum `div` at `(s0, s1)` within it.
+    fn in_stratum(&self, div: usize, s0: f64, s1: f64) -> Vec3 {
+        let ns = self.ns as usize;
+        let (i, j) = (div / ns, div % ns);
+        self.direction((j as f64 + s1) / ns as f64, (i as f64 + s0) / ns as f64)
+    }
+
     /// A jittered direction in stratum `div` for sample `pass` (0 the
     /// first), and the generator it was drawn from.
     fn jittered(&self, div: usize, pass: u32) -> (Vec3, Rng) {
-        let ns = self.ns as usize;
-        let (i, j) = (div / ns, div % ns);
         let mut rng = Rng::new(child_seed(self.seed, (div as u32) | (pass << 24)));
         let (s0, s1) = (rng.next_f64(), rng.next_f64());
-        let dir = self.direction((j as f64 + s1) / ns as f64, (i as f64 + s0) / ns as f64);
-        (dir, rng)
+        (self.in_stratum(div, s0, s1), rng)
     }
 
     /// The first samples' directions, in Radiance's order (last stratum
@@ -215,8 +219,8 @@ impl Hemisphere {
                 if !collides {
                     break;
                 }
-                let (x, y) = (rng.next_f64(), rng.next_f64());
-                dir = self.direction((j as f64 + y) / ns as f64, (i as f64 + x) / ns as f64);
+                let (s0, s1) = (rng.next_f64(), rng.next_f64());
+                dir = self.in_stratum(div, s0, s1);
             }
             dirs[div] = dir;
             seeds[div] = rng.next_u64();
@@ -257,11 +261,18 @@ impl Hemisphere {
         self.sums[k] / self.counts[k].max(1) as f64
     }
 
+    /// Brightness of each stratum's mean so far.
+    fn brightnesses(&self) -> Vec<f64> {
+        (0..self.sums.len())
+            .map(|k| brightness(self.mean(k)))
+            .collect()
+    }
+
     /// Radiance's estimate of each stratum's variance from its neighbours
     /// (`getambdiffs`).
     fn differences(&self) -> Vec<f64> {
         let ns = self.ns as usize;
-        let b: Vec<f64> = (0..ns * ns).map(|k| brightness(self.mean(k))).collect();
+        let b = self.brightnesses();
         let mut e = vec![0.0; ns * ns];
         let pair = |e: &mut Vec<f64>, k0: usize, k1: usize| {
             let s = b[k0] + b[k1];
@@ -368,7 +379,8 @@ impl Hemisphere {
             return (value, None);
         }
         let far = 10.0 * s.scene_size + 1000.0;
-        let total: f64 = (0..n).map(|k| brightness(self.mean(k))).sum();
+        let b = self.brightnesses();
+        let total: f64 = b.iter().sum();
         // Relative brightness (Radiance's normalised Y channel); without
         // light, the geometric Hessian alone.
         let lit = AVGREFL * total / n as f64 > FTINY;
@@ -378,7 +390,7 @@ impl Hemisphere {
                 let dist = self.first_dist[k].clamp(FTINY, far);
                 Sample {
                     y: if lit {
-                        0.99 * n as f64 * brightness(self.mean(k)) / total + 0.01
+                        0.99 * n as f64 * b[k] / total + 0.01
                     } else {
                         1.0
                     },
@@ -504,11 +516,22 @@ fn compose(va: Vec3, vb: Vec3) -> Mat3 {
     m
 }
 
-fn neg(m: &mut Mat3) {
-    for row in m.iter_mut() {
-        for x in row.iter_mut() {
-            *x = -*x;
+/// An edge's share of the Hessian and of the translational gradient.
+#[derive(Clone, Copy)]
+struct Terms {
+    h: Mat3,
+    g: Vec3,
+}
+
+impl Terms {
+    /// The same edge walked the other way.
+    fn reverse(&mut self) {
+        for row in self.h.iter_mut() {
+            for x in row.iter_mut() {
+                *x = -*x;
+            }
         }
+        self.g = -self.g;
     }
 }
 
@@ -594,61 +617,51 @@ impl Grid<'_> {
         (ncp * f.i1 + f.ri2_ej2 * f1) * (0.5 / PI)
     }
 
+    /// Edge `n0`-`n1`'s terms.
+    fn terms(&self, n0: usize, n1: usize) -> Terms {
+        let f = self.edge(n0, n1);
+        Terms {
+            h: self.edge_hessian(&f),
+            g: self.edge_gradient(&f),
+        }
+    }
+
     /// The Hessian's axes in the tangent plane and the radii along them,
     /// and the translational gradient along those axes (`ambHessian`).
     fn hessian(&self, ux: Vec3, uy: Vec3, max_radius: f64) -> ([Vec3; 2], [f64; 2], [f64; 2]) {
         let ns = self.ns;
         let mut hess = [[0.0; 3]; 3];
         let mut grad = Vec3::ZERO;
-        let add = |hess: &mut Mat3, grad: &mut Vec3, e: [(&Mat3, Vec3); 3], v: f64| {
-            for (m, g) in e {
-                for i in 0..3 {
-                    for j in 0..3 {
-                        hess[i][j] += v * m[i][j];
+        // A triangle's three edges, weighted by its farthest sample's
+        // brightness.
+        let mut add = |edges: [&Terms; 3], v: f64| {
+            for e in edges {
+                for (row, erow) in hess.iter_mut().zip(&e.h) {
+                    for (x, ex) in row.iter_mut().zip(erow) {
+                        *x += v * ex;
                     }
                 }
-                *grad += g * v;
+                grad += e.g * v;
             }
         };
         // Clockwise around each triangle as seen from the point.
-        let mut row: Vec<(Mat3, Vec3)> = (0..ns - 1)
-            .map(|j| {
-                let f = self.edge(self.at(0, j), self.at(0, j + 1));
-                (self.edge_hessian(&f), self.edge_gradient(&f))
-            })
+        let mut row: Vec<Terms> = (0..ns - 1)
+            .map(|j| self.terms(self.at(0, j), self.at(0, j + 1)))
             .collect();
         for i in 0..ns - 1 {
-            let f = self.edge(self.at(i, 0), self.at(i + 1, 0));
-            let (mut hcol, mut gcol) = (self.edge_hessian(&f), self.edge_gradient(&f));
+            let mut col = self.terms(self.at(i, 0), self.at(i + 1, 0));
             for (j, rj) in row.iter_mut().enumerate() {
                 let back = self.back(self.at(i, j), self.at(i, j + 1), self.at(i + 1, j));
-                let f = self.edge(self.at(i, j + 1), self.at(i + 1, j));
-                let (mut hdia, mut gdia) = (self.edge_hessian(&f), self.edge_gradient(&f));
-                neg(&mut hcol);
-                gcol = -gcol;
-                add(
-                    &mut hess,
-                    &mut grad,
-                    [(&rj.0, rj.1), (&hdia, gdia), (&hcol, gcol)],
-                    back,
-                );
-                let f = self.edge(self.at(i + 1, j + 1), self.at(i + 1, j));
-                *rj = (self.edge_hessian(&f), self.edge_gradient(&f));
+                let mut dia = self.terms(self.at(i, j + 1), self.at(i + 1, j));
+                col.reverse();
+                add([rj, &dia, &col], back);
+                *rj = self.terms(self.at(i + 1, j + 1), self.at(i + 1, j));
                 let back = self.back(self.at(i + 1, j + 1), self.at(i + 1, j), self.at(i, j + 1));
-                let f = self.edge(self.at(i, j + 1), self.at(i + 1, j + 1));
-                hcol = self.edge_hessian(&f);
-                gcol = self.edge_gradient(&f);
-                neg(&mut hdia);
-                gdia = -gdia;
-                add(
-                    &mut hess,
-                    &mut grad,
-                    [(&rj.0, rj.1), (&hdia, gdia), (&hcol, gcol)],
-                    back,
-                );
+                col = self.terms(self.at(i, j + 1), self.at(i + 1, j + 1));
+                dia.reverse();
+                add([rj, &dia, &col], back);
                 if i < ns - 2 {
-                    neg(&mut rj.0);
-                    rj.1 = -rj.1;
+                    rj.reverse();
                 }
             }
         }
