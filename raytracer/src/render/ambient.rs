@@ -145,6 +145,28 @@ pub struct AmbientRecord {
     pub gdir: [f64; 2],
     pub level: u32,
     pub weight: f64,
+    /// Directions around the point, in 32 sectors of the tangent plane
+    /// counted from `u` towards `v`, in which the hemisphere met an
+    /// occluder closer than the record reaches (Radiance's `corral`): a
+    /// lookup from such a direction first checks that nothing opaque
+    /// stands between it and the record ([`AmbientRecord::leak_test`]).
+    #[serde(default)]
+    pub corral: u32,
+}
+
+/// `cos(70 degrees)^2`: the leak test aims 20 degrees above the plane.
+const COS70SQ: f64 = 0.116_977_8;
+
+/// What checking a record for a light leak needs (Radiance's `plugaleak`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LeakTest {
+    /// The record may serve the point.
+    Keep,
+    /// It may not (the test ray could not be aimed).
+    Plug,
+    /// It may if nothing opaque crosses this ray from the lookup point
+    /// (unit direction, length).
+    Trace(Vec3, f64),
 }
 
 /// Radiance's starting angle limit: 10 degrees (plus `-aa` radians).
@@ -154,6 +176,50 @@ impl AmbientRecord {
     /// The second tangent axis.
     pub fn v(&self) -> Vec3 {
         self.normal.cross(self.u)
+    }
+
+    /// The leak test for a lookup at `p` with normal `n` (Radiance's
+    /// `plugaleak`): where the record's corral flags the direction of `p`,
+    /// a ray from `p` aimed past the record's point, 20 degrees above
+    /// the lookup's tangent plane, must not meet an opaque surface.
+    pub fn leak_test(&self, p: Vec3, n: Vec3) -> LeakTest {
+        if self.corral == 0 {
+            return LeakTest::Keep;
+        }
+        let ck = p - self.point;
+        if ck.length() <= 1e-9 * self.radii[0] {
+            // The record's own point (where Radiance's test ray cannot be
+            // aimed and it would plug): a record always serves it.
+            return LeakTest::Keep;
+        }
+        let mut ang = ck.dot(self.v()).atan2(ck.dot(self.u));
+        if ang < 0.0 {
+            ang += 2.0 * PI;
+        }
+        let sector = ((ang * (16.0 / PI)) as u32).min(31);
+        if (self.corral >> sector) & 1 == 0 {
+            return LeakTest::Keep;
+        }
+        let vdif = self.point - p;
+        let normdot = self.normal.dot(n);
+        let ndotd = vdif.dot(n);
+        let nadotd = vdif.dot(self.normal);
+        let a = normdot * normdot - COS70SQ;
+        let b = 2.0 * (normdot * ndotd - nadotd * COS70SQ);
+        let c = ndotd * ndotd - vdif.length_squared() * COS70SQ;
+        let t = quadratic(a, b, c);
+        if t.len() != 2 {
+            return LeakTest::Plug;
+        }
+        if t[1] <= FTINY {
+            return LeakTest::Keep;
+        }
+        let dir = vdif + self.normal * t[1];
+        let len = dir.length();
+        if !(len > 0.0 && len.is_finite()) {
+            return LeakTest::Keep;
+        }
+        LeakTest::Trace(dir / len, len)
     }
 
     /// How far the record reaches: no point farther than `a` times this
@@ -290,6 +356,7 @@ impl AmbientCache {
         level: u32,
         weight: f64,
         from: usize,
+        leak: &mut dyn FnMut(Vec3, Vec3, f64) -> bool,
         mut f: impl FnMut(usize, Color, f64),
     ) {
         if s.accuracy <= 0.0 || !p.is_finite() {
@@ -317,15 +384,27 @@ impl AmbientCache {
                 if r.level > level || (r.level == level && r.weight < 0.9 * weight) {
                     continue;
                 }
-                if let Some((v, w)) = r.serve(p, n, s.accuracy, max_angle, s.min_radius) {
-                    f(i, v, w);
+                let Some((v, w)) = r.serve(p, n, s.accuracy, max_angle, s.min_radius) else {
+                    continue;
+                };
+                match r.leak_test(p, n) {
+                    LeakTest::Keep => {}
+                    LeakTest::Plug => continue,
+                    LeakTest::Trace(dir, len) => {
+                        if leak(p, dir, len) {
+                            continue;
+                        }
+                    }
                 }
+                f(i, v, w);
             }
         }
     }
 
     /// The interpolated value at `p` for a ray of ambient level `level`
-    /// and weight `weight`, or `None` if no record qualifies.
+    /// and weight `weight`, or `None` if no record qualifies; a record
+    /// whose leak test traces a ray counts as occluded where nothing is
+    /// (see [`AmbientCache::lookup_plugged`]).
     pub fn lookup(
         &self,
         s: &AmbientSettings,
@@ -334,9 +413,25 @@ impl AmbientCache {
         level: u32,
         weight: f64,
     ) -> Option<Color> {
+        self.lookup_plugged(s, p, n, level, weight, &mut |_, _, _| false)
+    }
+
+    /// [`AmbientCache::lookup`] where `occluded(origin, unit direction,
+    /// length)` answers the leak tests of records that met occluders
+    /// nearby ([`AmbientRecord::leak_test`]): true if an opaque surface
+    /// crosses that segment.
+    pub fn lookup_plugged(
+        &self,
+        s: &AmbientSettings,
+        p: Vec3,
+        n: Vec3,
+        level: u32,
+        weight: f64,
+        occluded: &mut dyn FnMut(Vec3, Vec3, f64) -> bool,
+    ) -> Option<Color> {
         let mut sum = Color::ZERO;
         let mut wsum = 0.0;
-        self.candidates(s, p, n, level, weight, 0, |_, v, w| {
+        self.candidates(s, p, n, level, weight, 0, occluded, |_, v, w| {
             sum += v * w;
             wsum += w;
         });
@@ -355,7 +450,16 @@ impl AmbientCache {
         from: usize,
     ) -> bool {
         let mut wsum = 0.0;
-        self.candidates(s, p, n, level, weight, from, |_, _, w| wsum += w);
+        self.candidates(
+            s,
+            p,
+            n,
+            level,
+            weight,
+            from,
+            &mut |_, _, _| false,
+            |_, _, w| wsum += w,
+        );
         wsum > FTINY
     }
 
@@ -400,6 +504,7 @@ impl Default for AmbientStore {
 }
 
 impl AmbientStore {
+    /// [`AmbientCache::lookup_plugged`].
     pub fn lookup(
         &self,
         s: &AmbientSettings,
@@ -407,13 +512,14 @@ impl AmbientStore {
         n: Vec3,
         level: u32,
         weight: f64,
+        occluded: &mut dyn FnMut(Vec3, Vec3, f64) -> bool,
     ) -> Option<Color> {
         match self {
-            AmbientStore::Local(c) => c.lookup(s, p, n, level, weight),
+            AmbientStore::Local(c) => c.lookup_plugged(s, p, n, level, weight, occluded),
             AmbientStore::Shared(c) => c
                 .read()
                 .unwrap_or_else(|e| e.into_inner())
-                .lookup(s, p, n, level, weight),
+                .lookup_plugged(s, p, n, level, weight, occluded),
         }
     }
 
@@ -435,6 +541,32 @@ impl AmbientStore {
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
+}
+
+/// Real roots of `a x^2 + b x + c` (Radiance's `quadratic`).
+fn quadratic(a: f64, b: f64, c: f64) -> Vec<f64> {
+    let first = if a < -FTINY {
+        1
+    } else if a > FTINY {
+        0
+    } else if b.abs() > FTINY {
+        return vec![-c / b];
+    } else {
+        return Vec::new();
+    };
+    let b = 0.5 * b;
+    let disc = b * b - a * c;
+    if disc < -FTINY * FTINY {
+        return Vec::new();
+    }
+    if disc <= FTINY * FTINY {
+        return vec![-b / a];
+    }
+    let disc = disc.sqrt();
+    let mut r = [0.0; 2];
+    r[first] = (-b - disc) / a;
+    r[1 - first] = (-b + disc) / a;
+    r.to_vec()
 }
 
 #[cfg(test)]

@@ -20,7 +20,7 @@ use super::stats::{EffectTimes, RayCounts, RenderStats, Timings};
 use super::virtual_source::prepare_lights_relayed;
 use crate::accel::{Bvh, Octree, OctreeParams};
 use crate::geometry::FTINY;
-use crate::geometry::{Ray, Vec3};
+use crate::geometry::{offset_origin_scaled, Ray, Vec3};
 use crate::image::Film;
 use crate::scene::{Color, LightKind, Material, MaterialId, Scene};
 use crate::{Error, Result};
@@ -569,10 +569,15 @@ impl<'s> Renderer<'s> {
     fn ambient_value(&self, task: &RayTask, req: &AmbientRequest, st: &mut TraceState) -> Color {
         let s = &self.ambient;
         st.counts.ambient_cache.lookups += 1;
-        if let Some(v) = st
-            .ambient
-            .lookup(s, req.point, req.normal, task.ambient, task.weight)
-        {
+        let mut occluded = |p: Vec3, dir: Vec3, len: f64| self.leak_occluded(req, p, dir, len);
+        if let Some(v) = st.ambient.lookup(
+            s,
+            req.point,
+            req.normal,
+            task.ambient,
+            task.weight,
+            &mut occluded,
+        ) {
             st.counts.ambient_cache.hits += 1;
             return v;
         }
@@ -598,6 +603,36 @@ impl<'s> Renderer<'s> {
             st.ambient.insert(s, rec);
         }
         value
+    }
+
+    /// Radiance's leak test (`plugaleak`): whether an opaque surface
+    /// crosses the segment of length `len` from the lookup point `p` along
+    /// `dir`. Nominally transparent surfaces (Radiance's `T_TRANSP` types:
+    /// glass, dielectrics, `trans` and the like, mist, antimatter) are
+    /// passed whatever they transmit.
+    fn leak_occluded(&self, req: &AmbientRequest, p: Vec3, dir: Vec3, len: f64) -> bool {
+        const MAX_SEGMENTS: usize = 64;
+        let caster = self.caster();
+        let mut ray = Ray::new(
+            offset_origin_scaled(p, req.normal, dir, req.offset_scale),
+            dir,
+        );
+        let mut remaining = len;
+        for _ in 0..MAX_SEGMENTS {
+            let Some(hit) = caster.intersect(&ray, 0.0, remaining) else {
+                return false;
+            };
+            if !nominally_transparent(self.scene.material(hit.material())) {
+                return true;
+            }
+            remaining -= hit.t;
+            if remaining.is_nan() || remaining <= 0.0 {
+                return false;
+            }
+            ray.origin =
+                offset_origin_scaled(hit.point, hit.normal, dir, req.offset_scale.max(hit.t));
+        }
+        false
     }
 
     /// What a ray that leaves the scene brings back: [`Self::sky`] through
@@ -925,4 +960,25 @@ pub fn check_resolution(width: usize, height: usize) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+/// Radiance's `istransp`: the material types whose surfaces a leak test
+/// looks through, whatever they transmit.
+fn nominally_transparent(m: &Material) -> bool {
+    use crate::scene::{AnisoKind, BrdfFamily};
+    match m {
+        Material::Trans { .. }
+        | Material::Glass { .. }
+        | Material::Dielectric { .. }
+        | Material::Interface { .. }
+        | Material::Prism { .. }
+        | Material::Antimatter { .. }
+        | Material::Illum { .. }
+        | Material::Mist { .. }
+        | Material::Brtd { .. }
+        | Material::Bsdf { .. } => true,
+        Material::Aniso { kind, .. } => *kind == AnisoKind::Trans2,
+        Material::BrdfFunc { family, .. } => *family == BrdfFamily::Trans,
+        _ => false,
+    }
 }

@@ -24,7 +24,7 @@ use std::f64::consts::PI;
 
 use serde::{Deserialize, Serialize};
 
-use super::{AmbientRecord, AmbientRequest, AmbientSettings, AVGREFL, MINADIV};
+use super::{quadratic, AmbientRecord, AmbientRequest, AmbientSettings, AVGREFL, MINADIV};
 use crate::geometry::robust::orthonormal_basis;
 use crate::geometry::FTINY;
 use crate::geometry::{offset_origin_scaled, Ray, Vec3};
@@ -441,6 +441,12 @@ impl Hemisphere {
                 ra[0] = s.max_radius;
             }
         }
+        // Directions of nearby occluders (with light only, as Radiance).
+        let mut corral = if lit {
+            grid.corral(uv, ra[0] * s.accuracy, ra[1] * s.accuracy, s)
+        } else {
+            0
+        };
         let d = pg[0] * pg[0] * ra[0] * ra[0] + pg[1] * pg[1] * ra[1] * ra[1];
         if d > 1.0 {
             let d = 1.0 / d.sqrt();
@@ -457,6 +463,7 @@ impl Hemisphere {
             pg = [0.0; 2];
             dg = [0.0; 2];
             u = self.ux;
+            corral = 0;
         }
         let record = AmbientRecord {
             point: self.point,
@@ -468,6 +475,7 @@ impl Hemisphere {
             gdir: dg,
             level: self.level,
             weight: self.record_weight,
+            corral,
         };
         (value, Some(record))
     }
@@ -538,6 +546,60 @@ impl Terms {
 impl Grid<'_> {
     fn at(&self, i: usize, j: usize) -> usize {
         i * self.ns + j
+    }
+
+    /// The sectors of the tangent plane (32, counted from `uv[0]` towards
+    /// `uv[1]`) in which a sample on the hemisphere's rim met an occluder
+    /// inside the ellipse of radii `r0`, `r1` (the record's radii times
+    /// the accuracy): Radiance's `ambcorral`. None where the hemisphere
+    /// has few strata, or where its ceiling is too low or too near for
+    /// the test to mean anything.
+    fn corral(&self, uv: [Vec3; 2], r0: f64, r1: f64, s: &AmbientSettings) -> u32 {
+        let ns = self.ns;
+        if ns < 8 {
+            return 0;
+        }
+        let max_d = 1.0 / (s.min_radius * s.accuracy + 0.001);
+        let ang_res = 0.5 * PI / ns as f64;
+        let ang_step = ang_res / ((16.0 / PI * ang_res) as i64 as f64 + 1.01);
+        // The mean reciprocal distance overhead (the middle half).
+        let mut avg_d = 0.0;
+        for i in (ns / 4..ns * 3 / 4).rev() {
+            for j in (ns / 4..ns * 3 / 4).rev() {
+                avg_d += self.samples[self.at(i, j)].inv_dist;
+            }
+        }
+        avg_d *= 4.0 / (ns * ns) as f64;
+        if avg_d * r0 >= 1.0 || avg_d >= max_d {
+            return 0;
+        }
+        let mut flags = 0u64;
+        for i in 0..ns {
+            let step = if i == 0 || i == ns - 1 { 1 } else { ns - 1 };
+            for j in (0..ns).step_by(step) {
+                let sample = &self.samples[self.at(i, j)];
+                let d = sample.inv_dist;
+                if d <= FTINY || d >= max_d {
+                    continue; // too far or too near
+                }
+                let vec = sample.p - self.origin;
+                let (u, v) = (vec.dot(uv[0]), vec.dot(uv[1]));
+                if (r0 * r0 * u * u + r1 * r1 * v * v) * d * d <= u * u + v * v {
+                    continue; // the occluder is outside the ellipse
+                }
+                let ang = v.atan2(u);
+                let mut a1 = ang - ang_res;
+                while a1 <= ang + ang_res {
+                    let sector = (16.0 / PI * (a1 + if a1 < 0.0 { 2.0 * PI } else { 0.0 })) as i64;
+                    // Radiance's 32-bit flags keep sectors 0 to 31.
+                    if (0..32).contains(&sector) {
+                        flags |= 1 << sector;
+                    }
+                    a1 += ang_step;
+                }
+            }
+        }
+        flags as u32
     }
 
     /// Brightness of the farthest of three samples.
@@ -682,32 +744,6 @@ impl Grid<'_> {
         let n = self.samples.len() as f64;
         [g[0] / n, g[1] / n]
     }
-}
-
-/// Real roots of `a x^2 + b x + c` (Radiance's `quadratic`).
-fn quadratic(a: f64, b: f64, c: f64) -> Vec<f64> {
-    let first = if a < -FTINY {
-        1
-    } else if a > FTINY {
-        0
-    } else if b.abs() > FTINY {
-        return vec![-c / b];
-    } else {
-        return Vec::new();
-    };
-    let b = 0.5 * b;
-    let disc = b * b - a * c;
-    if disc < -FTINY * FTINY {
-        return Vec::new();
-    }
-    if disc <= FTINY * FTINY {
-        return vec![-b / a];
-    }
-    let disc = disc.sqrt();
-    let mut r = [0.0; 2];
-    r[first] = (-b - disc) / a;
-    r[1 - first] = (-b + disc) / a;
-    r.to_vec()
 }
 
 /// The Hessian projected on the tangent plane: its eigenvectors and the

@@ -32,6 +32,7 @@ fn rec(p: Vec3, r: f64, v: f64) -> AmbientRecord {
         gdir: [0.0; 2],
         level: 0,
         weight: 1.0,
+        corral: 0,
     }
 }
 
@@ -504,5 +505,101 @@ fn a_record_serves_the_point_it_was_made_for_whatever_the_ray_weight() {
             c.lookup(&s, Vec3::ZERO, Vec3::Z, 0, w).is_some(),
             "weight {w}"
         );
+    }
+}
+
+#[test]
+fn the_leak_test_aims_20_degrees_above_the_plane_over_the_record() {
+    let mut r = rec(Vec3::ZERO, 1.0, 1.0);
+    assert_eq!(r.leak_test(Vec3::X, Vec3::Z), LeakTest::Keep, "no corral");
+    r.corral = u32::MAX;
+    let LeakTest::Trace(dir, len) = r.leak_test(Vec3::new(0.5, 0.2, 0.0), Vec3::Z) else {
+        panic!("expected a test ray");
+    };
+    assert!((dir.length() - 1.0).abs() < 1e-12);
+    assert!((dir.z - (70f64).to_radians().cos()).abs() < 1e-6, "{dir:?}");
+    // It ends straight above the record's point.
+    let end = Vec3::new(0.5, 0.2, 0.0) + dir * len;
+    assert!(
+        end.x.abs() < 1e-9 && end.y.abs() < 1e-9 && end.z > 0.0,
+        "{end:?}"
+    );
+    // Only the flagged sectors test: +x is sector 0, +y sector 8.
+    r.corral = 1 << 8;
+    assert_eq!(r.leak_test(Vec3::X, Vec3::Z), LeakTest::Keep);
+    assert!(matches!(r.leak_test(Vec3::Y, Vec3::Z), LeakTest::Trace(..)));
+    // At the record's own point there is nothing to test.
+    r.corral = u32::MAX;
+    assert_eq!(r.leak_test(Vec3::ZERO, Vec3::Z), LeakTest::Keep);
+}
+
+#[test]
+fn a_low_wall_beside_a_hemisphere_keeps_its_record_on_its_own_side() {
+    // A low wall (the plane x = 0.3, 0.05 high) beside a point under a
+    // high ceiling: a few rim samples meet it inside the record's reach
+    // (it hardly changes the Hessian), so the record flags directions
+    // towards +x, and a lookup beyond the wall is served only if its test
+    // ray, which the wall crosses, is clear.
+    let mut o = options(0.2, 512, 128);
+    o.ar = 256;
+    let s = AmbientSettings::new(&o, 16.0);
+    let (_, r) = sample(&s, &o, ceiling_and_wall(4.0, 0.3, 0.05));
+    let r = r.unwrap();
+    let centre = |k: u32| {
+        let a = (k as f64 + 0.5) * PI / 16.0;
+        r.u * a.cos() + r.v() * a.sin()
+    };
+    let flagged: Vec<u32> = (0..32).filter(|k| r.corral >> k & 1 != 0).collect();
+    assert!(!flagged.is_empty());
+    assert!(
+        flagged.iter().all(|&k| centre(k).x > 0.0),
+        "{:032b}",
+        r.corral
+    );
+    let toward = centre(
+        *flagged
+            .iter()
+            .max_by(|a, b| centre(**a).x.total_cmp(&centre(**b).x))
+            .unwrap(),
+    );
+    let beyond = toward * (0.32 / toward.x);
+    let mut c = AmbientCache::default();
+    c.insert(&s, r);
+    let mut wall = |p: Vec3, d: Vec3, len: f64| {
+        d.x < 0.0 && p.x > 0.3 && {
+            let t = (0.3 - p.x) / d.x;
+            t < len && p.z + d.z * t <= 0.05
+        }
+    };
+    assert!(
+        c.lookup(&s, beyond, Vec3::Z, 0, 1.0).is_some(),
+        "served where nothing is in the way"
+    );
+    assert!(c
+        .lookup_plugged(&s, beyond, Vec3::Z, 0, 1.0, &mut wall)
+        .is_none());
+    // On the open side nothing is tested.
+    let open = -beyond;
+    let mut never = |_: Vec3, _: Vec3, _: f64| -> bool { panic!("no test ray expected") };
+    assert!(c
+        .lookup_plugged(&s, open, Vec3::Z, 0, 1.0, &mut never)
+        .is_some());
+}
+
+/// A ceiling at height `h` and a wall (the plane x = `w`, up to height
+/// `hw`), both of radiance 1.
+fn ceiling_and_wall(h: f64, w: f64, hw: f64) -> impl Fn(&Ray) -> (Color, f64) {
+    move |r: &Ray| {
+        let mut t = f64::INFINITY;
+        if r.dir.z > 0.0 {
+            t = (h - r.origin.z) / r.dir.z;
+        }
+        if r.dir.x > 0.0 {
+            let tw = (w - r.origin.x) / r.dir.x;
+            if tw < t && r.origin.z + r.dir.z * tw <= hw {
+                t = tw;
+            }
+        }
+        (Color::ONE, t)
     }
 }
