@@ -251,3 +251,45 @@ fn a_tiny_sweep_finds_a_front() {
     assert!(report.to_markdown().contains("**yes**"));
     assert!(report.chart().to_svg().unwrap().starts_with("<svg"));
 }
+
+#[test]
+fn an_ambient_file_carries_the_cache_to_the_next_render() {
+    // Radiance's `-af`: the second render of the same view reads the
+    // first one's records from the file and samples (almost) no new
+    // hemisphere; its picture differs only by the file's precision.
+    use hybrid_rt::render::ambient::{append_ambient_file, read_ambient_file};
+    let s = scene(RADIANCE_CORNELL);
+    let v = view(RADIANCE_CORNELL_VIEW);
+    let o = RenderOptions {
+        ab: 1,
+        aa: 0.2,
+        ar: 64,
+        ad: 64,
+        as_: 16,
+        ..Default::default()
+    };
+    let r = Renderer::new(&s, o.clone()).unwrap();
+    let dir = std::env::temp_dir().join(format!("hybrid-rt-af-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("cornell.amb");
+    let _ = std::fs::remove_file(&path);
+    let (first, st1, cache) = r
+        .render_with_cache(&v, 32, 32, &mut |_| {}, Default::default())
+        .unwrap();
+    let made = st1.rays.ambient_cache.hemispheres;
+    assert!(made > 50, "{made}");
+    append_ambient_file(&path, &o, &cache.records_since(0)).unwrap();
+    let file = read_ambient_file(&path).unwrap();
+    assert_eq!(file.records.len(), cache.len());
+    let (second, st2, _) = r
+        .render_with_cache(&v, 32, 32, &mut |_| {}, r.ambient_cache(&file.records))
+        .unwrap();
+    let again = st2.rays.ambient_cache.hemispheres;
+    assert!(
+        again * 20 < made,
+        "{again} of {made} hemispheres sampled again"
+    );
+    let d = mean_rel_diff(&first, &second);
+    assert!(d < 0.01, "mean difference {d}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -302,13 +302,8 @@ pub struct RadianceArgs {
     /// -dp: virtual source pretest density: accepted, no effect
     #[arg(long = "dp", value_name = "N", allow_hyphen_values = true, hide = true)]
     pub dp: Option<String>,
-    /// -af: ambient file: accepted, no effect (nothing is read or written)
-    #[arg(
-        long = "af",
-        value_name = "FILE",
-        allow_hyphen_values = true,
-        hide = true
-    )]
+    /// -af: ambient file (render): the irradiance cache's records are read from it at the start if it exists, and the render's new ones appended (Radiance 5's format)
+    #[arg(long = "af", value_name = "FILE", allow_hyphen_values = true)]
     pub af: Option<String>,
     /// -u+ / -u-: uncorrelated sampling: accepted, no effect
     #[arg(long = "u", value_name = "+|-", value_enum, hide = true)]

@@ -201,11 +201,20 @@ fn render(a: &RenderArgs) -> Result<()> {
         "scene loaded"
     );
     tracing::debug!(?options, width, height, view = %view.to_options(), "render options");
+    let ambient_file = ambient_file(a, &options)?;
     if let Some(popts) = popts {
         tracing::debug!(?popts, "parallel options");
         if options.ab > 0 {
             return run_ambient_parallel(
-                a, &scene, options, &view, width, height, &popts, exposure, start,
+                a,
+                &scene,
+                options,
+                &view,
+                (width, height),
+                &popts,
+                exposure,
+                start,
+                ambient_file.as_ref(),
             );
         }
         return run_parallel(
@@ -218,10 +227,23 @@ fn render(a: &RenderArgs) -> Result<()> {
     }
     tracing::info!(effects = ?renderer.effects(), "effects");
 
+    let cache = match &ambient_file {
+        Some(f) => renderer.ambient_cache(&f.records),
+        None => Default::default(),
+    };
+    let loaded = cache.len();
     let progress = Progress::start(height as u64, "rows", a.report, width * height >= 64 * 64);
-    let (film, stats) = renderer
-        .render_with_progress(&view, width, height, &mut |rows| progress.set(rows as u64))?;
+    let (film, stats, cache) = renderer.render_with_cache(
+        &view,
+        width,
+        height,
+        &mut |rows| progress.set(rows as u64),
+        cache,
+    )?;
     progress.finish();
+    if let Some(f) = &ambient_file {
+        f.append(renderer.options(), &cache.records_since(loaded))?;
+    }
 
     write_film(a, &film, &view, exposure)?;
     eprintln!(
@@ -469,13 +491,14 @@ fn run_ambient_parallel(
     scene: &scene::Scene,
     options: RenderOptions,
     view: &View,
-    width: usize,
-    height: usize,
+    (width, height): (usize, usize),
     popts: &ParallelOptions,
     exposure: Option<f64>,
     start: Instant,
+    ambient_file: Option<&AmbientFileUse>,
 ) -> Result<()> {
     use crate::parallel::ambient::{render_ambient_parallel_with_progress, AmbientParallelOptions};
+    let file_options = options.clone();
     let mode = a.parallel.hemispheres.into();
     let opts = AmbientParallelOptions {
         procs: popts.procs,
@@ -490,10 +513,14 @@ fn run_ambient_parallel(
         width,
         height,
         &opts,
+        ambient_file.map_or(&[][..], |f| &f.records[..]),
         Some(progress.counter()),
     );
     progress.finish();
     let out = out?;
+    if let Some(f) = ambient_file {
+        f.append(&file_options, &out.new_records)?;
+    }
     eprintln!(
         "parallel inter-reflection: {} processors, hemispheres {}: {:.3} s; {} hemispheres ({} redundant), {} hemisphere rays, {} pixels retraced, {} waits, {:.3} s idle, {} records",
         opts.procs,
@@ -523,4 +550,59 @@ fn run_ambient_parallel(
         write_json(path, &out)?;
     }
     Ok(())
+}
+
+/// Radiance's `-af FILE` for one render: the records it held when the
+/// render started, and where the new ones go.
+#[derive(Debug)]
+struct AmbientFileUse {
+    path: std::path::PathBuf,
+    records: Vec<crate::render::ambient::AmbientRecord>,
+}
+
+impl AmbientFileUse {
+    /// Appends the render's new records (creating the file if needed) and
+    /// says how many.
+    fn append(
+        &self,
+        options: &RenderOptions,
+        records: &[crate::render::ambient::AmbientRecord],
+    ) -> Result<()> {
+        crate::render::ambient::append_ambient_file(&self.path, options, records)?;
+        eprintln!(
+            "ambient file {}: {} records read, {} added",
+            self.path.display(),
+            self.records.len(),
+            records.len()
+        );
+        Ok(())
+    }
+}
+
+/// `-af FILE`: its records if it exists (read as Radiance does: a damaged
+/// record ends the reading with a warning). Nothing where the render keeps
+/// no cache (`-ab 0` or `-aa 0`, where Radiance does not open the file
+/// either), with a warning.
+fn ambient_file(a: &RenderArgs, options: &RenderOptions) -> Result<Option<AmbientFileUse>> {
+    let Some(name) = &a.radiance.af else {
+        return Ok(None);
+    };
+    if options.ab == 0 || options.aa <= 0.0 {
+        eprintln!(
+            "warning: -af {name}: not opened (no irradiance cache with -ab {} -aa {})",
+            options.ab, options.aa
+        );
+        return Ok(None);
+    }
+    let path = std::path::PathBuf::from(name);
+    let records = if path.exists() {
+        let file = crate::render::ambient::read_ambient_file(&path)?;
+        for w in &file.warnings {
+            eprintln!("warning: {w}");
+        }
+        file.records
+    } else {
+        Vec::new()
+    };
+    Ok(Some(AmbientFileUse { path, records }))
 }

@@ -43,7 +43,7 @@ use serde::Serialize;
 
 use crate::accel::OctreeParams;
 use crate::image::Film;
-use crate::render::ambient::{AmbientCache, AmbientStore, Hemisphere};
+use crate::render::ambient::{AmbientCache, AmbientRecord, AmbientStore, Hemisphere};
 use crate::render::{check_resolution, RayCounts, RayTask, RenderOptions, Renderer, TraceState};
 use crate::scene::{Color, Scene, View};
 use crate::{Error, Result};
@@ -130,6 +130,9 @@ pub struct AmbientParallelReport {
     pub idle_s: f64,
     /// Records in the cache at the end.
     pub records: usize,
+    /// The records this render added (after the `initial` ones).
+    #[serde(skip)]
+    pub new_records: Vec<AmbientRecord>,
     /// Rays by kind over all processors (retraced pixels included).
     pub rays: RayCounts,
     /// The effects the render simulated, and why.
@@ -418,11 +421,13 @@ pub fn render_ambient_parallel(
     height: usize,
     opts: &AmbientParallelOptions,
 ) -> Result<AmbientParallelReport> {
-    render_ambient_parallel_with_progress(scene, options, view, width, height, opts, None)
+    render_ambient_parallel_with_progress(scene, options, view, width, height, opts, &[], None)
 }
 
-/// [`render_ambient_parallel`] counting finished pixels into `progress`
-/// while it runs (the picture is the same).
+/// [`render_ambient_parallel`] with the cache starting from `initial`
+/// (records of an earlier render, Radiance's `-af`), counting finished
+/// pixels into `progress` while it runs (the picture is the same).
+#[allow(clippy::too_many_arguments)]
 pub fn render_ambient_parallel_with_progress(
     scene: &Scene,
     options: RenderOptions,
@@ -430,6 +435,7 @@ pub fn render_ambient_parallel_with_progress(
     width: usize,
     height: usize,
     opts: &AmbientParallelOptions,
+    initial: &[AmbientRecord],
     progress: Option<Arc<AtomicU64>>,
 ) -> Result<AmbientParallelReport> {
     check_resolution(width, height)?;
@@ -442,7 +448,12 @@ pub fn render_ambient_parallel_with_progress(
     let renderer = Renderer::with_octree(scene, options, &OctreeParams::default())?;
     let tiles_x = width.div_ceil(opts.tile);
     let tiles_y = height.div_ceil(opts.tile);
-    let cache = Arc::new(RwLock::new(AmbientCache::default()));
+    let mut start = AmbientCache::default();
+    for r in initial {
+        start.insert(renderer.ambient_settings(), *r);
+    }
+    let loaded = start.len();
+    let cache = Arc::new(RwLock::new(start));
     let sh = Shared {
         renderer: &renderer,
         view,
@@ -520,7 +531,10 @@ pub fn render_ambient_parallel_with_progress(
     if o.ps > 1 {
         film = crate::render::adaptive::resample(&film, o.ps, o.pt);
     }
-    let records = cache.read().unwrap_or_else(|e| e.into_inner()).len();
+    let (records, new_records) = {
+        let c = cache.read().unwrap_or_else(|e| e.into_inner());
+        (c.len(), c.records()[loaded.min(c.len())..].to_vec())
+    };
     Ok(AmbientParallelReport {
         film,
         options: opts.clone(),
@@ -532,6 +546,7 @@ pub fn render_ambient_parallel_with_progress(
         waits,
         idle_s: idle.as_secs_f64(),
         records,
+        new_records,
         rays,
         effects: renderer.effects().clone(),
     })

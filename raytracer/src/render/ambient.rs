@@ -52,8 +52,12 @@ use crate::geometry::Vec3;
 use crate::geometry::FTINY;
 use crate::scene::Color;
 
+mod file;
 mod hemisphere;
 
+pub use file::{
+    append_ambient_file, decode_dir, encode_dir, parse_ambient_file, read_ambient_file, AmbientFile,
+};
 pub use hemisphere::Hemisphere;
 
 /// Radiance's assumed average reflectance (`AVGREFL`): ambient sample rays
@@ -540,6 +544,15 @@ impl AmbientStore {
 
     pub fn is_empty(&self) -> bool {
         self.len() == 0
+    }
+
+    /// The records stored from index `from` on, in order.
+    pub fn records_since(&self, from: usize) -> Vec<AmbientRecord> {
+        let tail = |c: &AmbientCache| c.records.get(from..).unwrap_or_default().to_vec();
+        match self {
+            AmbientStore::Local(c) => tail(c),
+            AmbientStore::Shared(c) => tail(&c.read().unwrap_or_else(|e| e.into_inner())),
+        }
     }
 }
 

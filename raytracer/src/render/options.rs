@@ -299,7 +299,7 @@ pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
     RadianceOption {
         name: "af",
         arity: 1,
-        help: "ambient file: accepted, no effect (each render computes its own irradiance cache; nothing is read or written)",
+        help: "ambient file: `hybrid-rt render` reads the irradiance cache's records from it at the start and appends the new ones (Radiance 5's format); elsewhere (option strings, other commands) accepted with no effect",
     },
     RadianceOption {
         name: "u",

@@ -851,9 +851,36 @@ impl<'s> Renderer<'s> {
         height: usize,
         progress: &mut dyn FnMut(usize),
     ) -> Result<(Film, RenderStats)> {
+        let (film, stats, _) =
+            self.render_with_cache(camera, width, height, progress, AmbientStore::default())?;
+        Ok((film, stats))
+    }
+
+    /// An irradiance cache holding `records` (read from an ambient file),
+    /// for [`Renderer::render_with_cache`]; records this render's settings
+    /// reject (no cache at `-aa 0`) are left out.
+    pub fn ambient_cache(&self, records: &[super::ambient::AmbientRecord]) -> AmbientStore {
+        let mut store = AmbientStore::default();
+        for r in records {
+            store.insert(&self.ambient, *r);
+        }
+        store
+    }
+
+    /// [`Renderer::render_with_progress`] starting from the irradiance
+    /// cache `cache` (records of an earlier render, Radiance's `-af`), and
+    /// returning the cache as the render left it.
+    pub fn render_with_cache<C: Camera + ?Sized>(
+        &self,
+        camera: &C,
+        width: usize,
+        height: usize,
+        progress: &mut dyn FnMut(usize),
+        cache: AmbientStore,
+    ) -> Result<(Film, RenderStats, AmbientStore)> {
         check_resolution(width, height)?;
         let mut film = Film::new(width, height);
-        let mut st = TraceState::default();
+        let mut st = TraceState::with_store(cache);
         let t0 = Instant::now();
         if self.options.ps > 1 {
             // Band by band, each grid row filled once.
@@ -871,7 +898,8 @@ impl<'s> Renderer<'s> {
                 progress(done);
             }
             let render_s = t0.elapsed().as_secs_f64();
-            return Ok((film, self.stats(width, height, &st, render_s)));
+            let stats = self.stats(width, height, &st, render_s);
+            return Ok((film, stats, st.ambient));
         }
         for y in 0..height {
             self.render_region(
@@ -890,7 +918,8 @@ impl<'s> Renderer<'s> {
             progress(y + 1);
         }
         let render_s = t0.elapsed().as_secs_f64();
-        Ok((film, self.stats(width, height, &st, render_s)))
+        let stats = self.stats(width, height, &st, render_s);
+        Ok((film, stats, st.ambient))
     }
 
     /// Renders the whole image.

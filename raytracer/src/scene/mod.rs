@@ -26,7 +26,7 @@ mod modstate;
 mod obj;
 mod octfile;
 mod rad;
-mod radbin;
+pub(crate) mod radbin;
 pub mod record;
 mod rtm;
 pub mod view;
