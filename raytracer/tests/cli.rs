@@ -899,13 +899,7 @@ fn obj_scenes_are_framed_automatically() {
 fn enumerated_options_list_every_value() {
     let o = run(&["render", "--help"]);
     let help = String::from_utf8_lossy(&o.stdout);
-    for value in [
-        "replicated",
-        "load-aware",
-        "one-at-a-time",
-        "parsytec-cc",
-        "draft",
-    ] {
+    for value in ["replicated", "load-aware", "parsytec-cc", "draft"] {
         assert!(help.contains(value), "render --help lacks {value}");
     }
     let d = tmpdir("enums");
@@ -926,7 +920,6 @@ fn enumerated_options_list_every_value() {
             &["octree", "predicted", "replicated", "worst"][..],
         ),
         ("--runtime", &["threads", "sequential", "sim", "mpi"][..]),
-        ("--hemispheres", &["one-at-a-time", "extra"][..]),
         ("--quality", &["draft", "normal", "high"][..]),
     ] {
         let o = run(&["render", &rad, "-vf", &vf, flag, "bogus", "-o", "x.png"]);

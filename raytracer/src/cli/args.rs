@@ -130,26 +130,6 @@ impl From<NetworkArg> for hybrid_sched::Network {
     }
 }
 
-/// `--hemispheres`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
-pub enum HemispheresArg {
-    #[default]
-    #[value(aliases = ["one", "wait"])]
-    OneAtATime,
-    #[value(aliases = ["accept-extra", "free"])]
-    Extra,
-}
-
-impl From<HemispheresArg> for crate::parallel::ambient::HemisphereMode {
-    fn from(h: HemispheresArg) -> Self {
-        use crate::parallel::ambient::HemisphereMode as H;
-        match h {
-            HemispheresArg::OneAtATime => H::OneAtATime,
-            HemispheresArg::Extra => H::Extra,
-        }
-    }
-}
-
 /// `--up`: the up axis of an OBJ scene framed automatically.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
 pub enum UpAxis {
@@ -580,16 +560,6 @@ pub struct ParallelArgs {
     /// Worker threads for the threads runtime [default: one per core].
     #[arg(long, value_name = "N", help_heading = "Parallel rendering")]
     pub threads: Option<usize>,
-    /// With -ab: how processors treat the irradiance cache's data dependency: one-at-a-time (wait for the hemisphere in flight) or extra (start hemispheres freely, count the redundant ones).
-    #[arg(
-        long,
-        default_value = "one-at-a-time",
-        value_name = "MODE",
-        value_enum,
-        ignore_case = true,
-        help_heading = "Parallel rendering"
-    )]
-    pub hemispheres: HemispheresArg,
     /// Give up with an error after this many seconds of parallel rendering (under MPI: and end every rank).
     #[arg(
         long = "time-limit",
@@ -742,7 +712,6 @@ const VALUE_FLAGS: &[&str] = &[
     "--threads",
     "--time-limit",
     "--parallel-stats",
-    "--hemispheres",
     "--network",
     "--credits",
     "--flight-bytes",
@@ -1141,8 +1110,6 @@ mod tests {
             "replicated",
             "--network",
             "parsytec",
-            "--hemispheres",
-            "extra",
             "--quality",
             "HIGH",
             "--up",
@@ -1165,10 +1132,6 @@ mod tests {
             hybrid_sched::Network::from(p.network).name,
             hybrid_sched::Network::parsytec_cc().name
         );
-        assert_eq!(
-            crate::parallel::ambient::HemisphereMode::from(p.hemispheres),
-            crate::parallel::ambient::HemisphereMode::Extra
-        );
         assert_eq!(r.radiance.quality, Some(Quality::High));
         assert_eq!(r.up.vector(), -crate::geometry::Vec3::Z);
         // Every canonical spelling parses as the internal type does, and
@@ -1180,10 +1143,6 @@ mod tests {
         for d in DistributionArg::value_variants() {
             let internal: crate::parallel::Distribution = value_name(d).parse().unwrap();
             assert_eq!(internal, crate::parallel::Distribution::from(*d));
-        }
-        for h in HemispheresArg::value_variants() {
-            let internal: crate::parallel::ambient::HemisphereMode = value_name(h).parse().unwrap();
-            assert_eq!(internal, crate::parallel::ambient::HemisphereMode::from(*h));
         }
         for n in NetworkArg::value_variants() {
             let name = value_name(n);
@@ -1214,7 +1173,6 @@ mod tests {
         assert_eq!(d.parallel.policy, PolicyArg::Local);
         assert_eq!(d.parallel.distribution, DistributionArg::Octree);
         assert_eq!(d.parallel.network, NetworkArg::TenGbe);
-        assert_eq!(d.parallel.hemispheres, HemispheresArg::OneAtATime);
         assert_eq!(d.up, UpAxis::Y);
     }
 

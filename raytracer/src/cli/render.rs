@@ -499,12 +499,7 @@ fn run_ambient_parallel(
 ) -> Result<()> {
     use crate::parallel::ambient::{render_ambient_parallel_with_progress, AmbientParallelOptions};
     let file_options = options.clone();
-    let mode = a.parallel.hemispheres.into();
-    let opts = AmbientParallelOptions {
-        procs: popts.procs,
-        mode,
-        tile: a.parallel.tile,
-    };
+    let opts = AmbientParallelOptions { procs: popts.procs };
     let progress = Progress::start((width * height) as u64, "pixels", a.report, true);
     let out = render_ambient_parallel_with_progress(
         scene,
@@ -522,17 +517,8 @@ fn run_ambient_parallel(
         f.append(&file_options, &out.new_records)?;
     }
     eprintln!(
-        "parallel inter-reflection: {} processors, hemispheres {}: {:.3} s; {} hemispheres ({} redundant), {} hemisphere rays, {} pixels retraced, {} waits, {:.3} s idle, {} records",
-        opts.procs,
-        opts.mode,
-        out.render_s,
-        out.hemispheres,
-        out.redundant,
-        out.hemisphere_tasks,
-        out.retraced_pixels,
-        out.waits,
-        out.idle_s,
-        out.records
+        "parallel inter-reflection: {} processors: {:.3} s; {} waves, {} hemispheres, {} records",
+        opts.procs, out.render_s, out.waves, out.hemispheres, out.records
     );
     write_film(a, &out.film, view, exposure)?;
     eprintln!(

@@ -43,7 +43,7 @@
 
 use std::collections::HashMap;
 use std::f64::consts::PI;
-use std::sync::{Arc, RwLock};
+use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
@@ -467,6 +467,23 @@ impl AmbientCache {
         wsum > FTINY
     }
 
+    /// `cache` with `records` stored after its own, in order (copied only
+    /// if someone else still holds it).
+    pub fn extended(
+        cache: Arc<AmbientCache>,
+        s: &AmbientSettings,
+        records: Vec<AmbientRecord>,
+    ) -> Arc<AmbientCache> {
+        if records.is_empty() {
+            return cache;
+        }
+        let mut c = Arc::try_unwrap(cache).unwrap_or_else(|b| (*b).clone());
+        for r in records {
+            c.insert(s, r);
+        }
+        Arc::new(c)
+    }
+
     /// Stores a record (ignored if it is not finite or caching is off).
     pub fn insert(&mut self, s: &AmbientSettings, r: AmbientRecord) {
         if s.accuracy <= 0.0
@@ -493,12 +510,16 @@ impl AmbientCache {
     }
 }
 
-/// The cache a trace state uses: its own (sequential), or one shared by
-/// several threads (parallel).
+/// The cache a trace state uses: its own, or (the deterministic order of
+/// [`super::waves`]) a cache frozen for a wave of pixels, shared
+/// read-only, and the records this state made since.
 #[derive(Debug, Clone)]
 pub enum AmbientStore {
     Local(AmbientCache),
-    Shared(Arc<RwLock<AmbientCache>>),
+    Frozen {
+        base: Arc<AmbientCache>,
+        own: AmbientCache,
+    },
 }
 
 impl Default for AmbientStore {
@@ -508,7 +529,8 @@ impl Default for AmbientStore {
 }
 
 impl AmbientStore {
-    /// [`AmbientCache::lookup_plugged`].
+    /// [`AmbientCache::lookup_plugged`]; a frozen store weighs the
+    /// records of its base, then its own.
     pub fn lookup(
         &self,
         s: &AmbientSettings,
@@ -520,17 +542,23 @@ impl AmbientStore {
     ) -> Option<Color> {
         match self {
             AmbientStore::Local(c) => c.lookup_plugged(s, p, n, level, weight, occluded),
-            AmbientStore::Shared(c) => c
-                .read()
-                .unwrap_or_else(|e| e.into_inner())
-                .lookup_plugged(s, p, n, level, weight, occluded),
+            AmbientStore::Frozen { base, own } => {
+                let mut sum = Color::ZERO;
+                let mut wsum = 0.0;
+                for c in [&**base, own] {
+                    c.candidates(s, p, n, level, weight, 0, occluded, |_, v, w| {
+                        sum += v * w;
+                        wsum += w;
+                    });
+                }
+                (wsum > FTINY).then(|| sum / wsum)
+            }
         }
     }
 
     pub fn insert(&mut self, s: &AmbientSettings, r: AmbientRecord) {
         match self {
-            AmbientStore::Local(c) => c.insert(s, r),
-            AmbientStore::Shared(c) => c.write().unwrap_or_else(|e| e.into_inner()).insert(s, r),
+            AmbientStore::Local(c) | AmbientStore::Frozen { own: c, .. } => c.insert(s, r),
         }
     }
 
@@ -538,7 +566,7 @@ impl AmbientStore {
     pub fn len(&self) -> usize {
         match self {
             AmbientStore::Local(c) => c.len(),
-            AmbientStore::Shared(c) => c.read().unwrap_or_else(|e| e.into_inner()).len(),
+            AmbientStore::Frozen { base, own } => base.len() + own.len(),
         }
     }
 
@@ -546,12 +574,41 @@ impl AmbientStore {
         self.len() == 0
     }
 
-    /// The records stored from index `from` on, in order.
+    /// The records stored from index `from` on, in order (a frozen
+    /// store's base first).
     pub fn records_since(&self, from: usize) -> Vec<AmbientRecord> {
-        let tail = |c: &AmbientCache| c.records.get(from..).unwrap_or_default().to_vec();
         match self {
-            AmbientStore::Local(c) => tail(c),
-            AmbientStore::Shared(c) => tail(&c.read().unwrap_or_else(|e| e.into_inner())),
+            AmbientStore::Local(c) => c.records.get(from..).unwrap_or_default().to_vec(),
+            AmbientStore::Frozen { base, own } => base
+                .records
+                .iter()
+                .chain(&own.records)
+                .skip(from)
+                .copied()
+                .collect(),
+        }
+    }
+
+    /// The records made since the store was frozen (none for a local
+    /// store), leaving it with none.
+    pub fn take_own(&mut self) -> Vec<AmbientRecord> {
+        match self {
+            AmbientStore::Local(_) => Vec::new(),
+            AmbientStore::Frozen { own, .. } => std::mem::take(own).records,
+        }
+    }
+
+    /// All records in one cache (a frozen store's base, then its own).
+    pub fn into_cache(self, s: &AmbientSettings) -> AmbientCache {
+        match self {
+            AmbientStore::Local(c) => c,
+            AmbientStore::Frozen { base, own } => {
+                let mut c = Arc::try_unwrap(base).unwrap_or_else(|b| (*b).clone());
+                for r in own.records {
+                    c.insert(s, r);
+                }
+                c
+            }
         }
     }
 }

@@ -38,6 +38,7 @@ pub mod stats;
 pub mod surface;
 pub mod task;
 pub mod virtual_source;
+pub mod waves;
 
 #[cfg(test)]
 mod aniso_tests;

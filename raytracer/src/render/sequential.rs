@@ -7,7 +7,7 @@ use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
 use super::adaptive::Grid;
-use super::ambient::{AmbientRequest, AmbientSettings, AmbientStore, Hemisphere};
+use super::ambient::{AmbientCache, AmbientRequest, AmbientSettings, AmbientStore, Hemisphere};
 use super::caster::{BvhCaster, OctreeCaster, RayCaster};
 use super::direct::{estimate_hit_ratios, run_shadow_bundle, Contribution};
 use super::effects::EffectsReport;
@@ -18,6 +18,7 @@ use super::options::RenderOptions;
 use super::rng::{child_seed, pixel_seed, Rng};
 use super::stats::{EffectTimes, RayCounts, RenderStats, Timings};
 use super::virtual_source::prepare_lights_relayed;
+use super::waves::render_in_waves;
 use crate::accel::{Bvh, Octree, OctreeParams};
 use crate::geometry::FTINY;
 use crate::geometry::{offset_origin_scaled, Ray, Vec3};
@@ -90,12 +91,6 @@ pub struct TraceState {
     nested: Duration,
     /// The irradiance cache this state reads and fills (`-ab` > 0).
     pub ambient: AmbientStore,
-    /// Parallel use: instead of sampling a hemisphere for a ray that took
-    /// no ambient bounce yet, leave it in `deferred` and stop tracing.
-    pub defer_hemispheres: bool,
-    /// The hemisphere a deferring trace stopped at (the pixel's value is
-    /// then meaningless and must be computed again once it is cached).
-    pub deferred: Option<Box<Hemisphere>>,
 }
 
 impl TraceState {
@@ -481,9 +476,6 @@ impl<'s> Renderer<'s> {
     }
 
     fn radiance_untimed(&self, task: &RayTask, st: &mut TraceState) -> (Color, f64) {
-        if st.deferred.is_some() {
-            return (Color::ZERO, f64::INFINITY); // the pixel will be traced again
-        }
         match task.kind {
             RayKind::Primary => st.counts.primary += 1,
             RayKind::Reflection => st.counts.reflection += 1,
@@ -585,10 +577,6 @@ impl<'s> Renderer<'s> {
             st.counts.ambient_cache.fallbacks += 1;
             return self.options.av;
         };
-        if st.defer_hemispheres && task.ambient == 0 {
-            st.deferred = Some(Box::new(h));
-            return Color::ZERO;
-        }
         st.counts.ambient_cache.hemispheres += 1;
         for (div, t) in h.first_pass() {
             let (c, d) = self.trace(&t, st);
@@ -879,6 +867,9 @@ impl<'s> Renderer<'s> {
         cache: AmbientStore,
     ) -> Result<(Film, RenderStats, AmbientStore)> {
         check_resolution(width, height)?;
+        if self.caches_ambient() {
+            return self.render_in_waves(camera, width, height, progress, cache);
+        }
         let mut film = Film::new(width, height);
         let mut st = TraceState::with_store(cache);
         let t0 = Instant::now();
@@ -920,6 +911,61 @@ impl<'s> Renderer<'s> {
         let render_s = t0.elapsed().as_secs_f64();
         let stats = self.stats(width, height, &st, render_s);
         Ok((film, stats, st.ambient))
+    }
+
+    /// Whether renders keep an irradiance cache (`-ab` > 0 with `-aa` >
+    /// 0): their pixels are shaded in the waves of [`super::waves`].
+    pub fn caches_ambient(&self) -> bool {
+        self.effects.diffuse_interreflection.enabled && self.ambient.accuracy > 0.0
+    }
+
+    /// A trace state reading `base` frozen, with no records of its own.
+    pub fn frozen_state(base: &Arc<AmbientCache>) -> AmbientStore {
+        AmbientStore::Frozen {
+            base: base.clone(),
+            own: AmbientCache::default(),
+        }
+    }
+
+    /// [`Renderer::render_with_cache`] with a cache: pixels in the waves
+    /// of [`super::waves`], one after the other.
+    fn render_in_waves<C: Camera + ?Sized>(
+        &self,
+        camera: &C,
+        width: usize,
+        height: usize,
+        progress: &mut dyn FnMut(usize),
+        cache: AmbientStore,
+    ) -> Result<(Film, RenderStats, AmbientStore)> {
+        let t0 = Instant::now();
+        let s = &self.ambient;
+        let mut st = TraceState::default();
+        let total = width * height;
+        let out = render_in_waves(
+            width,
+            height,
+            (self.options.ps, self.options.pt),
+            s,
+            Arc::new(cache.into_cache(s)),
+            &mut |wave, base| {
+                Ok(wave
+                    .iter()
+                    .map(|&i| {
+                        let i = i as usize;
+                        st.ambient = Self::frozen_state(base);
+                        let c = self.pixel(camera, width, height, i % width, i / width, &mut st);
+                        (c, st.ambient.take_own())
+                    })
+                    .collect())
+            },
+            &mut |shaded| progress((height * shaded / total.max(1)).min(height)),
+        )?;
+        progress(height);
+        st.ambient =
+            AmbientStore::Local(Arc::try_unwrap(out.cache).unwrap_or_else(|b| (*b).clone()));
+        let render_s = t0.elapsed().as_secs_f64();
+        let stats = self.stats(width, height, &st, render_s);
+        Ok((out.film, stats, st.ambient))
     }
 
     /// Renders the whole image.
