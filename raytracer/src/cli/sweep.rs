@@ -63,12 +63,7 @@ pub(super) fn run(a: &SweepArgs) -> Result<()> {
         std::fs::write(&p, text).map_err(|e| Error::io(&p, e))
     };
     write("sweep.csv", &report.to_csv())?;
-    let md = format!(
-        "Sweep of `{name}` at {w}x{h}; reference ({:.1} s): `{}`.\n\n{}",
-        report.reference_s,
-        option_words(&report.reference),
-        report.to_markdown()
-    );
+    let md = report.markdown_file();
     write("sweep.md", &md)?;
     report.chart().write_svg(&a.out.join("sweep.svg"))?;
     let json = serde_json::to_string_pretty(&report)

@@ -22,7 +22,7 @@
 
 use std::time::Instant;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::image::{brightness, Film};
 use crate::render::{RenderOptions, Renderer};
@@ -39,7 +39,7 @@ pub struct SweepConfig {
 }
 
 /// One measured configuration.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SweepPoint {
     pub name: String,
     pub options: RenderOptions,
@@ -57,7 +57,7 @@ pub struct SweepPoint {
 }
 
 /// A whole sweep.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SweepReport {
     pub scene: String,
     pub width: usize,
@@ -104,8 +104,23 @@ fn with(name: &str, f: impl FnOnce(&mut RenderOptions), seed: u64) -> SweepConfi
     }
 }
 
-/// The configurations: rpict's defaults, each knob varied alone, and
-/// combinations of the knobs that pay off.
+/// A quality preset ([`RenderOptions::preset`]) as a configuration.
+fn preset(name: &str, seed: u64) -> SweepConfig {
+    let options = RenderOptions::preset(name).expect("a preset of QUALITY_PRESETS");
+    with(
+        &format!("preset {name}"),
+        |o| {
+            *o = RenderOptions {
+                seed: o.seed,
+                ..options
+            }
+        },
+        seed,
+    )
+}
+
+/// The configurations: rpict's defaults, each knob varied alone, the
+/// ambient settings from coarse to fine, and the quality presets.
 pub fn configurations(seed: u64) -> Vec<SweepConfig> {
     let amb = |o: &mut RenderOptions, ab, aa, ad, as_| {
         o.ab = ab;
@@ -135,38 +150,10 @@ pub fn configurations(seed: u64) -> Vec<SweepConfig> {
         with("ab 1 aa .1 ad 256", |o| amb(o, 1, 0.1, 256, 64), seed),
         with("ab 1 (rpict)", |o| amb(o, 1, 0.1, 512, 128), seed),
         with("ab 1 aa .05 ad 512", |o| amb(o, 1, 0.05, 512, 128), seed),
-        with("ab 2 aa .2 ad 128", |o| amb(o, 2, 0.2, 128, 32), seed),
         with("ab 2 aa .1 ad 256", |o| amb(o, 2, 0.1, 256, 64), seed),
-        with(
-            "draft combo",
-            |o| {
-                o.ds = 0.5;
-                o.dt = 0.3;
-                amb(o, 1, 0.3, 64, 16);
-            },
-            seed,
-        ),
-        with(
-            "normal combo",
-            |o| {
-                o.ds = 0.2;
-                o.dj = 0.5;
-                amb(o, 1, 0.15, 128, 32);
-                pix(o, 4);
-            },
-            seed,
-        ),
-        with(
-            "high combo",
-            |o| {
-                o.ds = 0.1;
-                o.dt = 0.02;
-                o.dj = 0.7;
-                amb(o, 2, 0.15, 128, 32);
-                pix(o, 4);
-            },
-            seed,
-        ),
+        preset("draft", seed),
+        preset("normal", seed),
+        preset("high", seed),
     ]
 }
 
@@ -370,6 +357,20 @@ impl SweepReport {
             );
         }
         s
+    }
+
+    /// `sweep.md`: a line naming the scene, size and reference, then
+    /// [`SweepReport::to_markdown`].
+    pub fn markdown_file(&self) -> String {
+        format!(
+            "Sweep of `{}` at {}x{}; reference ({:.1} s): `{}`.\n\n{}",
+            self.scene,
+            self.width,
+            self.height,
+            self.reference_s,
+            option_words(&self.reference),
+            self.to_markdown()
+        )
     }
 
     /// The points as a markdown table, sorted by time; front points in bold.

@@ -118,9 +118,9 @@ impl Hemisphere {
         }
         // A ray heavier than its level's weight (a reflectance above 1 on
         // its way): Radiance's record would not serve the very point it
-        // was made for, and a deferred lookup (the parallel renderer's)
-        // would sample it again forever. Such a record carries the ray's
-        // weight.
+        // was made for (a lookup there again, from an ambient file or a
+        // later wave's pixel at the same point, would sample it again).
+        // Such a record carries the ray's weight.
         if task.weight > record_weight {
             record_weight = task.weight;
         }
