@@ -31,6 +31,7 @@ fn repo() -> PathBuf {
 const SWEEPS: &[(&str, &str, &str)] = &[
     ("cornell", "sweep-cornell.svg", ""),
     ("studio", "sweep-studio.svg", ""),
+    ("conference", "sweep-conference.svg", "-dt 0.01"),
 ];
 
 fn load(dir: &Path) -> SweepReport {
