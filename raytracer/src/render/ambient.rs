@@ -55,9 +55,7 @@ use crate::scene::Color;
 mod file;
 mod hemisphere;
 
-pub use file::{
-    append_ambient_file, decode_dir, encode_dir, parse_ambient_file, read_ambient_file, AmbientFile,
-};
+pub use file::{append_ambient_file, parse_ambient_file, read_ambient_file, AmbientFile};
 pub use hemisphere::Hemisphere;
 
 /// Radiance's assumed average reflectance (`AVGREFL`): ambient sample rays

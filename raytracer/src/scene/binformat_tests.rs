@@ -10,8 +10,9 @@ use proptest::prelude::*;
 
 use super::octfile::{parse_octree, read_octree, OctreeContents, OCT_MAGIC};
 use super::rad::RawPrim;
+use super::radbin::{decode_dir, encode_dir};
 use super::radbin::{frexp, put_flt, put_int, put_scene, put_str, BinReader};
-use super::rtm::{decode_dir, encode_dir, parse_rtm, read_rtm, RtmMesh, MESH_MAGIC};
+use super::rtm::{parse_rtm, read_rtm, RtmMesh, MESH_MAGIC};
 use crate::{Error, SourceLoc};
 
 fn woman_rtm() -> PathBuf {

@@ -455,3 +455,73 @@ pub(crate) fn put_scene(out: &mut Vec<u8>, objs: &[RawPrim], objsize: usize) {
     }
     put_int(out, -1, 1);
 }
+
+/// Radiance's `decodedir` (`dircode.c`): a unit direction from its 32-bit
+/// code (two 13-bit components, which axis is largest, three signs).
+pub(crate) fn decode_dir(dc: u32) -> crate::geometry::Vec3 {
+    const DCSCALE: f64 = 11585.2;
+    const F1X: u32 = 0o10;
+    const F2Z: u32 = 0o20;
+    if dc == 0 {
+        return crate::geometry::Vec3::ZERO;
+    }
+    let d1 = (f64::from(dc >> 5 & 0x1fff) + 0.5) / DCSCALE;
+    let d2 = (f64::from(dc >> 18 & 0x1fff) + 0.5) / DCSCALE;
+    let der = (1.0 - d1 * d1 - d2 * d2).max(0.0).sqrt();
+    let mut v = if dc & F1X != 0 {
+        if dc & F2Z != 0 {
+            crate::geometry::Vec3::new(d1, der, d2)
+        } else {
+            crate::geometry::Vec3::new(d1, d2, der)
+        }
+    } else if dc & F2Z != 0 {
+        crate::geometry::Vec3::new(der, d1, d2)
+    } else {
+        crate::geometry::Vec3::new(d2, d1, der)
+    };
+    if dc & 1 != 0 {
+        v.x = -v.x;
+    }
+    if dc & 2 != 0 {
+        v.y = -v.y;
+    }
+    if dc & 4 != 0 {
+        v.z = -v.z;
+    }
+    v
+}
+
+/// Radiance's `encodedir`, the inverse of [`decode_dir`] (for tests and
+/// writers). `dv` must be normalised.
+pub(crate) fn encode_dir(dv: crate::geometry::Vec3) -> u32 {
+    const DCSCALE: f64 = 11585.2;
+    let mut dc: u32 = 0;
+    let mut cd = [0u32; 3];
+    for i in 0..3 {
+        if dv[i] < 0.0 {
+            cd[i] = (dv[i] * -DCSCALE) as u32;
+            dc |= 1 << i;
+        } else {
+            cd[i] = (dv[i] * DCSCALE) as u32;
+        }
+    }
+    if cd == [0, 0, 0] {
+        return 0;
+    }
+    let cm = if cd[0] <= cd[1] {
+        dc |= 0o10 | cd[0] << 5;
+        cd[1]
+    } else {
+        dc |= cd[1] << 5;
+        cd[0]
+    };
+    if cd[2] <= cm {
+        dc |= 0o20 | cd[2] << 18;
+    } else {
+        dc |= cm << 18;
+    }
+    if dc == 0 {
+        dc = 0o10;
+    }
+    dc
+}

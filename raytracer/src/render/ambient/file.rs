@@ -26,7 +26,8 @@
 //! ends the reading with a warning naming the byte where it starts; the
 //! records before it are used. Radiance 3's format (magic 557) and
 //! Radiance 6's spectral one (561) are refused with a message saying so.
-//! Directions are stored to about 1e-4, reals to 31 bits and the value to
+//! Directions are stored to about 1e-4 (Radiance's direction codes,
+//! shared with the compiled-mesh reader), reals to 31 bits and the value to
 //! RGBE's 8 bits: a render that reads a file differs from the one that
 //! wrote it within that precision.
 
@@ -38,7 +39,7 @@ use crate::geometry::Vec3;
 use crate::image::hdr::{from_rgbe, to_rgbe};
 use crate::render::medium::FHUGE;
 use crate::render::options::RenderOptions;
-use crate::scene::radbin::{put_flt, put_int, BinReader};
+use crate::scene::radbin::{decode_dir, encode_dir, put_flt, put_int, BinReader};
 use crate::{Error, Result};
 
 /// Magic number of Radiance 5's ambient files (`AMBMAGIC`).
@@ -59,72 +60,6 @@ pub struct AmbientFile {
     pub warnings: Vec<String>,
 }
 
-/// Radiance's 32-bit direction code of a unit vector (`encodedir`).
-pub fn encode_dir(v: Vec3) -> i32 {
-    const DCSCALE: f64 = 11585.2;
-    let mut dc: i32 = 0;
-    let mut cd = [0i32; 3];
-    for i in 0..3 {
-        if v[i] < 0.0 {
-            cd[i] = (v[i] * -DCSCALE) as i32;
-            dc |= 1 << i;
-        } else {
-            cd[i] = (v[i] * DCSCALE) as i32;
-        }
-    }
-    if cd == [0; 3] {
-        return 0;
-    }
-    let cm = if cd[0] <= cd[1] {
-        dc |= 0o10 | (cd[0] & 0x1fff) << 5;
-        cd[1]
-    } else {
-        dc |= (cd[1] & 0x1fff) << 5;
-        cd[0]
-    };
-    if cd[2] <= cm {
-        dc |= 0o20 | (cd[2] & 0x1fff) << 18;
-    } else {
-        dc |= (cm & 0x1fff) << 18;
-    }
-    if dc == 0 {
-        dc = 0o10;
-    }
-    dc
-}
-
-/// The unit vector of a direction code (`decodedir`); 0 decodes to zero.
-pub fn decode_dir(dc: i32) -> Vec3 {
-    const DCSCALE: f64 = 11585.2;
-    if dc == 0 {
-        return Vec3::ZERO;
-    }
-    let d1 = (f64::from(dc >> 5 & 0x1fff) + 0.5) / DCSCALE;
-    let d2 = (f64::from(dc >> 18 & 0x1fff) + 0.5) / DCSCALE;
-    let der = (1.0 - d1 * d1 - d2 * d2).max(0.0).sqrt();
-    let mut v = if dc & 0o10 != 0 {
-        if dc & 0o20 != 0 {
-            Vec3::new(d1, der, d2)
-        } else {
-            Vec3::new(d1, d2, der)
-        }
-    } else if dc & 0o20 != 0 {
-        Vec3::new(der, d1, d2)
-    } else {
-        Vec3::new(d2, d1, der)
-    };
-    if dc & 1 != 0 {
-        v.x = -v.x;
-    }
-    if dc & 2 != 0 {
-        v.y = -v.y;
-    }
-    if dc & 4 != 0 {
-        v.z = -v.z;
-    }
-    v
-}
-
 /// Appends one record in the file's encoding (`writambval`).
 pub fn encode_record(r: &AmbientRecord, out: &mut Vec<u8>) {
     put_int(out, i64::from(r.level.min(255)), 1);
@@ -143,7 +78,7 @@ pub fn encode_record(r: &AmbientRecord, out: &mut Vec<u8>) {
 }
 
 /// Radiance's `ambvalOK`: whether a decoded record is usable.
-fn consistent(r: &AmbientRecord, ndir: i32, udir: i32) -> bool {
+fn consistent(r: &AmbientRecord, ndir: u32, udir: u32) -> bool {
     let bad = |x: f64| !(-FHUGE..=FHUGE).contains(&x);
     !(bad(r.point.x) || bad(r.point.y) || bad(r.point.z))
         && ndir != 0
@@ -191,8 +126,8 @@ pub fn parse_ambient_file(data: &[u8], path: &Path) -> Result<AmbientFile> {
         let level = u32::from(r.byte(what)?);
         let weight = r.flt(what)?;
         let point = Vec3::new(r.flt(what)?, r.flt(what)?, r.flt(what)?);
-        let ndir = r.int(4, what)? as i32;
-        let udir = r.int(4, what)? as i32;
+        let ndir = r.int(4, what)? as u32;
+        let udir = r.int(4, what)? as u32;
         let c = r.bytes(4, what)?;
         let value = from_rgbe([c[0], c[1], c[2], c[3]]);
         let mut v2 = || -> Result<[f64; 2]> { Ok([r.flt(what)?, r.flt(what)?]) };
