@@ -431,13 +431,7 @@ impl AmbientCache {
         weight: f64,
         occluded: &mut dyn FnMut(Vec3, Vec3, f64) -> bool,
     ) -> Option<Color> {
-        let mut sum = Color::ZERO;
-        let mut wsum = 0.0;
-        self.candidates(s, p, n, level, weight, 0, occluded, |_, v, w| {
-            sum += v * w;
-            wsum += w;
-        });
-        (wsum > FTINY).then(|| sum / wsum)
+        interpolate(&[self], s, p, n, level, weight, occluded)
     }
 
     /// True if a record with index >= `from` would answer a lookup at `p`.
@@ -508,6 +502,28 @@ impl AmbientCache {
     }
 }
 
+/// The weighted mean of the values the records of `caches` (in order)
+/// give at `p` ([`AmbientCache::lookup_plugged`]), or `None` if none serves.
+fn interpolate(
+    caches: &[&AmbientCache],
+    s: &AmbientSettings,
+    p: Vec3,
+    n: Vec3,
+    level: u32,
+    weight: f64,
+    occluded: &mut dyn FnMut(Vec3, Vec3, f64) -> bool,
+) -> Option<Color> {
+    let mut sum = Color::ZERO;
+    let mut wsum = 0.0;
+    for c in caches {
+        c.candidates(s, p, n, level, weight, 0, occluded, |_, v, w| {
+            sum += v * w;
+            wsum += w;
+        });
+    }
+    (wsum > FTINY).then(|| sum / wsum)
+}
+
 /// The cache a trace state uses: its own, or (the deterministic order of
 /// [`super::waves`]) a cache frozen for a wave of pixels, shared
 /// read-only, and the records this state made since.
@@ -541,15 +557,7 @@ impl AmbientStore {
         match self {
             AmbientStore::Local(c) => c.lookup_plugged(s, p, n, level, weight, occluded),
             AmbientStore::Frozen { base, own } => {
-                let mut sum = Color::ZERO;
-                let mut wsum = 0.0;
-                for c in [&**base, own] {
-                    c.candidates(s, p, n, level, weight, 0, occluded, |_, v, w| {
-                        sum += v * w;
-                        wsum += w;
-                    });
-                }
-                (wsum > FTINY).then(|| sum / wsum)
+                interpolate(&[base, own], s, p, n, level, weight, occluded)
             }
         }
     }
