@@ -39,7 +39,7 @@ use crate::error::RunError;
 use crate::mailbox::Mailbox;
 use crate::processor::Step;
 use crate::protocol::message::{DdEnvelope, Incoming, Msg, Packet};
-use crate::protocol::workload::Workload;
+use crate::protocol::workload::{Epoch, Workload};
 use crate::protocol::Addr;
 use crate::stats::{ProcStats, State};
 
@@ -70,6 +70,11 @@ pub(crate) struct Master<W: Workload> {
     previous: Option<(u64, u64)>,
     next_wave: u64,
     finished: bool,
+    /// The epoch running (0 the first).
+    epoch: usize,
+    /// Processors yet to say they hold the epoch's broadcast; its roots
+    /// are handed out only once this is 0.
+    awaiting_held: usize,
 }
 
 impl<W: Workload> Master<W> {
@@ -98,6 +103,8 @@ impl<W: Workload> Master<W> {
             previous: None,
             next_wave: 0,
             finished: false,
+            epoch: 0,
+            awaiting_held: 0,
             workload,
         }
     }
@@ -160,17 +167,33 @@ impl<W: Workload> Master<W> {
                 if let Some((env, sender, bytes)) = self.pool.pop_front() {
                     self.hand_out(worker, env, now);
                     self.consume(sender, bytes, now);
-                } else if let Some(task) = roots.then(|| self.roots.pop_front()).flatten() {
-                    self.stats.tasks.roots += 1;
-                    let env = DdEnvelope {
-                        task,
-                        origin: None,
-                        handout: true,
-                        root: true,
-                    };
-                    self.hand_out(worker, env, now);
+                } else if let Some(task) = roots.then(|| self.next_root()).flatten() {
+                    self.hand_out_root(worker, task, now);
                 } else {
                     self.parked.push_back((worker, roots));
+                }
+            }
+            Msg::BroadcastHeld(epoch) => {
+                if epoch as usize != self.epoch || self.awaiting_held == 0 {
+                    return Err(RunError::Workload {
+                        at: Addr::Master,
+                        message: format!(
+                            "processor {worker} holds the broadcast of epoch {epoch}, not asked for (epoch {})",
+                            self.epoch
+                        ),
+                    });
+                }
+                self.awaiting_held -= 1;
+                if self.awaiting_held == 0 {
+                    // Every processor holds the data: the epoch's roots go
+                    // to the workers waiting for work.
+                    let waiting: Vec<(usize, bool)> = self.parked.drain(..).collect();
+                    for (w, roots) in waiting {
+                        match roots.then(|| self.next_root()).flatten() {
+                            Some(task) => self.hand_out_root(w, task, now),
+                            None => self.parked.push_back((w, roots)),
+                        }
+                    }
                 }
             }
             Msg::Dd(env) => {
@@ -203,6 +226,25 @@ impl<W: Workload> Master<W> {
         Ok(Step::Worked(State::Receiving))
     }
 
+    /// The next root task, unless the epoch's broadcast is still on its way.
+    fn next_root(&mut self) -> Option<W::DdTask> {
+        if self.awaiting_held > 0 {
+            return None;
+        }
+        self.roots.pop_front()
+    }
+
+    fn hand_out_root(&mut self, worker: usize, task: W::DdTask, now: Time) {
+        self.stats.tasks.roots += 1;
+        let env = DdEnvelope {
+            task,
+            origin: None,
+            handout: true,
+            root: true,
+        };
+        self.hand_out(worker, env, now);
+    }
+
     fn hand_out(&mut self, worker: usize, mut env: DdEnvelope<W>, now: Time) {
         env.handout = true;
         self.send(Addr::Proc(worker), Msg::Dd(env), now);
@@ -223,7 +265,10 @@ impl<W: Workload> Master<W> {
 
     /// Holds no work: no roots, no pooled tasks, nothing unprocessed.
     fn is_passive(&self) -> bool {
-        self.roots.is_empty() && self.pool.is_empty() && self.mailbox.is_empty()
+        self.roots.is_empty()
+            && self.pool.is_empty()
+            && self.mailbox.is_empty()
+            && self.awaiting_held == 0
     }
 
     fn maybe_start_wave(&mut self, now: Time) {
@@ -274,14 +319,44 @@ impl<W: Workload> Master<W> {
                 info!(
                     waves = self.stats.termination_waves,
                     messages = s,
-                    "termination detected"
+                    epoch = self.epoch,
+                    "epoch over"
                 );
-                self.finished = true;
-                for p in 0..self.procs {
-                    self.send(Addr::Proc(p), Msg::Terminate, now);
+                self.previous = None;
+                match self.workload.next_epoch(self.epoch, &mut self.acc) {
+                    Some(next) => self.begin_epoch(next, now),
+                    None => {
+                        self.finished = true;
+                        for p in 0..self.procs {
+                            self.send(Addr::Proc(p), Msg::Terminate, now);
+                        }
+                    }
                 }
             }
             _ => self.previous = Some((s, r)),
+        }
+    }
+
+    /// Starts the next epoch: its broadcast goes to every processor, and
+    /// its roots wait until all of them hold it. (The master is not
+    /// passive until then, so no termination wave can end it early.)
+    fn begin_epoch(&mut self, next: Epoch<W>, now: Time) {
+        self.epoch += 1;
+        self.stats.epochs += 1;
+        debug!(
+            epoch = self.epoch,
+            roots = next.roots.len(),
+            broadcast = next.broadcast.len(),
+            "epoch begins"
+        );
+        self.roots.extend(next.roots);
+        self.awaiting_held = self.procs;
+        let epoch = u32::try_from(self.epoch).unwrap_or(u32::MAX);
+        for p in 0..self.procs {
+            // Each processor gets its own copy (one message each, as a
+            // transport would send them).
+            let items = next.broadcast.clone();
+            self.send(Addr::Proc(p), Msg::Broadcast { epoch, items }, now);
         }
     }
 

@@ -276,6 +276,10 @@ pub struct ProcStats {
     pub memory: MemoryHighWater,
     /// Termination-detection waves (master only).
     pub termination_waves: u64,
+    /// Epochs begun after the first ([`crate::Workload::next_epoch`];
+    /// master only).
+    #[serde(default)]
+    pub epochs: u64,
 }
 
 impl ProcStats {
@@ -296,6 +300,7 @@ impl ProcStats {
             data_items_served: 0,
             memory: MemoryHighWater::default(),
             termination_waves: 0,
+            epochs: 0,
         }
     }
 

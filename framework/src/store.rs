@@ -168,6 +168,27 @@ impl<W: Workload> DataStore<W> {
         })
     }
 
+    /// Holds write-once items broadcast to every processor
+    /// ([`crate::Epoch::broadcast`]) as resident. An id the directory
+    /// places, or one already held, is refused.
+    pub(crate) fn hold_broadcast(&mut self, items: Items<W>) -> Result<(), String> {
+        for (id, item) in items {
+            if self.dir.map.contains_key(&id) {
+                return Err(format!(
+                    "broadcast data {id:?} is placed data (broadcast ids must be new)"
+                ));
+            }
+            let bytes = item.byte_size() as u64;
+            if self.resident.insert(id.clone(), item).is_some() {
+                return Err(format!(
+                    "broadcast data {id:?} is already held (broadcast data is written once)"
+                ));
+            }
+            self.resident_bytes += bytes;
+        }
+        Ok(())
+    }
+
     /// The directory.
     pub(crate) fn directory(&self) -> &Directory<W::DataId> {
         &self.dir

@@ -340,6 +340,12 @@ impl<W: Workload> Processor<W> {
                 self.select(env, now)?;
                 Ok(State::Selecting)
             }
+            Msg::Broadcast { epoch, items } => {
+                trace!(proc = self.id, epoch, n = items.len(), "hold broadcast");
+                self.store.hold_broadcast(items)?;
+                self.send(Addr::Master, Msg::BroadcastHeld(epoch), now);
+                Ok(State::Receiving)
+            }
             other => Err(format!("unexpected message {other:?} from {}", inc.from)),
         }
     }

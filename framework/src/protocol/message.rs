@@ -73,6 +73,16 @@ pub enum Msg<W: Workload> {
     },
     /// The computation is over.
     Terminate,
+    /// From the master: epoch `epoch` begins; hold these write-once items
+    /// ([`crate::Epoch::broadcast`]) and say so.
+    Broadcast {
+        /// The epoch beginning (1 the second).
+        epoch: u32,
+        /// The items, in the order the workload gave them.
+        items: Vec<(W::DataId, W::DataItem)>,
+    },
+    /// To the master: the sender holds epoch `.0`'s broadcast items.
+    BroadcastHeld(u32),
 }
 
 /// Bytes accounted for a control message or a packet header.
@@ -82,7 +92,7 @@ impl<W: Workload> Msg<W> {
     /// The priority class.
     pub fn class(&self) -> Class {
         match self {
-            Msg::DataRequest(_) | Msg::DataReply(_) => Class::Data,
+            Msg::DataRequest(_) | Msg::DataReply(_) | Msg::Broadcast { .. } => Class::Data,
             Msg::Result(_) => Class::Result,
             Msg::Dp(_) => Class::DataParallel,
             Msg::Dd(_) => Class::DemandDriven,
@@ -90,7 +100,8 @@ impl<W: Workload> Msg<W> {
             | Msg::Credit(..)
             | Msg::Probe(_)
             | Msg::ProbeReply { .. }
-            | Msg::Terminate => Class::Control,
+            | Msg::Terminate
+            | Msg::BroadcastHeld(_) => Class::Control,
         }
     }
 
@@ -114,7 +125,7 @@ impl<W: Workload> Msg<W> {
         let id = std::mem::size_of::<W::DataId>();
         match self {
             Msg::DataRequest(ids) => 8 + ids.len() * id,
-            Msg::DataReply(items) => {
+            Msg::DataReply(items) | Msg::Broadcast { items, .. } => {
                 8 + items
                     .iter()
                     .map(|(_, item)| id + item.byte_size())
@@ -148,6 +159,10 @@ impl<W: Workload> fmt::Debug for Msg<W> {
                 "ProbeReply(wave {wave}, sent {sent}, received {received})"
             ),
             Msg::Terminate => write!(f, "Terminate"),
+            Msg::Broadcast { epoch, items } => {
+                write!(f, "Broadcast(epoch {epoch}, {} items)", items.len())
+            }
+            Msg::BroadcastHeld(epoch) => write!(f, "BroadcastHeld({epoch})"),
         }
     }
 }

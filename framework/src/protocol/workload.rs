@@ -313,6 +313,39 @@ pub trait Workload: Send + Sync + Sized + 'static {
 
     /// Merges a result into the accumulator of the processor it was sent to.
     fn merge(&self, acc: &mut Self::Accumulator, result: Self::Result);
+
+    /// Called on the master when epoch `ended` (0 the first, whose tasks are
+    /// [`Workload::root_tasks`]) is over: every task of it and every task
+    /// they spawned has finished, and every result sent to any actor is
+    /// merged. `master` is the master's accumulator. Returns the next
+    /// epoch (its root tasks, and write-once data that every processor
+    /// holds before any of them runs), or `None` to end the run (the
+    /// default: one epoch). See `SEMANTICS.md`, section 10.
+    ///
+    /// For work in rounds where a round reads what the rounds before it
+    /// made: an irradiance cache grown in waves of pixels, a frontier
+    /// expanded level by level. For the same results on every runtime the
+    /// answer must depend only on what `master` holds, not on the order in
+    /// which results were merged.
+    fn next_epoch(&self, ended: usize, master: &mut Self::Accumulator) -> Option<Epoch<Self>> {
+        let _ = (ended, master);
+        None
+    }
+}
+
+/// What [`Workload::next_epoch`] starts: root tasks, and data broadcast to
+/// every processor before they run.
+#[derive(Debug)]
+pub struct Epoch<W: Workload> {
+    /// The epoch's root tasks, handed out like [`Workload::root_tasks`].
+    pub roots: Vec<W::DdTask>,
+    /// Write-once data: every processor holds these items (read-only, as
+    /// if resident: [`DataView::get`] finds them, data selection may name
+    /// them and never fetches them) from before it receives any task of
+    /// this epoch to the end of the run. An id must be new: not placed by
+    /// [`Workload::placement`] nor broadcast before (else the run fails).
+    /// They are not counted in the cache budget.
+    pub broadcast: Vec<(W::DataId, W::DataItem)>,
 }
 
 /// The hook context: everything a hook may do besides reading data.

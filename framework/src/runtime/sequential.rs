@@ -157,6 +157,8 @@ pub fn run_sequential_observed<W: Workload>(
     let mut dd: VecDeque<W::DdTask> = workload.root_tasks(procs).into();
     stats.tasks.roots = dd.len() as u64;
     let mut dp: VecDeque<W::DpTask> = VecDeque::new();
+    let placed: std::collections::HashSet<W::DataId> = data.keys().cloned().collect();
+    let mut epoch = 0;
     loop {
         let t0 = clock.now();
         let mut ctx = Ctx::new(0, procs);
@@ -185,6 +187,24 @@ pub fn run_sequential_observed<W: Workload>(
             workload.execute_dd(task, &view, &mut ctx);
             stats.tasks.demand_driven += 1;
             State::Executing
+        } else if let Some(next) = workload.next_epoch(epoch, &mut master) {
+            // The epoch is over: its broadcast data, then its roots.
+            epoch += 1;
+            for (id, item) in next.broadcast {
+                if placed.contains(&id) {
+                    return Err(err(format!(
+                        "broadcast data {id:?} is placed data (broadcast ids must be new)"
+                    )));
+                }
+                if data.insert(id.clone(), item).is_some() {
+                    return Err(err(format!(
+                        "broadcast data {id:?} is already held (broadcast data is written once)"
+                    )));
+                }
+            }
+            stats.tasks.roots += next.roots.len() as u64;
+            dd.extend(next.roots);
+            continue;
         } else {
             break;
         };
@@ -216,7 +236,10 @@ pub fn run_sequential_observed<W: Workload>(
         stats: RunStats {
             runtime: "sequential".to_string(),
             procs: vec![stats],
-            master: ProcStats::new(Addr::Master),
+            master: ProcStats {
+                epochs: epoch as u64,
+                ..ProcStats::new(Addr::Master)
+            },
             elapsed_ns,
         },
         extras: Default::default(),

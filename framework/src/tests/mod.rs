@@ -9,6 +9,7 @@
 //! ([`messages`]), the simulator ([`sim`]) and the runtime interface
 //! ([`runtime_api`]).
 
+mod epochs;
 mod messages;
 mod runs;
 mod runtime_api;
