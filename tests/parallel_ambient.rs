@@ -1,17 +1,23 @@
 //! Diffuse inter-reflection in parallel against the sequential renderer:
-//! bit for bit, for any number of processors, with the irradiance cache
-//! (both shade pixels in the same waves, see `render::waves`), with two
-//! bounces, with adaptive pixel sampling, and without a cache.
+//! bit for bit, for any number of processors, runtime (threads, the
+//! framework's sequential reference, the simulator) and policy, with the
+//! irradiance cache (both shade pixels in the same waves, see
+//! `render::waves`; in parallel each wave is one of the framework's
+//! epochs), with two bounces, with adaptive pixel sampling, and without a
+//! cache. (MPI: `raytracer/tests/mpi.rs`.)
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
-use hybrid_rt::parallel::ambient::{render_ambient_parallel, AmbientParallelOptions};
+use hybrid_rt::parallel::ambient::{render_ambient_parallel, AmbientParallelReport};
+use hybrid_rt::parallel::{ParallelOptions, RuntimeKind};
 use hybrid_rt::render::{RenderOptions, Renderer};
 use hybrid_rt::scene::{self, Scene, View};
+use hybrid_sched::Policy;
 
-fn cornell(width: u32) -> (Scene, View, usize, usize) {
+fn cornell(width: u32) -> (Arc<Scene>, View, usize, usize) {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../examples/scenes");
-    let scene = scene::load(&[dir.join("cornell.rad")]).expect("scene loads");
+    let scene = Arc::new(scene::load(&[dir.join("cornell.rad")]).expect("scene loads"));
     let view = View::from_file(dir.join("cornell.vf")).expect("view loads");
     let (view, w, h) = view.fit_aspect(width, width);
     (scene, view, w as usize, h as usize)
@@ -27,28 +33,47 @@ fn options() -> RenderOptions {
     }
 }
 
-/// The parallel render of `o` on each of `procs` equals the sequential one.
+fn render(
+    scene: &Arc<Scene>,
+    o: &RenderOptions,
+    view: &View,
+    (w, h): (usize, usize),
+    popts: &ParallelOptions,
+) -> AmbientParallelReport {
+    render_ambient_parallel(scene.clone(), o.clone(), view, w, h, popts, &[], None)
+        .unwrap()
+        .expect("not an MPI rank")
+}
+
+/// The parallel render of `o` on each of `procs` equals the sequential one
+/// (on threads; the simulator and the framework's sequential reference
+/// too, on the last count).
 fn agrees(o: &RenderOptions, width: u32, procs: &[usize]) {
     let (scene, view, w, h) = cornell(width);
     let r = Renderer::new(&scene, o.clone()).unwrap();
     let (seq, stats) = r.render(&view, w, h).unwrap();
-    for &p in procs {
-        let out = render_ambient_parallel(
-            &scene,
-            o.clone(),
-            &view,
-            w,
-            h,
-            &AmbientParallelOptions { procs: p },
-        )
-        .unwrap();
+    let mut runs: Vec<ParallelOptions> = procs.iter().map(|&p| ParallelOptions::new(p)).collect();
+    if let Some(&p) = procs.last() {
+        for runtime in [RuntimeKind::Sim, RuntimeKind::Sequential] {
+            runs.push(ParallelOptions {
+                runtime,
+                policy: Policy::LoadAware,
+                ..ParallelOptions::new(p)
+            });
+        }
+    }
+    for popts in runs {
+        let p = popts.procs;
+        let out = render(&scene, o, &view, (w, h), &popts);
         assert!(
             out.film.pixels() == seq.pixels(),
-            "-ab {} -aa {} -ps {} on {p} processors differs from the sequential render",
+            "-ab {} -aa {} -ps {} on {p} processors ({:?}) differs from the sequential render",
             o.ab,
             o.aa,
-            o.ps
+            o.ps,
+            popts.runtime
         );
+        assert_eq!(out.stats.master.epochs as usize + 1, out.waves.max(1), "{p}");
         assert_eq!(out.records, stats.ambient_records, "{p} processors");
         if o.ps == 1 {
             // The same pixels shaded the same way: the same hemispheres.
@@ -98,12 +123,14 @@ fn without_a_cache_parallel_equals_sequential() {
 fn bad_parallel_options_are_usage_errors() {
     let (scene, view, w, h) = cornell(8);
     let e = render_ambient_parallel(
-        &scene,
+        scene,
         options(),
         &view,
         w,
         h,
-        &AmbientParallelOptions { procs: 0 },
+        &ParallelOptions::new(0),
+        &[],
+        None,
     )
     .unwrap_err();
     assert_eq!(e.exit_code(), 2, "{e}");

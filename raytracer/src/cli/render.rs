@@ -207,7 +207,7 @@ fn render(a: &RenderArgs) -> Result<()> {
         if options.ab > 0 {
             return run_ambient_parallel(
                 a,
-                &scene,
+                scene,
                 options,
                 &view,
                 (width, height),
@@ -484,11 +484,12 @@ fn finish_parallel(
     Ok(())
 }
 
-/// `--procs` with `-ab`: the threaded irradiance-cache renderer.
+/// `--procs` or `--runtime` with `-ab`: the irradiance cache in waves on
+/// the framework (any runtime).
 #[allow(clippy::too_many_arguments)]
 fn run_ambient_parallel(
     a: &RenderArgs,
-    scene: &scene::Scene,
+    scene: Arc<scene::Scene>,
     options: RenderOptions,
     view: &View,
     (width, height): (usize, usize),
@@ -497,28 +498,38 @@ fn run_ambient_parallel(
     start: Instant,
     ambient_file: Option<&AmbientFileUse>,
 ) -> Result<()> {
-    use crate::parallel::ambient::{render_ambient_parallel_with_progress, AmbientParallelOptions};
+    use crate::parallel::ambient::render_ambient_parallel;
     let file_options = options.clone();
-    let opts = AmbientParallelOptions { procs: popts.procs };
     let progress = Progress::start((width * height) as u64, "pixels", a.report, true);
-    let out = render_ambient_parallel_with_progress(
+    let out = render_ambient_parallel(
         scene,
         options,
         view,
         width,
         height,
-        &opts,
+        popts,
         ambient_file.map_or(&[][..], |f| &f.records[..]),
         Some(progress.counter()),
     );
     progress.finish();
-    let out = out?;
+    let Some(out) = out? else {
+        // An MPI rank other than 0: rank 0 writes the picture and reports.
+        return Ok(());
+    };
     if let Some(f) = ambient_file {
         f.append(&file_options, &out.new_records)?;
     }
+    let simulated = out
+        .simulated_s
+        .map_or(String::new(), |s| format!(" ({s:.3} simulated s)"));
     eprintln!(
-        "parallel inter-reflection: {} processors: {:.3} s; {} waves, {} hemispheres, {} records",
-        opts.procs, out.render_s, out.waves, out.hemispheres, out.records
+        "parallel inter-reflection: {} processors ({}): {:.3} s{simulated}; {} waves, {} hemispheres, {} records",
+        popts.procs,
+        out.stats.runtime,
+        out.render_s,
+        out.waves,
+        out.hemispheres,
+        out.records
     );
     write_film(a, &out.film, view, exposure)?;
     eprintln!(

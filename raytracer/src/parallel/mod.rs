@@ -409,7 +409,7 @@ fn this_rank() -> Result<usize> {
 
 #[cfg(not(feature = "mpi"))]
 fn this_rank() -> Result<usize> {
-    mpi_runtime().map(|_| 0)
+    mpi_runtime::<RtWorkload>().map(|_| 0)
 }
 
 /// Runs a workload and assembles the picture and the report.
@@ -434,35 +434,11 @@ fn run_workload(
     };
     let data_bytes = wl.data_bytes();
     let cache_bytes = popts.cache.resolve(data_bytes);
-    let mut config = Config::new(popts.procs)
-        .with_policy(popts.policy)
-        .with_cache_bytes(cache_bytes);
-    config.threads = popts.threads;
-    config.time_limit = popts.time_limit;
-    config.credits_per_link = popts.credits;
-    config.flight_bytes = popts.flight_bytes;
-    config.prefetch_work = popts.prefetch_work;
-    config
-        .validate()
-        .map_err(|e| Error::Usage(format!("parallel configuration: {e}")))?;
     let part = wl.partition().clone();
     let wl = Arc::new(wl);
     let setup_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let failed = |e: hybrid_sched::RunError| Error::Other(format!("parallel render failed: {e}"));
-    let runtime: Box<dyn Runtime<RtWorkload>> = match popts.runtime {
-        RuntimeKind::Threads => Box::new(Threads),
-        RuntimeKind::Sequential => Box::new(Sequential),
-        RuntimeKind::Sim => {
-            let mut sim = Sim::new(cost::model(), popts.network.clone());
-            sim.seed = popts.sim_seed;
-            // Virtual time has no wall-clock limit.
-            config.time_limit = None;
-            Box::new(sim)
-        }
-        RuntimeKind::Mpi => mpi_runtime()?,
-    };
-    let mut report = runtime.run_blocking(wl.clone(), &config).map_err(failed)?;
+    let mut report = run_on(wl.clone(), popts, cache_bytes)?;
     let (timeline, ranks) = match std::mem::take(&mut report.extras) {
         Extras::None => (None, Vec::new()),
         Extras::Timeline(t) => (Some(t), Vec::new()),
@@ -574,6 +550,41 @@ fn run_workload(
     }))
 }
 
+/// Runs `wl` on the runtime, processors and flow control of `popts`,
+/// with a cache of `cache_bytes` per processor.
+pub(crate) fn run_on<W: hybrid_sched::Workload>(
+    wl: Arc<W>,
+    popts: &ParallelOptions,
+    cache_bytes: Option<u64>,
+) -> Result<hybrid_sched::RunReport<W>> {
+    let mut config = Config::new(popts.procs)
+        .with_policy(popts.policy)
+        .with_cache_bytes(cache_bytes);
+    config.threads = popts.threads;
+    config.time_limit = popts.time_limit;
+    config.credits_per_link = popts.credits;
+    config.flight_bytes = popts.flight_bytes;
+    config.prefetch_work = popts.prefetch_work;
+    config
+        .validate()
+        .map_err(|e| Error::Usage(format!("parallel configuration: {e}")))?;
+    let runtime: Box<dyn Runtime<W>> = match popts.runtime {
+        RuntimeKind::Threads => Box::new(Threads),
+        RuntimeKind::Sequential => Box::new(Sequential),
+        RuntimeKind::Sim => {
+            let mut sim = Sim::new(cost::model(), popts.network.clone());
+            sim.seed = popts.sim_seed;
+            // Virtual time has no wall-clock limit.
+            config.time_limit = None;
+            Box::new(sim)
+        }
+        RuntimeKind::Mpi => mpi_runtime()?,
+    };
+    runtime
+        .run_blocking(wl, &config)
+        .map_err(|e| Error::Other(format!("parallel render failed: {e}")))
+}
+
 /// Starts MPI (once per process) and returns `(rank, ranks)`.
 #[cfg(feature = "mpi")]
 pub fn mpi_world() -> Result<(usize, usize)> {
@@ -584,12 +595,12 @@ pub fn mpi_world() -> Result<(usize, usize)> {
 
 /// The MPI runtime (one processor per rank).
 #[cfg(feature = "mpi")]
-fn mpi_runtime() -> Result<Box<dyn Runtime<RtWorkload>>> {
+fn mpi_runtime<W: hybrid_sched::Workload>() -> Result<Box<dyn Runtime<W>>> {
     Ok(Box::new(hybrid_sched::runtime::mpi::Mpi))
 }
 
 #[cfg(not(feature = "mpi"))]
-fn mpi_runtime() -> Result<Box<dyn Runtime<RtWorkload>>> {
+fn mpi_runtime<W: hybrid_sched::Workload>() -> Result<Box<dyn Runtime<W>>> {
     Err(Error::Usage(
         "runtime \"mpi\" is not available in this build (build hybrid-rt with --features mpi)"
             .into(),

@@ -60,75 +60,163 @@ pub fn render_in_waves(
     height: usize,
     (ps, pt): (u32, f64),
     s: &AmbientSettings,
-    mut cache: Arc<AmbientCache>,
+    cache: Arc<AmbientCache>,
     shade: &mut ShadeWave<'_>,
     progress: &mut dyn FnMut(usize),
 ) -> Result<WaveRender> {
-    let mut memo: Vec<Option<Color>> = vec![None; width * height];
-    let mut shaded = 0;
-    let mut waves = 0;
-    let mut run = |wave: &[u32],
-                   cache: &mut Arc<AmbientCache>,
-                   memo: &mut Vec<Option<Color>>|
-     -> Result<()> {
-        let results = shade(wave, cache)?;
+    let mut waves = Waves::new(width, height, (ps, pt), *s, cache);
+    while let Some(wave) = waves.next_wave() {
+        let results = shade(&wave, waves.cache())?;
+        waves.wave_done(&wave, results);
+        progress(waves.shaded());
+    }
+    Ok(waves.finish())
+}
+
+/// The waves of a render as a state machine, for a driver that shades
+/// them elsewhere (the framework's epochs): ask [`Waves::next_wave`] for a
+/// wave's pixels, shade them against [`Waves::cache`], hand the results
+/// to [`Waves::wave_done`]; when no wave is left, [`Waves::finish`] gives
+/// the picture. [`render_in_waves`] is this loop.
+pub struct Waves {
+    width: usize,
+    height: usize,
+    ps: u32,
+    pt: f64,
+    s: AmbientSettings,
+    cache: Arc<AmbientCache>,
+    /// Each pixel's value, once shaded.
+    memo: Vec<Option<Color>>,
+    /// Waves to shade next, in order.
+    queue: std::collections::VecDeque<Vec<u32>>,
+    /// Whether the sampler's requests are still to be asked for (`-ps` >
+    /// 1, once the lattice is shaded).
+    refining: bool,
+    /// The rank of each pixel's wave in the full lattice's waves (for
+    /// grouping the sampler's requests), computed when first needed.
+    rank: Vec<u16>,
+    film: Film,
+    shaded: usize,
+    waves: usize,
+}
+
+impl Waves {
+    /// The waves of a `width` x `height` render with adaptive sampling
+    /// `ps`, `pt`, starting from `cache`.
+    pub fn new(
+        width: usize,
+        height: usize,
+        (ps, pt): (u32, f64),
+        s: AmbientSettings,
+        cache: Arc<AmbientCache>,
+    ) -> Self {
+        Waves {
+            width,
+            height,
+            ps,
+            pt,
+            s,
+            cache,
+            memo: vec![None; width * height],
+            queue: cache_waves(width, height, ps as usize).into(),
+            refining: ps > 1,
+            rank: Vec::new(),
+            film: Film::new(width, height),
+            shaded: 0,
+            waves: 0,
+        }
+    }
+
+    /// The cache as the next wave finds it (frozen while it is shaded).
+    pub fn cache(&self) -> &Arc<AmbientCache> {
+        &self.cache
+    }
+
+    /// Pixels shaded so far.
+    pub fn shaded(&self) -> usize {
+        self.shaded
+    }
+
+    /// The next wave's pixels (row-major indices, ascending within a
+    /// lattice wave), or `None` when the picture is complete.
+    pub fn next_wave(&mut self) -> Option<Vec<u32>> {
+        if let Some(w) = self.queue.pop_front() {
+            return Some(w);
+        }
+        if !self.refining {
+            return None;
+        }
+        // The adaptive sampler over the values known so far: the pixels
+        // it asks for, grouped by the full lattice's waves (requests along
+        // an edge are neighbours: so they share).
+        if self.rank.is_empty() {
+            self.rank = vec![0u16; self.width * self.height];
+            for (k, wave) in cache_waves(self.width, self.height, 1).iter().enumerate() {
+                for &i in wave {
+                    self.rank[i as usize] = k.min(u16::MAX as usize) as u16;
+                }
+            }
+        }
+        let (width, memo, film) = (self.width, &self.memo, &mut self.film);
+        let grid = Grid::new(self.width, self.height, self.ps, self.pt);
+        let mut wanted: Vec<u32> = Vec::new();
+        let mut carry = None;
+        for band in grid.bands() {
+            grid.fill_region(
+                0..width,
+                band,
+                &mut carry,
+                &mut |x, y| {
+                    memo[y * width + x].unwrap_or_else(|| {
+                        wanted.push((y * width + x) as u32);
+                        Color::splat(f64::NAN)
+                    })
+                },
+                &mut |x, y, c| film.set(x, y, c),
+            );
+        }
+        if wanted.is_empty() {
+            // The sampler asks for nothing more: its picture is the render.
+            self.refining = false;
+            return None;
+        }
+        let rank = &self.rank;
+        wanted.sort_unstable_by_key(|&i| (rank[i as usize], i));
+        wanted.dedup();
+        for group in wanted.chunk_by(|a, b| rank[*a as usize] == rank[*b as usize]) {
+            self.queue.push_back(group.to_vec());
+        }
+        self.queue.pop_front()
+    }
+
+    /// The values of `wave`'s pixels and the records their traces made (in
+    /// the wave's order): the records join the cache in pixel order.
+    pub fn wave_done(&mut self, wave: &[u32], results: Vec<(Color, Vec<AmbientRecord>)>) {
         let mut made = Vec::new();
         for (&i, (c, own)) in wave.iter().zip(results) {
-            memo[i as usize] = Some(c);
+            self.memo[i as usize] = Some(c);
             made.extend(own);
         }
-        *cache = AmbientCache::extended(cache.clone(), s, made);
-        shaded += wave.len();
-        waves += 1;
-        progress(shaded);
-        Ok(())
-    };
-    for wave in cache_waves(width, height, ps as usize) {
-        run(&wave, &mut cache, &mut memo)?;
+        self.cache = AmbientCache::extended(self.cache.clone(), &self.s, made);
+        self.shaded += wave.len();
+        self.waves += 1;
     }
-    let mut film = Film::new(width, height);
-    if ps <= 1 {
-        for (i, c) in memo.iter().enumerate() {
-            film.set(i % width, i / width, c.unwrap_or(Color::ZERO));
-        }
-    } else {
-        let grid = Grid::new(width, height, ps, pt);
-        let mut rank = vec![0u16; width * height];
-        for (k, wave) in cache_waves(width, height, 1).iter().enumerate() {
-            for &i in wave {
-                rank[i as usize] = k.min(u16::MAX as usize) as u16;
+
+    /// The picture (once [`Waves::next_wave`] has returned `None`), the
+    /// cache at the end and the number of waves shaded.
+    pub fn finish(mut self) -> WaveRender {
+        if self.ps <= 1 {
+            for (i, c) in self.memo.iter().enumerate() {
+                self.film
+                    .set(i % self.width, i / self.width, c.unwrap_or(Color::ZERO));
             }
         }
-        loop {
-            let mut wanted: Vec<u32> = Vec::new();
-            let mut carry = None;
-            for band in grid.bands() {
-                grid.fill_region(
-                    0..width,
-                    band,
-                    &mut carry,
-                    &mut |x, y| {
-                        memo[y * width + x].unwrap_or_else(|| {
-                            wanted.push((y * width + x) as u32);
-                            Color::splat(f64::NAN)
-                        })
-                    },
-                    &mut |x, y, c| film.set(x, y, c),
-                );
-            }
-            if wanted.is_empty() {
-                break;
-            }
-            // The requests, in the waves of the full lattice that hold
-            // them (requests along an edge are neighbours: so they share).
-            wanted.sort_unstable_by_key(|&i| (rank[i as usize], i));
-            wanted.dedup();
-            for group in wanted.chunk_by(|a, b| rank[*a as usize] == rank[*b as usize]) {
-                run(group, &mut cache, &mut memo)?;
-            }
+        WaveRender {
+            film: self.film,
+            cache: self.cache,
+            waves: self.waves,
         }
     }
-    Ok(WaveRender { film, cache, waves })
 }
 
 /// Pixel indices (row-major) of each wave, coarsest first: the points of
