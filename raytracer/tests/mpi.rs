@@ -170,6 +170,51 @@ fn mpirun_renders_the_sequential_picture() {
     }
 }
 
+/// Diffuse inter-reflection (`-ab 2`, the irradiance cache in waves: one
+/// epoch each, the records broadcast to every rank between them) under
+/// MPI: the sequential picture, bit for bit, and the same cache.
+#[test]
+fn mpirun_renders_two_bounces_as_the_sequential_renderer() {
+    let d = tmpdir("ab2");
+    let (rad, vf) = cornell(&d);
+    let ab = ["-ab", "2", "-aa", ".2", "-ad", "32", "-as", "8", "-ar", "16"];
+    let seq = d.join("seq.hdr");
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hybrid-rt"));
+    cmd.args(base(&rad, &vf))
+        .args(ab)
+        .args(["-o", seq.to_str().unwrap()]);
+    let r = run_limited(cmd, &d, "seq");
+    assert!(r.status.success(), "sequential: {}", r.stderr);
+    let want = std::fs::read(&seq).unwrap();
+    for np in [1, 3] {
+        let out = d.join(format!("mpi{np}.hdr"));
+        let mut args = base(&rad, &vf);
+        args.extend(ab);
+        args.extend([
+            "--runtime",
+            "mpi",
+            "--time-limit",
+            "200",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let r = mpirun(np, &args, &[], &d, &format!("ab2np{np}"));
+        assert!(r.status.success(), "-np {np}: {}", r.stderr);
+        assert!(
+            std::fs::read(&out).unwrap() == want,
+            "-np {np}: the picture differs from the sequential one"
+        );
+        // Rank 0 reports, once; more than one wave ran.
+        let e = &r.stderr;
+        let line = e
+            .lines()
+            .find(|l| l.starts_with("parallel inter-reflection:"))
+            .unwrap_or_else(|| panic!("-np {np}: no report: {e}"));
+        assert!(line.contains(&format!("{np} processors (mpi)")), "{line}");
+        assert_eq!(e.matches("parallel inter-reflection:").count(), 1, "{e}");
+    }
+}
+
 #[test]
 fn an_undecodable_message_is_a_clear_error_not_a_hang() {
     let d = tmpdir("garbage");
