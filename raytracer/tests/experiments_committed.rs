@@ -16,6 +16,9 @@
 //! - `experiments/ci/studio-soft`: the paper-like workload (the studio
 //!   with soft shadows, `-ds 0.05 -dt 0`: 33 shadow rays per bundle) on a
 //!   tiny picture; release only;
+//! - `experiments/interreflection`: diffuse inter-reflection on the
+//!   simulated cluster (the Cornell box, 1 to 32 processors), about 15 s
+//!   in a release build; release only;
 //! - `experiments/studio`, `experiments/studio-soft` (the paper-like
 //!   workload at full size) and `experiments/conference`: minutes each,
 //!   ignored by default; `cargo test --release -p hybrid-rt --test
@@ -85,10 +88,16 @@ fn unified_diff(committed: &Path, fresh: &Path) -> String {
 /// Runs `hybrid-rt experiment all ARGS --out TMP` and compares TMP with
 /// `experiments/DIR`.
 fn check(dir: &str, args: &[&str]) {
+    check_experiment("all", dir, args)
+}
+
+/// Runs `hybrid-rt experiment NAME ARGS --out TMP` and compares TMP with
+/// `experiments/DIR`.
+fn check_experiment(name: &str, dir: &str, args: &[&str]) {
     let out = tmpdir(&dir.replace('/', "-"));
     let o = Command::new(env!("CARGO_BIN_EXE_hybrid-rt"))
         .current_dir(repo())
-        .args(["experiment", "all"])
+        .args(["experiment", name])
         .args(args)
         .arg("--out")
         .arg(&out)
@@ -96,13 +105,13 @@ fn check(dir: &str, args: &[&str]) {
         .expect("run hybrid-rt");
     assert!(
         o.status.success(),
-        "hybrid-rt experiment all {}: {}",
+        "hybrid-rt experiment {name} {}: {}",
         args.join(" "),
         String::from_utf8_lossy(&o.stderr)
     );
     let committed = repo().join("experiments").join(dir);
     let regenerate = format!(
-        "cargo run --release -p hybrid-rt -- experiment all {} --out experiments/{dir}",
+        "cargo run --release -p hybrid-rt -- experiment {name} {} --out experiments/{dir}",
         args.join(" ")
     );
     let (want, got) = (files(&committed), files(&out));
@@ -208,6 +217,30 @@ fn small_studio_experiments_equal_the_committed_files() {
 )]
 fn small_paper_like_experiments_equal_the_committed_files() {
     check("ci/studio-soft", STUDIO_SOFT_SMALL);
+}
+
+/// The arguments of `experiments/interreflection`: diffuse inter-reflection
+/// (`-ab 1`) on the simulated cluster, 1 to 32 processors.
+const INTERREFLECTION: &[&str] = &[
+    "--scene",
+    "cornell",
+    "--width",
+    "64",
+    "--height",
+    "64",
+    "--max-procs",
+    "32",
+    "-ab",
+    "1",
+];
+
+#[test]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "release only (minutes in debug): scripts/test.sh runs it with --release"
+)]
+fn interreflection_experiment_equals_the_committed_files() {
+    check_experiment("interreflection", "interreflection", INTERREFLECTION);
 }
 
 #[test]

@@ -178,6 +178,9 @@ pub enum ExperimentName {
     Breakdown,
     Memory,
     Flow,
+    /// Diffuse inter-reflection (`-ab`) on the simulated cluster, 1 to
+    /// `--max-procs` processors (not in `all`).
+    Interreflection,
     All,
     Calibrate,
 }
@@ -1166,7 +1169,12 @@ mod tests {
             .map(value_name)
             .filter(|n| n != "all" && n != "calibrate")
             .collect();
-        assert_eq!(experiments, crate::experiment::NAMES);
+        let known: Vec<&str> = crate::experiment::NAMES
+            .iter()
+            .chain(&crate::experiment::EXTRA)
+            .copied()
+            .collect();
+        assert_eq!(experiments, known);
         // Defaults as before.
         let d = render_args(&["hybrid-rt", "render", "a.rad"]);
         assert_eq!(d.parallel.runtime, RuntimeArg::Threads);

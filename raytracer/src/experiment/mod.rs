@@ -28,6 +28,7 @@ mod data;
 mod efficiency;
 mod flow;
 mod harness;
+mod interreflection;
 mod memory;
 mod speedup;
 mod states;
@@ -57,16 +58,22 @@ pub const NAMES: [&str; 11] = [
     "flow",
 ];
 
-/// Runs experiment `name` (or every one for `all`), writing into `out`.
+/// Experiments beyond the paper's, not in `all` (they need other render
+/// options: `interreflection` needs `-ab`).
+pub const EXTRA: [&str; 1] = ["interreflection"];
+
+/// Runs experiment `name` (or every one of [`NAMES`] for `all`), writing
+/// into `out`.
 pub fn run(name: &str, setup: &Setup, out: &Path) -> Result<Vec<Output>> {
     let names: Vec<&str> = if name == "all" {
         NAMES.to_vec()
-    } else if NAMES.contains(&name) {
+    } else if NAMES.contains(&name) || EXTRA.contains(&name) {
         vec![name]
     } else {
         return Err(Error::Usage(format!(
-            "unknown experiment {name:?}: expected all or one of {}",
-            NAMES.join(", ")
+            "unknown experiment {name:?}: expected all or one of {}, {}",
+            NAMES.join(", "),
+            EXTRA.join(", ")
         )));
     };
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
@@ -90,6 +97,7 @@ pub fn run(name: &str, setup: &Setup, out: &Path) -> Result<Vec<Output>> {
             "breakdown" => breakdown::breakdown(&mut cx)?,
             "memory" => memory::memory(&mut cx)?,
             "flow" => flow::flow(&mut cx)?,
+            "interreflection" => interreflection::interreflection(&mut cx)?,
             _ => unreachable!("names are checked above"),
         }
     }
