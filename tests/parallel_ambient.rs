@@ -73,7 +73,11 @@ fn agrees(o: &RenderOptions, width: u32, procs: &[usize]) {
             o.ps,
             popts.runtime
         );
-        assert_eq!(out.stats.master.epochs as usize + 1, out.waves.max(1), "{p}");
+        assert_eq!(
+            out.stats.master.epochs as usize + 1,
+            out.waves.max(1),
+            "{p}"
+        );
         assert_eq!(out.records, stats.ambient_records, "{p} processors");
         if o.ps == 1 {
             // The same pixels shaded the same way: the same hemispheres.

@@ -177,7 +177,9 @@ fn mpirun_renders_the_sequential_picture() {
 fn mpirun_renders_two_bounces_as_the_sequential_renderer() {
     let d = tmpdir("ab2");
     let (rad, vf) = cornell(&d);
-    let ab = ["-ab", "2", "-aa", ".2", "-ad", "32", "-as", "8", "-ar", "16"];
+    let ab = [
+        "-ab", "2", "-aa", ".2", "-ad", "32", "-as", "8", "-ar", "16",
+    ];
     let seq = d.join("seq.hdr");
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_hybrid-rt"));
     cmd.args(base(&rad, &vf))

@@ -43,26 +43,6 @@ use crate::render::{check_resolution, RayCounts, RenderOptions, Renderer, TraceS
 use crate::scene::{Color, Scene, View};
 use crate::{Error, Result};
 
-/// The hybrid-scheduled workload assembles pixels from ray-tree records
-/// and has no irradiance cache: it refuses renders that need one (or more
-/// than one primary ray per pixel) instead of silently dropping the term.
-pub fn check_hybrid(renderer: &Renderer<'_>) -> Result<()> {
-    let o = renderer.options();
-    if renderer.effects().diffuse_interreflection.enabled {
-        return Err(Error::Usage(format!(
-            "-ab {}: the hybrid-scheduled workload does not compute diffuse inter-reflection; with --procs, -ab renders use the wave renderer (parallel::ambient)",
-            o.ab
-        )));
-    }
-    if o.pn > 1 {
-        return Err(Error::Usage(format!(
-            "-pn {}: the hybrid-scheduled workload traces one primary ray per pixel",
-            o.pn
-        )));
-    }
-    Ok(())
-}
-
 /// Pixels shaded as one task: few enough to balance, many enough that
 /// handing them out costs nothing.
 const CHUNK: usize = 16;

@@ -22,6 +22,7 @@ mod held;
 mod kernel;
 pub mod partition;
 pub mod predict;
+mod runtime;
 mod selection;
 pub mod tasks;
 pub mod tree;
@@ -34,14 +35,15 @@ mod partition_tests;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use hybrid_sched::{
-    Config, Extras, Network, Policy, RankTraffic, RunStats, Runtime, Sequential, Sim, Threads,
-    Timeline,
-};
+use hybrid_sched::{Config, Extras, Network, Policy, RankTraffic, RunStats, Timeline};
 use serde::Serialize;
 
 pub use distribution::Distribution;
 pub use partition::Partition;
+pub use runtime::check_hybrid;
+#[cfg(feature = "mpi")]
+pub use runtime::mpi_world;
+pub(crate) use runtime::{run_on, this_rank};
 pub use tasks::{CellData, DdTask, DpTask};
 pub use work::Work;
 pub use workload::{RtWorkload, WorkloadOptions};
@@ -335,7 +337,7 @@ pub fn render_parallel_with_progress(
     } else {
         Renderer::shared_lazy_bvh(scene, options, &OctreeParams::default())?
     };
-    ambient::check_hybrid(&renderer)?;
+    check_hybrid(&renderer)?;
     let wl = RtWorkload::new(
         renderer,
         view.clone(),
@@ -374,7 +376,7 @@ pub fn render_parallel_held(
         "replicated part and skeleton read"
     );
     let renderer = Renderer::with_skeleton(Arc::new(part.scene), options, part.octree)?;
-    ambient::check_hybrid(&renderer)?;
+    check_hybrid(&renderer)?;
     let wl = RtWorkload::distributed(
         renderer,
         view.clone(),
@@ -399,17 +401,6 @@ pub fn render_parallel_held(
         "cells read"
     );
     run_workload(wl, popts, progress, t0)
-}
-
-/// This process's MPI rank.
-#[cfg(feature = "mpi")]
-fn this_rank() -> Result<usize> {
-    mpi_world().map(|(rank, _)| rank)
-}
-
-#[cfg(not(feature = "mpi"))]
-fn this_rank() -> Result<usize> {
-    mpi_runtime::<RtWorkload>().map(|_| 0)
 }
 
 /// Runs a workload and assembles the picture and the report.
@@ -548,61 +539,4 @@ fn run_workload(
         peak_resident_bytes: hybrid_sched::stats::peak_resident_bytes(),
         ranks,
     }))
-}
-
-/// Runs `wl` on the runtime, processors and flow control of `popts`,
-/// with a cache of `cache_bytes` per processor.
-pub(crate) fn run_on<W: hybrid_sched::Workload>(
-    wl: Arc<W>,
-    popts: &ParallelOptions,
-    cache_bytes: Option<u64>,
-) -> Result<hybrid_sched::RunReport<W>> {
-    let mut config = Config::new(popts.procs)
-        .with_policy(popts.policy)
-        .with_cache_bytes(cache_bytes);
-    config.threads = popts.threads;
-    config.time_limit = popts.time_limit;
-    config.credits_per_link = popts.credits;
-    config.flight_bytes = popts.flight_bytes;
-    config.prefetch_work = popts.prefetch_work;
-    config
-        .validate()
-        .map_err(|e| Error::Usage(format!("parallel configuration: {e}")))?;
-    let runtime: Box<dyn Runtime<W>> = match popts.runtime {
-        RuntimeKind::Threads => Box::new(Threads),
-        RuntimeKind::Sequential => Box::new(Sequential),
-        RuntimeKind::Sim => {
-            let mut sim = Sim::new(cost::model(), popts.network.clone());
-            sim.seed = popts.sim_seed;
-            // Virtual time has no wall-clock limit.
-            config.time_limit = None;
-            Box::new(sim)
-        }
-        RuntimeKind::Mpi => mpi_runtime()?,
-    };
-    runtime
-        .run_blocking(wl, &config)
-        .map_err(|e| Error::Other(format!("parallel render failed: {e}")))
-}
-
-/// Starts MPI (once per process) and returns `(rank, ranks)`.
-#[cfg(feature = "mpi")]
-pub fn mpi_world() -> Result<(usize, usize)> {
-    let w = hybrid_sched::runtime::mpi::init()
-        .map_err(|e| Error::Other(format!("cannot start MPI: {e}")))?;
-    Ok((w.rank, w.size))
-}
-
-/// The MPI runtime (one processor per rank).
-#[cfg(feature = "mpi")]
-fn mpi_runtime<W: hybrid_sched::Workload>() -> Result<Box<dyn Runtime<W>>> {
-    Ok(Box::new(hybrid_sched::runtime::mpi::Mpi))
-}
-
-#[cfg(not(feature = "mpi"))]
-fn mpi_runtime<W: hybrid_sched::Workload>() -> Result<Box<dyn Runtime<W>>> {
-    Err(Error::Usage(
-        "runtime \"mpi\" is not available in this build (build hybrid-rt with --features mpi)"
-            .into(),
-    ))
 }

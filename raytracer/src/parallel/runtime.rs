@@ -1,0 +1,99 @@
+//! Running a workload on the runtime [`ParallelOptions`] names: threads,
+//! the framework's sequential reference, the simulator (priced by the
+//! committed cost model) or MPI.
+
+use std::sync::Arc;
+
+use hybrid_sched::{Config, Runtime, Sequential, Sim, Threads};
+
+use super::{cost, ParallelOptions, RuntimeKind};
+use crate::render::Renderer;
+use crate::{Error, Result};
+
+/// Runs `wl` on the runtime, processors and flow control of `popts`,
+/// with a cache of `cache_bytes` per processor.
+pub(crate) fn run_on<W: hybrid_sched::Workload>(
+    wl: Arc<W>,
+    popts: &ParallelOptions,
+    cache_bytes: Option<u64>,
+) -> Result<hybrid_sched::RunReport<W>> {
+    let mut config = Config::new(popts.procs)
+        .with_policy(popts.policy)
+        .with_cache_bytes(cache_bytes);
+    config.threads = popts.threads;
+    config.time_limit = popts.time_limit;
+    config.credits_per_link = popts.credits;
+    config.flight_bytes = popts.flight_bytes;
+    config.prefetch_work = popts.prefetch_work;
+    config
+        .validate()
+        .map_err(|e| Error::Usage(format!("parallel configuration: {e}")))?;
+    let runtime: Box<dyn Runtime<W>> = match popts.runtime {
+        RuntimeKind::Threads => Box::new(Threads),
+        RuntimeKind::Sequential => Box::new(Sequential),
+        RuntimeKind::Sim => {
+            let mut sim = Sim::new(cost::model(), popts.network.clone());
+            sim.seed = popts.sim_seed;
+            // Virtual time has no wall-clock limit.
+            config.time_limit = None;
+            Box::new(sim)
+        }
+        RuntimeKind::Mpi => mpi_runtime()?,
+    };
+    runtime
+        .run_blocking(wl, &config)
+        .map_err(|e| Error::Other(format!("parallel render failed: {e}")))
+}
+
+/// Starts MPI (once per process) and returns `(rank, ranks)`.
+#[cfg(feature = "mpi")]
+pub fn mpi_world() -> Result<(usize, usize)> {
+    let w = hybrid_sched::runtime::mpi::init()
+        .map_err(|e| Error::Other(format!("cannot start MPI: {e}")))?;
+    Ok((w.rank, w.size))
+}
+
+/// The MPI runtime (one processor per rank).
+#[cfg(feature = "mpi")]
+fn mpi_runtime<W: hybrid_sched::Workload>() -> Result<Box<dyn Runtime<W>>> {
+    Ok(Box::new(hybrid_sched::runtime::mpi::Mpi))
+}
+
+#[cfg(not(feature = "mpi"))]
+fn mpi_runtime<W: hybrid_sched::Workload>() -> Result<Box<dyn Runtime<W>>> {
+    Err(Error::Usage(
+        "runtime \"mpi\" is not available in this build (build hybrid-rt with --features mpi)"
+            .into(),
+    ))
+}
+
+/// This process's MPI rank.
+#[cfg(feature = "mpi")]
+pub(crate) fn this_rank() -> Result<usize> {
+    mpi_world().map(|(rank, _)| rank)
+}
+
+#[cfg(not(feature = "mpi"))]
+pub(crate) fn this_rank() -> Result<usize> {
+    mpi_runtime::<super::RtWorkload>().map(|_| 0)
+}
+
+/// The hybrid-scheduled workload assembles pixels from ray-tree records
+/// and has no irradiance cache: it refuses renders that need one (or more
+/// than one primary ray per pixel) instead of silently dropping the term.
+pub fn check_hybrid(renderer: &Renderer<'_>) -> Result<()> {
+    let o = renderer.options();
+    if renderer.effects().diffuse_interreflection.enabled {
+        return Err(Error::Usage(format!(
+            "-ab {}: the hybrid-scheduled workload does not compute diffuse inter-reflection; with --procs, -ab renders use the wave renderer (parallel::ambient)",
+            o.ab
+        )));
+    }
+    if o.pn > 1 {
+        return Err(Error::Usage(format!(
+            "-pn {}: the hybrid-scheduled workload traces one primary ray per pixel",
+            o.pn
+        )));
+    }
+    Ok(())
+}
