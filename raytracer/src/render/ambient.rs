@@ -347,8 +347,7 @@ impl AmbientCache {
     }
 
     /// Records usable at `p` with normal `n` by a ray of ambient level
-    /// `level` and weight `weight`, as (index, extrapolated value, weight);
-    /// only records with index >= `from`.
+    /// `level` and weight `weight`, as (index, extrapolated value, weight).
     #[allow(clippy::too_many_arguments)]
     fn candidates(
         &self,
@@ -357,7 +356,6 @@ impl AmbientCache {
         n: Vec3,
         level: u32,
         weight: f64,
-        from: usize,
         leak: &mut dyn FnMut(Vec3, Vec3, f64) -> bool,
         mut f: impl FnMut(usize, Color, f64),
     ) {
@@ -379,9 +377,6 @@ impl AmbientCache {
             };
             for &i in ids {
                 let i = i as usize;
-                if i < from {
-                    continue;
-                }
                 let r = &self.records[i];
                 if r.level > level || (r.level == level && r.weight < 0.9 * weight) {
                     continue;
@@ -432,31 +427,6 @@ impl AmbientCache {
         occluded: &mut dyn FnMut(Vec3, Vec3, f64) -> bool,
     ) -> Option<Color> {
         interpolate(&[self], s, p, n, level, weight, occluded)
-    }
-
-    /// True if a record with index >= `from` would answer a lookup at `p`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn covered_since(
-        &self,
-        s: &AmbientSettings,
-        p: Vec3,
-        n: Vec3,
-        level: u32,
-        weight: f64,
-        from: usize,
-    ) -> bool {
-        let mut wsum = 0.0;
-        self.candidates(
-            s,
-            p,
-            n,
-            level,
-            weight,
-            from,
-            &mut |_, _, _| false,
-            |_, _, w| wsum += w,
-        );
-        wsum > FTINY
     }
 
     /// `cache` with `records` stored after its own, in order (copied only
@@ -516,7 +486,7 @@ fn interpolate(
     let mut sum = Color::ZERO;
     let mut wsum = 0.0;
     for c in caches {
-        c.candidates(s, p, n, level, weight, 0, occluded, |_, v, w| {
+        c.candidates(s, p, n, level, weight, occluded, |_, v, w| {
             sum += v * w;
             wsum += w;
         });
