@@ -185,7 +185,10 @@ impl AmbientWaves {
             // Every task of wave `w` runs after the broadcasts 0..w are
             // held (the framework's guarantee), so this item is here.
             let records = data.get(&slot.0).map(|r| r.0.clone()).unwrap_or_default();
-            slot.1 = AmbientCache::extended(slot.1.clone(), &self.settings, records);
+            // Taken out of the slot, so that it is extended in place when
+            // no task of an earlier wave still holds it.
+            let before = std::mem::take(&mut slot.1);
+            slot.1 = AmbientCache::extended(before, &self.settings, records);
             slot.0 += 1;
         }
         slot.1.clone()

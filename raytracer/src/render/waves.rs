@@ -197,7 +197,8 @@ impl Waves {
             self.memo[i as usize] = Some(c);
             made.extend(own);
         }
-        self.cache = AmbientCache::extended(self.cache.clone(), &self.s, made);
+        let before = std::mem::take(&mut self.cache);
+        self.cache = AmbientCache::extended(before, &self.s, made);
         self.shaded += wave.len();
         self.waves += 1;
     }
