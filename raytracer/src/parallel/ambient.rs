@@ -10,7 +10,8 @@
 //! makes; between waves the wave's records join the cache in pixel order.
 //! Here a wave is one of the framework's *epochs*
 //! ([`hybrid_sched::Workload::next_epoch`]): its pixels are root tasks in
-//! chunks, handed out demand-driven; each chunk's values and records go to
+//! chunks (at most 16 pixels, about four chunks per processor), handed out
+//! demand-driven; each chunk's values and records go to
 //! the master; when the wave is over the master feeds them to the waves'
 //! state machine ([`Waves`]), which names the next wave, and the wave's
 //! records travel to every processor as write-once broadcast data (item
@@ -43,9 +44,17 @@ use crate::render::{check_resolution, RayCounts, RenderOptions, Renderer, TraceS
 use crate::scene::{Color, Scene, View};
 use crate::{Error, Result};
 
-/// Pixels shaded as one task: few enough to balance, many enough that
-/// handing them out costs nothing.
+/// Most pixels shaded as one task: many enough that handing them out
+/// costs little.
 const CHUNK: usize = 16;
+
+/// Pixels per task for a wave of `len` pixels on `procs` processors: at
+/// most [`CHUNK`], and few enough that every processor gets about four
+/// tasks (a wave is a barrier: a coarse wave of 64 pixels in chunks of 16
+/// would keep all but four processors waiting).
+fn chunk_len(len: usize, procs: usize) -> usize {
+    len.div_ceil(4 * procs.max(1)).clamp(1, CHUNK)
+}
 
 /// A task: pixels (row-major indices) of one wave.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -129,6 +138,8 @@ pub struct AmbientWaves {
     frozen: Mutex<(u32, Arc<AmbientCache>)>,
     driver: Mutex<Driver>,
     progress: Option<Arc<AtomicU64>>,
+    /// Processors in the run (tasks are sized for them).
+    procs: usize,
 }
 
 impl AmbientWaves {
@@ -139,6 +150,7 @@ impl AmbientWaves {
         height: usize,
         initial: Arc<AmbientCache>,
         progress: Option<Arc<AtomicU64>>,
+        procs: usize,
     ) -> Self {
         let settings = *renderer.ambient_settings();
         let caching = renderer.caches_ambient();
@@ -164,12 +176,13 @@ impl AmbientWaves {
                 error: None,
             }),
             progress,
+            procs,
         }
     }
 
-    fn chunks(wave: u32, pixels: &[u32]) -> Vec<Pixels> {
+    fn chunks(&self, wave: u32, pixels: &[u32]) -> Vec<Pixels> {
         pixels
-            .chunks(CHUNK)
+            .chunks(chunk_len(pixels.len(), self.procs))
             .map(|c| Pixels {
                 wave,
                 pixels: c.to_vec(),
@@ -273,7 +286,7 @@ impl Workload for AmbientWaves {
 
     fn root_tasks(&self, _procs: usize) -> Vec<Pixels> {
         let d = self.driver.lock().unwrap_or_else(|e| e.into_inner());
-        Self::chunks(0, &d.current)
+        self.chunks(0, &d.current)
     }
 
     /// Nothing to fetch: the cache's records are held everywhere.
@@ -334,7 +347,7 @@ impl Workload for AmbientWaves {
         d.current = next;
         let wave = u32::try_from(ended + 1).ok()?;
         Some(Epoch {
-            roots: Self::chunks(wave, &d.current),
+            roots: self.chunks(wave, &d.current),
             broadcast: vec![(wave - 1, WaveRecords(made))],
         })
     }
@@ -405,6 +418,7 @@ pub fn render_ambient_parallel(
         height,
         Arc::new(base),
         progress,
+        popts.procs,
     ));
     let t0 = Instant::now();
     let mut report = run_on(wl.clone(), popts, None)?;
