@@ -32,6 +32,10 @@ pub struct TutorialSim;
 pub struct TutorialMpi;
 
 #[cfg(doctest)]
+#[doc = include_str!("src/tutorial-epochs.md")]
+pub struct TutorialEpochs;
+
+#[cfg(doctest)]
 #[doc = include_str!("src/parallel.md")]
 pub struct Parallel;
 
