@@ -97,6 +97,6 @@ mod tests {
             );
             chapters += 1;
         }
-        assert_eq!(chapters, 17);
+        assert_eq!(chapters, 18);
     }
 }
