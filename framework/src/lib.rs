@@ -12,6 +12,9 @@
 //!   data store with a byte-budgeted LRU cache ([`ByteLru`]); the master
 //!   hands out root tasks and detects termination. They exchange the
 //!   messages of [`protocol`].
+//! * Work in rounds runs in *epochs* ([`Workload::next_epoch`]): when an
+//!   epoch's work is all done, the master starts the next one, with
+//!   write-once data broadcast to every processor before its first task.
 //! * A [`Runtime`] moves the messages between them: [`Threads`] (tokio),
 //!   [`Sequential`] (the reference), [`Lockstep`] (seeded interleavings),
 //!   [`Sim`] (a simulated cluster in virtual time) or one processor per MPI

@@ -1,5 +1,15 @@
 //! The master: hands out root tasks, pools `ViaMaster` children, merges
-//! results addressed to it, and detects termination.
+//! results addressed to it, detects termination, and runs epochs.
+//!
+//! # Epochs
+//! What termination detection finds is the end of an epoch. The master
+//! then asks the workload for the next one ([`Workload::next_epoch`]); if
+//! there is one, it sends its broadcast to every processor
+//! ([`Msg::Broadcast`]) and holds its roots back until every processor has
+//! answered [`Msg::BroadcastHeld`] (both basic messages; the master is not
+//! passive meanwhile), then serves the parked work requests. Detection
+//! starts afresh (no earlier wave confirms a later one). Otherwise it sends
+//! [`Msg::Terminate`].
 //!
 //! The master is an extra actor, not a worker (the paper's master also
 //! traced; keeping it apart keeps it responsive, which matters most for the
