@@ -221,7 +221,7 @@ fn render(a: &RenderArgs) -> Result<()> {
             a, scene, options, &view, width, height, &popts, exposure, start,
         );
     }
-    let renderer = Renderer::new(&scene, options)?;
+    let renderer = Renderer::new(&scene, options)?.with_effect_times(a.stats.is_some());
     for w in renderer.warnings() {
         eprintln!("warning: {w}");
     }

@@ -55,7 +55,8 @@ impl RayCounts {
 
 /// Where the time went, in seconds. Effect times are exclusive: the time
 /// of a reflected ray does not include the shadow bundles run at its hit
-/// point, which count as `direct_s`.
+/// point, which count as `direct_s`. They are 0 unless the renderer
+/// measures them ([`crate::render::Renderer::with_effect_times`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Timings {
     pub octree_build_s: f64,
