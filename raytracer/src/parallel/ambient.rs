@@ -196,8 +196,19 @@ impl AmbientWaves {
         let mut slot = self.frozen.lock().unwrap_or_else(|e| e.into_inner());
         while slot.0 < wave {
             // Every task of wave `w` runs after the broadcasts 0..w are
-            // held (the framework's guarantee), so this item is here.
-            let records = data.get(&slot.0).map(|r| r.0.clone()).unwrap_or_default();
+            // held (the framework's guarantee, SEMANTICS.md section 10):
+            // a missing one is a broken guarantee, not an empty wave, and
+            // ends the run rather than shade against the wrong cache.
+            let records = data
+                .get(&slot.0)
+                .unwrap_or_else(|| {
+                    panic!(
+                        "wave {wave}: the records of wave {} were not broadcast to this processor",
+                        slot.0
+                    )
+                })
+                .0
+                .clone();
             // Taken out of the slot, so that it is extended in place when
             // no task of an earlier wave still holds it.
             let before = std::mem::take(&mut slot.1);
