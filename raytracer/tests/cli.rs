@@ -565,6 +565,51 @@ fn mpi_runtime_needs_the_mpi_feature() {
     }
 }
 
+/// `-ab` with `--procs` on the simulator and on threads: the irradiance
+/// cache in waves (one epoch each) writes the sequential picture, byte for
+/// byte, and says how it ran.
+#[test]
+fn parallel_inter_reflection_writes_the_sequential_picture() {
+    let d = tmpdir("ab-parallel");
+    let (rad, vf) = cornell_files(&d);
+    let ab = ["-ab", "1", "-aa", ".2", "-ad", "32", "-as", "8"];
+    let render = |name: &str, extra: &[&str]| {
+        let out = d.join(name);
+        let mut args = vec![
+            "render",
+            &rad,
+            "--view-file",
+            &vf,
+            "--width",
+            "20",
+            "--height",
+            "20",
+        ];
+        args.extend(ab);
+        args.extend_from_slice(extra);
+        args.extend(["-o", out.to_str().unwrap()]);
+        let o = run(&args);
+        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+        (std::fs::read(&out).unwrap(), stderr(&o))
+    };
+    let (want, _) = render("seq.hdr", &[]);
+    let (sim, e) = render("sim.hdr", &["--procs", "3", "--runtime", "sim"]);
+    assert!(
+        sim == want,
+        "the simulated render differs from the sequential one"
+    );
+    assert!(
+        e.contains("parallel inter-reflection: 3 processors (sim)") && e.contains("simulated s"),
+        "{e}"
+    );
+    let (threads, e) = render("threads.hdr", &["--procs", "2"]);
+    assert!(
+        threads == want,
+        "the threaded render differs from the sequential one"
+    );
+    assert!(e.contains("2 processors (threads)"), "{e}");
+}
+
 #[test]
 fn bench_scaling_prints_the_curve_and_checks_every_picture() {
     let d = tmpdir("scaling");

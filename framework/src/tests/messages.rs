@@ -21,6 +21,11 @@ fn packets_round_trip_through_serde() {
                 sent: 10,
                 received: 9,
             },
+            Msg::Broadcast {
+                epoch: 1,
+                items: vec![(4, Item(vec![5]))],
+            },
+            Msg::BroadcastHeld(1),
         ],
         bytes: 100,
         load: 0,

@@ -66,7 +66,7 @@ impl Default for Mini {
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub(crate) struct Item(Vec<u64>);
+pub(crate) struct Item(pub(crate) Vec<u64>);
 impl ByteSize for Item {
     fn byte_size(&self) -> usize {
         24 + 8 * self.0.len()

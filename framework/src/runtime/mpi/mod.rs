@@ -507,6 +507,39 @@ mod tests {
         assert_eq!(format!("{:?}", q.items), format!("{:?}", p.items));
     }
 
+    /// The epoch messages cross the wire whole: the broadcast's items, not
+    /// only their count (which is all their `Debug` shows).
+    #[test]
+    fn epoch_messages_round_trip() {
+        let p: Packet<Mini> = Packet {
+            from: Addr::Master,
+            to: Addr::Proc(2),
+            class: Class::Data,
+            items: vec![
+                Msg::Broadcast {
+                    epoch: 3,
+                    items: vec![
+                        (7, crate::tests::Item(vec![1, 2, 3])),
+                        (9, crate::tests::Item(vec![])),
+                    ],
+                },
+                Msg::BroadcastHeld(3),
+            ],
+            bytes: 96,
+            load: 0,
+        };
+        let q = decode_packet::<Mini>(&encode_packet(&p).unwrap(), 0, 2).unwrap();
+        match q.items.as_slice() {
+            [Msg::Broadcast { epoch: 3, items }, Msg::BroadcastHeld(3)] => {
+                assert_eq!(
+                    format!("{items:?}"),
+                    "[(7, Item([1, 2, 3])), (9, Item([]))]"
+                );
+            }
+            other => panic!("decoded {other:?}"),
+        }
+    }
+
     #[test]
     fn garbage_is_a_clear_error_naming_both_ranks() {
         let err =
