@@ -345,16 +345,18 @@ impl Workload for AmbientWaves {
         let d = &mut *d;
         let waves = d.waves.as_mut()?;
         let mut results = Vec::with_capacity(d.current.len());
-        let mut made = Vec::new();
         for i in &d.current {
-            let Some((c, own)) = acc.shaded.remove(i) else {
+            let Some(r) = acc.shaded.remove(i) else {
                 d.error = Some(format!("wave {ended}: pixel {i} has no value"));
                 return None;
             };
-            made.extend_from_slice(&own);
-            results.push((c, own));
+            results.push(r);
         }
+        // The broadcast is what the wave added to the master's cache, in
+        // its order (a processor's insertion keeps and drops the same).
+        let before = waves.cache().len();
         waves.wave_done(&d.current, results);
+        let made = waves.cache().records()[before..].to_vec();
         let next = waves.next_wave()?;
         d.current = next;
         let wave = u32::try_from(ended + 1).ok()?;
