@@ -73,8 +73,21 @@ fn run_limited(mut cmd: Command, dir: &Path, tag: &str) -> Run {
 }
 
 fn mpirun(np: usize, args: &[&str], env: &[(&str, &str)], dir: &Path, tag: &str) -> Run {
+    mpirun_wrapped(np, &[], args, env, dir, tag)
+}
+
+/// [`mpirun`] starting each rank as `wrapper... hybrid-rt args...`.
+fn mpirun_wrapped(
+    np: usize,
+    wrapper: &[String],
+    args: &[&str],
+    env: &[(&str, &str)],
+    dir: &Path,
+    tag: &str,
+) -> Run {
     let mut cmd = Command::new(std::env::var("MPIRUN").unwrap_or_else(|_| "mpirun".into()));
     cmd.args(["-np", &np.to_string(), "--oversubscribe"])
+        .args(wrapper)
         .arg(env!("CARGO_BIN_EXE_hybrid-rt"))
         .args(args)
         // CI runs as root in a container.
@@ -312,12 +325,122 @@ fn peaks(stderr: &str) -> Vec<(usize, u64)> {
     out
 }
 
+/// Memory limits set by the operating system: a memory cgroup this test
+/// creates (Linux's memory controller, version 1 or 2), in which every
+/// process started through [`MemoryCgroups::wrapper`] gets a cgroup of its
+/// own with a hard limit (no swap): a process that needs more is killed.
+/// `None` where this process may not create one (CI's container runs the
+/// tests as root, where it can).
+struct MemoryCgroups {
+    dir: PathBuf,
+    v1: bool,
+}
+
+impl MemoryCgroups {
+    fn create(tag: &str) -> Option<MemoryCgroups> {
+        let own = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+        let name = format!("hybrid-rt-test-{}-{tag}", std::process::id());
+        for line in own.lines() {
+            let mut fields = line.splitn(3, ':');
+            let (_, controllers, path) = (fields.next()?, fields.next()?, fields.next()?);
+            let path = path.trim_start_matches('/');
+            let v1 = controllers.split(',').any(|c| c == "memory");
+            let base = match (v1, controllers.is_empty()) {
+                (true, _) => Path::new("/sys/fs/cgroup/memory").join(path),
+                // Version 2: the memory controller must be enabled for the
+                // children (possible at the root of a container's namespace).
+                (false, true) => {
+                    let base = Path::new("/sys/fs/cgroup").join(path);
+                    let _ = std::fs::write(base.join("cgroup.subtree_control"), "+memory");
+                    base
+                }
+                (false, false) => continue,
+            };
+            let dir = base.join(&name);
+            if std::fs::create_dir(&dir).is_err() {
+                continue;
+            }
+            let cgroups = MemoryCgroups { dir, v1 };
+            if !v1 {
+                let _ = std::fs::write(cgroups.dir.join("cgroup.subtree_control"), "+memory");
+            }
+            // A child must have a limit to set.
+            let probe = cgroups.dir.join("probe");
+            let usable =
+                std::fs::create_dir(&probe).is_ok() && probe.join(cgroups.limit_file()).exists();
+            let _ = std::fs::remove_dir(&probe);
+            if usable {
+                return Some(cgroups);
+            }
+        }
+        None
+    }
+
+    fn limit_file(&self) -> &'static str {
+        if self.v1 {
+            "memory.limit_in_bytes"
+        } else {
+            "memory.max"
+        }
+    }
+
+    /// The command prefix that starts a process in a new cgroup `name`
+    /// (`name` followed by the MPI rank under `mpirun`) limited to `bytes`.
+    fn wrapper(&self, name: &str, bytes: u64) -> Vec<String> {
+        let no_swap = if self.v1 {
+            r#"{ echo "$2" > "$d/memory.memsw.limit_in_bytes"; } 2>/dev/null"#
+        } else {
+            r#"{ echo 0 > "$d/memory.swap.max"; } 2>/dev/null"#
+        };
+        let script = format!(
+            r#"d="$0/$1${{OMPI_COMM_WORLD_RANK:-}}"; mkdir "$d" && echo "$2" > "$d/{}" && {{ {no_swap}; true; }} && echo $$ > "$d/cgroup.procs" && shift 2 && exec "$@""#,
+            self.limit_file()
+        );
+        vec![
+            "sh".into(),
+            "-c".into(),
+            script,
+            self.dir.to_string_lossy().into_owned(),
+            name.into(),
+            bytes.to_string(),
+        ]
+    }
+
+    /// The most memory cgroup `name` was charged, in bytes, where the
+    /// kernel keeps it.
+    fn peak(&self, name: &str) -> Option<u64> {
+        let file = if self.v1 {
+            "memory.max_usage_in_bytes"
+        } else {
+            "memory.peak"
+        };
+        let text = std::fs::read_to_string(self.dir.join(name).join(file)).ok()?;
+        text.trim().parse().ok()
+    }
+}
+
+impl Drop for MemoryCgroups {
+    fn drop(&mut self) {
+        if let Ok(children) = std::fs::read_dir(&self.dir) {
+            for child in children.flatten() {
+                if child.path().is_dir() {
+                    let _ = std::fs::remove_dir(child.path());
+                }
+            }
+        }
+        let _ = std::fs::remove_dir(&self.dir);
+    }
+}
+
 /// A generated city, compiled: under MPI every rank holds the replicated
-/// part and reads only its own cells. The picture is the sequential
-/// render's of the whole scene, and every rank's peak memory (as the
-/// operating system measures it) stays below the whole scene's render's.
+/// part and reads only its own cells. Each rank runs under a memory limit
+/// the operating system enforces, three quarters of the whole scene's
+/// render's peak (the whole scene's render is killed under it), and the
+/// picture is the sequential render's of the whole scene. Where no limit
+/// can be set (no writable memory cgroup), every rank's peak as the
+/// operating system measured it must stay below the whole scene's.
 #[test]
-fn ranks_of_a_compiled_scene_hold_their_part_not_the_whole_scene() {
+fn ranks_of_a_compiled_scene_render_under_a_memory_limit_the_whole_scene_exceeds() {
     let d = tmpdir("held");
     let rad = d.join("city.rad");
     let hrtc = d.join("city.hrtc");
@@ -334,58 +457,97 @@ fn ranks_of_a_compiled_scene_hold_their_part_not_the_whole_scene() {
     assert!(r.status.success(), "{}", r.stderr);
     let size = ["--view-file", vf_s, "--width", "40", "--height", "30"];
     let seq = d.join("seq.hdr");
-    let mut args = vec![
-        "render",
-        hrtc_s,
-        "--peak-memory",
-        "-o",
-        seq.to_str().unwrap(),
-    ];
-    args.extend(size);
-    let r = hybrid_rt(&args, &d, "whole");
+    let seq_s = seq.to_str().unwrap();
+    let mut whole_args = vec!["render", hrtc_s, "--peak-memory", "-o", seq_s];
+    whole_args.extend(size);
+    let r = hybrid_rt(&whole_args, &d, "whole");
     assert!(r.status.success(), "{}", r.stderr);
     let whole = peaks(&r.stderr);
     assert_eq!(whole.len(), 1, "{}", r.stderr);
     let whole = whole[0].1;
     let want = std::fs::read(&seq).unwrap();
+    std::fs::remove_file(&seq).unwrap();
+
+    let cgroups = MemoryCgroups::create("held");
+    let limit = whole * 1024 / 4 * 3;
+    let wrapper = match &cgroups {
+        Some(cgroups) => {
+            // The limit bites: the whole scene's render cannot run under it.
+            let mut cmd = Command::new(&cgroups.wrapper("whole", limit)[0]);
+            cmd.args(&cgroups.wrapper("whole", limit)[1..])
+                .arg(env!("CARGO_BIN_EXE_hybrid-rt"))
+                .args(&whole_args);
+            let r = run_limited(cmd, &d, "whole-limited");
+            assert!(
+                !r.status.success() && !seq.exists(),
+                "the whole scene's render ran under {limit} bytes: the limit tests nothing\n{}",
+                r.stderr
+            );
+            eprintln!(
+                "the whole scene's render, peak {whole} KiB, fails under a limit of {} KiB ({})",
+                limit / 1024,
+                r.status
+            );
+            cgroups.wrapper("rank", limit)
+        }
+        None => {
+            eprintln!(
+                "no memory cgroup can be created here: the ranks run without a limit, \
+                 their measured peaks are checked"
+            );
+            Vec::new()
+        }
+    };
+
     // Four ranks: each holds the skeleton, a quarter of the objects and
     // its cache (two ranks each hold half the scene besides the skeleton,
     // about what the whole scene's renderer holds).
-    for np in [4] {
-        let out = d.join(format!("held{np}.hdr"));
-        let mut args = vec![
-            "render",
-            hrtc_s,
-            "--runtime",
-            "mpi",
-            "--cache",
-            "10%",
-            "--peak-memory",
-            "--time-limit",
-            "200",
-            "-o",
-            out.to_str().unwrap(),
-        ];
-        args.extend(size);
-        let r = mpirun(np, &args, &[], &d, &format!("held{np}"));
-        assert!(r.status.success(), "-np {np}: {}", r.stderr);
+    let np = 4;
+    let out = d.join(format!("held{np}.hdr"));
+    let mut args = vec![
+        "render",
+        hrtc_s,
+        "--runtime",
+        "mpi",
+        "--cache",
+        "10%",
+        "--peak-memory",
+        "--time-limit",
+        "200",
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.extend(size);
+    let r = mpirun_wrapped(np, &wrapper, &args, &[], &d, &format!("held{np}"));
+    assert!(r.status.success(), "-np {np}: {}", r.stderr);
+    assert!(
+        std::fs::read(&out).unwrap() == want,
+        "-np {np}: the picture differs from the sequential one"
+    );
+    let ranks = peaks(&r.stderr);
+    assert_eq!(
+        ranks.iter().map(|r| r.0).collect::<Vec<_>>(),
+        (0..np).collect::<Vec<_>>(),
+        "{}",
+        r.stderr
+    );
+    for (rank, kib) in ranks {
+        let charged = cgroups
+            .as_ref()
+            .and_then(|c| c.peak(&format!("rank{rank}")))
+            .map_or("no limit".into(), |b| {
+                format!(
+                    "{} KiB charged under the limit of {} KiB",
+                    b / 1024,
+                    limit / 1024
+                )
+            });
+        eprintln!(
+            "-np {np}: rank {rank} peaked at {kib} KiB resident ({charged}); the whole scene's render at {whole} KiB"
+        );
         assert!(
-            std::fs::read(&out).unwrap() == want,
-            "-np {np}: the picture differs from the sequential one"
+            kib < whole,
+            "-np {np}: rank {rank} peaked at {kib} KiB, not below the whole scene's {whole} KiB"
         );
-        let ranks = peaks(&r.stderr);
-        assert_eq!(
-            ranks.iter().map(|r| r.0).collect::<Vec<_>>(),
-            (0..np).collect::<Vec<_>>(),
-            "{}",
-            r.stderr
-        );
-        for (rank, kib) in ranks {
-            eprintln!("-np {np}: rank {rank} peaked at {kib} KiB; the whole scene's render at {whole} KiB");
-            assert!(
-                kib < whole,
-                "-np {np}: rank {rank} peaked at {kib} KiB, not below the whole scene's {whole} KiB"
-            );
-        }
     }
 }
