@@ -36,7 +36,7 @@ use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::geometry::prims::Prims;
-use crate::geometry::{MaterialId, Object, ObjectId, Shape, Vec3};
+use crate::geometry::{MaterialId, Object, ObjectId, ObjectSet, Shape, Vec3};
 
 /// A slot holding no copy: the object is one every processor holds.
 const SHARED: u32 = u32::MAX;
@@ -58,7 +58,7 @@ pub struct HeldObject {
 }
 
 impl HeldObject {
-    fn new(object: Object) -> Arc<HeldObject> {
+    pub(crate) fn new(object: Object) -> Arc<HeldObject> {
         let mut object = [object];
         let prims = Prims::build(&object);
         // A copy is only traced and shaded: a polygon is tested through its
@@ -100,6 +100,19 @@ impl HeldObject {
                 _ => 0,
             };
         size_of::<HeldObject>() + heap + self.prims.memory_bytes()
+    }
+}
+
+/// A processor's copies by index, as its hierarchy reads them.
+impl ObjectSet for [Arc<HeldObject>] {
+    #[inline]
+    fn count(&self) -> usize {
+        self.len()
+    }
+
+    #[inline]
+    fn object(&self, k: usize) -> &Object {
+        &self[k].object[0]
     }
 }
 
@@ -275,8 +288,14 @@ impl LeafObjects {
     /// The copy of the leaf's `k`-th object, `None` for a shared one.
     #[inline]
     pub fn own(&self, k: usize) -> Option<&HeldObject> {
+        self.own_shared(k).map(|h| &**h)
+    }
+
+    /// [`LeafObjects::own`] as the leaves hold it, to be held once more.
+    #[inline]
+    pub fn own_shared(&self, k: usize) -> Option<&Arc<HeldObject>> {
         let s = self.slots[k];
-        (s != SHARED).then(|| &*self.held[s as usize])
+        (s != SHARED).then(|| &self.held[s as usize])
     }
 
     /// Bytes of the leaf's own lists (ids, slots, references to copies),

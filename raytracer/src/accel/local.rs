@@ -28,15 +28,19 @@
 use super::cells::{HeldObject, LeafObjects};
 use super::octree::{NodeId, Octree};
 use crate::geometry::prims::Prims;
+use std::sync::Arc;
+
 use crate::geometry::{Bvh, Hit, Object, ObjectTable, Ray};
 use crate::scene::ObjectId;
 
 /// See the module documentation.
 #[derive(Debug, Default)]
 pub struct LocalKernel {
-    /// Copies of the resident objects, ascending by id (so the hierarchy's
-    /// tie rule, the smaller index, is the octree's, the smaller id).
-    objects: Vec<Object>,
+    /// The resident objects, ascending by id (so the hierarchy's tie rule,
+    /// the smaller index, is the octree's, the smaller id): the copies the
+    /// processor's leaves hold (shared with them, not copied again), and
+    /// copies of the instances they list.
+    objects: Vec<Arc<HeldObject>>,
     /// `ids[k]`: the scene's id of `objects[k]`.
     ids: Vec<ObjectId>,
     bvh: Bvh,
@@ -50,54 +54,29 @@ impl LocalKernel {
         cells: impl IntoIterator<Item = &'a LeafObjects>,
         shared: ObjectTable<'_>,
     ) -> LocalKernel {
-        enum Src<'a> {
-            Copy(&'a HeldObject),
-            Shared(&'a Object),
-        }
-        let mut found: Vec<(ObjectId, Src<'_>)> = Vec::new();
+        let mut found: Vec<(ObjectId, Arc<HeldObject>)> = Vec::new();
+        let mut instances: Vec<ObjectId> = Vec::new();
         for c in cells {
             for (j, &id) in c.ids().iter().enumerate() {
-                match c.own(j) {
-                    Some(h) => found.push((id, Src::Copy(h))),
-                    None => {
-                        if let Some(o) = shared.get(id) {
-                            found.push((id, Src::Shared(o)));
-                        }
-                    }
+                match c.own_shared(j) {
+                    Some(h) => found.push((id, Arc::clone(h))),
+                    None => instances.push(id),
                 }
             }
         }
+        // An instance listed in many leaves is copied once.
+        instances.sort_unstable();
+        instances.dedup();
+        found.extend(
+            instances
+                .into_iter()
+                .filter_map(|id| Some((id, HeldObject::new(shared.get(id)?.clone())))),
+        );
         found.sort_by_key(|f| f.0);
         found.dedup_by_key(|f| f.0);
-        // Shared objects (instances) have no compact data: one built for
-        // each says so.
-        let own: Vec<Prims> = found
-            .iter()
-            .filter_map(|(_, s)| match s {
-                Src::Shared(o) => Some(Prims::build(std::slice::from_ref(*o))),
-                Src::Copy(_) => None,
-            })
-            .collect();
-        let mut own_iter = own.iter();
-        let mut parts: Vec<&Prims> = Vec::with_capacity(found.len());
-        let mut objects = Vec::with_capacity(found.len());
-        let mut ids = Vec::with_capacity(found.len());
-        for (id, s) in &found {
-            match s {
-                Src::Copy(h) => {
-                    let (p, one) = h.parts();
-                    parts.push(p);
-                    objects.push(one[0].clone());
-                }
-                Src::Shared(o) => {
-                    parts.push(own_iter.next().expect("one per shared object"));
-                    objects.push((*o).clone());
-                }
-            }
-            ids.push(*id);
-        }
-        let prims = Prims::concat(parts);
-        let bvh = Bvh::build_with(&objects, prims);
+        let (ids, objects): (Vec<ObjectId>, Vec<Arc<HeldObject>>) = found.into_iter().unzip();
+        let prims = Prims::concat(objects.iter().map(|h| h.parts().0));
+        let bvh = Bvh::build_with(&objects[..], prims);
         LocalKernel { objects, ids, bvh }
     }
 
@@ -110,21 +89,11 @@ impl LocalKernel {
         self.ids.is_empty()
     }
 
-    /// Heap bytes of the kernel (its copies' structs and intersection data
-    /// and the hierarchy; the polygons' vertices are counted by their
-    /// capacity).
+    /// Heap bytes of the kernel: its lists and the hierarchy with its
+    /// intersection data; the copies it shares with the leaves are
+    /// counted with them (instances' copies are not counted).
     pub fn memory_bytes(&self) -> usize {
-        self.objects.capacity() * std::mem::size_of::<Object>()
-            + self
-                .objects
-                .iter()
-                .map(|o| match &o.shape {
-                    crate::geometry::Shape::Polygon(p) => {
-                        p.vertices.capacity() * std::mem::size_of::<crate::geometry::Vec3>()
-                    }
-                    _ => 0,
-                })
-                .sum::<usize>()
+        self.objects.capacity() * std::mem::size_of::<Arc<HeldObject>>()
             + self.ids.capacity() * std::mem::size_of::<ObjectId>()
             + self.bvh.memory_bytes()
     }
@@ -133,10 +102,19 @@ impl LocalKernel {
     pub fn hierarchy(&self) -> Hierarchy<'_> {
         Hierarchy {
             bvh: &self.bvh,
-            objects: &self.objects,
+            objects: HierarchyObjects::Copies(&self.objects),
             ids: Some(&self.ids),
         }
     }
+}
+
+/// What a [`Hierarchy`] was built over.
+#[derive(Clone, Copy, Debug)]
+pub enum HierarchyObjects<'a> {
+    /// The scene's objects (the whole scene's hierarchy).
+    Scene(&'a [Object]),
+    /// A processor's copies (its [`LocalKernel`]).
+    Copies(&'a [Arc<HeldObject>]),
 }
 
 /// A hierarchy over the objects a processor holds resident, as queries
@@ -146,7 +124,7 @@ impl LocalKernel {
 pub struct Hierarchy<'a> {
     pub bvh: &'a Bvh,
     /// What the hierarchy was built over.
-    pub objects: &'a [Object],
+    pub objects: HierarchyObjects<'a>,
     /// `ids[k]`: the scene's id of `objects[k]` (ascending); `None`: `k`.
     pub ids: Option<&'a [ObjectId]>,
 }
@@ -165,7 +143,10 @@ impl Hierarchy<'_> {
         owned: &dyn Fn(NodeId) -> bool,
         resident: &dyn Fn(NodeId) -> bool,
     ) -> Option<Option<Hit>> {
-        let hit = self.bvh.intersect(self.objects, ray, tmin, tmax);
+        let hit = match self.objects {
+            HierarchyObjects::Scene(o) => self.bvh.intersect(o, ray, tmin, tmax),
+            HierarchyObjects::Copies(o) => self.bvh.intersect(o, ray, tmin, tmax),
+        };
         let cut = hit.map_or(tmax, |h| h.t);
         if !octree.leaves_along_all(ray, tmin, tmax, cut, owned, resident) {
             return None;
@@ -199,7 +180,10 @@ impl Hierarchy<'_> {
         // walk answers, and tracing here too would be work thrown away.
         octree
             .leaves_along_all(ray, tmin, tmax, tmax, owned, resident)
-            .then(|| self.bvh.occluded(self.objects, ray, tmin, tmax, ignore))
+            .then(|| match self.objects {
+                HierarchyObjects::Scene(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
+                HierarchyObjects::Copies(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
+            })
     }
 }
 

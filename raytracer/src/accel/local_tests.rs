@@ -9,7 +9,7 @@ use proptest::test_runner::{Config, RngSeed, TestRunner};
 use super::tests::{arb_dir, cube, obj, random_scene, v};
 use super::*;
 use crate::geometry::{ObjectTable, Ray, Shape, Vec3};
-use crate::scene::Object;
+use crate::scene::{Object, ObjectId};
 
 /// Leaf `l`'s processor: a hash of its id.
 fn home(l: NodeId, places: u32, salt: u32) -> u32 {
@@ -205,6 +205,41 @@ fn one_processor_decides_every_query() {
             },
         )
         .unwrap();
+}
+
+/// The kernel reads the copies the leaves hold, it does not make its own:
+/// each copy is referenced once more, by the kernel, and the kernel's own
+/// bytes (lists, hierarchy, intersection data) are far below the copies'.
+#[test]
+fn the_kernel_shares_the_leaves_copies() {
+    let objects = random_scene(5, 400, 10.0);
+    let tree = Octree::build(&objects, &OctreeParams::default());
+    let mut copies = ObjectCopies::new();
+    let cells: Vec<LeafObjects> = tree
+        .leaves()
+        .filter(|&l| !tree.leaf_objects(l).is_empty() && home(l, 2, 0) == 0)
+        .map(|l| LeafObjects::copy_from(tree.leaf_objects(l), &objects, &mut copies))
+        .collect();
+    let before: Vec<(ObjectId, usize)> = copies
+        .iter()
+        .map(|(&id, c)| (id, std::sync::Arc::strong_count(c)))
+        .collect();
+    assert!(before.len() > 50, "too few copies to test: {}", before.len());
+    let kernel = LocalKernel::build(&cells, ObjectTable::dense(&objects));
+    assert_eq!(kernel.len(), copies.len());
+    for (id, n) in before {
+        assert_eq!(
+            std::sync::Arc::strong_count(&copies[&id]),
+            n + 1,
+            "object {id}: the kernel holds another copy, or none"
+        );
+    }
+    let copy_bytes: usize = copies.values().map(|c| c.bytes()).sum();
+    assert!(
+        kernel.memory_bytes() < copy_bytes,
+        "kernel {} B, copies {copy_bytes} B",
+        kernel.memory_bytes()
+    );
 }
 
 /// Cubes and spheres centred exactly on the planes that split the root

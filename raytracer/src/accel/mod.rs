@@ -13,7 +13,9 @@ pub use cells::{
     copy_bytes, object_bytes, share_copies_in_process, HeldObject, LeafObjects, ObjectCopies,
 };
 pub use clip::{ClipResult, Plane, Pyramid};
-pub use local::{GrownKernel, GrownSlot, Hierarchy, LocalKernel, ProcessorKernel};
+pub use local::{
+    GrownKernel, GrownSlot, Hierarchy, HierarchyObjects, LocalKernel, ProcessorKernel,
+};
 pub use octree::{
     intersect_brute_force, occluded_brute_force, LeafSpan, NodeId, NodeView, Octree, OctreeParams,
     OctreeStats, Partial, SkeletonNode, TraceCursor, MAX_DEPTH,

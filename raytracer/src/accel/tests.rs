@@ -885,9 +885,10 @@ fn resumable_traversal_equals_intersect_and_occluded_wherever_it_stops() {
 #[test]
 fn bvh_on_empty_single_and_coincident_scenes() {
     let r = Ray::new(v(0.2, 0.3, 5.0), -Vec3::Z);
-    for bvh in [Bvh::default(), Bvh::build(&[])] {
-        assert!(bvh.intersect(&[], &r, 0.0, f64::INFINITY).is_none());
-        assert!(!bvh.occluded(&[], &r, 0.0, f64::INFINITY, None));
+    let none: &[Object] = &[];
+    for bvh in [Bvh::default(), Bvh::build(none)] {
+        assert!(bvh.intersect(none, &r, 0.0, f64::INFINITY).is_none());
+        assert!(!bvh.occluded(none, &r, 0.0, f64::INFINITY, None));
         assert_eq!(bvh.stats().nodes, 0);
     }
     // One object: a single leaf beside an unused child.

@@ -30,7 +30,7 @@ use std::mem::MaybeUninit;
 
 use super::prims::{Prims, Tester};
 use super::robust::next_up;
-use super::shape::{Hit, InstanceGeometry, Object, ObjectId, ObjectIndex, ShapeHit};
+use super::shape::{Hit, InstanceGeometry, Object, ObjectId, ObjectIndex, ObjectSet, ShapeHit};
 use super::{Aabb, PreparedRay, Ray, Vec3};
 
 /// Largest number of objects in a leaf.
@@ -630,13 +630,13 @@ impl Bvh {
 
     /// [`Bvh::build`] with the objects' intersection data given (built for
     /// `objects`, in order: [`Prims::concat`] of copies' data).
-    pub(crate) fn build_with(objects: &[Object], prims: Prims) -> Bvh {
+    pub(crate) fn build_with<O: ObjectSet + ?Sized>(objects: &O, prims: Prims) -> Bvh {
         debug_assert!(prims.matches(objects));
         let mut unbounded = Vec::new();
-        let mut boxes = Vec::with_capacity(objects.len());
+        let mut boxes = Vec::with_capacity(objects.count());
         let mut scene = Aabb::EMPTY;
-        for (i, o) in objects.iter().enumerate() {
-            let b = o.shape.bounds();
+        for i in 0..objects.count() {
+            let b = objects.object(i).shape.bounds();
             if b.is_empty() {
                 continue;
             }
@@ -727,7 +727,13 @@ impl Bvh {
     /// hierarchy was built over). Equal distances resolve to the smaller
     /// object id, like [`crate::accel::intersect_brute_force`] and
     /// [`crate::accel::Octree::intersect`].
-    pub fn intersect(&self, objects: &[Object], ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+    pub fn intersect<O: ObjectSet + ?Sized>(
+        &self,
+        objects: &O,
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the processor has AVX2.
@@ -736,9 +742,9 @@ impl Bvh {
         // SAFETY: portable code.
         unsafe {
             if self.depth as usize <= SHALLOW {
-                self.intersect_impl::<{ 3 * SHALLOW + 1 }, Portable>(objects, ray, tmin, tmax)
+                self.intersect_impl::<{ 3 * SHALLOW + 1 }, Portable, O>(objects, ray, tmin, tmax)
             } else {
-                self.intersect_impl::<{ 3 * STACK + 1 }, Portable>(objects, ray, tmin, tmax)
+                self.intersect_impl::<{ 3 * STACK + 1 }, Portable, O>(objects, ray, tmin, tmax)
             }
         }
     }
@@ -750,26 +756,26 @@ impl Bvh {
     /// faster, primary and shadow rays.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn intersect_avx2(
+    unsafe fn intersect_avx2<O: ObjectSet + ?Sized>(
         &self,
-        objects: &[Object],
+        objects: &O,
         ray: &Ray,
         tmin: f64,
         tmax: f64,
     ) -> Option<Hit> {
         if self.depth as usize <= SHALLOW {
-            self.intersect_impl::<{ 3 * SHALLOW + 1 }, Avx2>(objects, ray, tmin, tmax)
+            self.intersect_impl::<{ 3 * SHALLOW + 1 }, Avx2, O>(objects, ray, tmin, tmax)
         } else {
-            self.intersect_impl::<{ 3 * STACK + 1 }, Avx2>(objects, ray, tmin, tmax)
+            self.intersect_impl::<{ 3 * STACK + 1 }, Avx2, O>(objects, ray, tmin, tmax)
         }
     }
 
     /// # Safety
     /// `E`'s instructions must be available.
     #[inline(always)]
-    unsafe fn intersect_impl<const N: usize, E: Enter>(
+    unsafe fn intersect_impl<const N: usize, E: Enter, O: ObjectSet + ?Sized>(
         &self,
-        objects: &[Object],
+        objects: &O,
         ray: &Ray,
         tmin: f64,
         tmax: f64,
@@ -847,13 +853,13 @@ impl Bvh {
                 }
             }
         }
-        best.map(|(t, id, h)| Hit::on(&objects[id as usize], id, ray, t, h.normal, h.inner))
+        best.map(|(t, id, h)| Hit::on(objects.object(id as usize), id, ray, t, h.normal, h.inner))
     }
 
     /// True if any object other than `ignore` is hit with `tmin < t < tmax`.
-    pub fn occluded(
+    pub fn occluded<O: ObjectSet + ?Sized>(
         &self,
-        objects: &[Object],
+        objects: &O,
         ray: &Ray,
         tmin: f64,
         tmax: f64,
@@ -865,34 +871,34 @@ impl Bvh {
             return unsafe { self.occluded_avx2(objects, ray, tmin, tmax, ignore) };
         }
         if self.depth as usize <= SHALLOW {
-            self.occluded_impl::<{ 3 * SHALLOW }>(objects, ray, tmin, tmax, ignore)
+            self.occluded_impl::<{ 3 * SHALLOW }, O>(objects, ray, tmin, tmax, ignore)
         } else {
-            self.occluded_impl::<{ 3 * STACK }>(objects, ray, tmin, tmax, ignore)
+            self.occluded_impl::<{ 3 * STACK }, O>(objects, ray, tmin, tmax, ignore)
         }
     }
 
     /// [`Bvh::occluded`] compiled for AVX2 (see [`Bvh::intersect_avx2`]).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn occluded_avx2(
+    unsafe fn occluded_avx2<O: ObjectSet + ?Sized>(
         &self,
-        objects: &[Object],
+        objects: &O,
         ray: &Ray,
         tmin: f64,
         tmax: f64,
         ignore: Option<ObjectId>,
     ) -> bool {
         if self.depth as usize <= SHALLOW {
-            self.occluded_impl::<{ 3 * SHALLOW }>(objects, ray, tmin, tmax, ignore)
+            self.occluded_impl::<{ 3 * SHALLOW }, O>(objects, ray, tmin, tmax, ignore)
         } else {
-            self.occluded_impl::<{ 3 * STACK }>(objects, ray, tmin, tmax, ignore)
+            self.occluded_impl::<{ 3 * STACK }, O>(objects, ray, tmin, tmax, ignore)
         }
     }
 
     #[inline(always)]
-    fn occluded_impl<const N: usize>(
+    fn occluded_impl<const N: usize, O: ObjectSet + ?Sized>(
         &self,
-        objects: &[Object],
+        objects: &O,
         ray: &Ray,
         tmin: f64,
         tmax: f64,

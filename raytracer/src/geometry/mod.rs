@@ -23,8 +23,8 @@ pub use bvh::{Bvh, BvhStats, Segment, PACKET};
 pub use ray::{PreparedRay, Ray};
 pub use robust::{offset_origin, offset_origin_scaled, FTINY};
 pub use shape::{
-    Hit, Instance, InstanceGeometry, MaterialId, Object, ObjectId, ObjectIndex, ObjectTable,
-    Polygon, Shape, ShapeHit, Transform,
+    Hit, Instance, InstanceGeometry, MaterialId, Object, ObjectId, ObjectIndex, ObjectSet,
+    ObjectTable, Polygon, Shape, ShapeHit, Transform,
 };
 pub(crate) use shape_impl::sphere_normal;
 pub use shape_impl::{

@@ -15,7 +15,7 @@
 //! test would use); other shapes are tested through [`Shape`] as before.
 
 use super::robust::diff_of_products;
-use super::shape::{Object, ObjectId};
+use super::shape::{Object, ObjectId, ObjectSet};
 use crate::geometry::{
     intersect_cone_consts, intersect_sphere, sphere_normal, ConeConsts, PreparedRay, Shape,
     ShapeHit, Vec3,
@@ -177,8 +177,20 @@ impl Prims {
     /// `i` of the result is the `i`-th object of the parts): the data of
     /// copies whose own objects no longer say how it was built (a polygon
     /// copy without its triangulation).
-    pub(crate) fn concat<'a>(parts: impl IntoIterator<Item = &'a Prims>) -> Prims {
-        let mut p = Prims::default();
+    pub(crate) fn concat<'a, I>(parts: I) -> Prims
+    where
+        I: IntoIterator<Item = &'a Prims>,
+        I::IntoIter: Clone,
+    {
+        let parts = parts.into_iter();
+        // Allocated once, to the size: a processor's kernel holds it for
+        // the whole run.
+        let mut p = Prims {
+            refs: Vec::with_capacity(parts.clone().map(|q| q.refs.len()).sum()),
+            pairs: Vec::with_capacity(parts.clone().map(|q| q.pairs.len()).sum()),
+            quadrics: Vec::with_capacity(parts.clone().map(|q| q.quadrics.len()).sum()),
+            normals: Vec::with_capacity(parts.clone().map(|q| q.normals.len()).sum()),
+        };
         for q in parts {
             let (pairs, quadrics) = (p.pairs.len() as u32, p.quadrics.len() as u32);
             p.refs.extend(q.refs.iter().map(|r| match *r {
@@ -202,8 +214,8 @@ impl Prims {
     /// True if this data was built for `objects` (callers fall back to the
     /// shapes otherwise).
     #[inline]
-    pub(crate) fn matches(&self, objects: &[Object]) -> bool {
-        self.refs.len() == objects.len()
+    pub(crate) fn matches<O: ObjectSet + ?Sized>(&self, objects: &O) -> bool {
+        self.refs.len() == objects.count()
     }
 
     /// Heap bytes.
@@ -217,9 +229,9 @@ impl Prims {
     /// Nearest hit of object `id` with `tmin < t < tmax`: exactly
     /// `objects[id].shape.intersect_prepared(pre, tmin, tmax)`.
     #[inline(always)]
-    pub(crate) fn intersect(
+    pub(crate) fn intersect<O: ObjectSet + ?Sized>(
         &self,
-        objects: &[Object],
+        objects: &O,
         id: ObjectId,
         pre: &PreparedRay,
         tr: &TriRay,
@@ -252,9 +264,9 @@ impl Prims {
     /// [`Prims::intersect`] of a quadric or another shape (out of line: the
     /// polygons' test is the one inlined into the traversals).
     #[inline(never)]
-    fn intersect_other(
+    fn intersect_other<O: ObjectSet + ?Sized>(
         &self,
-        objects: &[Object],
+        objects: &O,
         id: ObjectId,
         r: PrimRef,
         pre: &PreparedRay,
@@ -282,7 +294,8 @@ impl Prims {
                     inner: None,
                 })
             }
-            None => objects[id as usize]
+            None => objects
+                .object(id as usize)
                 .shape
                 .intersect_prepared(pre, tmin, tmax),
         }
@@ -291,9 +304,9 @@ impl Prims {
     /// True if object `id` has a hit with `tmin < t < tmax`: exactly
     /// `objects[id].shape.occludes_prepared(pre, tmin, tmax)`.
     #[inline]
-    pub(crate) fn occludes(
+    pub(crate) fn occludes<O: ObjectSet + ?Sized>(
         &self,
-        objects: &[Object],
+        objects: &O,
         id: ObjectId,
         pre: &PreparedRay,
         tr: &TriRay,
@@ -314,9 +327,9 @@ impl Prims {
 
     /// [`Prims::occludes`] of a quadric or another shape (out of line).
     #[inline(never)]
-    fn occludes_other(
+    fn occludes_other<O: ObjectSet + ?Sized>(
         &self,
-        objects: &[Object],
+        objects: &O,
         id: ObjectId,
         r: PrimRef,
         pre: &PreparedRay,
@@ -330,7 +343,8 @@ impl Prims {
             Some(Quadric::Cone { c, .. }) => {
                 intersect_cone_consts(&pre.ray, c, tmin, tmax).is_some()
             }
-            None => objects[id as usize]
+            None => objects
+                .object(id as usize)
                 .shape
                 .occludes_prepared(pre, tmin, tmax),
         }
@@ -339,16 +353,16 @@ impl Prims {
 
 /// Object tests for one ray: through the compact data where it was built
 /// for `objects`, else through the shapes.
-pub(crate) struct Tester<'a> {
+pub(crate) struct Tester<'a, O: ObjectSet + ?Sized = [Object]> {
     prims: Option<&'a Prims>,
-    objects: &'a [Object],
+    objects: &'a O,
     pre: &'a PreparedRay,
     tr: TriRay,
 }
 
-impl<'a> Tester<'a> {
+impl<'a, O: ObjectSet + ?Sized> Tester<'a, O> {
     #[inline]
-    pub(crate) fn new(prims: &'a Prims, objects: &'a [Object], pre: &'a PreparedRay) -> Self {
+    pub(crate) fn new(prims: &'a Prims, objects: &'a O, pre: &'a PreparedRay) -> Self {
         Tester {
             prims: prims.matches(objects).then_some(prims),
             objects,
@@ -382,7 +396,9 @@ impl<'a> Tester<'a> {
     pub(crate) fn intersect(&self, id: ObjectId, tmin: f64, tmax: f64) -> Option<ShapeHit> {
         match self.prims {
             Some(p) => p.intersect(self.objects, id, self.pre, &self.tr, tmin, tmax),
-            None => self.objects[id as usize]
+            None => self
+                .objects
+                .object(id as usize)
                 .shape
                 .intersect_prepared(self.pre, tmin, tmax),
         }
@@ -393,7 +409,9 @@ impl<'a> Tester<'a> {
     pub(crate) fn occludes(&self, id: ObjectId, tmin: f64, tmax: f64) -> bool {
         match self.prims {
             Some(p) => p.occludes(self.objects, id, self.pre, &self.tr, tmin, tmax),
-            None => self.objects[id as usize]
+            None => self
+                .objects
+                .object(id as usize)
                 .shape
                 .occludes_prepared(self.pre, tmin, tmax),
         }

@@ -70,6 +70,39 @@ pub struct Object {
     pub material: MaterialId,
 }
 
+/// Objects by index: what a hierarchy was built over (a slice of the
+/// scene's objects, or a processor's copies, which its leaves share).
+pub trait ObjectSet {
+    /// How many.
+    fn count(&self) -> usize;
+    /// Object `k < count()`.
+    fn object(&self, k: usize) -> &Object;
+}
+
+impl ObjectSet for [Object] {
+    #[inline]
+    fn count(&self) -> usize {
+        self.len()
+    }
+
+    #[inline]
+    fn object(&self, k: usize) -> &Object {
+        &self[k]
+    }
+}
+
+impl ObjectSet for Vec<Object> {
+    #[inline]
+    fn count(&self) -> usize {
+        self.len()
+    }
+
+    #[inline]
+    fn object(&self, k: usize) -> &Object {
+        &self[k]
+    }
+}
+
 /// A primitive surface.
 #[derive(Debug, Clone)]
 pub enum Shape {

@@ -25,7 +25,8 @@ use super::distribution::EMPTY;
 use super::tasks::CellData;
 use super::workload::RtWorkload;
 use crate::accel::{
-    GrownKernel, Hierarchy, Hit, LeafObjects, LocalKernel, NodeId, ProcessorKernel as Kernel,
+    GrownKernel, Hierarchy, HierarchyObjects, Hit, LeafObjects, LocalKernel, NodeId,
+    ProcessorKernel as Kernel,
 };
 use crate::geometry::Ray;
 use crate::scene::ObjectId;
@@ -167,7 +168,7 @@ impl RtWorkload {
         let source = match base {
             Kernel::Whole => Source::Resident(Hierarchy {
                 bvh: self.renderer.bvh(),
-                objects: &self.renderer.scene().objects,
+                objects: HierarchyObjects::Scene(&self.renderer.scene().objects),
                 ids: None,
             }),
             _ => match self.grown_kernel(proc, data) {
