@@ -434,8 +434,8 @@ impl Drop for MemoryCgroups {
 
 /// A generated city, compiled: under MPI every rank holds the replicated
 /// part and reads only its own cells. Each rank runs under a memory limit
-/// the operating system enforces, three quarters of the whole scene's
-/// render's peak (the whole scene's render is killed under it), and the
+/// the operating system enforces, two thirds of the whole scene's render's
+/// peak (the whole scene's render is killed under it), and the
 /// picture is the sequential render's of the whole scene. Where no limit
 /// can be set (no writable memory cgroup), every rank's peak as the
 /// operating system measured it must stay below the whole scene's.
@@ -469,7 +469,7 @@ fn ranks_of_a_compiled_scene_render_under_a_memory_limit_the_whole_scene_exceeds
     std::fs::remove_file(&seq).unwrap();
 
     let cgroups = MemoryCgroups::create("held");
-    let limit = whole * 1024 / 4 * 3;
+    let limit = whole * 1024 / 3 * 2;
     let wrapper = match &cgroups {
         Some(cgroups) => {
             // The limit bites: the whole scene's render cannot run under it.
