@@ -224,7 +224,11 @@ fn the_kernel_shares_the_leaves_copies() {
         .iter()
         .map(|(&id, c)| (id, std::sync::Arc::strong_count(c)))
         .collect();
-    assert!(before.len() > 50, "too few copies to test: {}", before.len());
+    assert!(
+        before.len() > 50,
+        "too few copies to test: {}",
+        before.len()
+    );
     let kernel = LocalKernel::build(&cells, ObjectTable::dense(&objects));
     assert_eq!(kernel.len(), copies.len());
     for (id, n) in before {
