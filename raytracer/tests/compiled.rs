@@ -162,6 +162,7 @@ fn cells_hold_the_octree_leaves_and_the_skeleton_its_cells() {
         file_bytes += info.bytes;
         assert_eq!(cell.listed.len(), info.objects as usize);
         assert_eq!(cell.stored.len(), info.stored as usize);
+        assert_eq!(rep.skeleton.lists.get(k), Some(cell.listed.as_slice()));
         if info.node != u32::MAX {
             assert_eq!(
                 rep.skeleton.nodes[info.node as usize],
@@ -196,6 +197,25 @@ fn cells_hold_the_octree_leaves_and_the_skeleton_its_cells() {
 }
 
 /// CRC-32 (IEEE), bit by bit: the checksum the format names.
+/// The skeleton's leaf lists, held flat, are encoded exactly as a vector of
+/// vectors (the format's definition), and read back from one.
+#[test]
+fn leaf_lists_are_encoded_as_a_vector_of_vectors() {
+    let nested: Vec<Vec<u32>> = vec![vec![3, 1, 4], vec![], vec![1, 5], vec![9, 2, 6, 5, 3]];
+    let bytes = postcard::to_stdvec(&nested).unwrap();
+    let lists: compiled::LeafLists = postcard::from_bytes(&bytes).unwrap();
+    assert_eq!(lists.len(), nested.len());
+    for (k, l) in nested.iter().enumerate() {
+        assert_eq!(lists.get(k), Some(l.as_slice()));
+    }
+    assert_eq!(lists.get(nested.len()), None);
+    assert_eq!(postcard::to_stdvec(&lists).unwrap(), bytes);
+    let empty: compiled::LeafLists = postcard::from_bytes(&[0]).unwrap();
+    assert!(empty.is_empty());
+    // Truncated input is an error, not a panic.
+    assert!(postcard::from_bytes::<compiled::LeafLists>(&bytes[..bytes.len() - 1]).is_err());
+}
+
 fn crc32(bytes: &[u8]) -> u32 {
     let mut c = !0u32;
     for &b in bytes {

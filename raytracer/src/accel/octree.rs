@@ -400,21 +400,23 @@ impl Octree {
     /// list and statistic equals the built tree's; there is no
     /// intersection data, so objects are tested through their shapes or,
     /// in the partial traversals, through the leaf copies a processor
-    /// holds. `objects` is the scene's object count. An inconsistent
-    /// skeleton (a child outside the node list, a node reached twice or
-    /// never) is an error.
-    pub fn from_skeleton(
+    /// holds. `objects` is the scene's object count; `node(i)` is node `i`
+    /// of `n` (read as the tree is built, so no second copy of the
+    /// skeleton's nodes is made). An inconsistent skeleton (a child outside
+    /// the node list, a node reached twice or never, an error from `node`)
+    /// is an error.
+    pub fn from_skeleton<'a>(
         root: Option<(Vec3, f64)>,
         objects: usize,
-        nodes: &[SkeletonNode<'_>],
+        n: usize,
+        node: impl Fn(usize) -> std::result::Result<SkeletonNode<'a>, String>,
     ) -> std::result::Result<Octree, String> {
         let Some((center, half)) = root else {
             return Ok(Octree::build(&[], &OctreeParams::default()));
         };
-        if nodes.is_empty() {
+        if n == 0 {
             return Err("the skeleton has a root cell but no nodes".into());
         }
-        let n = nodes.len();
         let margin = 1e-9 * (2.0 * half + center.abs().max_element());
         let mut t = Octree {
             root_cell: Cell { center, half },
@@ -436,7 +438,7 @@ impl Octree {
             }
             t.halves[i] = cell.half;
             t.depths[i] = depth.min(u8::MAX as u32) as u8;
-            match nodes[i] {
+            match node(i)? {
                 SkeletonNode::Leaf(ids) => {
                     if ids.iter().any(|&o| o as usize >= objects) {
                         return Err(format!("leaf {id} lists an object beyond the {objects}"));

@@ -389,7 +389,6 @@ fn run_held(
 ) -> Result<()> {
     let compiled = crate::compiled::CompiledScene::open(&a.scenes[0])?;
     let part = compiled.held_part(&crate::scene::LoadOptions::from_env())?;
-    drop(compiled);
     print_scene_warnings(&part.scene);
     let (view, width, height) = view.fit_aspect(a.width, a.height);
     let (width, height) = (width as usize, height as usize);

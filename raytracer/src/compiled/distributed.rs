@@ -44,17 +44,16 @@ pub struct CellSource {
     index: Vec<CellEntry>,
     copies: bool,
     materials: usize,
-    /// Per listing leaf, in node order (so its index is its cell's): its
-    /// node and its accounted bytes.
+    /// Per listing leaf, in node order (so its index is its cell's, and a
+    /// leaf's cell is found by binary search): its node and its accounted
+    /// bytes.
     leaves: Vec<(NodeId, u64)>,
-    /// Each listing leaf's cell.
-    cell_of: HashMap<NodeId, u32>,
 }
 
 impl CompiledScene {
     /// Reads what a processor holds of this scene besides its cells: the
     /// replicated part as a [`Scene::distributed`] scene, and the octree.
-    pub fn held_part(&self, options: &LoadOptions) -> Result<HeldPart> {
+    pub fn held_part(self, options: &LoadOptions) -> Result<HeldPart> {
         let rep = &self.replicated;
         let n = rep.program.objects as usize;
         let mut held = std::collections::BTreeMap::new();
@@ -79,40 +78,50 @@ impl CompiledScene {
                 format!("{} leaf lists for {} cells", sk.lists.len(), sk.cells.len()),
             ));
         }
-        let mut nodes = Vec::with_capacity(sk.nodes.len());
-        for (id, node) in sk.nodes.iter().enumerate() {
-            nodes.push(match *node {
-                SkeletonNode::Internal(first_child) => TreeNode::Internal { first_child },
-                SkeletonNode::Empty => TreeNode::Leaf(&[]),
-                SkeletonNode::Leaf(cell) => {
-                    let list = sk.lists.get(cell as usize).ok_or_else(|| {
-                        file_error(&self.path, 0, format!("node {id}: no cell {cell}"))
-                    })?;
-                    TreeNode::Leaf(list)
-                }
-            });
-        }
         let root = sk
             .root
             .map(|(c, h)| (crate::geometry::Vec3::from_array(c), h));
-        let octree = Octree::from_skeleton(root, n, &nodes)
+        let node = |id: usize| {
+            Ok(match sk.nodes[id] {
+                SkeletonNode::Internal(first_child) => TreeNode::Internal { first_child },
+                SkeletonNode::Empty => TreeNode::Leaf(&[]),
+                SkeletonNode::Leaf(cell) => TreeNode::Leaf(
+                    sk.lists
+                        .get(cell as usize)
+                        .ok_or_else(|| format!("node {id}: no cell {cell}"))?,
+                ),
+            })
+        };
+        let octree = Octree::from_skeleton(root, n, sk.nodes.len(), node)
             .map_err(|e| file_error(&self.path, 0, format!("octree skeleton: {e}")))?;
-        let mut leaves = Vec::new();
-        let mut cell_of = HashMap::new();
-        for (k, c) in sk.cells.iter().enumerate() {
-            if c.node != u32::MAX {
-                leaves.push((c.node, c.accounted));
-                cell_of.insert(c.node, k as u32);
-            }
+        let leaves: Vec<(NodeId, u64)> = sk
+            .cells
+            .iter()
+            .take_while(|c| c.node != u32::MAX)
+            .map(|c| (c.node, c.accounted))
+            .collect();
+        if leaves.windows(2).any(|w| w[0].0 >= w[1].0)
+            || sk.cells[leaves.len()..].iter().any(|c| c.node != u32::MAX)
+        {
+            return Err(file_error(
+                &self.path,
+                0,
+                "the skeleton's cells are not in node order, the unlisted objects' last",
+            ));
         }
+        // What a processor keeps of the file is the cell index; the
+        // decoded replicated part (the skeleton's lists, now the octree's)
+        // goes before the cells are read.
+        let (path, copies) = (self.path, self.copies);
+        let index = self.index;
+        drop(self.replicated);
         Ok(HeldPart {
             source: CellSource {
-                path: self.path.clone(),
-                index: self.index.clone(),
-                copies: self.copies,
+                path,
+                index,
+                copies,
                 materials: scene.materials.len(),
                 leaves,
-                cell_of,
             },
             scene,
             octree,
@@ -153,13 +162,16 @@ impl CellSource {
         let mut wanted: HashSet<ObjectId> = HashSet::new();
         let mut cells: Vec<u32> = Vec::with_capacity(leaves.len());
         for &leaf in leaves {
-            let cell = *self.cell_of.get(&leaf).ok_or_else(|| {
-                Error::Other(format!(
-                    "{}: octree leaf {leaf} has no cell",
-                    self.path.display()
-                ))
-            })?;
-            cells.push(cell);
+            let cell = self
+                .leaves
+                .binary_search_by_key(&leaf, |l| l.0)
+                .map_err(|_| {
+                    Error::Other(format!(
+                        "{}: octree leaf {leaf} has no cell",
+                        self.path.display()
+                    ))
+                })?;
+            cells.push(cell as u32);
             wanted.extend(
                 octree
                     .leaf_objects(leaf)
