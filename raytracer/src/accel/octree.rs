@@ -242,13 +242,25 @@ impl Mailbox {
     }
 }
 
+/// Half the side of a cell at each depth below a root of half side `root`:
+/// halved one depth at a time, as [`Cell::child`] halves.
+fn halves_from(root: f64) -> [f64; MAX_DEPTH as usize + 1] {
+    let mut h = [root; MAX_DEPTH as usize + 1];
+    for d in 1..h.len() {
+        h[d] = h[d - 1] * 0.5;
+    }
+    h
+}
+
 /// The octree. `Default` is the empty tree (no nodes; every query misses).
 #[derive(Debug, Clone, Default)]
 pub struct Octree {
     /// Kind, contents and cell centre of every node.
     nodes: Vec<TravNode>,
-    /// Half the side of every node's cell.
-    halves: Vec<f64>,
+    /// Half the side of a cell at each depth (`half_at[0]` is the root's),
+    /// halved from the root's as the build halves it, so equal to it bit
+    /// for bit: eight bytes per depth rather than per node.
+    half_at: [f64; MAX_DEPTH as usize + 1],
     /// The root's cell (leaves keep no centre; theirs is derived from the
     /// parent's exactly as the build derived it).
     root_cell: Cell,
@@ -291,7 +303,7 @@ impl Builder<'_> {
 
     fn node(&mut self, id: NodeId, cell: Cell, cands: Vec<ObjectId>, depth: u32, stall: u32) {
         let t = &mut self.tree;
-        t.halves[id as usize] = cell.half;
+        debug_assert_eq!(cell.half, t.half_at[depth as usize]);
         t.depths[id as usize] = depth as u8;
         if cands.len() <= self.params.max_objects
             || depth >= self.params.max_depth
@@ -321,7 +333,6 @@ impl Builder<'_> {
         };
         for _ in 0..8 {
             t.nodes.push(TravNode::EMPTY_LEAF);
-            t.halves.push(0.0);
             t.parents.push(id);
             t.depths.push(0);
         }
@@ -371,8 +382,8 @@ impl Octree {
             .collect();
         let tree = Octree {
             root_cell: root,
+            half_at: halves_from(half),
             nodes: vec![TravNode::EMPTY_LEAF],
-            halves: vec![0.0],
             parents: vec![NodeId::MAX],
             depths: vec![0],
             margin,
@@ -420,8 +431,8 @@ impl Octree {
         let margin = 1e-9 * (2.0 * half + center.abs().max_element());
         let mut t = Octree {
             root_cell: Cell { center, half },
+            half_at: halves_from(half),
             nodes: vec![TravNode::EMPTY_LEAF; n],
-            halves: vec![0.0; n],
             parents: vec![NodeId::MAX; n],
             depths: vec![0; n],
             margin,
@@ -436,8 +447,10 @@ impl Octree {
             if std::mem::replace(&mut seen[i], true) {
                 return Err(format!("node {id} is reached twice"));
             }
-            t.halves[i] = cell.half;
-            t.depths[i] = depth.min(u8::MAX as u32) as u8;
+            if depth > MAX_DEPTH {
+                return Err(format!("node {id} lies deeper than {MAX_DEPTH}"));
+            }
+            t.depths[i] = depth as u8;
             match node(i)? {
                 SkeletonNode::Leaf(ids) => {
                     if ids.iter().any(|&o| o as usize >= objects) {
@@ -530,7 +543,7 @@ impl Octree {
         if !n.is_leaf() {
             return Cell {
                 center: Vec3::from_array(n.center()),
-                half: self.halves[id as usize],
+                half: self.half_at[self.depths[id as usize] as usize],
             };
         }
         let p = self.parents[id as usize];
@@ -659,7 +672,7 @@ impl Octree {
     /// Approximate heap memory of the structure in bytes.
     pub fn memory_bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<TravNode>()
-            + self.halves.len() * 8
+            + std::mem::size_of_val(&self.half_at)
             + self.parents.len() * 4
             + self.depths.len()
             + self.subtree_refs.len() * 8

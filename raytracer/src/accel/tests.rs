@@ -1060,3 +1060,58 @@ fn damaged_leaf_data_is_an_error_not_a_panic() {
         let _ = postcard::from_bytes::<LeafObjects>(&b);
     }
 }
+
+/// An octree rebuilt from a skeleton (a compiled scene's) equals the built
+/// one's cells; a skeleton that is not a tree, or deeper than the octree
+/// can be, is an error, not a panic or a wrong tree.
+#[test]
+fn skeletons_that_are_not_octrees_are_errors() {
+    use super::SkeletonNode as N;
+    let objects = random_scene(9, 60, 10.0);
+    let tree = Octree::build(&objects, &OctreeParams::default());
+    let n = tree.node_count();
+    let nodes: Vec<N<'_>> = (0..n as NodeId)
+        .map(|id| match tree.node(id) {
+            NodeView::Internal { children } => N::Internal {
+                first_child: children[0],
+            },
+            NodeView::Leaf { objects } => N::Leaf(objects),
+        })
+        .collect();
+    let root = tree.root_cell();
+    let again = Octree::from_skeleton(root, objects.len(), n, |i| Ok(nodes[i])).unwrap();
+    for id in 0..n as NodeId {
+        assert_eq!(again.node_bounds(id), tree.node_bounds(id), "node {id}");
+    }
+    // A chain of internal nodes one deeper than the maximum.
+    let deep = MAX_DEPTH as usize + 1;
+    let chain = |i: usize| {
+        Ok(if i == 0 || (i % 8 == 1 && i / 8 < deep) {
+            N::Internal {
+                first_child: (if i == 0 { 1 } else { i + 8 }) as NodeId,
+            }
+        } else {
+            N::Leaf(&[])
+        })
+    };
+    let err = Octree::from_skeleton(root, 0, 1 + 8 * (deep + 1), chain).unwrap_err();
+    assert!(err.contains("deeper"), "{err}");
+    // A node reached twice, and one never reached.
+    let twice = |i: usize| {
+        Ok(match i {
+            0 => N::Internal { first_child: 1 },
+            1 => N::Internal { first_child: 2 },
+            _ => N::Leaf(&[]),
+        })
+    };
+    assert!(Octree::from_skeleton(root, 0, 17, twice).is_err());
+    let lost = |i: usize| {
+        Ok(match i {
+            0 => N::Internal { first_child: 1 },
+            _ => N::Leaf(&[]),
+        })
+    };
+    assert!(Octree::from_skeleton(root, 0, 10, lost)
+        .unwrap_err()
+        .contains("not reached"));
+}
