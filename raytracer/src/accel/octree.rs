@@ -266,7 +266,6 @@ pub struct Octree {
     root_cell: Cell,
     parents: Vec<NodeId>,
     depths: Vec<u8>,
-    subtree_refs: Vec<u64>,
     leaf_objects: Vec<ObjectId>,
     /// The objects' intersection data in a compact layout.
     prims: Prims,
@@ -496,7 +495,6 @@ impl Octree {
 
     fn finish(&mut self, objects: usize) {
         let n = self.nodes.len();
-        self.subtree_refs = vec![0; n];
         let mut s = OctreeStats {
             objects,
             ..Default::default()
@@ -511,21 +509,17 @@ impl Octree {
                         s.empty_leaves += 1;
                     }
                     s.max_depth = s.max_depth.max(self.depths[id] as u32);
-                    self.subtree_refs[id] += len as u64;
                 }
                 Node::Internal { .. } => s.internal_nodes += 1,
             }
-            if id > 0 {
-                let p = self.parents[id] as usize;
-                self.subtree_refs[p] += self.subtree_refs[id];
-            }
         }
         self.stats = s;
+        let refs = self.subtree_refs();
         for id in 0..n {
             if let Node::Internal { first_child } = self.nodes[id].kind() {
                 let mut mask = 0;
                 for i in 0..8 {
-                    if self.subtree_refs[first_child as usize + i] > 0 {
+                    if refs[first_child as usize + i] > 0 {
                         mask |= 1 << i;
                     }
                 }
@@ -636,10 +630,21 @@ impl Octree {
         (p != NodeId::MAX).then_some(p)
     }
 
-    /// Object references in the leaves below (and including) a node: the
-    /// paper's cost function "objects per leaf, summed upwards".
-    pub fn subtree_refs(&self, id: NodeId) -> u64 {
-        self.subtree_refs[id as usize]
+    /// Per node, the object references in the leaves below (and
+    /// including) it: the paper's cost function "objects per leaf, summed
+    /// upwards". Computed when asked (eight bytes per node the octree does
+    /// not keep).
+    pub fn subtree_refs(&self) -> Vec<u64> {
+        let mut refs = vec![0u64; self.nodes.len()];
+        for id in (0..self.nodes.len()).rev() {
+            if let Node::Leaf { len, .. } = self.nodes[id].kind() {
+                refs[id] += len as u64;
+            }
+            if id > 0 {
+                refs[self.parents[id] as usize] += refs[id];
+            }
+        }
+        refs
     }
 
     /// All leaf ids, ascending.
@@ -675,7 +680,6 @@ impl Octree {
             + std::mem::size_of_val(&self.half_at)
             + self.parents.len() * 4
             + self.depths.len()
-            + self.subtree_refs.len() * 8
             + self.leaf_objects.len() * 4
             + self.prims.memory_bytes()
     }

@@ -119,7 +119,8 @@ fn check_structure(tree: &Octree, objects: &[Object]) {
     let st = tree.stats();
     assert_eq!(st.leaf_nodes + st.internal_nodes, tree.node_count());
     assert_eq!(tree.node_count(), 1 + 8 * st.internal_nodes);
-    assert_eq!(tree.subtree_refs(0), st.object_refs as u64);
+    let subtree_refs = tree.subtree_refs();
+    assert_eq!(subtree_refs[0], st.object_refs as u64);
     let root = tree.root_bounds();
     for (i, o) in objects.iter().enumerate() {
         let b = o.shape.bounds();
@@ -141,9 +142,9 @@ fn check_structure(tree: &Octree, objects: &[Object]) {
                     assert!(
                         (cb.extent() * 2.0 - pb.extent()).length() <= 1e-12 * pb.extent().length()
                     );
-                    sum += tree.subtree_refs(c);
+                    sum += subtree_refs[c as usize];
                 }
-                assert_eq!(sum, tree.subtree_refs(id));
+                assert_eq!(sum, subtree_refs[id as usize]);
                 assert!(tree.leaf_objects(id).is_empty());
             }
             NodeView::Leaf { objects: list } => {

@@ -47,10 +47,7 @@ impl Partition {
     /// The balanced partition of `octree` (built over `objects`) over
     /// `procs` processors (`procs == 0` is treated as 1).
     pub fn new(octree: &Octree, objects: &[Object], procs: u32) -> Partition {
-        let costs: Vec<u64> = (0..octree.node_count() as NodeId)
-            .map(|id| octree.subtree_refs(id))
-            .collect();
-        Self::by_cost(octree, objects, procs, &costs)
+        Self::by_cost(octree, objects, procs, &octree.subtree_refs())
     }
 
     /// The same cut as [`Partition::new`] under another cost function:
