@@ -46,7 +46,7 @@ impl RtWorkload {
             .collect();
         let procs = procs.max(1);
         let held = Held {
-            source,
+            source: Mutex::new(Some(source)),
             parts: (0..procs).map(|_| Mutex::new(None)).collect(),
             figures: (0..procs).map(|_| Mutex::new(None)).collect(),
         };
@@ -76,6 +76,14 @@ impl RtWorkload {
         Ok(())
     }
 
+    /// Every processor of this process has read its part: the cell index
+    /// (24 bytes per cell of the whole scene) is let go.
+    pub fn parts_read(&self) {
+        if let Some(h) = &self.held {
+            *h.source.lock().unwrap_or_else(|e| e.into_inner()) = None;
+        }
+    }
+
     pub(super) fn read_cells(
         &self,
         h: &Held,
@@ -95,13 +103,16 @@ impl RtWorkload {
                 "processor {proc} cannot read its part of the scene: {e}"
             ))
         };
-        let mut read = h
-            .source
+        let source = h.source.lock().unwrap_or_else(|e| e.into_inner());
+        let source = source
+            .as_ref()
+            .ok_or_else(|| failed(&"the scene's cells were read already"))?;
+        let mut read = source
             .read_objects(scene, octree, &leaves)
             .map_err(|e| failed(&e))?;
         // Each surface read becomes its processor's copy (moved, not
         // copied again), as the first leaf listing it is built.
-        let maker = h.source.maker();
+        let maker = source.maker();
         let mut copies = ObjectCopies::new();
         let mut resident = HashSet::new();
         // The bytes of the objects read, as the partition counts a whole

@@ -395,6 +395,7 @@ pub fn render_parallel_held(
         RuntimeKind::Mpi => wl.read_part(this_rank()?)?,
         _ => (0..popts.procs).try_for_each(|p| wl.read_part(p))?,
     }
+    wl.parts_read();
     tracing::debug!(
         peak_kib = crate::report::peak_resident_bytes().map(|b| b / 1024),
         rss_kib = crate::report::resident_bytes().map(|b| b / 1024),

@@ -137,7 +137,9 @@ type Part = Vec<(NodeId, CellData)>;
 /// and what they read.
 #[derive(Debug)]
 pub(super) struct Held {
-    pub(super) source: crate::compiled::CellSource,
+    /// Where the cells are read from, until every processor of this
+    /// process has read its part ([`RtWorkload::parts_read`]).
+    pub(super) source: Mutex<Option<crate::compiled::CellSource>>,
     /// Per processor, its cells as read before the run
     /// ([`RtWorkload::read_part`]), until its processor starts.
     pub(super) parts: Vec<Mutex<Option<Part>>>,
@@ -410,8 +412,10 @@ impl Workload for RtWorkload {
                 .parts
                 .get(proc)
                 .and_then(|s| s.lock().unwrap_or_else(|e| e.into_inner()).take());
-            // Read before the run (render_parallel does, and reports what
-            // it cannot read); a second run of the workload reads again.
+            // Read before the run (render_parallel_held does, reports what
+            // it cannot read, then lets the cell index go: a workload runs
+            // once there); a workload whose parts were not read before the
+            // run reads them here.
             let cells = match read {
                 Some(cells) => cells,
                 None => self.read_cells(h, proc).unwrap_or_else(|e| panic!("{e}")),
