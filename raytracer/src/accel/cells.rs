@@ -35,7 +35,7 @@ use std::sync::{Arc, Mutex, Weak};
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use crate::geometry::prims::Prims;
+use crate::geometry::prims::OnePrim;
 use crate::geometry::{MaterialId, Object, ObjectId, ObjectSet, Shape, Vec3};
 
 /// A slot holding no copy: the object is one every processor holds.
@@ -54,13 +54,13 @@ pub struct LeafObjects {
 #[derive(Debug)]
 pub struct HeldObject {
     object: [Object; 1],
-    prims: Prims,
+    prim: OnePrim,
 }
 
 impl HeldObject {
     pub(crate) fn new(object: Object) -> Arc<HeldObject> {
         let mut object = [object];
-        let prims = Prims::build(&object);
+        let prim = OnePrim::build(&object[0]);
         // A copy is only traced and shaded: a polygon is tested through its
         // intersection data alone (built from its triangles whenever it has
         // any), so its triangulation, flattened triangles and area table
@@ -72,13 +72,13 @@ impl HeldObject {
                 p.cdf = Vec::new();
             }
         }
-        Arc::new(HeldObject { object, prims })
+        Arc::new(HeldObject { object, prim })
     }
 
-    /// The copy and its intersection data (the object is number 0).
+    /// The copy's intersection data.
     #[inline]
-    pub(crate) fn parts(&self) -> (&Prims, &[Object]) {
-        (&self.prims, &self.object)
+    pub(crate) fn prim(&self) -> &OnePrim {
+        &self.prim
     }
 
     /// The copy.
@@ -99,7 +99,7 @@ impl HeldObject {
                 }
                 _ => 0,
             };
-        size_of::<HeldObject>() + heap + self.prims.memory_bytes()
+        size_of::<HeldObject>() + heap + self.prim.memory_bytes()
     }
 }
 

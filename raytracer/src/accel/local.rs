@@ -75,7 +75,7 @@ impl LocalKernel {
         found.sort_by_key(|f| f.0);
         found.dedup_by_key(|f| f.0);
         let (ids, objects): (Vec<ObjectId>, Vec<Arc<HeldObject>>) = found.into_iter().unzip();
-        let prims = Prims::concat(objects.iter().map(|h| h.parts().0));
+        let prims = Prims::from_ones(objects.iter().map(|h| h.prim()));
         let bvh = Bvh::build_with(&objects[..], prims);
         LocalKernel { objects, ids, bvh }
     }

@@ -985,10 +985,10 @@ impl Octree {
                     }
                     let bound = if best.is_some() { next_up(*cut) } else { *cut };
                     let (h, obj) = match c.own(j) {
-                        Some(held) => {
-                            let (prims, one) = held.parts();
-                            (test.intersect_in(prims, one, tmin, bound), &one[0])
-                        }
+                        Some(held) => (
+                            test.intersect_one(held.prim(), held.object(), tmin, bound),
+                            held.object(),
+                        ),
                         // An instance, tested through its shape as the
                         // octree's own data would (they hold none for it).
                         None => match shared.get(id) {
@@ -1062,10 +1062,7 @@ impl Octree {
                     continue;
                 }
                 let hit = match c.own(j) {
-                    Some(held) => {
-                        let (prims, one) = held.parts();
-                        test.occludes_in(prims, one, tmin, tmax)
-                    }
+                    Some(held) => test.occludes_one(held.prim(), held.object(), tmin, tmax),
                     None => shared.get(id).is_some_and(|o| {
                         debug_assert!(matches!(o.shape, crate::geometry::Shape::Instance(_)));
                         o.shape.occludes_prepared(&pre, tmin, tmax)

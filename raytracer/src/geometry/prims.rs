@@ -23,7 +23,7 @@ use crate::geometry::{
 
 /// Two triangles: `v[vertex][axis][lane]`.
 #[derive(Debug, Clone, Copy)]
-struct TriPair {
+pub(crate) struct TriPair {
     v: [[[f64; 2]; 3]; 3],
 }
 
@@ -48,7 +48,7 @@ impl Default for PrimRef {
 }
 
 #[derive(Debug, Clone, Copy)]
-enum Quadric {
+pub(crate) enum Quadric {
     Sphere {
         center: Vec3,
         radius: f64,
@@ -58,6 +58,110 @@ enum Quadric {
         c: ConeConsts,
         inward: bool,
     },
+}
+
+impl Quadric {
+    /// Nearest hit with `tmin < t < tmax`: the shape's own test.
+    #[inline]
+    fn intersect(&self, pre: &PreparedRay, tmin: f64, tmax: f64) -> Option<ShapeHit> {
+        match *self {
+            Quadric::Sphere {
+                center,
+                radius,
+                inward,
+            } => {
+                let t = intersect_sphere(&pre.ray, center, radius, tmin, tmax)?;
+                Some(ShapeHit {
+                    t,
+                    normal: sphere_normal(pre.ray.at(t), center, inward),
+                    inner: None,
+                })
+            }
+            Quadric::Cone { ref c, inward } => {
+                let (t, n) = intersect_cone_consts(&pre.ray, c, tmin, tmax)?;
+                Some(ShapeHit {
+                    t,
+                    normal: if inward { -n } else { n },
+                    inner: None,
+                })
+            }
+        }
+    }
+
+    /// Whether it is hit with `tmin < t < tmax`.
+    #[inline]
+    fn occludes(&self, pre: &PreparedRay, tmin: f64, tmax: f64) -> bool {
+        match *self {
+            Quadric::Sphere { center, radius, .. } => {
+                intersect_sphere(&pre.ray, center, radius, tmin, tmax).is_some()
+            }
+            Quadric::Cone { ref c, .. } => intersect_cone_consts(&pre.ray, c, tmin, tmax).is_some(),
+        }
+    }
+}
+
+/// The nearest `t` with `tmin < t < tmax` among the triangles of `pairs`
+/// (the first of equal ones: the smallest `t` in range).
+#[inline(always)]
+fn nearest_pair_hit(tr: &TriRay, pairs: &[TriPair], tmin: f64, tmax: f64) -> Option<f64> {
+    let mut best = tmax;
+    let mut hit = false;
+    for p in pairs {
+        for t in pair_hits(tr, p) {
+            if t > tmin && t < best {
+                best = t;
+                hit = true;
+            }
+        }
+    }
+    hit.then_some(best)
+}
+
+/// Whether a triangle of `pairs` is hit with `tmin < t < tmax`.
+#[inline(always)]
+fn any_pair_hit(tr: &TriRay, pairs: &[TriPair], tmin: f64, tmax: f64) -> bool {
+    pairs.iter().any(|p| {
+        let [t0, t1] = pair_hits(tr, p);
+        (t0 > tmin && t0 < tmax) || (t1 > tmin && t1 < tmax)
+    })
+}
+
+/// One object's intersection data as a processor's copy keeps it: what
+/// [`Prims::build`] makes for the object, without the per-object tables
+/// (a polygon's triangle pairs in one allocation, its normal beside them).
+#[derive(Debug, Clone)]
+pub(crate) enum OnePrim {
+    Pairs {
+        pairs: Box<[TriPair]>,
+        normal: Vec3,
+    },
+    Quadric(Box<Quadric>),
+    /// Tested through its [`Shape`].
+    Other,
+}
+
+impl OnePrim {
+    /// The data of `o`, exactly as [`Prims::build`] makes it.
+    pub(crate) fn build(o: &Object) -> OnePrim {
+        let p = Prims::build(std::slice::from_ref(o));
+        match p.refs[0] {
+            r if r.start == NONE => OnePrim::Other,
+            PrimRef { start, pairs: 0 } => OnePrim::Quadric(Box::new(p.quadrics[start as usize])),
+            _ => OnePrim::Pairs {
+                pairs: p.pairs.into_boxed_slice(),
+                normal: p.normals[0],
+            },
+        }
+    }
+
+    /// Heap bytes.
+    pub(crate) fn memory_bytes(&self) -> usize {
+        match self {
+            OnePrim::Pairs { pairs, .. } => std::mem::size_of_val(&**pairs),
+            OnePrim::Quadric(_) => std::mem::size_of::<Quadric>(),
+            OnePrim::Other => 0,
+        }
+    }
 }
 
 /// Per-object intersection data, indexed by object id.
@@ -173,40 +277,55 @@ impl Prims {
         p
     }
 
-    /// The data of several objects' data laid end to end, in order (object
-    /// `i` of the result is the `i`-th object of the parts): the data of
-    /// copies whose own objects no longer say how it was built (a polygon
-    /// copy without its triangulation).
-    pub(crate) fn concat<'a, I>(parts: I) -> Prims
+    /// The data of several copies laid end to end, in order (object `i`
+    /// of the result is the `i`-th copy): what [`Prims::build`] makes for
+    /// their objects, bit for bit.
+    pub(crate) fn from_ones<'a, I>(parts: I) -> Prims
     where
-        I: IntoIterator<Item = &'a Prims>,
+        I: IntoIterator<Item = &'a OnePrim>,
         I::IntoIter: Clone,
     {
         let parts = parts.into_iter();
+        let (mut n, mut pairs, mut quadrics) = (0, 0, 0);
+        for q in parts.clone() {
+            n += 1;
+            match q {
+                OnePrim::Pairs { pairs: p, .. } => pairs += p.len(),
+                OnePrim::Quadric(_) => quadrics += 1,
+                OnePrim::Other => {}
+            }
+        }
         // Allocated once, to the size: a processor's kernel holds it for
         // the whole run.
         let mut p = Prims {
-            refs: Vec::with_capacity(parts.clone().map(|q| q.refs.len()).sum()),
-            pairs: Vec::with_capacity(parts.clone().map(|q| q.pairs.len()).sum()),
-            quadrics: Vec::with_capacity(parts.clone().map(|q| q.quadrics.len()).sum()),
-            normals: Vec::with_capacity(parts.clone().map(|q| q.normals.len()).sum()),
+            refs: Vec::with_capacity(n),
+            pairs: Vec::with_capacity(pairs),
+            quadrics: Vec::with_capacity(quadrics),
+            normals: Vec::with_capacity(n),
         };
         for q in parts {
-            let (pairs, quadrics) = (p.pairs.len() as u32, p.quadrics.len() as u32);
-            p.refs.extend(q.refs.iter().map(|r| match *r {
-                r if r.start == NONE => r,
-                PrimRef { start, pairs: 0 } => PrimRef {
-                    start: start + quadrics,
-                    pairs: 0,
-                },
-                PrimRef { start, pairs: n } => PrimRef {
-                    start: start + pairs,
-                    pairs: n,
-                },
-            }));
-            p.pairs.extend_from_slice(&q.pairs);
-            p.quadrics.extend_from_slice(&q.quadrics);
-            p.normals.extend_from_slice(&q.normals);
+            match q {
+                OnePrim::Pairs { pairs, normal } => {
+                    p.refs.push(PrimRef {
+                        start: p.pairs.len() as u32,
+                        pairs: pairs.len() as u32,
+                    });
+                    p.pairs.extend_from_slice(pairs);
+                    p.normals.push(*normal);
+                }
+                OnePrim::Quadric(q) => {
+                    p.refs.push(PrimRef {
+                        start: p.quadrics.len() as u32,
+                        pairs: 0,
+                    });
+                    p.quadrics.push(**q);
+                    p.normals.push(Vec3::ZERO);
+                }
+                OnePrim::Other => {
+                    p.refs.push(PrimRef::default());
+                    p.normals.push(Vec3::ZERO);
+                }
+            }
         }
         p
     }
@@ -242,20 +361,9 @@ impl Prims {
         if r.pairs == 0 {
             return self.intersect_other(objects, id, r, pre, tmin, tmax);
         }
-        // The scalar loop keeps the nearest hit, the first of equal ones:
-        // the smallest `t` in range.
-        let mut best = tmax;
-        let mut hit = false;
-        for p in &self.pairs[r.start as usize..(r.start + r.pairs) as usize] {
-            for t in pair_hits(tr, p) {
-                if t > tmin && t < best {
-                    best = t;
-                    hit = true;
-                }
-            }
-        }
-        hit.then(|| ShapeHit {
-            t: best,
+        let pairs = &self.pairs[r.start as usize..(r.start + r.pairs) as usize];
+        nearest_pair_hit(tr, pairs, tmin, tmax).map(|t| ShapeHit {
+            t,
             normal: self.normals[id as usize],
             inner: None,
         })
@@ -274,26 +382,7 @@ impl Prims {
         tmax: f64,
     ) -> Option<ShapeHit> {
         match self.quadrics.get(r.start as usize) {
-            Some(&Quadric::Sphere {
-                center,
-                radius,
-                inward,
-            }) => {
-                let t = intersect_sphere(&pre.ray, center, radius, tmin, tmax)?;
-                Some(ShapeHit {
-                    t,
-                    normal: sphere_normal(pre.ray.at(t), center, inward),
-                    inner: None,
-                })
-            }
-            Some(Quadric::Cone { c, inward }) => {
-                let (t, n) = intersect_cone_consts(&pre.ray, c, tmin, tmax)?;
-                Some(ShapeHit {
-                    t,
-                    normal: if *inward { -n } else { n },
-                    inner: None,
-                })
-            }
+            Some(q) => q.intersect(pre, tmin, tmax),
             None => objects
                 .object(id as usize)
                 .shape
@@ -317,12 +406,12 @@ impl Prims {
         if r.pairs == 0 {
             return self.occludes_other(objects, id, r, pre, tmin, tmax);
         }
-        self.pairs[r.start as usize..(r.start + r.pairs) as usize]
-            .iter()
-            .any(|p| {
-                let [t0, t1] = pair_hits(tr, p);
-                (t0 > tmin && t0 < tmax) || (t1 > tmin && t1 < tmax)
-            })
+        any_pair_hit(
+            tr,
+            &self.pairs[r.start as usize..(r.start + r.pairs) as usize],
+            tmin,
+            tmax,
+        )
     }
 
     /// [`Prims::occludes`] of a quadric or another shape (out of line).
@@ -337,12 +426,7 @@ impl Prims {
         tmax: f64,
     ) -> bool {
         match self.quadrics.get(r.start as usize) {
-            Some(&Quadric::Sphere { center, radius, .. }) => {
-                intersect_sphere(&pre.ray, center, radius, tmin, tmax).is_some()
-            }
-            Some(Quadric::Cone { c, .. }) => {
-                intersect_cone_consts(&pre.ray, c, tmin, tmax).is_some()
-            }
+            Some(q) => q.occludes(pre, tmin, tmax),
             None => objects
                 .object(id as usize)
                 .shape
@@ -371,24 +455,45 @@ impl<'a, O: ObjectSet + ?Sized> Tester<'a, O> {
         }
     }
 
-    /// Nearest hit of the one object `one` (with its data `prims`) with
-    /// `tmin < t < tmax`: a processor's copy of an object.
+    /// Nearest hit of a processor's copy of an object (`object`, with its
+    /// data `prim`) with `tmin < t < tmax`: what [`Prims::intersect`]
+    /// answers for it.
     #[inline]
-    pub(crate) fn intersect_in(
+    pub(crate) fn intersect_one(
         &self,
-        prims: &Prims,
-        one: &[Object],
+        prim: &OnePrim,
+        object: &Object,
         tmin: f64,
         tmax: f64,
     ) -> Option<ShapeHit> {
-        prims.intersect(one, 0, self.pre, &self.tr, tmin, tmax)
+        match prim {
+            OnePrim::Pairs { pairs, normal } => {
+                nearest_pair_hit(&self.tr, pairs, tmin, tmax).map(|t| ShapeHit {
+                    t,
+                    normal: *normal,
+                    inner: None,
+                })
+            }
+            OnePrim::Quadric(q) => q.intersect(self.pre, tmin, tmax),
+            OnePrim::Other => object.shape.intersect_prepared(self.pre, tmin, tmax),
+        }
     }
 
-    /// True if the one object `one` (with its data `prims`) has a hit with
-    /// `tmin < t < tmax`.
+    /// Whether a processor's copy of an object is hit with
+    /// `tmin < t < tmax` (see [`Tester::intersect_one`]).
     #[inline]
-    pub(crate) fn occludes_in(&self, prims: &Prims, one: &[Object], tmin: f64, tmax: f64) -> bool {
-        prims.occludes(one, 0, self.pre, &self.tr, tmin, tmax)
+    pub(crate) fn occludes_one(
+        &self,
+        prim: &OnePrim,
+        object: &Object,
+        tmin: f64,
+        tmax: f64,
+    ) -> bool {
+        match prim {
+            OnePrim::Pairs { pairs, .. } => any_pair_hit(&self.tr, pairs, tmin, tmax),
+            OnePrim::Quadric(q) => q.occludes(self.pre, tmin, tmax),
+            OnePrim::Other => object.shape.occludes_prepared(self.pre, tmin, tmax),
+        }
     }
 
     /// Nearest hit of object `id` with `tmin < t < tmax`.
