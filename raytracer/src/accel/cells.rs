@@ -38,16 +38,12 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use crate::geometry::prims::OnePrim;
 use crate::geometry::{MaterialId, Object, ObjectId, ObjectSet, Shape, Vec3};
 
-/// A slot holding no copy: the object is one every processor holds.
-const SHARED: u32 = u32::MAX;
-
 /// See the module documentation.
 #[derive(Debug, Clone)]
 pub struct LeafObjects {
-    ids: Vec<ObjectId>,
-    /// Per id: index into `held`, or [`SHARED`].
-    slots: Vec<u32>,
-    held: Vec<Arc<HeldObject>>,
+    ids: Box<[ObjectId]>,
+    /// Per id: its copy, `None` for an object every processor holds.
+    held: Box<[Option<Arc<HeldObject>>]>,
 }
 
 /// A copy of one plain surface with its intersection data.
@@ -213,24 +209,22 @@ impl LeafObjects {
         object: impl Fn(ObjectId) -> &'o Object,
         copies: &mut ObjectCopies,
     ) -> LeafObjects {
-        let ids = ids.to_vec();
-        let mut held = Vec::new();
-        let slots = ids
+        let held = ids
             .iter()
             .map(|&id| {
                 let o = object(id);
-                if is_plain(o) {
-                    let c = copies
+                is_plain(o).then(|| {
+                    copies
                         .entry(id)
-                        .or_insert_with(|| HeldObject::new(o.clone()));
-                    held.push(c.clone());
-                    held.len() as u32 - 1
-                } else {
-                    SHARED
-                }
+                        .or_insert_with(|| HeldObject::new(o.clone()))
+                        .clone()
+                })
             })
             .collect();
-        LeafObjects { ids, slots, held }
+        LeafObjects {
+            ids: ids.into(),
+            held,
+        }
     }
 
     /// A leaf listing `ids` whose objects are not all held yet: the copies
@@ -247,10 +241,8 @@ impl LeafObjects {
     where
         E: From<String>,
     {
-        let ids = ids.to_vec();
-        let mut held = Vec::new();
-        let mut slots = Vec::with_capacity(ids.len());
-        for &id in &ids {
+        let mut held = Vec::with_capacity(ids.len());
+        for &id in ids {
             let copy = match copies.get(&id) {
                 Some(c) => Some(c.clone()),
                 None => match make(id) {
@@ -263,16 +255,15 @@ impl LeafObjects {
                     }
                 },
             };
-            slots.push(match copy {
-                Some(c) => {
-                    copies.entry(id).or_insert_with(|| c.clone());
-                    held.push(c);
-                    held.len() as u32 - 1
-                }
-                None => SHARED,
-            });
+            if let Some(c) = &copy {
+                copies.entry(id).or_insert_with(|| c.clone());
+            }
+            held.push(copy);
         }
-        Ok(LeafObjects { ids, slots, held })
+        Ok(LeafObjects {
+            ids: ids.into(),
+            held: held.into(),
+        })
     }
 
     /// The leaf's object ids, in the octree's order.
@@ -280,9 +271,10 @@ impl LeafObjects {
         &self.ids
     }
 
-    /// The copies held (plain surfaces; instances are not copied).
-    pub fn copies(&self) -> &[Arc<HeldObject>] {
-        &self.held
+    /// The copies held (plain surfaces; instances are not copied), in the
+    /// leaf's order.
+    pub fn copies(&self) -> impl Iterator<Item = &Arc<HeldObject>> + '_ {
+        self.held.iter().flatten()
     }
 
     /// The copy of the leaf's `k`-th object, `None` for a shared one.
@@ -294,16 +286,13 @@ impl LeafObjects {
     /// [`LeafObjects::own`] as the leaves hold it, to be held once more.
     #[inline]
     pub fn own_shared(&self, k: usize) -> Option<&Arc<HeldObject>> {
-        let s = self.slots[k];
-        (s != SHARED).then(|| &self.held[s as usize])
+        self.held[k].as_ref()
     }
 
-    /// Bytes of the leaf's own lists (ids, slots, references to copies),
-    /// not counting the copies, which leaves share.
+    /// Bytes of the leaf's own lists (ids, references to copies), not
+    /// counting the copies, which leaves share.
     pub fn list_bytes(&self) -> usize {
-        self.ids.capacity() * size_of::<ObjectId>()
-            + self.slots.capacity() * size_of::<u32>()
-            + self.held.capacity() * size_of::<Arc<HeldObject>>()
+        size_of_val(&*self.ids) + size_of_val(&*self.held)
     }
 }
 
@@ -437,7 +426,7 @@ impl Serialize for LeafObjects {
             .map(|k| self.own(k).map(|h| wire_object(h.object())))
             .collect();
         Wire {
-            ids: self.ids.clone(),
+            ids: self.ids.to_vec(),
             objects,
         }
         .serialize(s)
@@ -454,23 +443,19 @@ impl<'de> Deserialize<'de> for LeafObjects {
                 w.objects.len()
             )));
         }
-        let mut held = Vec::new();
-        let mut slots = Vec::with_capacity(w.ids.len());
+        let mut held = Vec::with_capacity(w.ids.len());
         for (id, o) in w.ids.iter().zip(w.objects) {
-            match o {
-                None => slots.push(SHARED),
-                Some(o) => {
-                    let copy = received_copy(*id, o)
-                        .map_err(|e| D::Error::custom(format!("object {id}: {e}")))?;
-                    held.push(copy);
-                    slots.push(held.len() as u32 - 1);
-                }
-            }
+            held.push(match o {
+                None => None,
+                Some(o) => Some(
+                    received_copy(*id, o)
+                        .map_err(|e| D::Error::custom(format!("object {id}: {e}")))?,
+                ),
+            });
         }
         Ok(LeafObjects {
-            ids: w.ids,
-            slots,
-            held,
+            ids: w.ids.into(),
+            held: held.into(),
         })
     }
 }

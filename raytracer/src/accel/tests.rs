@@ -1006,7 +1006,7 @@ fn leaf_objects_cross_the_wire_bit_for_bit() {
         let bytes = postcard::to_allocvec(&held).unwrap();
         let got: LeafObjects = postcard::from_bytes(&bytes).unwrap();
         assert_eq!(got.ids(), tree.leaf_objects(leaf));
-        assert_eq!(got.copies().len(), held.copies().len());
+        assert_eq!(got.copies().count(), held.copies().count());
         for (k, &id) in got.ids().iter().enumerate() {
             match (got.own(k), held.own(k)) {
                 (Some(a), Some(b)) => {
