@@ -49,19 +49,18 @@ pub struct LeafObjects {
 /// A copy of one plain surface with its intersection data.
 #[derive(Debug)]
 pub struct HeldObject {
-    object: [Object; 1],
+    object: Object,
     prim: OnePrim,
 }
 
 impl HeldObject {
-    pub(crate) fn new(object: Object) -> Arc<HeldObject> {
-        let mut object = [object];
-        let prim = OnePrim::build(&object[0]);
+    pub(crate) fn new(mut object: Object) -> Arc<HeldObject> {
+        let prim = OnePrim::build(&object);
         // A copy is only traced and shaded: a polygon is tested through its
         // intersection data alone (built from its triangles whenever it has
         // any), so its triangulation, flattened triangles and area table
         // are dropped; its vertices stay, they are what travels.
-        if let Shape::Polygon(p) = &mut object[0].shape {
+        if let Shape::Polygon(p) = &mut object.shape {
             if !p.tri_verts.is_empty() {
                 p.triangles = Vec::new();
                 p.tri_verts = Vec::new();
@@ -79,12 +78,12 @@ impl HeldObject {
 
     /// The copy.
     pub fn object(&self) -> &Object {
-        &self.object[0]
+        &self.object
     }
 
     /// Heap and inline bytes of the copy and its intersection data.
     pub fn bytes(&self) -> usize {
-        let o = &self.object[0];
+        let o = &self.object;
         let heap = o.name.capacity()
             + match &o.shape {
                 Shape::Polygon(p) => {
@@ -108,7 +107,7 @@ impl ObjectSet for [Arc<HeldObject>] {
 
     #[inline]
     fn object(&self, k: usize) -> &Object {
-        &self[k].object[0]
+        &self[k].object
     }
 }
 

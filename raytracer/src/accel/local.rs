@@ -25,11 +25,11 @@
 //! whole. Otherwise the query falls back to the leaf-by-leaf walk, which
 //! reads cached leaves and migrates. Pictures do not change.
 
+use std::sync::Arc;
+
 use super::cells::{HeldObject, LeafObjects};
 use super::octree::{NodeId, Octree};
 use crate::geometry::prims::Prims;
-use std::sync::Arc;
-
 use crate::geometry::{Bvh, Hit, Object, ObjectTable, Ray};
 use crate::scene::ObjectId;
 
