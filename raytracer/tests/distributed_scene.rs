@@ -188,6 +188,9 @@ fn distributed_renders_equal_the_whole_scenes_sequential_render() {
             // Every processor measured its own copies.
             for p in &out.procs {
                 assert!(p.copy_bytes > 0 || p.resident_objects == 0, "{name}");
+                // Every processor built its hierarchy here, and reports it.
+                let h = p.hierarchy_bytes.expect("built in this process");
+                assert!(h > 0 || p.resident_objects == 0, "{name}: no hierarchy");
             }
         }
     }

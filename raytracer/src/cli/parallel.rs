@@ -128,10 +128,11 @@ pub fn summary(r: &ParallelRender) -> String {
     );
     let _ = writeln!(
         s,
-        "{:>4} {:>10} {:>9} {:>6} {:>6} {:>6} {:>6} {:>6} {:>7} {:>8} {:>7} {:>9} {:>9} {:>6} {:>8} {:>9}",
+        "{:>4} {:>10} {:>9} {:>9} {:>6} {:>6} {:>6} {:>6} {:>6} {:>7} {:>8} {:>7} {:>9} {:>9} {:>6} {:>8} {:>9}",
         "proc",
         "resid KiB",
         "copy KiB",
+        "hier KiB",
         "exec%",
         "clip%",
         "wait%",
@@ -158,13 +159,17 @@ pub fn summary(r: &ParallelRender) -> String {
         let sent = p.sent.total();
         let _ = writeln!(
             s,
-            "{:>4} {:>10.1} {:>9} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>7} {:>8} {:>7} {:>9} {:>9} {:>6} {:>8} {:>9.1}",
+            "{:>4} {:>10.1} {:>9} {:>9} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>6.1} {:>7} {:>8} {:>7} {:>9} {:>9} {:>6} {:>8} {:>9.1}",
             i,
             r.procs.get(i).map_or(0, |x| x.resident_bytes) as f64 / 1024.0,
             // Unknown here for another rank's part of a distributed scene.
             match r.procs.get(i) {
                 Some(x) if !x.measured => "-".to_string(),
                 x => format!("{:.1}", x.map_or(0, |x| x.copy_bytes) as f64 / 1024.0),
+            },
+            match r.procs.get(i).and_then(|x| x.hierarchy_bytes) {
+                Some(b) => format!("{:.1}", b as f64 / 1024.0),
+                None => "-".to_string(),
             },
             pct(t.get(State::Executing), total),
             pct(t.get(State::Selecting), total),

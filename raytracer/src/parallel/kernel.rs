@@ -105,6 +105,28 @@ impl LocalPath<'_> {
 const FIRST_GROWTH: usize = 16;
 
 impl RtWorkload {
+    /// Bytes of processor `proc`'s own hierarchies: the one over its
+    /// resident cells and the latest grown over its cache
+    /// ([`crate::accel::LocalKernel::memory_bytes`], the copies they share
+    /// with the leaves not counted). `Some(0)` where it has none or uses
+    /// the whole scene's; `None` where this process never built it (a
+    /// processor of another MPI rank).
+    pub fn hierarchy_bytes(&self, proc: usize) -> Option<u64> {
+        let own = match self.kernels.get(proc)?.get() {
+            None if self.opts.local_kernel && !self.replicated() => return None,
+            Some(Kernel::Own(k)) => k.memory_bytes(),
+            _ => 0,
+        };
+        let grown = self.grown.get(proc).map_or(0, |g| {
+            g.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .kernel
+                .as_ref()
+                .map_or(0, |k| k.memory_bytes())
+        });
+        Some((own + grown) as u64)
+    }
+
     /// Builds processor `proc`'s hierarchy over `cells`, its resident
     /// leaves (option `local_kernel`; once: a later run of the workload
     /// has the same partition).

@@ -218,6 +218,11 @@ pub struct ProcSummary {
     /// per object, however many of its leaves list it), measured from the
     /// copies' structures; 0 when replicated (processors share the scene).
     pub copy_bytes: u64,
+    /// Bytes of the processor's own hierarchies at the end of the run: the
+    /// one over its resident objects and the one grown over its cache (the
+    /// copies they share with its leaves not counted); 0 where it uses the
+    /// whole scene's or has none; `None` where another MPI rank built it.
+    pub hierarchy_bytes: Option<u64>,
     /// Share of the octree's object references assigned here.
     pub cost: u64,
     /// Pixels assembled here.
@@ -473,6 +478,7 @@ fn run_workload(
                 resident_bytes,
                 resident_objects: resident.len(),
                 copy_bytes,
+                hierarchy_bytes: wl.hierarchy_bytes(p),
                 cost: part.cost().get(p).copied().unwrap_or(0),
                 pixels: acc.pixels.len(),
                 peak_tree_nodes: acc.peak_pending,
@@ -506,6 +512,7 @@ fn run_workload(
                     .map(|&id| crate::accel::copy_bytes(&objects[id as usize]) as u64)
                     .sum()
             },
+            hierarchy_bytes: wl.hierarchy_bytes(p),
             cost: part.cost().get(p).copied().unwrap_or(0),
             pixels: acc.pixels.len(),
             peak_tree_nodes: acc.peak_pending,
