@@ -474,22 +474,27 @@ fn experiments_run_on_a_small_scene_and_repeat_byte_for_byte() {
     assert!(stderr(&bad).contains("parsytec-cc"));
 }
 
+/// `render` of the Cornell box files at 20 x 20 (options and `-o` follow).
+fn cornell_20x20<'a>(rad: &'a str, vf: &'a str) -> [&'a str; 8] {
+    [
+        "render",
+        rad,
+        "--view-file",
+        vf,
+        "--width",
+        "20",
+        "--height",
+        "20",
+    ]
+}
+
 #[test]
 fn simulated_render_from_the_command_line() {
     let dir = tmpdir("sim-render");
     let (rad, vf) = cornell_files(&dir);
     let seq = dir.join("seq.hdr");
     let sim = dir.join("sim.hdr");
-    let common = [
-        "render",
-        &rad,
-        "--view-file",
-        &vf,
-        "--width",
-        "20",
-        "--height",
-        "20",
-    ];
+    let common = cornell_20x20(&rad, &vf);
     let o = run(&[&common[..], &["-o", &seq.to_string_lossy()]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
     let o = run(&[
@@ -575,16 +580,7 @@ fn parallel_inter_reflection_writes_the_sequential_picture() {
     let ab = ["-ab", "1", "-aa", ".2", "-ad", "32", "-as", "8"];
     let render = |name: &str, extra: &[&str]| {
         let out = d.join(name);
-        let mut args = vec![
-            "render",
-            &rad,
-            "--view-file",
-            &vf,
-            "--width",
-            "20",
-            "--height",
-            "20",
-        ];
+        let mut args = cornell_20x20(&rad, &vf).to_vec();
         args.extend(ab);
         args.extend_from_slice(extra);
         args.extend(["-o", out.to_str().unwrap()]);

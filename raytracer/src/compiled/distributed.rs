@@ -112,9 +112,14 @@ impl CompiledScene {
         // What a processor keeps of the file is the cell index; the
         // decoded replicated part (the skeleton's lists, now the octree's)
         // goes before the cells are read.
-        let (path, copies) = (self.path, self.copies);
-        let index = self.index;
-        drop(self.replicated);
+        let CompiledScene {
+            path,
+            copies,
+            index,
+            replicated,
+            ..
+        } = self;
+        drop(replicated);
         Ok(HeldPart {
             source: CellSource {
                 path,

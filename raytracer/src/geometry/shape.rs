@@ -91,15 +91,16 @@ impl ObjectSet for [Object] {
     }
 }
 
+/// The slice's (so that a `&Vec<Object>` can be passed as it is).
 impl ObjectSet for Vec<Object> {
     #[inline]
     fn count(&self) -> usize {
-        self.len()
+        self.as_slice().count()
     }
 
     #[inline]
     fn object(&self, k: usize) -> &Object {
-        &self[k]
+        self.as_slice().object(k)
     }
 }
 
