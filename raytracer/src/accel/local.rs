@@ -15,10 +15,13 @@
 //!   hit point lists its object. If every non-empty leaf the ray enters up
 //!   to the local answer's distance is resident here, every object that
 //!   could be hit before it is local, and the local answer is the octree's.
-//! * any hit: if every non-empty leaf along the whole segment is resident
-//!   here, every object that could block it is local. (A local object
-//!   blocking the ray would block it for the octree too, but a segment
-//!   that leaves the processor's cells is walked without asking.)
+//! * any hit: a local object blocking the segment blocks it for the
+//!   octree too (the leaf holding the blocking point lists it), wherever
+//!   the segment goes. An unblocked answer needs every non-empty leaf
+//!   along the whole segment resident here; where the segment leaves the
+//!   processor's cells, the walk that follows passes the resident leaves
+//!   without testing their objects again
+//!   ([`Octree::occluded_partial_past`]).
 //!
 //! Which leaves the ray enters is decided by the octree's own traversal
 //! ([`Octree::leaves_along_all`]), skipping subtrees the processor owns
@@ -131,9 +134,12 @@ pub struct Hierarchy<'a> {
 
 impl Hierarchy<'_> {
     /// The octree's nearest hit with `tmin < t < tmax` (see
-    /// [`Octree::intersect_partial`]) if this processor's objects decide
-    /// it: `owned(subtree)` vouches for subtrees whose every non-empty leaf
-    /// is resident here, `resident(leaf)` for a leaf. `None`: undecided.
+    /// [`Octree::intersect_partial`]), decided if this processor's objects
+    /// decide it: `owned(subtree)` vouches for subtrees whose every
+    /// non-empty leaf is resident here, `resident(leaf)` for a leaf.
+    /// Undecided, the nearest hit among its objects (for the walk to
+    /// start from, passing the resident leaves,
+    /// [`Octree::intersect_partial_past`]).
     pub fn intersect(
         &self,
         octree: &Octree,
@@ -142,25 +148,30 @@ impl Hierarchy<'_> {
         tmax: f64,
         owned: &dyn Fn(NodeId) -> bool,
         resident: &dyn Fn(NodeId) -> bool,
-    ) -> Option<Option<Hit>> {
+    ) -> Judged<Option<Hit>> {
         let hit = match self.objects {
             HierarchyObjects::Scene(o) => self.bvh.intersect(o, ray, tmin, tmax),
             HierarchyObjects::Copies(o) => self.bvh.intersect(o, ray, tmin, tmax),
         };
-        let cut = hit.map_or(tmax, |h| h.t);
-        if !octree.leaves_along_all(ray, tmin, tmax, cut, owned, resident) {
-            return None;
-        }
-        Some(hit.map(|mut h| {
+        let hit = hit.map(|mut h| {
             if let Some(ids) = self.ids {
                 h.object = ids[h.object as usize];
             }
             h
-        }))
+        });
+        let cut = hit.map_or(tmax, |h| h.t);
+        if octree.leaves_along_all(ray, tmin, tmax, cut, owned, resident) {
+            Judged::Decided(hit)
+        } else {
+            Judged::Partly(hit)
+        }
     }
 
-    /// The octree's any-hit answer (see [`Octree::occluded_partial`]) if
-    /// this processor's objects decide it (see [`Hierarchy::intersect`]).
+    /// The octree's any-hit answer (see [`Octree::occluded_partial`]),
+    /// decided if this processor's objects decide it (see
+    /// [`Hierarchy::intersect`]): where they block the segment, or where
+    /// they do not and every leaf along it is theirs. Undecided, `false`:
+    /// no object here blocks it.
     #[allow(clippy::too_many_arguments)]
     pub fn occluded(
         &self,
@@ -171,20 +182,57 @@ impl Hierarchy<'_> {
         ignore: Option<ObjectId>,
         owned: &dyn Fn(NodeId) -> bool,
         resident: &dyn Fn(NodeId) -> bool,
-    ) -> Option<bool> {
-        let ignore = match self.ids {
-            None => ignore,
-            Some(ids) => ignore.and_then(|id| ids.binary_search(&id).ok().map(|k| k as ObjectId)),
-        };
-        // Judged first: where the segment leaves the processor's cells the
-        // walk answers, and tracing here too would be work thrown away.
-        octree
-            .leaves_along_all(ray, tmin, tmax, tmax, owned, resident)
-            .then(|| match self.objects {
-                HierarchyObjects::Scene(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
-                HierarchyObjects::Copies(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
-            })
+    ) -> Judged<bool> {
+        let ignore = ignore.and_then(|id| self.index_of(id));
+        self.occluded_indexed(octree, ray, tmin, tmax, ignore, owned, resident)
     }
+
+    /// The index in this hierarchy of the scene's object `id`, if it
+    /// holds it.
+    pub fn index_of(&self, id: ObjectId) -> Option<ObjectId> {
+        match self.ids {
+            None => Some(id),
+            Some(ids) => ids.binary_search(&id).ok().map(|k| k as ObjectId),
+        }
+    }
+
+    /// [`Hierarchy::occluded`] with the object to ignore given by its
+    /// index here ([`Hierarchy::index_of`]: the many shadow rays from one
+    /// point look it up once).
+    #[allow(clippy::too_many_arguments)]
+    pub fn occluded_indexed(
+        &self,
+        octree: &Octree,
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+        ignore: Option<ObjectId>,
+        owned: &dyn Fn(NodeId) -> bool,
+        resident: &dyn Fn(NodeId) -> bool,
+    ) -> Judged<bool> {
+        // A blocker here blocks the segment for the octree too, wherever
+        // the segment goes: the leaf holding the blocking point lists it.
+        // Only "unblocked" needs every leaf along the segment judged.
+        let blocked = match self.objects {
+            HierarchyObjects::Scene(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
+            HierarchyObjects::Copies(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
+        };
+        if blocked || octree.leaves_along_all(ray, tmin, tmax, tmax, owned, resident) {
+            Judged::Decided(blocked)
+        } else {
+            Judged::Partly(false)
+        }
+    }
+}
+
+/// A [`Hierarchy`]'s answer to a query: the octree's, or, where objects it
+/// does not hold may change it, what its own objects answer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Judged<T> {
+    /// The octree's answer.
+    Decided(T),
+    /// Undecided: the answer over the hierarchy's objects alone.
+    Partly(T),
 }
 
 /// A processor's hierarchy, as the parallel renderer keeps one per

@@ -1,7 +1,11 @@
 //! The processor's own hierarchy ([`LocalKernel`]): wherever it decides a
-//! query, its answer is the octree's, for random scenes at every scale,
+//! query, its answer is the octree's, and where it does not, the walk
+//! that starts from its answer and passes its leaves finishes with the
+//! octree's, for random scenes at every scale,
 //! random splits of the leaves among processors, and rays exactly along
 //! cell faces; and it does decide the queries that stay among its cells.
+
+use std::collections::HashMap;
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed, TestRunner};
@@ -74,11 +78,30 @@ impl Place {
     }
 }
 
-/// Checks every place's decided answers against the octree's; returns
-/// how many queries were decided and asked.
+/// Every leaf's objects, as copies (the walk reads them as a processor
+/// that has fetched them would).
+fn all_cells(tree: &Octree, objects: &[Object]) -> HashMap<NodeId, LeafObjects> {
+    let mut copies = ObjectCopies::new();
+    tree.leaves()
+        .filter(|&l| !tree.leaf_objects(l).is_empty())
+        .map(|l| {
+            (
+                l,
+                LeafObjects::copy_from(tree.leaf_objects(l), objects, &mut copies),
+            )
+        })
+        .collect()
+}
+
+/// Checks every place's decided answers against the octree's, and its
+/// undecided ones finished by the walk that passes its leaves
+/// ([`Octree::intersect_partial_past`], [`Octree::occluded_partial_past`],
+/// every other leaf held as if fetched); returns how many queries were
+/// decided and asked.
 fn check_ray(
     tree: &Octree,
     objects: &[Object],
+    cells: &HashMap<NodeId, LeafObjects>,
     places: &[Place],
     ray: &Ray,
     tmax: f64,
@@ -86,18 +109,53 @@ fn check_ray(
     let want = tree.intersect(objects, ray, 0.0, tmax);
     let ignore = want.map(|h| h.object);
     let blocked = tree.occluded(objects, ray, 0.0, tmax, ignore);
+    let shared = ObjectTable::dense(objects);
     let (mut decided, mut asked) = (0, 0);
     for p in places {
         let h = p.kernel.hierarchy();
         let owned = |n| p.owned(n);
         let resident = |l| p.resident(l);
-        if let Some(got) = h.intersect(tree, ray, 0.0, tmax, &owned, &resident) {
-            prop_assert_eq!(got, want);
-            decided += 1;
+        match h.intersect(tree, ray, 0.0, tmax, &owned, &resident) {
+            Judged::Decided(got) => {
+                prop_assert_eq!(got, want);
+                decided += 1;
+            }
+            Judged::Partly(best) => {
+                let mut cursor = TraceCursor {
+                    leaves_done: 0,
+                    best,
+                };
+                let got = tree.intersect_partial_past(
+                    shared,
+                    ray,
+                    0.0,
+                    tmax,
+                    &mut cursor,
+                    |l| cells.get(&l),
+                    &resident,
+                );
+                prop_assert_eq!(got, Partial::Done(want));
+            }
         }
-        if let Some(got) = h.occluded(tree, ray, 0.0, tmax, ignore, &owned, &resident) {
-            prop_assert_eq!(got, blocked);
-            decided += 1;
+        match h.occluded(tree, ray, 0.0, tmax, ignore, &owned, &resident) {
+            Judged::Decided(got) => {
+                prop_assert_eq!(got, blocked);
+                decided += 1;
+            }
+            Judged::Partly(got) => {
+                prop_assert!(!got, "an undecided any-hit query found a blocker");
+                let got = tree.occluded_partial_past(
+                    shared,
+                    ray,
+                    0.0,
+                    tmax,
+                    ignore,
+                    &mut TraceCursor::default(),
+                    |l| cells.get(&l),
+                    &resident,
+                );
+                prop_assert_eq!(got, Partial::Done(blocked));
+            }
         }
         asked += 2;
     }
@@ -120,6 +178,7 @@ fn a_decided_answer_is_the_octrees_at_every_scale_and_split() {
                 ..OctreeParams::default()
             },
         );
+        let cells = all_cells(&tree, &objects);
         let mut runner = TestRunner::new(Config {
             cases: 60,
             rng_seed: RngSeed::Fixed(seed),
@@ -147,7 +206,7 @@ fn a_decided_answer_is_the_octrees_at_every_scale_and_split() {
                     let tm = rnd();
                     let ray = Ray::new(Vec3::new(x, y, z) * size, d);
                     for tmax in [f64::INFINITY, tm * 0.8 * size] {
-                        let (a, b) = check_ray(&tree, &objects, &split, &ray, tmax)?;
+                        let (a, b) = check_ray(&tree, &objects, &cells, &split, &ray, tmax)?;
                         let (ta, tb) = totals.get();
                         totals.set((ta + a, tb + b));
                     }
@@ -168,6 +227,7 @@ fn a_decided_answer_is_the_octrees_at_every_scale_and_split() {
 #[test]
 fn rays_exactly_along_cell_faces_decide_the_octrees_answer() {
     let (objects, tree, rays) = boundary_scene();
+    let cells = all_cells(&tree, &objects);
     let mut decided = 0;
     for (places, salt) in [(1u32, 0u32), (2, 7), (3, 1), (5, 99)] {
         let split: Vec<Place> = (0..places)
@@ -175,7 +235,9 @@ fn rays_exactly_along_cell_faces_decide_the_octrees_answer() {
             .collect();
         for ray in &rays {
             for tmax in [f64::INFINITY, 3.0] {
-                decided += check_ray(&tree, &objects, &split, ray, tmax).unwrap().0;
+                decided += check_ray(&tree, &objects, &cells, &split, ray, tmax)
+                    .unwrap()
+                    .0;
             }
         }
     }
@@ -186,6 +248,7 @@ fn rays_exactly_along_cell_faces_decide_the_octrees_answer() {
 fn one_processor_decides_every_query() {
     let objects = random_scene(21, 300, 10.0);
     let tree = Octree::build(&objects, &OctreeParams::default());
+    let cells = all_cells(&tree, &objects);
     let place = Place::new(&tree, &objects, 1, 0, 0);
     assert_eq!(place.kernel.len(), objects.len());
     let mut runner = TestRunner::new(Config {
@@ -198,8 +261,14 @@ fn one_processor_decides_every_query() {
             &((-2.0f64..12.0, -2.0f64..12.0, -2.0f64..12.0), arb_dir()),
             |((x, y, z), d)| {
                 let ray = Ray::new(Vec3::new(x, y, z), d);
-                let (decided, asked) =
-                    check_ray(&tree, &objects, std::slice::from_ref(&place), &ray, 1e9)?;
+                let (decided, asked) = check_ray(
+                    &tree,
+                    &objects,
+                    &cells,
+                    std::slice::from_ref(&place),
+                    &ray,
+                    1e9,
+                )?;
                 prop_assert_eq!(decided, asked);
                 Ok(())
             },

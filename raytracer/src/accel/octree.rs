@@ -954,7 +954,31 @@ impl Octree {
         tmin: f64,
         tmax: f64,
         cursor: &mut TraceCursor,
+        cell: F,
+    ) -> Partial<Option<Hit>>
+    where
+        F: FnMut(NodeId) -> Option<&'c LeafObjects>,
+    {
+        self.intersect_partial_past(shared, ray, tmin, tmax, cursor, cell, &|_| false)
+    }
+
+    /// [`Octree::intersect_partial`] where the objects of the leaves
+    /// `tested` vouches for have been tested already, and the nearest of
+    /// their hits (if any) is in `cursor.best` (a processor's hierarchy
+    /// over them answered it): the walk passes those leaves without
+    /// testing their objects again, and tests the others, or stops at the
+    /// first one held elsewhere, as before. The answer is the same: the
+    /// nearest hit of all, the smaller id on equal distances.
+    #[allow(clippy::too_many_arguments)]
+    pub fn intersect_partial_past<'c, F>(
+        &self,
+        shared: ObjectTable<'_>,
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+        cursor: &mut TraceCursor,
         mut cell: F,
+        tested: &dyn Fn(NodeId) -> bool,
     ) -> Partial<Option<Hit>>
     where
         F: FnMut(NodeId) -> Option<&'c LeafObjects>,
@@ -973,7 +997,7 @@ impl Octree {
             if k < skip {
                 return false;
             }
-            if !ids.is_empty() {
+            if !ids.is_empty() && !tested(leaf) {
                 let Some(c) = cell(leaf) else {
                     blocked = Some((leaf, k));
                     return true;
@@ -1035,7 +1059,31 @@ impl Octree {
         tmax: f64,
         ignore: Option<ObjectId>,
         cursor: &mut TraceCursor,
+        cell: F,
+    ) -> Partial<bool>
+    where
+        F: FnMut(NodeId) -> Option<&'c LeafObjects>,
+    {
+        self.occluded_partial_past(shared, ray, tmin, tmax, ignore, cursor, cell, &|_| false)
+    }
+
+    /// [`Octree::occluded_partial`] where the objects of the leaves
+    /// `tested` vouches for are known not to block the segment (a
+    /// processor's hierarchy over them said so): the walk passes those
+    /// leaves without testing their objects, and tests the others, or
+    /// stops at the first one held elsewhere, as before. The answer is the
+    /// same.
+    #[allow(clippy::too_many_arguments)]
+    pub fn occluded_partial_past<'c, F>(
+        &self,
+        shared: ObjectTable<'_>,
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+        ignore: Option<ObjectId>,
+        cursor: &mut TraceCursor,
         mut cell: F,
+        tested: &dyn Fn(NodeId) -> bool,
     ) -> Partial<bool>
     where
         F: FnMut(NodeId) -> Option<&'c LeafObjects>,
@@ -1050,7 +1098,7 @@ impl Octree {
         let mut visit = |leaf: NodeId, ids: &[ObjectId], _t0: f64, _t1: f64, _cut: &mut f64| {
             let k = pos;
             pos += 1;
-            if k < skip || ids.is_empty() {
+            if k < skip || ids.is_empty() || tested(leaf) {
                 return false;
             }
             let Some(c) = cell(leaf) else {

@@ -18,7 +18,7 @@ use std::cell::{Cell, RefCell};
 
 use hybrid_sched::serde::{Deserialize, Serialize};
 
-use crate::accel::{Hit, LeafObjects, NodeId, Octree, Partial, TraceCursor};
+use crate::accel::{Hit, Judged, LeafObjects, NodeId, Octree, Partial, TraceCursor};
 use crate::geometry::{ObjectTable, Ray};
 use crate::render::RayCaster;
 use crate::scene::ObjectId;
@@ -41,10 +41,14 @@ pub struct Replay {
 }
 
 /// Queries a processor may answer without walking the octree (its own
-/// hierarchy): `None` where its objects do not decide the answer.
+/// hierarchy, see [`crate::accel::Hierarchy`]): the octree's answer where
+/// its objects decide it, else theirs alone, for the walk to finish
+/// passing the leaves [`LocalQueries::holds`] vouches for.
 pub trait LocalQueries {
-    fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Option<Hit>>;
-    fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> Option<bool>;
+    fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Judged<Option<Hit>>;
+    fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> Judged<bool>;
+    /// Leaves whose every object the hierarchy holds.
+    fn holds(&self, leaf: NodeId) -> bool;
 }
 
 /// See the module documentation. `cell(leaf)` gives a non-empty leaf's
@@ -154,18 +158,33 @@ impl<'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> RayCaster for PartialCaster<'
             }
             Err(c) => c,
         };
+        // Where the hierarchy was asked and left it undecided, the walk
+        // starts from its nearest hit and tests only the other leaves.
+        let mut asked = None;
         if cursor == TraceCursor::default() {
-            if let Some(h) = self.local.and_then(|l| l.intersect(ray, tmin, tmax)) {
-                self.local_answers.set(self.local_answers.get() + 1);
-                self.record(Answer::Nearest(h));
-                return h;
+            if let Some(l) = self.local {
+                match l.intersect(ray, tmin, tmax) {
+                    Judged::Decided(h) => {
+                        self.local_answers.set(self.local_answers.get() + 1);
+                        self.record(Answer::Nearest(h));
+                        return h;
+                    }
+                    Judged::Partly(h) => cursor.best = h,
+                }
+                asked = Some(l);
             }
         }
+        let tested = |leaf| asked.is_some_and(|l| l.holds(leaf));
         self.queries.set(self.queries.get() + 1);
-        match self
-            .octree
-            .intersect_partial(self.shared, ray, tmin, tmax, &mut cursor, &self.cell)
-        {
+        match self.octree.intersect_partial_past(
+            self.shared,
+            ray,
+            tmin,
+            tmax,
+            &mut cursor,
+            &self.cell,
+            &tested,
+        ) {
             Partial::Done(h) => {
                 self.record(Answer::Nearest(h));
                 h
@@ -189,15 +208,22 @@ impl<'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> RayCaster for PartialCaster<'
             }
             Err(c) => c,
         };
+        // Where the hierarchy was asked and left it undecided, its leaves
+        // are known not to block: the walk tests only the others.
+        let mut asked = None;
         if cursor == TraceCursor::default() {
-            if let Some(b) = self.local.and_then(|l| l.occluded(ray, tmin, tmax, ignore)) {
-                self.local_answers.set(self.local_answers.get() + 1);
-                self.record(Answer::Occluded(b));
-                return b;
+            if let Some(l) = self.local {
+                if let Judged::Decided(b) = l.occluded(ray, tmin, tmax, ignore) {
+                    self.local_answers.set(self.local_answers.get() + 1);
+                    self.record(Answer::Occluded(b));
+                    return b;
+                }
+                asked = Some(l);
             }
         }
+        let tested = |leaf| asked.is_some_and(|l| l.holds(leaf));
         self.queries.set(self.queries.get() + 1);
-        match self.octree.occluded_partial(
+        match self.octree.occluded_partial_past(
             self.shared,
             ray,
             tmin,
@@ -205,6 +231,7 @@ impl<'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> RayCaster for PartialCaster<'
             ignore,
             &mut cursor,
             &self.cell,
+            &tested,
         ) {
             Partial::Done(b) => {
                 self.record(Answer::Occluded(b));

@@ -12,7 +12,7 @@ use super::tasks::{DdTask, DpTask, RayJob, ShadowDp, ShadowJob, Tile};
 use super::tree::{Child, NodeKey, Record, RtResult};
 use super::work::Work;
 use super::workload::RtWorkload;
-use crate::accel::{Hit, NodeId, Partial, TraceCursor};
+use crate::accel::{Hit, Judged, NodeId, Partial, TraceCursor};
 use crate::render::direct::{run_shadow_bundle, ShadowCounts};
 use crate::render::light::LightExtent;
 use crate::render::material::shade;
@@ -235,7 +235,7 @@ impl RtWorkload {
                             // Its first step would run here (it names no
                             // cell yet): run it now.
                             ctx.charge(Work::ShadowBundlesInline, 1);
-                            match self.try_shadow(bundle, Replay::default(), data, ctx, true) {
+                            match self.try_shadow(bundle, Replay::default(), data, ctx) {
                                 ShadowRun::Done(v) => Some(v),
                                 ShadowRun::Blocked(replay, leaf) => {
                                     ctx.spawn_dp(DpTask::Shadow(fresh(bundle, replay, Some(leaf))));
@@ -251,7 +251,7 @@ impl RtWorkload {
                         // ray still leave the resident cells, the bundle
                         // migrates as a data-parallel one).
                         ctx.charge(Work::ShadowBundlesInline, 1);
-                        match self.try_shadow(bundle, Replay::default(), data, ctx, true) {
+                        match self.try_shadow(bundle, Replay::default(), data, ctx) {
                             ShadowRun::Done(v) => Some(v),
                             ShadowRun::Blocked(replay, leaf) => {
                                 ctx.charge(Work::ClipMisses, 1);
@@ -266,7 +266,7 @@ impl RtWorkload {
                         // need a cell from elsewhere, it is scheduled as if
                         // it had not been tried.
                         let tried = (inline && self.has_local_path(ctx.proc_id()))
-                            .then(|| self.try_shadow(bundle, Replay::default(), data, ctx, true));
+                            .then(|| self.try_shadow(bundle, Replay::default(), data, ctx));
                         match tried {
                             Some(ShadowRun::Done(v)) => {
                                 ctx.charge(Work::ShadowBundlesInline, 1);
@@ -325,27 +325,42 @@ impl RtWorkload {
         data: &DataView<'_, Self>,
         ctx: &mut Ctx<Self>,
     ) -> Option<RayJob> {
+        // Where the processor's hierarchy leaves the answer undecided, the
+        // walk starts from its nearest hit and passes the leaves it holds.
+        let mut local = None;
         if job.cursor == TraceCursor::default() {
-            if let Some(local) = self.local_path(ctx.proc_id(), data) {
+            if let Some(l) = self.local_path(ctx.proc_id(), data) {
                 let t = &job.task;
-                if let Some(hit) = local.intersect(&t.ray, t.tmin, t.tmax) {
-                    ctx.charge(Work::TraceLocal, 1);
-                    let task = job.task;
-                    self.finish_ray(job.key, &task, hit, data, ctx);
-                    return None;
+                match l.intersect(&t.ray, t.tmin, t.tmax) {
+                    Judged::Decided(hit) => {
+                        ctx.charge(Work::TraceLocal, 1);
+                        let task = job.task;
+                        self.finish_ray(job.key, &task, hit, data, ctx);
+                        return None;
+                    }
+                    Judged::Partly(hit) => job.cursor.best = hit,
                 }
+                local = Some(l);
             }
         }
+        let tested = |leaf| local.as_ref().is_some_and(|l| l.holds(leaf));
         let octree = self.renderer.octree();
         let shared = self.renderer.scene().table();
         let t = &job.task;
         let (mut leaves, mut tests) = (0u64, 0u64);
-        let partial =
-            octree.intersect_partial(shared, &t.ray, t.tmin, t.tmax, &mut job.cursor, |l| {
+        let partial = octree.intersect_partial_past(
+            shared,
+            &t.ray,
+            t.tmin,
+            t.tmax,
+            &mut job.cursor,
+            |l| {
                 leaves += 1;
                 tests += octree.leaf_objects(l).len() as u64;
                 Self::cell(data, l)
-            });
+            },
+            &tested,
+        );
         ctx.charge(Work::TraceLeaves, leaves);
         ctx.charge(Work::TraceObjects, tests);
         match partial {
@@ -362,19 +377,19 @@ impl RtWorkload {
     }
 
     /// Runs a shadow bundle as far as the local cells allow: finished, or
-    /// the bundle to migrate with its recorded answers. `try_local`: fresh
-    /// queries try the processor's hierarchy first (not worth it for a
-    /// bundle whose data was selected because it leaves the processor's
-    /// cells: the walk would answer most of its queries anyway).
+    /// the bundle to migrate with its recorded answers. Fresh queries try
+    /// the processor's hierarchy first: it decides many, and where it does
+    /// not, the walk passes the leaves it holds (a bundle whose data was
+    /// selected because it leaves the processor's cells too: the leaves it
+    /// crosses before it leaves them).
     pub(super) fn advance_shadow(
         &self,
         mut job: ShadowDp,
         data: &DataView<'_, Self>,
         ctx: &mut Ctx<Self>,
-        try_local: bool,
     ) -> Option<ShadowDp> {
         let replay = std::mem::take(&mut job.replay);
-        match self.try_shadow(&job.bundle, replay, data, ctx, try_local) {
+        match self.try_shadow(&job.bundle, replay, data, ctx) {
             ShadowRun::Done(value) => {
                 ctx.emit_result(
                     Addr::Proc(ctx.origin()),
@@ -401,7 +416,6 @@ impl RtWorkload {
         replay: Replay,
         data: &DataView<'_, Self>,
         ctx: &mut Ctx<Self>,
-        try_local: bool,
     ) -> ShadowRun {
         let octree = self.renderer.octree();
         let shared = self.renderer.scene().table();
@@ -410,9 +424,7 @@ impl RtWorkload {
         }
         let visits = std::cell::Cell::new((0u64, 0u64));
         let memo = CellMemo::new(data, self, ctx.proc_id());
-        let local = try_local
-            .then(|| self.local_path(ctx.proc_id(), data))
-            .flatten();
+        let local = self.local_path(ctx.proc_id(), data);
         let caster = PartialCaster::new(
             octree,
             shared,

@@ -25,7 +25,7 @@ use super::distribution::EMPTY;
 use super::tasks::CellData;
 use super::workload::RtWorkload;
 use crate::accel::{
-    GrownKernel, Hierarchy, HierarchyObjects, Hit, LeafObjects, LocalKernel, NodeId,
+    GrownKernel, Hierarchy, HierarchyObjects, Hit, Judged, LeafObjects, LocalKernel, NodeId,
     ProcessorKernel as Kernel,
 };
 use crate::geometry::Ray;
@@ -36,6 +36,9 @@ pub struct LocalPath<'a> {
     source: Source<'a>,
     wl: &'a RtWorkload,
     proc: u32,
+    /// The last object ignored by an any-hit query, and its index in the
+    /// hierarchy (a point's shadow rays all ignore its surface).
+    ignored: std::cell::Cell<Option<(ObjectId, Option<ObjectId>)>>,
 }
 
 enum Source<'a> {
@@ -46,12 +49,16 @@ enum Source<'a> {
 }
 
 impl LocalQueries for LocalPath<'_> {
-    fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Option<Hit>> {
+    fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Judged<Option<Hit>> {
         LocalPath::intersect(self, ray, tmin, tmax)
     }
 
-    fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> Option<bool> {
+    fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> Judged<bool> {
         LocalPath::occluded(self, ray, tmin, tmax, ignore)
+    }
+
+    fn holds(&self, leaf: NodeId) -> bool {
+        LocalPath::holds(self, leaf)
     }
 }
 
@@ -82,8 +89,17 @@ impl LocalPath<'_> {
         }
     }
 
+    /// Leaves whose every object the hierarchy holds.
+    #[inline]
+    pub fn holds(&self, leaf: NodeId) -> bool {
+        match &self.source {
+            Source::Resident(_) => self.resident(leaf),
+            Source::Grown(g) => g.holds(leaf),
+        }
+    }
+
     /// The octree's nearest hit, if the objects here decide it.
-    pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Option<Hit>> {
+    pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Judged<Option<Hit>> {
         let octree = self.wl.renderer.octree();
         self.judged(|h, covered, held| h.intersect(octree, ray, tmin, tmax, covered, held))
     }
@@ -95,9 +111,19 @@ impl LocalPath<'_> {
         tmin: f64,
         tmax: f64,
         ignore: Option<ObjectId>,
-    ) -> Option<bool> {
+    ) -> Judged<bool> {
         let octree = self.wl.renderer.octree();
-        self.judged(|h, covered, held| h.occluded(octree, ray, tmin, tmax, ignore, covered, held))
+        self.judged(|h, covered, held| {
+            let ignore = ignore.and_then(|id| match self.ignored.get() {
+                Some((i, k)) if i == id => k,
+                _ => {
+                    let k = h.index_of(id);
+                    self.ignored.set(Some((id, k)));
+                    k
+                }
+            });
+            h.occluded_indexed(octree, ray, tmin, tmax, ignore, covered, held)
+        })
     }
 }
 
@@ -205,6 +231,7 @@ impl RtWorkload {
             source,
             wl: self,
             proc: proc as u32,
+            ignored: std::cell::Cell::new(None),
         })
     }
 

@@ -518,7 +518,7 @@ impl Workload for RtWorkload {
                         replay: Replay::default(),
                         next: None,
                     };
-                    if let Some(job) = self.advance_shadow(job, data, ctx, false) {
+                    if let Some(job) = self.advance_shadow(job, data, ctx) {
                         ctx.charge(Work::ClipMisses, 1);
                         ctx.spawn_dp(DpTask::Shadow(job));
                     }
@@ -569,7 +569,7 @@ impl Workload for RtWorkload {
     ) -> DpOutcome<DpTask> {
         let next = match task {
             DpTask::Ray(j) => self.advance_ray(j, data, ctx).map(DpTask::Ray),
-            DpTask::Shadow(s) => self.advance_shadow(s, data, ctx, true).map(DpTask::Shadow),
+            DpTask::Shadow(s) => self.advance_shadow(s, data, ctx).map(DpTask::Shadow),
         };
         match next {
             Some(t) => DpOutcome::Migrate(t),
