@@ -200,11 +200,19 @@ fn distributed_renders_equal_the_whole_scenes_sequential_render() {
 fn distributions_that_need_every_object_are_refused() {
     let dir = tmpdir("refused");
     let (path, view) = compiled_scene(&dir, "cornell", Storage::Once);
-    for d in [Distribution::Replicated, Distribution::Predicted] {
+    for (d, says) in [
+        (Distribution::Replicated, "every object"),
+        // Compiled without a predictor: no predicted work to cut by.
+        (Distribution::Predicted, "predicted when it was compiled"),
+    ] {
         let part = CompiledScene::open(&path)
             .unwrap()
             .held_part(&LoadOptions::default())
             .unwrap();
+        if d == Distribution::Predicted {
+            let e = part.predicted_costs(&view).unwrap_err().to_string();
+            assert!(e.contains("compile it with --view-file"), "{e}");
+        }
         let r =
             Renderer::with_skeleton(Arc::new(part.scene), RenderOptions::default(), part.octree)
                 .unwrap();
@@ -212,11 +220,70 @@ fn distributions_that_need_every_object_are_refused() {
             distribution: d,
             ..Default::default()
         };
-        let e = RtWorkload::distributed(r, view.clone(), 8, 8, 2, opts, part.source)
+        let e = RtWorkload::distributed(r, view.clone(), 8, 8, 2, opts, part.source, None)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("every object"), "{e}");
+        assert!(e.contains(says), "{e}");
     }
+}
+
+/// `--distribution predicted` on a compiled scene: the work predicted per
+/// cell when it was compiled, for its stored view, is the whole scene's
+/// prediction at `render`'s default size; the processors cut by it hold
+/// their own cells, and the picture is the sequential one. Another view is
+/// refused, saying why.
+#[test]
+fn the_predicted_distribution_cuts_by_the_work_predicted_at_compile_time() {
+    let dir = tmpdir("predicted");
+    let rad = dir.join("studio.rad");
+    std::fs::write(&rad, generate::studio(1)).unwrap();
+    let view_text = generate::studio_view().to_string();
+    let out = dir.join("studio.hrtc");
+    compiled::compile_with(
+        std::slice::from_ref(&rad),
+        vec![view_text.clone()],
+        &OctreeParams::default(),
+        Storage::Once,
+        Some(&hybrid_rt::parallel::predict::for_compiled_scene),
+        &out,
+    )
+    .unwrap();
+    let view = View::from_file_text(&view_text, "studio.vf").unwrap();
+    let whole = c_scene(&out);
+    let options = RenderOptions::default();
+    let renderer = Renderer::new(&whole, options.clone()).unwrap();
+    let (fitted, w512, h512) = view.fit_aspect(512, 512);
+    let want_costs = hybrid_rt::parallel::predict::subtree_costs(
+        &renderer,
+        &fitted,
+        w512 as usize,
+        h512 as usize,
+    );
+    let part = CompiledScene::open(&out)
+        .unwrap()
+        .held_part(&LoadOptions::default())
+        .unwrap();
+    assert_eq!(part.predicted_costs(&view).unwrap(), want_costs);
+    let mut elsewhere = view.clone();
+    elsewhere.vp.x += 0.5;
+    let e = part.predicted_costs(&elsewhere).unwrap_err().to_string();
+    assert!(e.contains("not one of them"), "{e}");
+
+    let (w, h) = (48, 36);
+    let want = renderer.render(&view, w, h).unwrap().0;
+    let mut popts = ParallelOptions::new(3);
+    popts.workload.distribution = Distribution::Predicted;
+    popts.threads = Some(2);
+    let out = render_parallel_held(part, options, &view, w, h, &popts, None)
+        .unwrap()
+        .unwrap();
+    assert!(out.film.pixels() == want.pixels(), "the picture differs");
+    // Each processor read its own cells, and together they hold them all.
+    assert!(out.procs.iter().all(|p| p.resident_objects > 0));
+    assert!(
+        out.procs.iter().map(|p| p.resident_objects).max() < Some(whole.objects.len()),
+        "one processor holds everything"
+    );
 }
 
 /// A cell that cannot be read fails the render before it starts, naming

@@ -18,7 +18,8 @@ pub struct CompileArgs {
     #[arg(short = 'o', long = "output", value_name = "FILE")]
     pub output: PathBuf,
     /// View files to store with the scene (repeatable); `render` uses the
-    /// first when given no view.
+    /// first when given no view, and `--distribution predicted` cuts the
+    /// octree by the work predicted here from the one rendered.
     #[arg(long = "view-file", value_name = "FILE")]
     pub view_files: Vec<PathBuf>,
     /// Store an object in every cell that lists it (default: once, in the
@@ -66,7 +67,14 @@ pub(super) fn run(a: &CompileArgs) -> Result<()> {
         .map(|p| std::path::absolute(p).map_err(|e| Error::io(p, e)))
         .collect::<Result<Vec<_>>>()?;
     let t0 = std::time::Instant::now();
-    let s = compiled::compile(&scenes, views, &params, storage, &a.output)?;
+    let s = compiled::compile_with(
+        &scenes,
+        views,
+        &params,
+        storage,
+        Some(&crate::parallel::predict::for_compiled_scene),
+        &a.output,
+    )?;
     eprintln!(
         "{}: {} objects in {} cells ({} listings), {} bytes: replicated {}, index {}, cells {} ({:.2} s)",
         a.output.display(),

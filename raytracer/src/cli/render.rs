@@ -366,13 +366,14 @@ fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
 
 /// Whether this render reads a compiled scene processor by processor: a
 /// compiled scene, rendered in parallel with a distribution that gives
-/// each processor its own cells (`octree`, `worst`), without `-ab`.
+/// each processor its own cells (`octree`, `worst`, and `predicted` by the
+/// work predicted when the scene was compiled), without `-ab`.
 fn distributes(a: &RenderArgs, popts: &ParallelOptions, options: &RenderOptions) -> bool {
     use crate::parallel::Distribution;
     matches!(a.scenes.as_slice(), [one] if crate::compiled::is_compiled(one))
         && matches!(
             popts.workload.distribution,
-            Distribution::Octree | Distribution::Worst
+            Distribution::Octree | Distribution::Worst | Distribution::Predicted
         )
         && options.ab == 0
 }

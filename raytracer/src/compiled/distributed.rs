@@ -19,11 +19,11 @@ use std::collections::{HashMap, HashSet};
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
-use super::{file_error, CellEntry, CellObjects, CompiledScene, SkeletonNode};
+use super::{file_error, CellEntry, CellObjects, CompiledScene, Replicated, SkeletonNode};
 use crate::accel::{NodeId, Octree, SkeletonNode as TreeNode};
 use crate::geometry::ObjectId;
 use crate::scene::record::{self, Surface};
-use crate::scene::{LoadOptions, Scene};
+use crate::scene::{LoadOptions, Scene, View};
 use crate::{Error, Result};
 
 /// What a processor holds of a compiled scene before it reads its cells.
@@ -35,6 +35,51 @@ pub struct HeldPart {
     pub octree: Octree,
     /// Where the cells are.
     pub source: CellSource,
+    /// The stored views' texts and the work predicted per cell for each
+    /// (see [`super::Replicated::predicted`]).
+    pub predicted: Vec<(String, Vec<u64>)>,
+}
+
+impl HeldPart {
+    /// The predicted work of every node of the octree (each node's the
+    /// sum of its children's), as predicted at compile time for `view`,
+    /// which must be one of the stored views: the cost the `predicted`
+    /// distribution cuts by.
+    pub fn predicted_costs(&self, view: &View) -> Result<Vec<u64>> {
+        let path = &self.source.path;
+        if self.predicted.is_empty() {
+            return Err(Error::Usage(format!(
+                "{}: the predicted distribution of a compiled scene cuts by the work predicted when it was compiled, for the views stored with it, and it has none (compile it with --view-file)",
+                path.display()
+            )));
+        }
+        let mut found = None;
+        for (k, (text, costs)) in self.predicted.iter().enumerate() {
+            let stored =
+                View::from_file_text(text, format!("{} (stored view {})", path.display(), k + 1))?;
+            if stored == *view {
+                found = Some(costs);
+                break;
+            }
+        }
+        let Some(cells) = found else {
+            return Err(Error::Usage(format!(
+                "{}: the predicted distribution of a compiled scene cuts by the work predicted when it was compiled, for the views stored with it; this view is not one of them (render a stored view, or compile with --view-file naming this one)",
+                path.display()
+            )));
+        };
+        let mut out = vec![0u64; self.octree.node_count()];
+        for (&(leaf, _), &c) in self.source.leaves.iter().zip(cells) {
+            out[leaf as usize] = c;
+        }
+        // Children always have larger ids than their parent.
+        for id in (0..self.octree.node_count() as NodeId).rev() {
+            if let Some(children) = self.octree.children(id) {
+                out[id as usize] = children.iter().map(|&c| out[c as usize]).sum();
+            }
+        }
+        Ok(out)
+    }
 }
 
 /// Where a processor reads the objects of its cells.
@@ -109,6 +154,16 @@ impl CompiledScene {
                 "the skeleton's cells are not in node order, the unlisted objects' last",
             ));
         }
+        if !rep.predicted.is_empty()
+            && (rep.predicted.len() != rep.views.len()
+                || rep.predicted.iter().any(|p| p.len() != leaves.len()))
+        {
+            return Err(file_error(
+                &self.path,
+                0,
+                "the predicted work does not match the stored views and cells",
+            ));
+        }
         // What a processor keeps of the file is the cell index; the
         // decoded replicated part (the skeleton's lists, now the octree's)
         // goes before the cells are read.
@@ -119,7 +174,10 @@ impl CompiledScene {
             replicated,
             ..
         } = self;
-        drop(replicated);
+        let Replicated {
+            views, predicted, ..
+        } = replicated;
+        let predicted = views.into_iter().zip(predicted).collect();
         Ok(HeldPart {
             source: CellSource {
                 path,
@@ -130,6 +188,7 @@ impl CompiledScene {
             },
             scene,
             octree,
+            predicted,
         })
     }
 }

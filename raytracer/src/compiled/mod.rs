@@ -20,7 +20,8 @@
 //! instances as records, in order; see [`crate::scene::record`]), the
 //! octree skeleton (every node, and for each leaf listing objects its
 //! bounds, object count and bytes), the emitting surfaces (light sources are sampled from every
-//! processor), the source file names and the views given. The cell index
+//! processor), the source file names, the views given and the work
+//! predicted per cell for each ([`Replicated::predicted`]). The cell index
 //! is one `(offset, length, CRC-32)` per cell (postcard); a cell
 //! ([`CellObjects`], postcard) lists the object ids its leaf holds and
 //! stores the plain surfaces it owns: by default each object once, in the
@@ -53,14 +54,14 @@ use serde::{Deserialize, Serialize};
 use crate::accel::{NodeView, Octree, OctreeParams};
 use crate::geometry::{Aabb, MaterialId, ObjectId};
 use crate::scene::record::{self, Program, Surface};
-use crate::scene::{HitRatios, LoadOptions, Scene};
+use crate::scene::{HitRatios, LoadOptions, Scene, View};
 use crate::{Error, Result, SourceLoc};
 
 /// The first bytes of a compiled scene (the line ending catches a file
 /// mangled by text-mode transfer, as PNG's signature does).
 pub const MAGIC: [u8; 8] = *b"HRTSCN\r\n";
 /// The format version this build reads and writes.
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 /// Bytes of the fixed header.
 pub const HEADER_LEN: usize = 44;
 /// Flag: every cell stores a copy of each object it lists.
@@ -279,7 +280,21 @@ pub struct Replicated {
     /// The light sources' hit ratios, measured with the whole scene at
     /// compile time (Radiance's default `-dr`).
     pub hit_ratios: HitRatios,
+    /// Per view of `views` (in order), the predicted work of each cell
+    /// (`skeleton.cells`' order, the unlisted objects' entry left out),
+    /// predicted with the whole scene at compile time: what `render
+    /// --distribution predicted` cuts the octree by (a processor of a
+    /// distributed scene cannot predict it). Empty where `compile` was
+    /// given no predictor ([`compile_with`]).
+    pub predicted: Vec<Vec<u64>>,
 }
+
+/// Predicts the work of every node of the octree built with the given
+/// parameters over a scene, seen from a view (each node's cost the sum of
+/// its children's): the parallel renderer's prediction, which the
+/// compiler cannot name itself (the parallel renderer reads compiled
+/// scenes).
+pub type Predictor<'a> = &'a dyn Fn(&Scene, &OctreeParams, &View) -> Result<Vec<u64>>;
 
 /// Whether every processor holds `o`, a top-level surface of `scene`:
 /// light sources (sampled from everywhere), and planar mirrors and prisms
@@ -390,7 +405,20 @@ pub fn compile(
     storage: Storage,
     out: &Path,
 ) -> Result<CompileStats> {
-    let bytes = compile_to_bytes(sources, views, params, storage)?;
+    compile_with(sources, views, params, storage, None, out)
+}
+
+/// [`compile`], storing for each view the work `predict` predicts per
+/// cell ([`Replicated::predicted`]).
+pub fn compile_with(
+    sources: &[PathBuf],
+    views: Vec<String>,
+    params: &OctreeParams,
+    storage: Storage,
+    predict: Option<Predictor<'_>>,
+    out: &Path,
+) -> Result<CompileStats> {
+    let bytes = compile_to_bytes_with(sources, views, params, storage, predict)?;
     let stats = stats_of(&bytes);
     std::fs::write(out, &bytes).map_err(|e| Error::io(out, e))?;
     stats
@@ -402,6 +430,17 @@ pub fn compile_to_bytes(
     views: Vec<String>,
     params: &OctreeParams,
     storage: Storage,
+) -> Result<Vec<u8>> {
+    compile_to_bytes_with(sources, views, params, storage, None)
+}
+
+/// [`compile_with`] into memory.
+pub fn compile_to_bytes_with(
+    sources: &[PathBuf],
+    views: Vec<String>,
+    params: &OctreeParams,
+    storage: Storage,
+    predict: Option<Predictor<'_>>,
 ) -> Result<Vec<u8>> {
     let (scene, program, surfaces) = record::record(sources, &LoadOptions::from_env())?;
     let octree = Octree::build(&scene.objects, params);
@@ -503,6 +542,26 @@ pub fn compile_to_bytes(
         .into_iter()
         .collect();
     let hit_ratios = measure_hit_ratios(&scene)?;
+    let mut predicted = Vec::new();
+    if let Some(predict) = predict {
+        for (k, text) in views.iter().enumerate() {
+            let view = View::from_file_text(text, format!("stored view {}", k + 1))?;
+            let costs = predict(&scene, params, &view)?;
+            if costs.len() != octree.node_count() {
+                return Err(Error::Other(format!(
+                    "compile: a prediction of {} nodes for an octree of {}",
+                    costs.len(),
+                    octree.node_count()
+                )));
+            }
+            predicted.push(
+                leaves
+                    .iter()
+                    .map(|&(node, _)| costs[node as usize])
+                    .collect(),
+            );
+        }
+    }
     let replicated = Replicated {
         sources: sources.to_vec(),
         views,
@@ -525,6 +584,7 @@ pub fn compile_to_bytes(
         shared,
         elsewhere,
         hit_ratios,
+        predicted,
     };
     let rep = encode(&replicated)?;
     // The cell offsets depend on the index's length, which depends on the

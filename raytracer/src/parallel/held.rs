@@ -17,9 +17,14 @@ impl RtWorkload {
     /// A workload over a distributed compiled scene: `renderer` holds the
     /// replicated part ([`crate::compiled::HeldPart`]), and processors read
     /// their cells from `source` (before the run, [`RtWorkload::read_part`],
-    /// else when they start). The partition is the one of the scene loaded
-    /// whole, and so is the picture. Not for the `replicated` and
-    /// `predicted` distributions, which need every object.
+    /// else when they start). With the `octree` and `worst` distributions
+    /// the partition is the one of the scene loaded whole; the `predicted`
+    /// one cuts by `predicted`, the work predicted per node when the scene
+    /// was compiled ([`crate::compiled::HeldPart::predicted_costs`]: a
+    /// processor holding part of the scene cannot predict it). The picture
+    /// is the scene's loaded whole. Not for the `replicated` distribution,
+    /// which needs every object.
+    #[allow(clippy::too_many_arguments)]
     pub fn distributed(
         renderer: Renderer<'static>,
         view: View,
@@ -28,16 +33,23 @@ impl RtWorkload {
         procs: usize,
         opts: WorkloadOptions,
         source: CellSource,
+        predicted: Option<Vec<u64>>,
     ) -> crate::Result<Self> {
-        if matches!(
-            opts.distribution,
-            Distribution::Replicated | Distribution::Predicted
-        ) {
+        if opts.distribution == Distribution::Replicated {
             return Err(crate::Error::Usage(format!(
-                "distribution {} needs every object on every processor; a processor of a distributed scene holds only its cells (use octree or worst, or render the scene whole)",
+                "distribution {} needs every object on every processor; a processor of a distributed scene holds only its cells (use octree, predicted or worst, or render the scene whole)",
                 opts.distribution
             )));
         }
+        let predicted = match (opts.distribution, predicted) {
+            (Distribution::Predicted, Some(p)) if p.len() == renderer.octree().node_count() => p,
+            (Distribution::Predicted, _) => {
+                return Err(crate::Error::Usage(
+                    "the predicted distribution of a distributed scene needs the work predicted when it was compiled".into(),
+                ))
+            }
+            _ => Vec::new(),
+        };
         let octree = renderer.octree();
         let cells = source
             .leaves()
@@ -59,6 +71,7 @@ impl RtWorkload {
             opts,
             cells,
             Some(held),
+            Some(predicted),
         ))
     }
 

@@ -380,7 +380,17 @@ pub fn render_parallel_held(
         rss_kib = crate::report::resident_bytes().map(|b| b / 1024),
         "replicated part and skeleton read"
     );
-    let renderer = Renderer::with_skeleton(Arc::new(part.scene), options, part.octree)?;
+    let predicted = (popts.workload.distribution == Distribution::Predicted)
+        .then(|| part.predicted_costs(view))
+        .transpose()?;
+    let crate::compiled::HeldPart {
+        scene,
+        octree,
+        source,
+        predicted: stored,
+    } = part;
+    drop(stored);
+    let renderer = Renderer::with_skeleton(Arc::new(scene), options, octree)?;
     check_hybrid(&renderer)?;
     let wl = RtWorkload::distributed(
         renderer,
@@ -389,7 +399,8 @@ pub fn render_parallel_held(
         height,
         popts.procs,
         popts.workload_options(),
-        part.source,
+        source,
+        predicted,
     )?;
     let wl = if popts.runtime == RuntimeKind::Mpi {
         wl.sharing_copies_in_process()

@@ -96,3 +96,21 @@ pub fn subtree_costs(
     }
     out
 }
+
+/// Image size the prediction of a compiled scene's stored view is made
+/// at: `render`'s default maxima, fitted to the view's aspect.
+const COMPILED_SIZE: u32 = 512;
+
+/// [`subtree_costs`] for `hybrid-rt compile`
+/// ([`crate::compiled::Predictor`]): the whole scene's, with the octree
+/// built as the compiled skeleton is, the default options, at `render`'s
+/// default image size fitted to the view.
+pub fn for_compiled_scene(
+    scene: &crate::scene::Scene,
+    params: &crate::accel::OctreeParams,
+    view: &View,
+) -> crate::Result<Vec<u64>> {
+    let renderer = Renderer::with_octree(scene, crate::render::RenderOptions::default(), params)?;
+    let (view, w, h) = view.fit_aspect(COMPILED_SIZE, COMPILED_SIZE);
+    Ok(subtree_costs(&renderer, &view, w as usize, h as usize))
+}

@@ -193,7 +193,9 @@ impl RtWorkload {
         opts: WorkloadOptions,
     ) -> Self {
         let cells = Self::cells_of(&renderer);
-        Self::assemble(renderer, view, width, height, procs, opts, cells, None)
+        Self::assemble(
+            renderer, view, width, height, procs, opts, cells, None, None,
+        )
     }
 
     /// Non-empty leaves with their object count and accounted bytes.
@@ -237,11 +239,14 @@ impl RtWorkload {
         opts: WorkloadOptions,
         cells: Vec<(NodeId, u32, u64)>,
         held: Option<Held>,
+        predicted: Option<Vec<u64>>,
     ) -> Self {
-        let predicted = if opts.distribution == Distribution::Predicted {
-            super::predict::subtree_costs(&renderer, &view, width, height)
-        } else {
-            Vec::new()
+        let predicted = match predicted {
+            Some(p) => p,
+            None if opts.distribution == Distribution::Predicted => {
+                super::predict::subtree_costs(&renderer, &view, width, height)
+            }
+            None => Vec::new(),
         };
         let partition = partition_for(&renderer, opts.distribution, procs, &predicted);
         let subtree_owner = subtree_owners(&renderer, &partition);
