@@ -10,14 +10,19 @@
 # processor counts (default 1,2,4,8,16). Open MPI's mpirun must be on the PATH,
 # or MPI_TAR names a tar.xz of Debian's Open MPI files to unpack first
 # (without overwriting anything there). CITY_SIZES overrides the generated
-# cities' triangle counts (default "300000 1500000"); QUICK=1 shrinks every
-# run for a rehearsal.
+# cities' triangle counts (default "300000 1500000"), DISTRIBUTIONS the
+# distributions the cities are rendered with (default "octree"; the city is
+# compiled with its view, so "predicted" works), SECTIONS the parts run
+# (default "threads studio city"); QUICK=1 shrinks every run for a rehearsal.
 set -u
 BIN=$(readlink -f "$1")
 OUT=$(readlink -f "$2")
 PROCS=${3:-1,2,4,8,16}
 CITY_SIZES=${CITY_SIZES:-300000 1500000}
 QUICK=${QUICK:-0}
+DISTRIBUTIONS=${DISTRIBUTIONS:-octree}
+SECTIONS=${SECTIONS:-threads studio city}
+section() { [[ " $SECTIONS " == *" $1 "* ]]; }
 mkdir -p "$OUT"
 WORK=$(mktemp -d)
 REPO=$(pwd)
@@ -52,19 +57,19 @@ if [ "$QUICK" = 1 ]; then W=128; REPEAT=1; else W=512; REPEAT=3; fi
 
 # Threads runtime: replicated and octree-distributed against the sequential
 # renderer, every picture compared bit for bit by the bench itself.
-"$BIN" bench --scene studio --width $W --height $W --scaling "$PROCS" --repeat $REPEAT \
+section threads && "$BIN" bench --scene studio --width $W --height $W --scaling "$PROCS" --repeat $REPEAT \
     >"$OUT/threads-studio.txt" 2>&1
-"$BIN" bench --scene conference --width $W --height $W --scaling "$PROCS" --repeat 1 \
+section threads && "$BIN" bench --scene conference --width $W --height $W --scaling "$PROCS" --repeat 1 \
     >"$OUT/threads-conference.txt" 2>&1
 
 # Where the octree-distributed processors' time goes, per processor count
 # (threads runtime, the per-processor statistics as JSON).
-for np in ${PROCS//,/ }; do
+section threads && for np in ${PROCS//,/ }; do
     "$BIN" render "$REPO/examples/scenes/studio.rad" -vf "$REPO/examples/scenes/studio.vf" -x $W -y $W \
         --procs "$np" --distribution octree --parallel-stats "$WORK/studio-octree-$np.json" \
         -o "$WORK/stats.hdr" >"$WORK/studio-octree-$np.txt" 2>&1
 done
-tar -C "$WORK" -cf "$OUT/stats.tar" $(cd "$WORK" && ls studio-octree-*)
+section threads && tar -C "$WORK" -cf "$OUT/stats.tar" $(cd "$WORK" && ls studio-octree-*)
 
 # One line per run: what, wall time of the whole command, the render's own
 # time, each rank's peak resident memory, and whether the picture equals the
@@ -101,7 +106,7 @@ run_seq() { # label out.hdr args...
 
 # The studio under MPI: octree distribution from the scene file, every count,
 # then one and two ranks pinned to two cores (the 2-core machines' case).
-{
+section studio && {
     S="$REPO/examples/scenes/studio.rad"
     V="$REPO/examples/scenes/studio.vf"
     run_seq studio "$WORK/studio.hdr" "$S" -vf "$V" -x $W -y $W
@@ -116,18 +121,20 @@ run_seq() { # label out.hdr args...
 
 # Generated cities, compiled: memory per rank and time at every count.
 n=0
-for size in $CITY_SIZES; do
+section city && for size in $CITY_SIZES; do
     n=$((n + 1))
     [ "$QUICK" = 1 ] && size=$((size / 20))
     {
         t0=$(now)
         "$BIN" generate city --size "$size" -o "$WORK/city.rad" 2>&1 | tail -2
-        "$BIN" compile "$WORK/city.rad" -o "$WORK/city.hrtc" 2>&1 | tail -2
+        "$BIN" compile "$WORK/city.rad" --view-file "$WORK/city.vf" -o "$WORK/city.hrtc" 2>&1 | tail -2
         echo "generate and compile: $(secs "$t0" "$(now)") s; compiled file $(stat -c %s "$WORK/city.hrtc") bytes"
         run_seq "city $size" "$WORK/city.hdr" "$WORK/city.hrtc" -vf "$WORK/city.vf" -x 128 -y 96
-        for np in ${PROCS//,/ }; do
-            run_mpi "city $size compiled" "$np" "$WORK/city.hdr" "$WORK/city.hrtc" -vf "$WORK/city.vf" \
-                -x 128 -y 96 --cache 10%
+        for d in $DISTRIBUTIONS; do
+            for np in ${PROCS//,/ }; do
+                run_mpi "city $size compiled, $d" "$np" "$WORK/city.hdr" "$WORK/city.hrtc" -vf "$WORK/city.vf" \
+                    -x 128 -y 96 --cache 10% --distribution "$d"
+            done
         done
     } >"$OUT/mpi-city-$n.txt" 2>&1
 done

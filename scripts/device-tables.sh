@@ -68,19 +68,26 @@ if [ -f "$dir/threads-studio-base.txt" ]; then
 fi
 
 echo "Measured on $(machine) by \`scripts/device-scaling.sh\`; every time a single run unless the table says otherwise."
-echo
-echo "**Threads runtime, the studio** (\`hybrid-rt bench --scene studio --width 512 --height 512 --scaling 1,2,4,8,16 --repeat 3\`):"
-echo
-bench "$dir/threads-studio.txt"
-echo
-echo "**Threads runtime, the conference room** (396 light sources; the same with \`--scene conference --repeat 1\`):"
-echo
-bench "$dir/threads-conference.txt"
-echo
-echo "**MPI, the studio** from its scene file (\`--distribution octree\`, 512x512; the last six runs pinned to two cores with \`taskset -c 0,1\`):"
-echo
-mpi "$dir/mpi-studio.txt"
+if [ -f "$dir/threads-studio.txt" ]; then
+    echo
+    echo "**Threads runtime, the studio** (\`hybrid-rt bench --scene studio --width 512 --height 512 --scaling 1,2,4,8,16 --repeat 3\`):"
+    echo
+    bench "$dir/threads-studio.txt"
+fi
+if [ -f "$dir/threads-conference.txt" ]; then
+    echo
+    echo "**Threads runtime, the conference room** (396 light sources; the same with \`--scene conference --repeat 1\`):"
+    echo
+    bench "$dir/threads-conference.txt"
+fi
+if [ -f "$dir/mpi-studio.txt" ]; then
+    echo
+    echo "**MPI, the studio** from its scene file (\`--distribution octree\`, 512x512; the last six runs pinned to two cores with \`taskset -c 0,1\`):"
+    echo
+    mpi "$dir/mpi-studio.txt"
+fi
 for f in "$dir"/mpi-city-*.txt; do
+    [ -f "$f" ] || continue
     echo
     echo "**MPI, $(sed -n 's/^city: //p' "$f" | head -1)**, compiled ($(sed -n 's/.*compiled file \([0-9]*\) bytes/\1 bytes/p' "$f")), 128x96 pixels, \`--cache 10%\`:"
     echo
