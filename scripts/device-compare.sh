@@ -2,7 +2,7 @@
 # Two builds of hybrid-rt side by side on a many-core machine (the device
 # machine some tasks are lent): thread scaling of both on the studio and the
 # conference room, one and two MPI ranks of both pinned to two cores, and the
-# second build's per-processor statistics. See scripts/device-scaling.sh for
+# second build's per-processor statistics. See scripts/device-mpi.sh for
 # MPI_TAR.
 #
 #   scripts/device-compare.sh BASE NEW OUTDIR [PROCS]
@@ -16,17 +16,7 @@ OUT=$(readlink -f "$3")
 PROCS=${4:-1,2,4,8,16}
 mkdir -p "$OUT"
 WORK=$(mktemp -d)
-if [ -n "${MPI_TAR:-}" ] && ! command -v mpirun >/dev/null; then
-    mkdir -p "$WORK/mpiroot"
-    tar -C "$WORK/mpiroot" -xJf "$MPI_TAR"
-    cp -rn "$WORK/mpiroot"/. / 2>/dev/null
-    ldconfig
-    ln -sf /usr/bin/orterun /usr/local/bin/mpirun
-fi
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-export OMPI_MCA_mca_base_component_show_load_errors=0
-export OMPI_MCA_btl=self,vader OMPI_MCA_pml=ob1
-export OMPI_MCA_btl_vader_single_copy_mechanism=none
+. "$(dirname "$0")/device-mpi.sh"
 S=examples/scenes/studio.rad
 V=examples/scenes/studio.vf
 {
