@@ -98,13 +98,15 @@ impl LocalPath<'_> {
         }
     }
 
-    /// The octree's nearest hit, if the objects here decide it.
+    /// The octree's nearest hit, if the objects here decide it; else
+    /// the nearest of theirs ([`Hierarchy::intersect`]).
     pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Judged<Option<Hit>> {
         let octree = self.wl.renderer.octree();
         self.judged(|h, covered, held| h.intersect(octree, ray, tmin, tmax, covered, held))
     }
 
-    /// The octree's any-hit answer, if the objects here decide it.
+    /// The octree's any-hit answer, if the objects here decide it
+    /// ([`Hierarchy::occluded`]).
     pub fn occluded(
         &self,
         ray: &Ray,
