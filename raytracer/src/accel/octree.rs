@@ -635,16 +635,28 @@ impl Octree {
     /// upwards". Computed when asked (eight bytes per node the octree does
     /// not keep).
     pub fn subtree_refs(&self) -> Vec<u64> {
-        let mut refs = vec![0u64; self.nodes.len()];
-        for id in (0..self.nodes.len()).rev() {
-            if let Node::Leaf { len, .. } = self.nodes[id].kind() {
-                refs[id] += len as u64;
-            }
-            if id > 0 {
-                refs[self.parents[id] as usize] += refs[id];
+        let mut refs: Vec<u64> = (0..self.nodes.len())
+            .map(|id| match self.nodes[id].kind() {
+                Node::Leaf { len, .. } => len as u64,
+                _ => 0,
+            })
+            .collect();
+        self.sum_subtrees(&mut refs);
+        refs
+    }
+
+    /// Makes `costs` (one per node, the leaves' filled in) a cost per
+    /// subtree: every internal node's becomes the sum of its children's.
+    pub fn sum_subtrees(&self, costs: &mut [u64]) {
+        for id in 0..costs.len().min(self.nodes.len()) {
+            if !matches!(self.nodes[id].kind(), Node::Leaf { .. }) {
+                costs[id] = 0;
             }
         }
-        refs
+        // Children always have larger ids than their parent.
+        for id in (1..costs.len().min(self.nodes.len())).rev() {
+            costs[self.parents[id] as usize] += costs[id];
+        }
     }
 
     /// All leaf ids, ascending.

@@ -72,12 +72,7 @@ impl HeldPart {
         for (&(leaf, _), &c) in self.source.leaves.iter().zip(cells) {
             out[leaf as usize] = c;
         }
-        // Children always have larger ids than their parent.
-        for id in (0..self.octree.node_count() as NodeId).rev() {
-            if let Some(children) = self.octree.children(id) {
-                out[id as usize] = children.iter().map(|&c| out[c as usize]).sum();
-            }
-        }
+        self.octree.sum_subtrees(&mut out);
         Ok(out)
     }
 }

@@ -290,11 +290,11 @@ pub struct Replicated {
 }
 
 /// Predicts the work of every node of the octree built with the given
-/// parameters over a scene, seen from a view (each node's cost the sum of
-/// its children's): the parallel renderer's prediction, which the
-/// compiler cannot name itself (the parallel renderer reads compiled
-/// scenes).
-pub type Predictor<'a> = &'a dyn Fn(&Scene, &OctreeParams, &View) -> Result<Vec<u64>>;
+/// parameters over a scene, seen from each of the views (each node's cost
+/// the sum of its children's; one vector per view): the parallel
+/// renderer's prediction, which the compiler cannot name itself (the
+/// parallel renderer reads compiled scenes).
+pub type Predictor<'a> = &'a dyn Fn(&Scene, &OctreeParams, &[View]) -> Result<Vec<Vec<u64>>>;
 
 /// Whether every processor holds `o`, a top-level surface of `scene`:
 /// light sources (sampled from everywhere), and planar mirrors and prisms
@@ -543,10 +543,21 @@ pub fn compile_to_bytes_with(
         .collect();
     let hit_ratios = measure_hit_ratios(&scene)?;
     let mut predicted = Vec::new();
-    if let Some(predict) = predict {
-        for (k, text) in views.iter().enumerate() {
-            let view = View::from_file_text(text, format!("stored view {}", k + 1))?;
-            let costs = predict(&scene, params, &view)?;
+    if let (Some(predict), false) = (predict, views.is_empty()) {
+        let parsed = views
+            .iter()
+            .enumerate()
+            .map(|(k, text)| View::from_file_text(text, format!("stored view {}", k + 1)))
+            .collect::<Result<Vec<_>>>()?;
+        let all = predict(&scene, params, &parsed)?;
+        if all.len() != views.len() {
+            return Err(Error::Other(format!(
+                "compile: predictions for {} views of {}",
+                all.len(),
+                views.len()
+            )));
+        }
+        for costs in all {
             if costs.len() != octree.node_count() {
                 return Err(Error::Other(format!(
                     "compile: a prediction of {} nodes for an octree of {}",

@@ -10,7 +10,7 @@
 //! towards that source, and a hit's leaf is charged one shading. The
 //! prediction is cheap (a few thousand rays) and deterministic.
 
-use crate::accel::{NodeId, Octree};
+use crate::accel::Octree;
 use crate::geometry::Ray;
 use crate::render::light::LightExtent;
 use crate::render::Renderer;
@@ -88,12 +88,7 @@ pub fn subtree_costs(
         }
     }
     let mut out: Vec<u64> = leaf.iter().map(|&c| c.round() as u64).collect();
-    // Children always have larger ids than their parents.
-    for id in (0..octree.node_count() as NodeId).rev() {
-        if let Some(children) = octree.children(id) {
-            out[id as usize] = children.iter().map(|&c| out[c as usize]).sum();
-        }
-    }
+    octree.sum_subtrees(&mut out);
     out
 }
 
@@ -102,15 +97,21 @@ pub fn subtree_costs(
 const COMPILED_SIZE: u32 = 512;
 
 /// [`subtree_costs`] for `hybrid-rt compile`
-/// ([`crate::compiled::Predictor`]): the whole scene's, with the octree
-/// built as the compiled skeleton is, the default options, at `render`'s
-/// default image size fitted to the view.
+/// ([`crate::compiled::Predictor`]), for each view: the whole scene's,
+/// with the octree built as the compiled skeleton is (one renderer for
+/// every view), the default options, at `render`'s default image size
+/// fitted to the view.
 pub fn for_compiled_scene(
     scene: &crate::scene::Scene,
     params: &crate::accel::OctreeParams,
-    view: &View,
-) -> crate::Result<Vec<u64>> {
+    views: &[View],
+) -> crate::Result<Vec<Vec<u64>>> {
     let renderer = Renderer::with_octree(scene, crate::render::RenderOptions::default(), params)?;
-    let (view, w, h) = view.fit_aspect(COMPILED_SIZE, COMPILED_SIZE);
-    Ok(subtree_costs(&renderer, &view, w as usize, h as usize))
+    Ok(views
+        .iter()
+        .map(|view| {
+            let (view, w, h) = view.fit_aspect(COMPILED_SIZE, COMPILED_SIZE);
+            subtree_costs(&renderer, &view, w as usize, h as usize)
+        })
+        .collect())
 }
