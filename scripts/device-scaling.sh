@@ -62,8 +62,8 @@ done
 section threads && tar -C "$WORK" -cf "$OUT/stats.tar" $(cd "$WORK" && ls studio-octree-*)
 
 # One line per run: what, wall time of the whole command, the render's own
-# time, each rank's peak resident memory, and whether the picture equals the
-# sequential one byte for byte.
+# time, each rank's peak resident memory, whether the picture equals the
+# sequential one byte for byte, and each rank's memory bound.
 run_mpi() { # label np reference.hdr args...
     local label=$1 np=$2 ref=$3
     shift 3
@@ -73,11 +73,15 @@ run_mpi() { # label np reference.hdr args...
     $MPIRUN -np "$np" "$BIN" render "$@" --runtime mpi --peak-memory -o "$WORK/out.hdr" >"$WORK/log" 2>&1
     local rc=$?
     t1=$(now)
-    local peaks same render
+    local peaks same render bounds
     peaks=$(grep -o "peak resident memory: [0-9]* KiB" "$WORK/log" | awk '{printf "%.1f ", $4/1024}')
+    # Each rank's bound (the last column of the console's MPI table: 1.3 x
+    # (resident share + cache budget) + the octree skeleton), where the run
+    # has a cache budget.
+    bounds=$(awk '/^rank msgs sent/ { t = 1; next } t && /^ *[0-9]+ / { printf "%s ", $NF; next } { t = 0 }' "$WORK/log")
     render=$(grep -o "(render [0-9.]* s)" "$WORK/log" | tr -d '()' | awk '{print $2}')
     if [ -f "$WORK/out.hdr" ] && cmp -s "$WORK/out.hdr" "$ref"; then same=equal; else same=DIFFERENT; fi
-    echo "$label | -np $np | rc $rc | wall $(secs "$t0" "$t1") s | render $render s | peak MiB $peaks| $same"
+    echo "$label | -np $np | rc $rc | wall $(secs "$t0" "$t1") s | render $render s | peak MiB $peaks| $same | bound MiB $bounds"
     [ $rc = 0 ] || tail -5 "$WORK/log"
 }
 

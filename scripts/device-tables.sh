@@ -20,15 +20,24 @@ bench() {
 }
 
 # mpi-*.txt lines: "what | -np N | rc R | wall W s | render T s | peak MiB a b c | equal"
-# or "what | sequential | rc R | wall W s | peak MiB p".
+# (later runs add " | bound MiB x y z", each rank's bound: then the table has
+# the most any rank exceeds its bound by) or "what | sequential | rc R | wall
+# W s | peak MiB p".
 mpi() {
-    echo "| run | peak resident memory per rank (MiB) | wall time (s) | render (s) | picture |"
-    echo "| --- | --- | --- | --- | --- |"
-    awk -F ' [|] ' '
+    local bounds=0
+    grep -q ' | bound MiB ' "$1" && bounds=1
+    if [ $bounds = 1 ]; then
+        echo "| run | peak resident memory per rank (MiB) | most over its bound (MiB) | wall time (s) | render (s) | picture |"
+        echo "| --- | --- | --- | --- | --- | --- |"
+    else
+        echo "| run | peak resident memory per rank (MiB) | wall time (s) | render (s) | picture |"
+        echo "| --- | --- | --- | --- | --- |"
+    fi
+    awk -F ' [|] ' -v bounds=$bounds '
         / [|] sequential [|] / {
             split($5, p, " ")
             sub(/^wall /, "", $4); sub(/ s$/, "", $4)
-            printf "| sequential renderer, whole scene | %s | %s | - | reference |\n", p[3], $4
+            printf "| sequential renderer, whole scene | %s |%s %s | - | reference |\n", p[3], bounds ? " - |" : "", $4
             next
         }
         / [|] -np / {
@@ -36,9 +45,19 @@ mpi() {
             lo = p[3]; hi = p[3]
             for (i = 4; i <= n; i++) { if (p[i] + 0 < lo + 0) lo = p[i]; if (p[i] + 0 > hi + 0) hi = p[i] }
             range = (n == 3) ? lo : lo " to " hi
+            over = ""
+            if (bounds) {
+                m = split($8, b, " ")
+                worst = "-"
+                for (i = 3; i <= m && i <= n; i++) {
+                    d = p[i] - b[i]
+                    if (worst == "-" || d > worst + 0) worst = sprintf("%.1f", d)
+                }
+                over = " " worst " |"
+            }
             sub(/^wall /, "", $4); sub(/ s$/, "", $4)
             sub(/^render /, "", $5); sub(/ s$/, "", $5)
-            printf "| `%s`, %s | %s | %s | %s | %s |\n", $2, $1, range, $4, $5, $7
+            printf "| `%s`, %s | %s |%s %s | %s | %s |\n", $2, $1, range, over, $4, $5, $7
         }' "$1"
 }
 

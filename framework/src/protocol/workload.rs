@@ -14,8 +14,9 @@ use std::hash::Hash;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 
-use crate::cache::{ByteLru, IdMap};
+use crate::cache::ByteLru;
 use crate::protocol::{Addr, DpOutcome, Placement};
+use crate::resident::Resident;
 
 /// Size of a value in bytes as the framework should account for it (memory
 /// high-water marks, cache budget, message sizes). It need not be exact, but it
@@ -193,10 +194,10 @@ work_kinds! {
 /// #     }
 /// #     fn merge(&self, acc: &mut u64, r: Num) { *acc += r.0; }
 /// # }
-/// use hybrid_sched::{ByteLru, IdMap};
+/// use hybrid_sched::{ByteLru, Resident};
 ///
 /// // Processor 0 of 2 owns the even items 0, 2 and 4 (values 1, 3 and 5).
-/// let resident: IdMap<u32, Num> = Pairs.load_partition(0, 2).into_iter().collect();
+/// let resident: Resident<u32, Num> = Pairs.load_partition(0, 2).into_iter().collect();
 /// assert_eq!(resident.len(), 3);
 /// let mut ctx = Ctx::new(0, 2);
 ///
@@ -474,7 +475,7 @@ impl<W: Workload> Ctx<W> {
 /// whatever its cache holds. Lookups of cached items are remembered so that the
 /// processor can refresh their LRU recency after the hook returns.
 pub struct DataView<'a, W: Workload> {
-    resident: &'a IdMap<W::DataId, W::DataItem>,
+    resident: &'a Resident<W::DataId, W::DataItem>,
     cache: Option<&'a ByteLru<W::DataId, W::DataItem>>,
     touched: RefCell<Vec<W::DataId>>,
 }
@@ -482,7 +483,7 @@ pub struct DataView<'a, W: Workload> {
 impl<'a, W: Workload> DataView<'a, W> {
     /// A view over resident items and an optional cache.
     pub fn new(
-        resident: &'a IdMap<W::DataId, W::DataItem>,
+        resident: &'a Resident<W::DataId, W::DataItem>,
         cache: Option<&'a ByteLru<W::DataId, W::DataItem>>,
     ) -> Self {
         DataView {

@@ -7,7 +7,7 @@
 
 use std::collections::VecDeque;
 
-use crate::cache::IdMap;
+use crate::resident::Resident;
 use std::sync::Arc;
 
 use super::{RunReport, Runtime};
@@ -143,7 +143,7 @@ pub fn run_sequential_observed<W: Workload>(
         message,
     };
     let clock = WallClock::new();
-    let mut data = IdMap::default();
+    let mut data = Resident::default();
     for p in 0..procs {
         data.extend(workload.load_partition(p, procs));
     }

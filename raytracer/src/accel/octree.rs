@@ -437,6 +437,16 @@ impl Octree {
             margin,
             ..Default::default()
         };
+        // Every listing, reserved exactly: grown by doubling, the lists
+        // took up to twice their size, and three times while moving
+        // (5.6 MB at the peak of a rank of a 300,000-triangle city).
+        let listings: usize = (0..n)
+            .filter_map(|i| match node(i) {
+                Ok(SkeletonNode::Leaf(ids)) => Some(ids.len()),
+                _ => None,
+            })
+            .sum();
+        t.leaf_objects.reserve_exact(listings);
         // The build's recursion, so leaves' lists lie in the order it
         // appended them.
         let mut seen = vec![false; n];

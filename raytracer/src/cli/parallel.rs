@@ -218,7 +218,7 @@ pub fn summary(r: &ParallelRender) -> String {
     if !r.ranks.is_empty() {
         let _ = writeln!(
             s,
-            "MPI wire traffic (encoded bytes; the master runs on rank 0) and each rank's peak memory (as the OS measured it):\n{:>4} {:>9} {:>10} {:>9} {:>10} {:>9} {:>10} {:>13} {:>8} {:>9}",
+            "MPI wire traffic (encoded bytes; the master runs on rank 0) and each rank's peak memory (as the OS measured it; bound: 1.3 x (its resident share + the cache budget) + the octree skeleton, issue 19's target without its few MiB):\n{:>4} {:>9} {:>10} {:>9} {:>10} {:>9} {:>10} {:>13} {:>8} {:>9} {:>9}",
             "rank",
             "msgs sent",
             "KiB sent",
@@ -228,7 +228,8 @@ pub fn summary(r: &ParallelRender) -> String {
             "data KiB",
             "data KiB acct",
             "local",
-            "peak MiB"
+            "peak MiB",
+            "bound MiB"
         );
         for t in &r.ranks {
             // What the processor on this rank accounted for the data it
@@ -238,9 +239,19 @@ pub fn summary(r: &ParallelRender) -> String {
                 .procs
                 .get(t.rank)
                 .map_or(0, |p| p.received.get(Class::Data).bytes);
+            let share = r
+                .stats
+                .procs
+                .get(t.rank)
+                .map_or(0, |p| p.memory.resident_bytes);
+            // No bound with an unlimited cache.
+            let bound = r.cache_bytes.map_or("-".to_string(), |c| {
+                let b = 1.3 * (share + c) as f64 + r.octree_bytes as f64;
+                format!("{:.1}", b / (1024.0 * 1024.0))
+            });
             let _ = writeln!(
                 s,
-                "{:>4} {:>9} {:>10.1} {:>9} {:>10.1} {:>9} {:>10.1} {:>13.1} {:>8} {:>9.1}",
+                "{:>4} {:>9} {:>10.1} {:>9} {:>10.1} {:>9} {:>10.1} {:>13.1} {:>8} {:>9.1} {:>9}",
                 t.rank,
                 t.messages_sent,
                 t.bytes_sent as f64 / 1024.0,
@@ -250,7 +261,8 @@ pub fn summary(r: &ParallelRender) -> String {
                 t.data_bytes_received as f64 / 1024.0,
                 accounted as f64 / 1024.0,
                 t.local_packets,
-                t.peak_resident_bytes as f64 / (1024.0 * 1024.0)
+                t.peak_resident_bytes as f64 / (1024.0 * 1024.0),
+                bound
             );
         }
     }

@@ -14,6 +14,8 @@
 //! length, direction and slope computed once, with the expressions the
 //! test would use); other shapes are tested through [`Shape`] as before.
 
+use std::sync::Arc;
+
 use super::robust::diff_of_products;
 use super::shape::{Object, ObjectId, ObjectSet};
 use crate::geometry::{
@@ -132,7 +134,9 @@ fn any_pair_hit(tr: &TriRay, pairs: &[TriPair], tmin: f64, tmax: f64) -> bool {
 #[derive(Debug, Clone)]
 pub(crate) enum OnePrim {
     Pairs {
-        pairs: Box<[TriPair]>,
+        /// Shared with the processor's hierarchy ([`Prims::from_ones`]),
+        /// which reads them where they are instead of keeping a copy.
+        pairs: Arc<[TriPair]>,
         normal: Vec3,
     },
     Quadric(Box<Quadric>),
@@ -148,16 +152,16 @@ impl OnePrim {
             r if r.start == NONE => OnePrim::Other,
             PrimRef { start, pairs: 0 } => OnePrim::Quadric(Box::new(p.quadrics[start as usize])),
             _ => OnePrim::Pairs {
-                pairs: p.pairs.into_boxed_slice(),
+                pairs: p.pairs.into(),
                 normal: p.normals[0],
             },
         }
     }
 
-    /// Heap bytes.
+    /// Heap bytes (a polygon's pairs with their reference counts).
     pub(crate) fn memory_bytes(&self) -> usize {
         match self {
-            OnePrim::Pairs { pairs, .. } => std::mem::size_of_val(&**pairs),
+            OnePrim::Pairs { pairs, .. } => 2 * size_of::<usize>() + size_of_val(&**pairs),
             OnePrim::Quadric(_) => std::mem::size_of::<Quadric>(),
             OnePrim::Other => 0,
         }
@@ -169,6 +173,9 @@ impl OnePrim {
 pub(crate) struct Prims {
     refs: Vec<PrimRef>,
     pairs: Vec<TriPair>,
+    /// Made from copies ([`Prims::from_ones`]): polygon `id`'s pairs are
+    /// `shared[id]`, the copy's own (`pairs` is empty). Empty otherwise.
+    shared: Vec<Option<Arc<[TriPair]>>>,
     quadrics: Vec<Quadric>,
     /// Polygon normals (what a hit reports), zero for other shapes.
     normals: Vec<Vec3>,
@@ -216,6 +223,7 @@ impl Prims {
             pairs: Vec::with_capacity(pairs),
             quadrics: Vec::new(),
             normals: Vec::with_capacity(objects.len()),
+            shared: Vec::new(),
         };
         for o in objects {
             let quadric = match &o.shape {
@@ -279,38 +287,34 @@ impl Prims {
 
     /// The data of several copies laid end to end, in order (object `i`
     /// of the result is the `i`-th copy): what [`Prims::build`] makes for
-    /// their objects, bit for bit.
+    /// their objects, answering bit for bit as it does. A polygon's pairs
+    /// are not copied: the result shares each copy's own (a processor's
+    /// hierarchy over its resident copies would otherwise hold a second
+    /// copy of every triangle, 144 bytes per quadrilateral).
     pub(crate) fn from_ones<'a, I>(parts: I) -> Prims
     where
         I: IntoIterator<Item = &'a OnePrim>,
-        I::IntoIter: Clone,
+        I::IntoIter: ExactSizeIterator,
     {
         let parts = parts.into_iter();
-        let (mut n, mut pairs, mut quadrics) = (0, 0, 0);
-        for q in parts.clone() {
-            n += 1;
-            match q {
-                OnePrim::Pairs { pairs: p, .. } => pairs += p.len(),
-                OnePrim::Quadric(_) => quadrics += 1,
-                OnePrim::Other => {}
-            }
-        }
+        let n = parts.len();
         // Allocated once, to the size: a processor's kernel holds it for
         // the whole run.
         let mut p = Prims {
             refs: Vec::with_capacity(n),
-            pairs: Vec::with_capacity(pairs),
-            quadrics: Vec::with_capacity(quadrics),
+            pairs: Vec::new(),
+            quadrics: Vec::new(),
             normals: Vec::with_capacity(n),
+            shared: Vec::with_capacity(n),
         };
         for q in parts {
             match q {
                 OnePrim::Pairs { pairs, normal } => {
                     p.refs.push(PrimRef {
-                        start: p.pairs.len() as u32,
+                        start: 0,
                         pairs: pairs.len() as u32,
                     });
-                    p.pairs.extend_from_slice(pairs);
+                    p.shared.push(Some(Arc::clone(pairs)));
                     p.normals.push(*normal);
                 }
                 OnePrim::Quadric(q) => {
@@ -320,14 +324,26 @@ impl Prims {
                     });
                     p.quadrics.push(**q);
                     p.normals.push(Vec3::ZERO);
+                    p.shared.push(None);
                 }
                 OnePrim::Other => {
                     p.refs.push(PrimRef::default());
                     p.normals.push(Vec3::ZERO);
+                    p.shared.push(None);
                 }
             }
         }
+        p.quadrics.shrink_to_fit();
         p
+    }
+
+    /// Polygon `id`'s pairs (`r` is its reference).
+    #[inline(always)]
+    fn pairs_of(&self, id: ObjectId, r: PrimRef) -> &[TriPair] {
+        match self.shared.get(id as usize) {
+            Some(Some(shared)) => shared,
+            _ => &self.pairs[r.start as usize..(r.start + r.pairs) as usize],
+        }
     }
 
     /// True if this data was built for `objects` (callers fall back to the
@@ -337,12 +353,13 @@ impl Prims {
         self.refs.len() == objects.count()
     }
 
-    /// Heap bytes.
+    /// Heap bytes (pairs shared with copies are counted with the copies).
     pub(crate) fn memory_bytes(&self) -> usize {
-        self.refs.capacity() * std::mem::size_of::<PrimRef>()
-            + self.pairs.capacity() * std::mem::size_of::<TriPair>()
-            + self.quadrics.capacity() * std::mem::size_of::<Quadric>()
-            + self.normals.capacity() * std::mem::size_of::<Vec3>()
+        self.refs.capacity() * size_of::<PrimRef>()
+            + self.pairs.capacity() * size_of::<TriPair>()
+            + self.quadrics.capacity() * size_of::<Quadric>()
+            + self.normals.capacity() * size_of::<Vec3>()
+            + self.shared.capacity() * size_of::<Option<Arc<[TriPair]>>>()
     }
 
     /// Nearest hit of object `id` with `tmin < t < tmax`: exactly
@@ -361,7 +378,7 @@ impl Prims {
         if r.pairs == 0 {
             return self.intersect_other(objects, id, r, pre, tmin, tmax);
         }
-        let pairs = &self.pairs[r.start as usize..(r.start + r.pairs) as usize];
+        let pairs = self.pairs_of(id, r);
         nearest_pair_hit(tr, pairs, tmin, tmax).map(|t| ShapeHit {
             t,
             normal: self.normals[id as usize],
@@ -406,12 +423,7 @@ impl Prims {
         if r.pairs == 0 {
             return self.occludes_other(objects, id, r, pre, tmin, tmax);
         }
-        any_pair_hit(
-            tr,
-            &self.pairs[r.start as usize..(r.start + r.pairs) as usize],
-            tmin,
-            tmax,
-        )
+        any_pair_hit(tr, self.pairs_of(id, r), tmin, tmax)
     }
 
     /// [`Prims::occludes`] of a quadric or another shape (out of line).

@@ -442,7 +442,6 @@ fn run_workload(
     };
     let data_bytes = wl.data_bytes();
     let cache_bytes = popts.cache.resolve(data_bytes);
-    let part = wl.partition().clone();
     let wl = Arc::new(wl);
     let setup_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
@@ -483,6 +482,7 @@ fn run_workload(
             peak_tree_nodes = acc.peak_pending,
             "processor finished"
         );
+        let part = wl.partition();
         let resident = part.resident(p as u32);
         if let Some((resident_bytes, copy_bytes)) = wl.held_figures(p) {
             procs.push(ProcSummary {

@@ -107,8 +107,8 @@ impl Frustum {
             if !self.axes[a] {
                 continue;
             }
-            let lo = &n.b[a][self.near[a]];
-            let hi = &n.b[a][1 - self.near[a]];
+            let lo = n.b[a][self.near[a]].map(f64::from);
+            let hi = n.b[a][1 - self.near[a]].map(f64::from);
             for l in 0..4 {
                 // The least entry and the greatest exit over the packet.
                 let (e0, e1) = (lo[l] - self.o_hi[a], lo[l] - self.o_lo[a]);
