@@ -61,6 +61,34 @@ fn every_task_once_and_results_equal_sequential_for_all_procs_policies_caches() 
     }
 }
 
+/// `Config::fetch_limit`: a task with more to fetch than the limit takes
+/// the data-parallel fallback, every task still runs once and the results
+/// are the sequential ones; with a limit of zero nothing is ever fetched.
+#[test]
+fn the_fetch_limit_sends_larger_fetches_to_the_fallback_and_changes_no_result() {
+    let w = Blocks::new(small(3));
+    let one = w.largest_block_bytes() as u64;
+    for procs in 1..=5 {
+        for policy in Policy::ALL {
+            for limit in [0, one] {
+                let cfg = Config::new(procs)
+                    .with_policy(policy)
+                    .with_fetch_limit(Some(limit))
+                    .with_credits(4);
+                let what = format!("{procs} procs, {policy}, fetch limit {limit}");
+                let r = threads(&w, cfg);
+                assert_matches_sequential(&w, &r, &what);
+                if limit == 0 {
+                    assert_eq!(r.stats.sum(|p| p.data_items_requested), 0, "{what}");
+                    if procs > 1 {
+                        assert!(r.stats.sum(|p| p.tasks.fallbacks) > 0, "{what}");
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn cache_counters_and_data_requests_are_consistent() {
     let w = Blocks::new(small(5));

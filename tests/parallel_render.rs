@@ -207,6 +207,31 @@ fn cornell_equals_sequential_for_every_procs_policy_cache_distribution() {
     assert!(migrations > 0, "no ray ever migrated");
 }
 
+/// `--fetch-limit`: a demand-driven task with more to fetch than the limit
+/// traces data-parallel (its rays migrate); the picture and every ray
+/// count stay the sequential ones. At zero nothing is fetched at all.
+#[test]
+fn a_fetch_limit_sends_large_fetches_data_parallel_and_changes_no_pixel() {
+    let c = case("studio", 48, 36, RenderOptions::default());
+    for procs in [2, 3] {
+        for limit in [
+            CacheSize::Bytes(0),
+            CacheSize::Bytes(largest_cell(&c)),
+            CacheSize::Percent(5.0),
+        ] {
+            let mut p = ParallelOptions::new(procs);
+            p.fetch_limit = limit;
+            p.workload.distribution = Distribution::Octree;
+            let out = check(&c, &p);
+            check_bounds(&out, &format!("{p:?}"));
+            if limit == CacheSize::Bytes(0) {
+                assert_eq!(out.stats.sum(|s| s.data_items_requested), 0, "{p:?}");
+                assert!(out.stats.sum(|s| s.tasks.fallbacks) > 0, "{p:?}");
+            }
+        }
+    }
+}
+
 /// Coarse shadow tasks. Shadow bundles start in the step that shaded their
 /// point (data-parallel ones, and demand-driven ones whose cells are all
 /// resident), and the bundles of one point that need cells held elsewhere

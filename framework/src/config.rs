@@ -68,6 +68,15 @@ pub struct Config {
     pub policy: Policy,
     /// Cache budget in bytes per processor (`None`: unlimited).
     pub cache_bytes: Option<u64>,
+    /// Most bytes one demand-driven task may have fetched for it (`None`:
+    /// as much as the cache holds). A task whose data held elsewhere and
+    /// not yet cached or on its way exceeds this takes the data-parallel
+    /// fallback instead ([`crate::Workload::to_data_parallel`]: its work
+    /// migrates to the data), as a task whose data cannot fit the cache
+    /// does. The results are the same either way (SEMANTICS.md sections 1
+    /// and 6); what it trades is bytes fetched against work migrated.
+    #[serde(default)]
+    pub fetch_limit: Option<u64>,
     /// Bundling of low-priority traffic.
     pub bundle: BundleConfig,
     /// Flow control: how many credit-limited messages (tasks and results) one
@@ -116,6 +125,7 @@ impl Config {
             procs,
             policy: Policy::Local,
             cache_bytes: None,
+            fetch_limit: None,
             bundle: BundleConfig::default(),
             credits_per_link: 64,
             flight_bytes: DEFAULT_FLIGHT_BYTES,
@@ -135,6 +145,12 @@ impl Config {
     /// Sets the cache budget.
     pub fn with_cache_bytes(mut self, bytes: Option<u64>) -> Self {
         self.cache_bytes = bytes;
+        self
+    }
+
+    /// Sets the most bytes one demand-driven task may have fetched.
+    pub fn with_fetch_limit(mut self, bytes: Option<u64>) -> Self {
+        self.fetch_limit = bytes;
         self
     }
 

@@ -136,6 +136,8 @@ pub(crate) struct DataStore<W: Workload> {
     resident: Resident<W::DataId, W::DataItem>,
     resident_bytes: u64,
     cache: ByteLru<W::DataId, W::DataItem>,
+    /// [`crate::Config::fetch_limit`].
+    fetch_limit: Option<u64>,
     dir: Directory<W::DataId>,
     in_flight: IdMap<W::DataId, InFlight>,
     waiting: HashMap<TaskKey, WaitingTask<W>>,
@@ -152,6 +154,7 @@ impl<W: Workload> DataStore<W> {
         resident: Vec<(W::DataId, W::DataItem)>,
         dir: Directory<W::DataId>,
         cache_bytes: Option<u64>,
+        fetch_limit: Option<u64>,
     ) -> Result<Self, String> {
         let mut resident_bytes = 0u64;
         for (id, item) in &resident {
@@ -191,6 +194,7 @@ impl<W: Workload> DataStore<W> {
             resident: map,
             resident_bytes,
             cache: ByteLru::new(cache_bytes),
+            fetch_limit,
             dir,
             in_flight: IdMap::default(),
             waiting: HashMap::new(),
@@ -310,7 +314,9 @@ impl<W: Workload> DataStore<W> {
             }
             remote.push(id);
         }
-        if total > self.cache.budget() {
+        // Data that can never fit, or more to fetch than one task may
+        // have fetched: the data-parallel fallback.
+        if total > self.cache.budget() || self.fetch_limit.is_some_and(|l| new_bytes > l) {
             return Ok(Admission::TooBig(env));
         }
         if !self.cache.can_pin_more(to_pin.saturating_add(new_bytes)) {

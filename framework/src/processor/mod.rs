@@ -103,7 +103,8 @@ impl<W: Workload> Processor<W> {
         let placement_err = |m: String| RunError::Config(crate::ConfigError::Placement(m));
         let dir = Directory::build(workload.placement(procs), procs).map_err(placement_err)?;
         let resident = workload.load_partition(id, procs);
-        let store = DataStore::new(id, resident, dir, config.cache_bytes).map_err(placement_err)?;
+        let store = DataStore::new(id, resident, dir, config.cache_bytes, config.fetch_limit)
+            .map_err(placement_err)?;
         let addr = Addr::Proc(id);
         let credits = config.credits_per_link as u32;
         Ok(Processor {

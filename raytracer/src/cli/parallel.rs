@@ -74,6 +74,10 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
             .cache
             .parse()
             .map_err(|e| usage(format!("--cache: {e}")))?,
+        fetch_limit: a
+            .fetch_limit
+            .parse()
+            .map_err(|e| usage(format!("--fetch-limit: {e}")))?,
         workload: WorkloadOptions {
             tile: a.tile,
             shadow_dp_below: a.shadow_dp_below,

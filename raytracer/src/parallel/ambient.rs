@@ -435,7 +435,7 @@ pub fn render_ambient_parallel(
         popts.procs,
     ));
     let t0 = Instant::now();
-    let mut report = run_on(wl.clone(), popts, None)?;
+    let mut report = run_on(wl.clone(), popts, None, None)?;
     let render_s = t0.elapsed().as_secs_f64();
     if matches!(report.extras, hybrid_sched::Extras::NotRoot { .. }) {
         return Ok(None);

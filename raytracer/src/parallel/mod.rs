@@ -157,6 +157,9 @@ pub struct ParallelOptions {
     pub runtime: RuntimeKind,
     pub policy: Policy,
     pub cache: CacheSize,
+    /// Most data one demand-driven task may have fetched (see
+    /// [`hybrid_sched::Config::fetch_limit`]).
+    pub fetch_limit: CacheSize,
     pub workload: WorkloadOptions,
     /// Worker threads for the threads runtime (`None`: one per core).
     pub threads: Option<usize>,
@@ -195,6 +198,7 @@ impl ParallelOptions {
             runtime: RuntimeKind::Threads,
             policy: Policy::Local,
             cache: CacheSize::Unlimited,
+            fetch_limit: CacheSize::Unlimited,
             workload: WorkloadOptions::default(),
             threads: None,
             time_limit: None,
@@ -445,7 +449,8 @@ fn run_workload(
     let wl = Arc::new(wl);
     let setup_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let mut report = run_on(wl.clone(), popts, cache_bytes)?;
+    let fetch_limit = popts.fetch_limit.resolve(data_bytes);
+    let mut report = run_on(wl.clone(), popts, cache_bytes, fetch_limit)?;
     let (timeline, ranks) = match std::mem::take(&mut report.extras) {
         Extras::None => (None, Vec::new()),
         Extras::Timeline(t) => (Some(t), Vec::new()),

@@ -11,15 +11,18 @@ use crate::render::Renderer;
 use crate::{Error, Result};
 
 /// Runs `wl` on the runtime, processors and flow control of `popts`,
-/// with a cache of `cache_bytes` per processor.
+/// with a cache of `cache_bytes` per processor and at most `fetch_limit`
+/// bytes fetched for one demand-driven task.
 pub(crate) fn run_on<W: hybrid_sched::Workload>(
     wl: Arc<W>,
     popts: &ParallelOptions,
     cache_bytes: Option<u64>,
+    fetch_limit: Option<u64>,
 ) -> Result<hybrid_sched::RunReport<W>> {
     let mut config = Config::new(popts.procs)
         .with_policy(popts.policy)
-        .with_cache_bytes(cache_bytes);
+        .with_cache_bytes(cache_bytes)
+        .with_fetch_limit(fetch_limit);
     config.threads = popts.threads;
     config.time_limit = popts.time_limit;
     config.credits_per_link = popts.credits;
