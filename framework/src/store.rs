@@ -125,7 +125,8 @@ pub(crate) enum Admission<W: Workload> {
     /// Fits the budget, but not while other tasks hold their pins: try again
     /// (with these non-resident ids) after a release.
     Deferred(DdEnvelope<W>, Vec<W::DataId>),
-    /// Its non-resident data exceeds the whole budget: use the data-parallel
+    /// Its non-resident data exceeds the whole budget, or it has more to
+    /// fetch than [`crate::Config::fetch_limit`]: use the data-parallel
     /// fallback.
     TooBig(DdEnvelope<W>),
 }

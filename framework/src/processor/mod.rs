@@ -441,7 +441,7 @@ impl<W: Workload> Processor<W> {
             Admission::TooBig(env) => {
                 self.root_done(&env);
                 self.stats.tasks.fallbacks += 1;
-                debug!(proc = self.id, task = ?env.task, "data exceeds cache budget: data-parallel fallback");
+                debug!(proc = self.id, task = ?env.task, "data exceeds the cache budget or the fetch limit: data-parallel fallback");
                 let mut ctx = self.new_ctx(env.origin);
                 self.workload.to_data_parallel(env.task, &mut ctx);
                 self.dispatch(ctx, env.origin, now)?;
