@@ -20,12 +20,12 @@ bench() {
 }
 
 # mpi-*.txt lines: "what | -np N | rc R | wall W s | render T s | peak MiB a b c | equal"
-# (later runs add " | bound MiB x y z", each rank's bound: then the table has
-# the most any rank exceeds its bound by) or "what | sequential | rc R | wall
-# W s | peak MiB p".
+# (later runs add " | bound MiB x y z | over MiB u v w", each rank's bound and
+# how far its peak is over it, in rank order: then the table has the most any
+# rank is over) or "what | sequential | rc R | wall W s | peak MiB p".
 mpi() {
     local bounds=0
-    grep -q ' | bound MiB ' "$1" && bounds=1
+    grep -q ' | over MiB ' "$1" && bounds=1
     if [ $bounds = 1 ]; then
         echo "| run | peak resident memory per rank (MiB) | most over its bound (MiB) | wall time (s) | render (s) | picture |"
         echo "| --- | --- | --- | --- | --- | --- |"
@@ -47,12 +47,9 @@ mpi() {
             range = (n == 3) ? lo : lo " to " hi
             over = ""
             if (bounds) {
-                m = split($8, b, " ")
+                m = split($9, o, " ")
                 worst = "-"
-                for (i = 3; i <= m && i <= n; i++) {
-                    d = p[i] - b[i]
-                    if (worst == "-" || d > worst + 0) worst = sprintf("%.1f", d)
-                }
+                for (i = 3; i <= m; i++) if (worst == "-" || o[i] + 0 > worst + 0) worst = o[i]
                 over = " " worst " |"
             }
             sub(/^wall /, "", $4); sub(/ s$/, "", $4)
