@@ -74,18 +74,20 @@ run_mpi() { # label np reference.hdr args...
     $MPIRUN -np "$np" "$BIN" render "$@" --runtime mpi --peak-memory -o "$WORK/out.hdr" >"$WORK/log" 2>&1
     local rc=$?
     t1=$(now)
-    local peaks same render bounds over
+    local peaks same render table
     peaks=$(grep -o "peak resident memory: [0-9]* KiB" "$WORK/log" | awk '{printf "%.1f ", $4/1024}')
     # From rank 0's MPI table, in rank order: each rank's bound (the last
     # column: 1.3 x (resident share + cache budget) + the octree skeleton)
     # and how far its peak (the column before) is over it, where the run
     # has a cache budget. (The ranks print their own peaks above in the
     # order they finish.)
-    bounds=$(awk '/^rank msgs sent/ { t = 1; next } t && /^ *[0-9]+ / { printf "%s ", $NF; next } { t = 0 }' "$WORK/log")
-    over=$(awk '/^rank msgs sent/ { t = 1; next } t && /^ *[0-9]+ / { if ($NF != "-") printf "%.1f ", $(NF-1) - $NF; next } { t = 0 }' "$WORK/log")
+    table=$(awk '/^rank msgs sent/ { t = 1; next }
+        t && /^ *[0-9]+ / { b = b $NF " "; if ($NF != "-") o = o sprintf("%.1f ", $(NF-1) - $NF); next }
+        { t = 0 }
+        END { printf "bound MiB %s| over MiB %s", b, o }' "$WORK/log")
     render=$(grep -o "(render [0-9.]* s)" "$WORK/log" | tr -d '()' | awk '{print $2}')
     if [ -f "$WORK/out.hdr" ] && cmp -s "$WORK/out.hdr" "$ref"; then same=equal; else same=DIFFERENT; fi
-    echo "$label | -np $np | rc $rc | wall $(secs "$t0" "$t1") s | render $render s | peak MiB $peaks| $same | bound MiB $bounds| over MiB $over"
+    echo "$label | -np $np | rc $rc | wall $(secs "$t0" "$t1") s | render $render s | peak MiB $peaks| $same | $table"
     [ $rc = 0 ] || tail -5 "$WORK/log"
 }
 
