@@ -16,6 +16,7 @@ use crate::accel::{Hit, Judged, NodeId, Partial, TraceCursor};
 use crate::render::direct::{run_shadow_bundle, ShadowCounts};
 use crate::render::light::LightExtent;
 use crate::render::material::shade;
+use crate::render::RayCaster;
 use crate::render::{RayKind, RayTask, Request, ShadowBundle};
 use crate::scene::Color;
 
@@ -329,6 +330,14 @@ impl RtWorkload {
         // walk starts from its nearest hit and passes the leaves it holds.
         let mut local = None;
         if job.cursor == TraceCursor::default() {
+            if let Some(c) = self.whole_caster(ctx.proc_id()) {
+                let t = &job.task;
+                let hit = c.intersect(&t.ray, t.tmin, t.tmax);
+                ctx.charge(Work::TraceLocal, 1);
+                let task = job.task;
+                self.finish_ray(job.key, &task, hit, data, ctx);
+                return None;
+            }
             if let Some(l) = self.local_path(ctx.proc_id(), data) {
                 let t = &job.task;
                 match l.intersect(&t.ray, t.tmin, t.tmax) {
@@ -421,6 +430,25 @@ impl RtWorkload {
         let shared = self.renderer.scene().table();
         if !replay.answers.is_empty() || replay.cursor != TraceCursor::default() {
             ctx.charge(Work::ShadowRestarts, 1);
+        }
+        let fresh = replay.answers.is_empty() && replay.cursor == TraceCursor::default();
+        if let Some(caster) = self.whole_caster(ctx.proc_id()).filter(|_| fresh) {
+            // Everything is here: the sequential renderer's path.
+            let mut counts = ShadowCounts::default();
+            let value = SCRATCH.with_borrow_mut(|scratch| {
+                run_shadow_bundle(
+                    &self.renderer.context(),
+                    &caster,
+                    bundle,
+                    scratch,
+                    &mut counts,
+                )
+            });
+            ctx.charge(Work::TraceLeaves, 0);
+            ctx.charge(Work::TraceObjects, 0);
+            ctx.charge(Work::TraceLocal, caster.queries.get());
+            charge_shadow(ctx, &counts);
+            return ShadowRun::Done(value);
         }
         let visits = std::cell::Cell::new((0u64, 0u64));
         let memo = CellMemo::new(data, self, ctx.proc_id());

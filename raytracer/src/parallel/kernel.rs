@@ -29,6 +29,7 @@ use crate::accel::{
     ProcessorKernel as Kernel,
 };
 use crate::geometry::Ray;
+use crate::render::{BvhCaster, RayCaster};
 use crate::scene::ObjectId;
 
 /// What one step's queries read to try the processor's hierarchy first.
@@ -197,6 +198,21 @@ impl RtWorkload {
         });
     }
 
+    /// The renderer's own caster, counting its queries, where processor
+    /// `proc` holds every object of a scene loaded whole: its hierarchy is
+    /// the renderer's, every answer is decided there, and a query needs
+    /// no judgement, no walk and no record for a replay.
+    #[inline]
+    pub(super) fn whole_caster(&self, proc: usize) -> Option<CountingCaster<'_>> {
+        match self.kernels.get(proc)?.get()? {
+            Kernel::Whole => Some(CountingCaster {
+                inner: self.renderer.caster(),
+                queries: std::cell::Cell::new(0),
+            }),
+            _ => None,
+        }
+    }
+
     /// Whether processor `proc` has a hierarchy of its own (option
     /// `local_kernel`): [`Self::local_path`] may answer.
     #[inline]
@@ -308,5 +324,26 @@ impl<'a, 'v> CellMemo<'a, 'v> {
                 c
             }
         }
+    }
+}
+
+/// A caster that counts the queries it answers (charged as
+/// [`super::work::Work::TraceLocal`], as the hierarchy's answers are).
+pub(super) struct CountingCaster<'a> {
+    inner: BvhCaster<'a>,
+    pub(super) queries: std::cell::Cell<u64>,
+}
+
+impl RayCaster for CountingCaster<'_> {
+    #[inline]
+    fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        self.queries.set(self.queries.get() + 1);
+        self.inner.intersect(ray, tmin, tmax)
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> bool {
+        self.queries.set(self.queries.get() + 1);
+        self.inner.occluded(ray, tmin, tmax, ignore)
     }
 }
