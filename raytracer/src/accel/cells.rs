@@ -191,6 +191,16 @@ fn is_plain(o: &Object) -> bool {
 }
 
 impl LeafObjects {
+    /// A leaf listing `ids` without copies: each object is read through
+    /// the scene's table, as the objects every processor holds are (for
+    /// a processor that holds the scene itself, loaded whole).
+    pub fn listing(ids: &[ObjectId]) -> LeafObjects {
+        LeafObjects {
+            ids: ids.into(),
+            held: vec![None; ids.len()].into(),
+        }
+    }
+
     /// A leaf listing `ids` (its objects in the octree's order, ids into
     /// `objects`), sharing the copies in `copies` and adding the missing
     /// ones.

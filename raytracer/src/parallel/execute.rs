@@ -204,6 +204,12 @@ impl RtWorkload {
         let mut children = Vec::with_capacity(requests.len());
         // Bundles that need cells held elsewhere: one task for them all.
         let mut scheduled = Vec::new();
+        // A processor holding the scene runs every bundle here, through
+        // the renderer's hierarchy, and charges their work once.
+        let whole = self
+            .whole_caster(ctx.proc_id())
+            .filter(|_| self.opts.inline_local_shadows);
+        let mut tally = WholeTally::default();
         for (i, r) in requests.iter().enumerate() {
             match r {
                 Request::Trace { task: child, coef } => {
@@ -215,6 +221,24 @@ impl RtWorkload {
                         cursor: TraceCursor::default(),
                         next: None,
                     }));
+                }
+                Request::Shadow(bundle) | Request::Scatter(bundle) if whole.is_some() => {
+                    let caster = whole.as_ref().expect("matched");
+                    tally.spawned += 1;
+                    tally.dp += self.shadow_goes_dp(bundle) as u64;
+                    let v = SCRATCH.with_borrow_mut(|scratch| {
+                        run_shadow_bundle(
+                            &self.renderer.context(),
+                            caster,
+                            bundle,
+                            scratch,
+                            &mut tally.counts,
+                        )
+                    });
+                    children.push(match r {
+                        Request::Scatter(_) => Child::KnownScatter(v),
+                        _ => Child::Known(v),
+                    });
                 }
                 Request::Shadow(bundle) | Request::Scatter(bundle) => {
                     let scatter = matches!(r, Request::Scatter(_));
@@ -296,6 +320,9 @@ impl RtWorkload {
         }
         requests.clear();
         REQUESTS.set(requests);
+        if let Some(caster) = &whole {
+            tally.charge(caster.queries.get(), ctx);
+        }
         if !scheduled.is_empty() {
             ctx.spawn_dd(DdTask::Shadows(scheduled));
         }
@@ -494,6 +521,47 @@ pub(super) enum ShadowRun {
     /// It needs a leaf held elsewhere: the answers recorded so far, and
     /// the leaf.
     Blocked(Replay, NodeId),
+}
+
+/// The work of the shadow bundles one step ran through the renderer's
+/// hierarchy ([`RtWorkload::whole_caster`]), charged once: what each
+/// bundle's own charges add up to.
+#[derive(Default)]
+struct WholeTally {
+    spawned: u64,
+    /// Of them, those the paper would make data-parallel.
+    dp: u64,
+    counts: ShadowCounts,
+}
+
+impl WholeTally {
+    /// Charges the bundles (`queries`: the shadow rays they cast).
+    fn charge(&self, queries: u64, ctx: &mut Ctx<RtWorkload>) {
+        if self.spawned == 0 {
+            return;
+        }
+        let c = &self.counts;
+        for (kind, units) in [
+            (Work::ShadowSpawned, self.spawned),
+            (Work::ShadowBundlesDp, self.dp),
+            (Work::ShadowBundlesInline, self.spawned),
+            (Work::TraceLeaves, 0),
+            (Work::TraceObjects, 0),
+            (Work::TraceLocal, queries),
+            (Work::ShadowRetired, self.spawned),
+            (Work::ShadowBundles, c.bundles),
+            (Work::ShadowPatches, c.patches),
+            (Work::ShadowTested, c.tested),
+            (Work::ShadowEstimated, c.estimated),
+            (Work::ShadowUnoccluded, c.unoccluded),
+            (Work::ShadowSegments, c.transparent_segments),
+        ] {
+            // Only a bundle made data-parallel charges that kind.
+            if kind != Work::ShadowBundlesDp || units > 0 {
+                ctx.charge(kind, units);
+            }
+        }
+    }
 }
 
 fn charge_shadow(ctx: &mut Ctx<RtWorkload>, c: &ShadowCounts) {

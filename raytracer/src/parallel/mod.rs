@@ -519,7 +519,7 @@ fn run_workload(
             },
             // Another MPI rank's processor of a distributed scene: measured
             // there, not here.
-            copy_bytes: if replicated || elsewhere {
+            copy_bytes: if replicated || elsewhere || wl.reads_the_scene(report.procs.len()) {
                 0
             } else {
                 let objects = &wl.renderer().scene().objects;
