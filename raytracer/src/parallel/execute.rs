@@ -9,7 +9,7 @@ use super::caster::Replay;
 use super::caster::{LocalQueries, PartialCaster};
 use super::kernel::CellMemo;
 use super::tasks::{DdTask, DpTask, RayJob, ShadowDp, ShadowJob, Tile};
-use super::tree::{Child, NodeKey, Record, RtResult};
+use super::tree::{evaluate, Child, NodeKey, Record, RtResult};
 use super::work::Work;
 use super::workload::RtWorkload;
 use crate::accel::{Hit, Judged, NodeId, Partial, TraceCursor};
@@ -227,13 +227,7 @@ impl RtWorkload {
                     tally.spawned += 1;
                     tally.dp += self.shadow_goes_dp(bundle) as u64;
                     let v = SCRATCH.with_borrow_mut(|scratch| {
-                        run_shadow_bundle(
-                            &self.renderer.context(),
-                            caster,
-                            bundle,
-                            scratch,
-                            &mut tally.counts,
-                        )
+                        run_shadow_bundle(&sctx, caster, bundle, scratch, &mut tally.counts)
                     });
                     children.push(match r {
                         Request::Scatter(_) => Child::KnownScatter(v),
@@ -332,17 +326,19 @@ impl RtWorkload {
             &shaded.medium,
             hit.t,
         );
-        ctx.emit_result(
-            dest,
-            RtResult {
-                key,
-                record: Record::Shaded {
-                    base: shaded.base,
-                    children,
-                    attenuation,
-                },
-            },
-        );
+        // Where every child's value is known here (a processor holding the
+        // scene ran its bundles and no ray was spawned), the node's value
+        // goes as the merge would compute it.
+        let record = if whole.is_some() && children.iter().all(|c| !c.awaited()) {
+            Record::Value(evaluate(shaded.base, &children, &[], attenuation))
+        } else {
+            Record::Shaded {
+                base: shaded.base,
+                children,
+                attenuation,
+            }
+        };
+        ctx.emit_result(dest, RtResult { key, record });
     }
 
     /// Traces a ray as far as the local cells allow: finished, or the job

@@ -75,7 +75,7 @@ pub enum Child {
 
 impl Child {
     /// Whether its value arrives as a result of its own.
-    fn awaited(&self) -> bool {
+    pub(super) fn awaited(&self) -> bool {
         !matches!(self, Child::Known(_) | Child::KnownScatter(_))
     }
 }
@@ -247,7 +247,7 @@ impl PixelTrees {
 ///
 /// `arrived` holds the values of the awaited children by request index, in
 /// any order; the others carry theirs.
-fn evaluate(
+pub(super) fn evaluate(
     base: Color,
     children: &[Child],
     arrived: &[(u16, Color)],
