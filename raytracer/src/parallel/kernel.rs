@@ -198,6 +198,26 @@ impl RtWorkload {
         });
     }
 
+    /// Whether the processors read the scene itself instead of copies of
+    /// their cells' objects: one processor, the scene loaded whole, its
+    /// hierarchy the renderer's (so it neither walks the octree over its
+    /// cells nor serves them to another processor).
+    pub(super) fn reads_the_scene(&self, procs: usize) -> bool {
+        procs == 1 && self.held.is_none() && self.opts.local_kernel && !self.replicated()
+    }
+
+    /// Every cell, listing its objects without copies (for a processor
+    /// that [reads the scene](Self::reads_the_scene)).
+    pub(super) fn listed_cells(&self) -> Vec<(NodeId, CellData)> {
+        self.owner_table()
+            .into_iter()
+            .map(|(leaf, _, bytes)| {
+                let cell = LeafObjects::listing(self.renderer.octree().leaf_objects(leaf));
+                (leaf, CellData { leaf, bytes, cell })
+            })
+            .collect()
+    }
+
     /// The renderer's own caster, counting its queries, where processor
     /// `proc` holds every object of a scene loaded whole: its hierarchy is
     /// the renderer's, every answer is decided there, and a query needs

@@ -335,14 +335,6 @@ impl RtWorkload {
 
     /// [`Distribution::Replicated`]: every leaf is local everywhere.
     #[inline]
-    /// Whether the processors read the scene itself instead of copies of
-    /// their cells' objects: one processor, the scene loaded whole, its
-    /// hierarchy the renderer's (so it neither walks the octree over its
-    /// cells nor serves them to another processor).
-    pub(super) fn reads_the_scene(&self, procs: usize) -> bool {
-        procs == 1 && self.held.is_none() && self.opts.local_kernel && !self.replicated()
-    }
-
     pub(super) fn replicated(&self) -> bool {
         self.opts.distribution == Distribution::Replicated
     }
@@ -437,16 +429,7 @@ impl Workload for RtWorkload {
             return cells;
         }
         if self.reads_the_scene(procs) {
-            // Its hierarchy is the renderer's and it serves no one: its
-            // cells list their objects, which it reads from the scene.
-            let cells = self
-                .owner_table()
-                .into_iter()
-                .map(|(leaf, _, bytes)| {
-                    let cell = LeafObjects::listing(self.renderer.octree().leaf_objects(leaf));
-                    (leaf, CellData { leaf, bytes, cell })
-                })
-                .collect::<Vec<_>>();
+            let cells = self.listed_cells();
             self.make_kernel(proc, &cells);
             return cells;
         }
