@@ -340,6 +340,21 @@ fn the_processors_own_hierarchy_changes_no_answer() {
                     "{what}: no walk saved"
                 );
                 assert_eq!(a.work(Work::TraceLeaves), 0, "{what}: a query walked");
+                // It casts through the renderer's hierarchy and reads the
+                // scene itself (no copies), charging each bundle as the
+                // walk does.
+                for w in [
+                    Work::ShadowSpawned,
+                    Work::ShadowBundlesDp,
+                    Work::ShadowBundlesInline,
+                    Work::ShadowBundles,
+                    Work::ShadowPatches,
+                    Work::ShadowEstimated,
+                ] {
+                    assert_eq!(a.work(w), b.work(w), "{what}: {w:?}");
+                }
+                assert_eq!(a.procs[0].copy_bytes, 0, "{what}: copies made");
+                assert!(b.procs[0].copy_bytes > 0, "{what}: the walk needs copies");
             }
         }
     }

@@ -226,9 +226,7 @@ impl RtWorkload {
                     let caster = whole.as_ref().expect("matched");
                     tally.spawned += 1;
                     tally.dp += self.shadow_goes_dp(bundle) as u64;
-                    let v = SCRATCH.with_borrow_mut(|scratch| {
-                        run_shadow_bundle(&sctx, caster, bundle, scratch, &mut tally.counts)
-                    });
+                    let v = self.run_bundle(caster, bundle, &mut tally.counts);
                     children.push(match r {
                         Request::Scatter(_) => Child::KnownScatter(v),
                         _ => Child::Known(v),
@@ -408,6 +406,20 @@ impl RtWorkload {
         }
     }
 
+    /// `bundle`'s value through `caster`, with this thread's scratch
+    /// space, its counts added to `counts`.
+    #[inline]
+    fn run_bundle<C: RayCaster>(
+        &self,
+        caster: &C,
+        bundle: &ShadowBundle,
+        counts: &mut ShadowCounts,
+    ) -> Color {
+        SCRATCH.with_borrow_mut(|scratch| {
+            run_shadow_bundle(&self.renderer.context(), caster, bundle, scratch, counts)
+        })
+    }
+
     /// Runs a shadow bundle as far as the local cells allow: finished, or
     /// the bundle to migrate with its recorded answers. Fresh queries try
     /// the processor's hierarchy first: it decides many, and where it does
@@ -458,15 +470,7 @@ impl RtWorkload {
         if let Some(caster) = self.whole_caster(ctx.proc_id()).filter(|_| fresh) {
             // Everything is here: the sequential renderer's path.
             let mut counts = ShadowCounts::default();
-            let value = SCRATCH.with_borrow_mut(|scratch| {
-                run_shadow_bundle(
-                    &self.renderer.context(),
-                    &caster,
-                    bundle,
-                    scratch,
-                    &mut counts,
-                )
-            });
+            let value = self.run_bundle(&caster, bundle, &mut counts);
             ctx.charge(Work::TraceLeaves, 0);
             ctx.charge(Work::TraceObjects, 0);
             ctx.charge(Work::TraceLocal, caster.queries.get());
@@ -489,15 +493,7 @@ impl RtWorkload {
         )
         .never_blocks(self.holds_everything(ctx.proc_id()));
         let mut counts = ShadowCounts::default();
-        let value = SCRATCH.with_borrow_mut(|scratch| {
-            run_shadow_bundle(
-                &self.renderer.context(),
-                &caster,
-                bundle,
-                scratch,
-                &mut counts,
-            )
-        });
+        let value = self.run_bundle(&caster, bundle, &mut counts);
         let (leaves, tests) = visits.get();
         ctx.charge(Work::TraceLeaves, leaves);
         ctx.charge(Work::TraceObjects, tests);
