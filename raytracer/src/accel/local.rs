@@ -361,10 +361,11 @@ impl GrownKernel {
 }
 
 /// Per processor, where the parallel renderer keeps its grown hierarchy:
-/// the latest build, and the number of cached items at which the next one
-/// is due.
+/// the latest build, the number of cached items it was built over, and
+/// the number at which the next one is due.
 #[derive(Debug, Default)]
 pub struct GrownSlot {
     pub kernel: Option<std::sync::Arc<GrownKernel>>,
+    pub built_over: usize,
     pub next_build: usize,
 }

@@ -7,7 +7,7 @@ use hybrid_sched::{Addr, Ctx, DataView};
 
 use super::caster::Replay;
 use super::caster::{LocalQueries, PartialCaster};
-use super::kernel::CellMemo;
+use super::kernel::{CellMemo, LocalPath};
 use super::tasks::{DdTask, DpTask, RayJob, ShadowDp, ShadowJob, Tile};
 use super::tree::{evaluate, Child, NodeKey, Record, RtResult};
 use super::work::Work;
@@ -210,6 +210,10 @@ impl RtWorkload {
             .whole_caster(ctx.proc_id())
             .filter(|_| self.opts.inline_local_shadows);
         let mut tally = WholeTally::default();
+        // Elsewhere, the processor's hierarchy, looked up once for all the
+        // point's bundles.
+        let (pid, local) = (ctx.proc_id(), std::cell::OnceCell::new());
+        let path = || local.get_or_init(|| self.local_path(pid, data)).as_ref();
         for (i, r) in requests.iter().enumerate() {
             match r {
                 Request::Trace { task: child, coef } => {
@@ -252,7 +256,7 @@ impl RtWorkload {
                             // Its first step would run here (it names no
                             // cell yet): run it now.
                             ctx.charge(Work::ShadowBundlesInline, 1);
-                            match self.try_shadow(bundle, Replay::default(), data, ctx) {
+                            match self.try_shadow(bundle, Replay::default(), path(), data, ctx) {
                                 ShadowRun::Done(v) => Some(v),
                                 ShadowRun::Blocked(replay, leaf) => {
                                     ctx.spawn_dp(DpTask::Shadow(fresh(bundle, replay, Some(leaf))));
@@ -268,7 +272,7 @@ impl RtWorkload {
                         // ray still leave the resident cells, the bundle
                         // migrates as a data-parallel one).
                         ctx.charge(Work::ShadowBundlesInline, 1);
-                        match self.try_shadow(bundle, Replay::default(), data, ctx) {
+                        match self.try_shadow(bundle, Replay::default(), path(), data, ctx) {
                             ShadowRun::Done(v) => Some(v),
                             ShadowRun::Blocked(replay, leaf) => {
                                 ctx.charge(Work::ClipMisses, 1);
@@ -283,7 +287,7 @@ impl RtWorkload {
                         // need a cell from elsewhere, it is scheduled as if
                         // it had not been tried.
                         let tried = (inline && self.has_local_path(ctx.proc_id()))
-                            .then(|| self.try_shadow(bundle, Replay::default(), data, ctx));
+                            .then(|| self.try_shadow(bundle, Replay::default(), path(), data, ctx));
                         match tried {
                             Some(ShadowRun::Done(v)) => {
                                 ctx.charge(Work::ShadowBundlesInline, 1);
@@ -393,6 +397,7 @@ impl RtWorkload {
         );
         ctx.charge(Work::TraceLeaves, leaves);
         ctx.charge(Work::TraceObjects, tests);
+        self.note_walked(ctx.proc_id(), leaves);
         match partial {
             Partial::Blocked(leaf) => {
                 job.next = Some(leaf);
@@ -433,7 +438,8 @@ impl RtWorkload {
         ctx: &mut Ctx<Self>,
     ) -> Option<ShadowDp> {
         let replay = std::mem::take(&mut job.replay);
-        match self.try_shadow(&job.bundle, replay, data, ctx) {
+        let local = self.local_path(ctx.proc_id(), data);
+        match self.try_shadow(&job.bundle, replay, local.as_ref(), data, ctx) {
             ShadowRun::Done(value) => {
                 ctx.emit_result(
                     Addr::Proc(ctx.origin()),
@@ -453,11 +459,13 @@ impl RtWorkload {
     }
 
     /// [`Self::advance_shadow`] on a bundle by reference, emitting nothing:
-    /// its value, or where it stopped.
+    /// its value, or where it stopped. `local`: the processor's hierarchy
+    /// ([`Self::local_path`]).
     pub(super) fn try_shadow(
         &self,
         bundle: &ShadowBundle,
         replay: Replay,
+        local: Option<&LocalPath<'_>>,
         data: &DataView<'_, Self>,
         ctx: &mut Ctx<Self>,
     ) -> ShadowRun {
@@ -479,7 +487,6 @@ impl RtWorkload {
         }
         let visits = std::cell::Cell::new((0u64, 0u64));
         let memo = CellMemo::new(data, self, ctx.proc_id());
-        let local = self.local_path(ctx.proc_id(), data);
         let caster = PartialCaster::new(
             octree,
             shared,
@@ -489,7 +496,7 @@ impl RtWorkload {
                 memo.get(l)
             },
             replay,
-            local.as_ref().map(|l| l as &dyn LocalQueries),
+            local.map(|l| l as &dyn LocalQueries),
         )
         .never_blocks(self.holds_everything(ctx.proc_id()));
         let mut counts = ShadowCounts::default();
@@ -497,6 +504,7 @@ impl RtWorkload {
         let (leaves, tests) = visits.get();
         ctx.charge(Work::TraceLeaves, leaves);
         ctx.charge(Work::TraceObjects, tests);
+        self.note_walked(ctx.proc_id(), leaves);
         ctx.charge(Work::TraceLocal, caster.local_answers.get());
         if let Some(leaf) = caster.blocked() {
             return ShadowRun::Blocked(caster.into_replay(), leaf);
