@@ -508,6 +508,15 @@ impl<'a, W: Workload> DataView<'a, W> {
         Some(item)
     }
 
+    /// [`DataView::get`] without refreshing the item's recency or counting
+    /// a use: for a task that reads again, in the same step, what it has
+    /// read already (its uses are counted once).
+    pub fn peek(&self, id: &W::DataId) -> Option<&'a W::DataItem> {
+        self.resident
+            .get(id)
+            .or_else(|| self.cache.and_then(|c| c.peek(id)))
+    }
+
     /// Whether the item is resident or cached here.
     pub fn is_local(&self, id: &W::DataId) -> bool {
         self.resident.contains_key(id) || self.cache.is_some_and(|c| c.contains(id))

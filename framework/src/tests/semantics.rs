@@ -96,3 +96,24 @@ fn progress_under_hot_spot_single_credit_and_tight_caches() {
         }
     }
 }
+
+/// A view's `get` of a cached item is a use (the processor refreshes its
+/// recency and counts a hit after the hook); `peek` reads the same item
+/// without one, so a hook may read again what it has read.
+#[test]
+fn peeking_reads_without_a_use() {
+    use crate::cache::ByteLru;
+    use crate::resident::Resident;
+    let mut resident = Resident::default();
+    resident.insert(1u32, Item(vec![1]));
+    let mut cache = ByteLru::new(None);
+    cache.insert(2u32, Item(vec![2]), 32);
+    let view = crate::DataView::<Mini>::new(&resident, Some(&cache));
+    assert_eq!(view.peek(&1), Some(&Item(vec![1])));
+    assert_eq!(view.peek(&2), Some(&Item(vec![2])));
+    assert_eq!(view.peek(&3), None);
+    assert!(view.into_touched().is_empty(), "peeks are not uses");
+    let view = crate::DataView::<Mini>::new(&resident, Some(&cache));
+    assert_eq!(view.get(&2), view.peek(&2));
+    assert_eq!(view.into_touched(), vec![2], "a get is");
+}

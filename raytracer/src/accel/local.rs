@@ -369,3 +369,12 @@ pub struct GrownSlot {
     pub built_over: usize,
     pub next_build: usize,
 }
+
+/// A processor's [`GrownSlot`] behind a lock, and the leaves its queries
+/// have walked since the last build because it does not hold them
+/// (counted without the lock: every shadow bundle adds to it).
+#[derive(Debug, Default)]
+pub struct Grown {
+    pub slot: std::sync::Mutex<GrownSlot>,
+    pub walked: std::sync::atomic::AtomicU64,
+}

@@ -14,7 +14,8 @@ pub use cells::{
 };
 pub use clip::{ClipResult, Plane, Pyramid};
 pub use local::{
-    GrownKernel, GrownSlot, Hierarchy, HierarchyObjects, Judged, LocalKernel, ProcessorKernel,
+    Grown, GrownKernel, GrownSlot, Hierarchy, HierarchyObjects, Judged, LocalKernel,
+    ProcessorKernel,
 };
 pub use octree::{
     intersect_brute_force, occluded_brute_force, LeafSpan, NodeId, NodeView, Octree, OctreeParams,

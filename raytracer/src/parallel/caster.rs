@@ -67,8 +67,22 @@ pub struct PartialCaster<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> {
     local: Option<&'a dyn LocalQueries>,
     /// Queries it answered.
     pub local_answers: Cell<u64>,
-    /// Record answers for a replay (off where no query can block).
-    recording: bool,
+    /// Whether answers are recorded for a replay.
+    recording: Recording,
+}
+
+/// Whether a [`PartialCaster`] records its answers for a replay.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Recording {
+    /// Every answer: a blocked bundle's replay is complete.
+    On,
+    /// None, and no query may block (every leaf is held here).
+    Off,
+    /// None: a blocked bundle must be run again with [`Recording::On`] for
+    /// its replay. For fresh bundles, which seldom block, the recording
+    /// (an allocation and a copy of every answer) costs more than the
+    /// rare second run.
+    Deferred,
 }
 
 impl<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> PartialCaster<'a, 'c, F> {
@@ -89,17 +103,22 @@ impl<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> PartialCaster<'a, 'c, F> 
             next: Cell::new(0),
             blocked: Cell::new(None),
             queries: Cell::new(0),
-            recording: true,
+            recording: Recording::On,
         }
     }
 
-    /// `true` where every leaf is held here (one processor, or the `worst`
-    /// distribution's), so no query can block and no answer need be
-    /// recorded for a replay. Wrong anywhere else: a blocked bundle's
-    /// replay would miss the answers before the block.
-    pub fn never_blocks(mut self, never: bool) -> Self {
-        self.recording = !never;
+    /// How answers are recorded ([`Recording::On`] unless told):
+    /// [`Recording::Off`] only where every leaf is held here (one
+    /// processor, or the `worst` distribution's), so no query can block.
+    pub fn recording(mut self, recording: Recording) -> Self {
+        self.recording = recording;
         self
+    }
+
+    /// Whether a blocked bundle's replay ([`Self::into_replay`]) holds
+    /// every answer before the block.
+    pub fn replayable(&self) -> bool {
+        self.recording == Recording::On
     }
 
     /// The leaf a query was blocked on, if any.
@@ -126,7 +145,7 @@ impl<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> PartialCaster<'a, 'c, F> 
     }
 
     fn record(&self, a: Answer) {
-        if !self.recording {
+        if self.recording != Recording::On {
             debug_assert!(self.blocked.get().is_none());
             return;
         }
@@ -137,7 +156,7 @@ impl<'a, 'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> PartialCaster<'a, 'c, F> 
 
     fn block(&self, leaf: NodeId, cursor: TraceCursor) {
         assert!(
-            self.recording,
+            self.recording != Recording::Off,
             "a query blocked on leaf {leaf} where every leaf was said to be held"
         );
         self.blocked.set(Some(leaf));

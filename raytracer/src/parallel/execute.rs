@@ -6,7 +6,7 @@
 use hybrid_sched::{Addr, Ctx, DataView};
 
 use super::caster::Replay;
-use super::caster::{LocalQueries, PartialCaster};
+use super::caster::{LocalQueries, PartialCaster, Recording};
 use super::kernel::{CellMemo, LocalPath};
 use super::tasks::{DdTask, DpTask, RayJob, ShadowDp, ShadowJob, Tile};
 use super::tree::{evaluate, Child, NodeKey, Record, RtResult};
@@ -487,6 +487,14 @@ impl RtWorkload {
         }
         let visits = std::cell::Cell::new((0u64, 0u64));
         let memo = CellMemo::new(data, self, ctx.proc_id());
+        let recording = if self.holds_everything(ctx.proc_id()) {
+            Recording::Off
+        } else if fresh {
+            Recording::Deferred
+        } else {
+            Recording::On
+        };
+        let local = local.map(|l| l as &dyn LocalQueries);
         let caster = PartialCaster::new(
             octree,
             shared,
@@ -496,9 +504,9 @@ impl RtWorkload {
                 memo.get(l)
             },
             replay,
-            local.map(|l| l as &dyn LocalQueries),
+            local,
         )
-        .never_blocks(self.holds_everything(ctx.proc_id()));
+        .recording(recording);
         let mut counts = ShadowCounts::default();
         let value = self.run_bundle(&caster, bundle, &mut counts);
         let (leaves, tests) = visits.get();
@@ -507,7 +515,22 @@ impl RtWorkload {
         self.note_walked(ctx.proc_id(), leaves);
         ctx.charge(Work::TraceLocal, caster.local_answers.get());
         if let Some(leaf) = caster.blocked() {
-            return ShadowRun::Blocked(caster.into_replay(), leaf);
+            if caster.replayable() {
+                return ShadowRun::Blocked(caster.into_replay(), leaf);
+            }
+            // Run again from the start, recording the answers up to the
+            // same block (the same queries, the same answers); its work
+            // and its uses of the cache are counted once, above.
+            let again = PartialCaster::new(
+                octree,
+                shared,
+                |l| data.peek(&l).map(|c| &c.cell),
+                Replay::default(),
+                local,
+            );
+            self.run_bundle(&again, bundle, &mut ShadowCounts::default());
+            debug_assert_eq!(again.blocked(), Some(leaf));
+            return ShadowRun::Blocked(again.into_replay(), leaf);
         }
         charge_shadow(ctx, &counts);
         ShadowRun::Done(value)

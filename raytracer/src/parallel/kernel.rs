@@ -145,15 +145,6 @@ const FIRST_GROWTH: usize = 16;
 /// cache has grown by a quarter again, which may be never.
 const WALKED_PER_OBJECT: u64 = 10;
 
-/// Per processor, its hierarchy grown over its cache, and the leaves its
-/// queries have walked since the last build because it does not hold
-/// them (counted without the lock: every bundle adds to it).
-#[derive(Debug, Default)]
-pub struct Grown {
-    slot: std::sync::Mutex<crate::accel::GrownSlot>,
-    walked: std::sync::atomic::AtomicU64,
-}
-
 impl RtWorkload {
     /// Bytes of processor `proc`'s own hierarchies: the one over its
     /// resident cells and the latest grown over its cache

@@ -123,7 +123,7 @@ pub struct RtWorkload {
     /// Per processor, its hierarchy (option `local_kernel`).
     pub(super) kernels: Vec<std::sync::OnceLock<crate::accel::ProcessorKernel>>,
     /// Per processor, its hierarchy grown over its cache (see [`super::kernel`]).
-    pub(super) grown: Vec<super::kernel::Grown>,
+    pub(super) grown: Vec<crate::accel::Grown>,
     /// A distributed compiled scene: the renderer holds its replicated
     /// part, and each processor reads its own cells (see
     /// [`RtWorkload::distributed`]).
