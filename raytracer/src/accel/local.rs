@@ -140,15 +140,19 @@ impl Hierarchy<'_> {
     /// Undecided, the nearest hit among its objects (for the walk to
     /// start from, passing the resident leaves,
     /// [`Octree::intersect_partial_past`]).
-    pub fn intersect(
+    pub fn intersect<S, K>(
         &self,
         octree: &Octree,
         ray: &Ray,
         tmin: f64,
         tmax: f64,
-        owned: &dyn Fn(NodeId) -> bool,
-        resident: &dyn Fn(NodeId) -> bool,
-    ) -> Judged<Option<Hit>> {
+        owned: &S,
+        resident: &K,
+    ) -> Judged<Option<Hit>>
+    where
+        S: Fn(NodeId) -> bool + ?Sized,
+        K: Fn(NodeId) -> bool + ?Sized,
+    {
         let hit = match self.objects {
             HierarchyObjects::Scene(o) => self.bvh.intersect(o, ray, tmin, tmax),
             HierarchyObjects::Copies(o) => self.bvh.intersect(o, ray, tmin, tmax),
@@ -173,16 +177,20 @@ impl Hierarchy<'_> {
     /// they do not and every leaf along it is theirs. Undecided, `false`:
     /// no object here blocks it.
     #[allow(clippy::too_many_arguments)]
-    pub fn occluded(
+    pub fn occluded<S, K>(
         &self,
         octree: &Octree,
         ray: &Ray,
         tmin: f64,
         tmax: f64,
         ignore: Option<ObjectId>,
-        owned: &dyn Fn(NodeId) -> bool,
-        resident: &dyn Fn(NodeId) -> bool,
-    ) -> Judged<bool> {
+        owned: &S,
+        resident: &K,
+    ) -> Judged<bool>
+    where
+        S: Fn(NodeId) -> bool + ?Sized,
+        K: Fn(NodeId) -> bool + ?Sized,
+    {
         let ignore = ignore.and_then(|id| self.index_of(id));
         self.occluded_indexed(octree, ray, tmin, tmax, ignore, owned, resident)
     }
@@ -200,16 +208,20 @@ impl Hierarchy<'_> {
     /// index here ([`Hierarchy::index_of`]: the many shadow rays from one
     /// point look it up once).
     #[allow(clippy::too_many_arguments)]
-    pub fn occluded_indexed(
+    pub fn occluded_indexed<S, K>(
         &self,
         octree: &Octree,
         ray: &Ray,
         tmin: f64,
         tmax: f64,
         ignore: Option<ObjectId>,
-        owned: &dyn Fn(NodeId) -> bool,
-        resident: &dyn Fn(NodeId) -> bool,
-    ) -> Judged<bool> {
+        owned: &S,
+        resident: &K,
+    ) -> Judged<bool>
+    where
+        S: Fn(NodeId) -> bool + ?Sized,
+        K: Fn(NodeId) -> bool + ?Sized,
+    {
         // A blocker here blocks the segment for the octree too, wherever
         // the segment goes: the leaf holding the blocking point lists it.
         // Only "unblocked" needs every leaf along the segment judged.

@@ -1179,15 +1179,19 @@ impl Octree {
     /// the ones it would visit up to `cut` (a leaf entered exactly at `cut`
     /// included). Used to decide that a query answered from the objects
     /// of some leaves is the octree's answer (see [`crate::accel::LocalKernel`]).
-    pub fn leaves_along_all(
+    pub fn leaves_along_all<S, K>(
         &self,
         ray: &Ray,
         tmin: f64,
         tmax: f64,
         cut: f64,
-        skip: &dyn Fn(NodeId) -> bool,
-        ok: &dyn Fn(NodeId) -> bool,
-    ) -> bool {
+        skip: &S,
+        ok: &K,
+    ) -> bool
+    where
+        S: Fn(NodeId) -> bool + ?Sized,
+        K: Fn(NodeId) -> bool + ?Sized,
+    {
         if self.nodes.is_empty() || skip(0) {
             return true;
         }
@@ -1208,16 +1212,20 @@ impl Octree {
     /// [`Octree::leaves_along_all`] below node `id`, entered over `[t0,
     /// t1]`: [`Octree::visit_node`]'s child order and intervals.
     #[allow(clippy::too_many_arguments)]
-    fn judge_node(
+    fn judge_node<S, K>(
         &self,
         r: &RayTrav,
         id: NodeId,
         t0: f64,
         t1: f64,
         cut: f64,
-        skip: &dyn Fn(NodeId) -> bool,
-        ok: &dyn Fn(NodeId) -> bool,
-    ) -> bool {
+        skip: &S,
+        ok: &K,
+    ) -> bool
+    where
+        S: Fn(NodeId) -> bool + ?Sized,
+        K: Fn(NodeId) -> bool + ?Sized,
+    {
         if t0 > cut || skip(id) {
             return true;
         }

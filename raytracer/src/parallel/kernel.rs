@@ -76,20 +76,6 @@ impl LocalPath<'_> {
         self.wl.partition.owner(leaf) == self.proc
     }
 
-    /// `f` given the hierarchy and the judgement of what it was built
-    /// over: subtrees whose every non-empty leaf it holds, and the leaves
-    /// it holds.
-    #[inline]
-    fn judged<R>(
-        &self,
-        f: impl FnOnce(Hierarchy<'_>, &dyn Fn(NodeId) -> bool, &dyn Fn(NodeId) -> bool) -> R,
-    ) -> R {
-        match &self.source {
-            Source::Resident(h) => f(*h, &|n| self.owned(n), &|l| self.resident(l)),
-            Source::Grown(g) => f(g.hierarchy(), &|n| g.covers(n), &|l| g.holds(l)),
-        }
-    }
-
     /// Leaves whose every object the hierarchy holds.
     #[inline]
     pub fn holds(&self, leaf: NodeId) -> bool {
@@ -103,7 +89,21 @@ impl LocalPath<'_> {
     /// the nearest of theirs ([`Hierarchy::intersect`]).
     pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Judged<Option<Hit>> {
         let octree = self.wl.renderer.octree();
-        self.judged(|h, covered, held| h.intersect(octree, ray, tmin, tmax, covered, held))
+        // The judgement of what the hierarchy was built over (subtrees
+        // whose every non-empty leaf it holds, and the leaves it holds),
+        // compiled for each source: it is asked at every node a judged
+        // segment crosses.
+        match &self.source {
+            Source::Resident(h) => h.intersect(octree, ray, tmin, tmax, &|n| self.owned(n), &|l| {
+                self.resident(l)
+            }),
+            Source::Grown(g) => {
+                let covered = |n| g.covers(n);
+                let held = |l| g.holds(l);
+                g.hierarchy()
+                    .intersect(octree, ray, tmin, tmax, &covered, &held)
+            }
+        }
     }
 
     /// The octree's any-hit answer, if the objects here decide it
@@ -116,17 +116,32 @@ impl LocalPath<'_> {
         ignore: Option<ObjectId>,
     ) -> Judged<bool> {
         let octree = self.wl.renderer.octree();
-        self.judged(|h, covered, held| {
-            let ignore = ignore.and_then(|id| match self.ignored.get() {
+        let index = |h: &Hierarchy<'_>| {
+            ignore.and_then(|id| match self.ignored.get() {
                 Some((i, k)) if i == id => k,
                 _ => {
                     let k = h.index_of(id);
                     self.ignored.set(Some((id, k)));
                     k
                 }
-            });
-            h.occluded_indexed(octree, ray, tmin, tmax, ignore, covered, held)
-        })
+            })
+        };
+        match &self.source {
+            Source::Resident(h) => h.occluded_indexed(
+                octree,
+                ray,
+                tmin,
+                tmax,
+                index(h),
+                &|n| self.owned(n),
+                &|l| self.resident(l),
+            ),
+            Source::Grown(g) => {
+                let h = g.hierarchy();
+                let (covered, held) = (|n| g.covers(n), |l| g.holds(l));
+                h.occluded_indexed(octree, ray, tmin, tmax, index(&h), &covered, &held)
+            }
+        }
     }
 }
 
