@@ -7,14 +7,17 @@
 //! With a cache that never evicts, what a processor has fetched stays
 //! local for the rest of the run, so its hierarchy *grows*: it is rebuilt
 //! over its resident and cached leaves whenever the cache has grown by a
-//! quarter since the last build ([`GrownKernel`]). The rule of the
-//! answers is the same, with "held by the hierarchy" for "resident": a
-//! query is answered by it only if every non-empty leaf it enters is one
-//! the hierarchy was built over. A leaf cached since is walked as before until the next
-//! build. The rebuilds cost at most about five builds of the final
+//! quarter since the last build ([`GrownKernel`]), or once the walks
+//! through leaves cached since have cost about what a rebuild costs
+//! ([`WALKED_PER_OBJECT`]). The rule of the answers is the same, with
+//! "held by the hierarchy" for "resident": a query is answered by it only
+//! if every non-empty leaf it enters is one the hierarchy was built over.
+//! A leaf cached since is walked as before until the next build. The
+//! rebuilds by growth cost at most about five builds of the final
 //! hierarchy in all (each is at least a quarter larger than the one
-//! before), and they spare the walk for every query that stays among the
-//! cells the processor has come to hold.
+//! before), those by walks at most what the walks they end had cost; they
+//! spare the walk for every query that stays among the cells the processor
+//! has come to hold.
 
 use std::sync::Arc;
 
