@@ -31,7 +31,7 @@
 use std::sync::Arc;
 
 use super::cells::{HeldObject, LeafObjects};
-use super::octree::{NodeId, Octree};
+use super::octree::{NodeId, NodeTest, Octree};
 use crate::geometry::prims::Prims;
 use crate::geometry::{Bvh, Hit, Object, ObjectTable, Ray};
 use crate::scene::ObjectId;
@@ -140,7 +140,7 @@ impl Hierarchy<'_> {
     /// Undecided, the nearest hit among its objects (for the walk to
     /// start from, passing the resident leaves,
     /// [`Octree::intersect_partial_past`]).
-    pub fn intersect<S, K>(
+    pub fn intersect<S: NodeTest + ?Sized, K: NodeTest + ?Sized>(
         &self,
         octree: &Octree,
         ray: &Ray,
@@ -148,11 +148,7 @@ impl Hierarchy<'_> {
         tmax: f64,
         owned: &S,
         resident: &K,
-    ) -> Judged<Option<Hit>>
-    where
-        S: Fn(NodeId) -> bool + ?Sized,
-        K: Fn(NodeId) -> bool + ?Sized,
-    {
+    ) -> Judged<Option<Hit>> {
         let hit = match self.objects {
             HierarchyObjects::Scene(o) => self.bvh.intersect(o, ray, tmin, tmax),
             HierarchyObjects::Copies(o) => self.bvh.intersect(o, ray, tmin, tmax),
@@ -177,7 +173,7 @@ impl Hierarchy<'_> {
     /// they do not and every leaf along it is theirs. Undecided, `false`:
     /// no object here blocks it.
     #[allow(clippy::too_many_arguments)]
-    pub fn occluded<S, K>(
+    pub fn occluded<S: NodeTest + ?Sized, K: NodeTest + ?Sized>(
         &self,
         octree: &Octree,
         ray: &Ray,
@@ -186,11 +182,7 @@ impl Hierarchy<'_> {
         ignore: Option<ObjectId>,
         owned: &S,
         resident: &K,
-    ) -> Judged<bool>
-    where
-        S: Fn(NodeId) -> bool + ?Sized,
-        K: Fn(NodeId) -> bool + ?Sized,
-    {
+    ) -> Judged<bool> {
         let ignore = ignore.and_then(|id| self.index_of(id));
         self.occluded_indexed(octree, ray, tmin, tmax, ignore, owned, resident)
     }
@@ -208,7 +200,7 @@ impl Hierarchy<'_> {
     /// index here ([`Hierarchy::index_of`]: the many shadow rays from one
     /// point look it up once).
     #[allow(clippy::too_many_arguments)]
-    pub fn occluded_indexed<S, K>(
+    pub fn occluded_indexed<S: NodeTest + ?Sized, K: NodeTest + ?Sized>(
         &self,
         octree: &Octree,
         ray: &Ray,
@@ -217,11 +209,7 @@ impl Hierarchy<'_> {
         ignore: Option<ObjectId>,
         owned: &S,
         resident: &K,
-    ) -> Judged<bool>
-    where
-        S: Fn(NodeId) -> bool + ?Sized,
-        K: Fn(NodeId) -> bool + ?Sized,
-    {
+    ) -> Judged<bool> {
         // A blocker here blocks the segment for the octree too, wherever
         // the segment goes: the leaf holding the blocking point lists it.
         // Only "unblocked" needs every leaf along the segment judged.

@@ -18,8 +18,8 @@ pub use local::{
     ProcessorKernel,
 };
 pub use octree::{
-    intersect_brute_force, occluded_brute_force, LeafSpan, NodeId, NodeView, Octree, OctreeParams,
-    OctreeStats, Partial, SkeletonNode, TraceCursor, MAX_DEPTH,
+    intersect_brute_force, occluded_brute_force, LeafSpan, NodeId, NodeTest, NodeView, Octree,
+    OctreeParams, OctreeStats, Partial, SkeletonNode, TraceCursor, MAX_DEPTH,
 };
 
 #[cfg(test)]

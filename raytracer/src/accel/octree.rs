@@ -145,6 +145,14 @@ const ONCE: u8 = 2;
 /// cell centre): the octree's build limit, so nearly every leaf has them.
 const INLINE: usize = 6;
 
+/// A test of octree nodes (which subtrees or leaves a processor holds),
+/// as the judgement of a hierarchy's answers asks it at every node a
+/// segment crosses ([`Octree::leaves_along_all`]): any `Fn(NodeId) ->
+/// bool`, compiled into the judgement where its type is known.
+pub trait NodeTest: Fn(NodeId) -> bool {}
+
+impl<T: Fn(NodeId) -> bool + ?Sized> NodeTest for T {}
+
 /// A node as the traversal reads it, in 32 bytes (half a cache line).
 ///
 /// Internal node: `w` holds the bits of the cell centre, `first` is the
@@ -1179,7 +1187,7 @@ impl Octree {
     /// the ones it would visit up to `cut` (a leaf entered exactly at `cut`
     /// included). Used to decide that a query answered from the objects
     /// of some leaves is the octree's answer (see [`crate::accel::LocalKernel`]).
-    pub fn leaves_along_all<S, K>(
+    pub fn leaves_along_all<S: NodeTest + ?Sized, K: NodeTest + ?Sized>(
         &self,
         ray: &Ray,
         tmin: f64,
@@ -1187,11 +1195,7 @@ impl Octree {
         cut: f64,
         skip: &S,
         ok: &K,
-    ) -> bool
-    where
-        S: Fn(NodeId) -> bool + ?Sized,
-        K: Fn(NodeId) -> bool + ?Sized,
-    {
+    ) -> bool {
         if self.nodes.is_empty() || skip(0) {
             return true;
         }
@@ -1212,7 +1216,7 @@ impl Octree {
     /// [`Octree::leaves_along_all`] below node `id`, entered over `[t0,
     /// t1]`: [`Octree::visit_node`]'s child order and intervals.
     #[allow(clippy::too_many_arguments)]
-    fn judge_node<S, K>(
+    fn judge_node<S: NodeTest + ?Sized, K: NodeTest + ?Sized>(
         &self,
         r: &RayTrav,
         id: NodeId,
@@ -1221,11 +1225,7 @@ impl Octree {
         cut: f64,
         skip: &S,
         ok: &K,
-    ) -> bool
-    where
-        S: Fn(NodeId) -> bool + ?Sized,
-        K: Fn(NodeId) -> bool + ?Sized,
-    {
+    ) -> bool {
         if t0 > cut || skip(id) {
             return true;
         }
