@@ -23,15 +23,15 @@
 //! component gives an infinite inverse; the `0 * inf` NaN of a ray exactly
 //! on a box plane leaves that axis unconstrained).
 
+mod leaf;
 mod packet;
 
 pub use packet::{Segment, PACKET};
 
 use std::mem::MaybeUninit;
 
-use super::prims::{Prims, Tester};
-use super::robust::next_up;
-use super::shape::{Hit, InstanceGeometry, Object, ObjectId, ObjectIndex, ObjectSet, ShapeHit};
+use super::prims::{Prims, Tester, TriRay};
+use super::shape::{Hit, InstanceGeometry, Object, ObjectId, ObjectIndex, ObjectSet};
 use super::{Aabb, PreparedRay, Ray, Vec3};
 
 /// Largest number of objects in a leaf.
@@ -132,6 +132,13 @@ trait Enter {
     /// # Safety
     /// The implementation's instructions must be available.
     unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]);
+
+    /// The distances of a leaf block's four triangles ([`leaf::Tri4`]),
+    /// NaN where the ray misses; every implementation gives the same.
+    ///
+    /// # Safety
+    /// The implementation's instructions must be available.
+    unsafe fn tri4(tr: &TriRay, b: &leaf::Tri4) -> [f64; 4];
 }
 
 /// Portable code.
@@ -146,6 +153,11 @@ impl Enter for Portable {
             m |= ((t0[l] <= t1[l]) as u32) << l;
         }
         (m, t0)
+    }
+
+    #[inline(always)]
+    unsafe fn tri4(tr: &TriRay, b: &leaf::Tri4) -> [f64; 4] {
+        leaf::lanes(tr, b)
     }
 }
 
@@ -179,6 +191,11 @@ impl Enter for Avx2 {
         _mm256_storeu_pd(out.as_mut_ptr(), t0);
         (m, out)
     }
+
+    #[inline(always)]
+    unsafe fn tri4(tr: &TriRay, b: &leaf::Tri4) -> [f64; 4] {
+        leaf::lanes_avx2(tr, b)
+    }
 }
 
 /// The hierarchy. `Default` is the empty one (every query misses).
@@ -191,6 +208,9 @@ pub struct Bvh {
     /// Objects without finite bounds: tested by every ray.
     unbounded: Vec<ObjectId>,
     prims: Prims,
+    /// The leaves' polygons as blocks of four triangles (empty where the
+    /// polygons' data is shared with copies: see [`Bvh::build_with`]).
+    blocks: leaf::Blocks,
     /// Deepest leaf (the root's children have depth 1).
     depth: u32,
 }
@@ -668,7 +688,9 @@ impl Bvh {
     /// `objects`). Objects with empty bounds are left out, like the
     /// octree's. Deterministic: the same objects give the same tree.
     pub fn build(objects: &[Object]) -> Bvh {
-        Self::build_with(objects, Prims::build(objects))
+        let mut bvh = Self::build_with(objects, Prims::build_without_polygons(objects));
+        bvh.blocks = leaf::Blocks::build(&bvh.nodes, &mut bvh.ids, objects);
+        bvh
     }
 
     /// [`Bvh::build`] with the objects' intersection data given (built for
@@ -764,6 +786,7 @@ impl Bvh {
         self.nodes.capacity() * std::mem::size_of::<Wide>()
             + (self.ids.capacity() + self.unbounded.capacity()) * std::mem::size_of::<ObjectId>()
             + self.prims.memory_bytes()
+            + self.blocks.memory_bytes()
     }
 
     /// Nearest hit with `tmin < t < tmax` among `objects` (the slice the
@@ -825,19 +848,11 @@ impl Bvh {
     ) -> Option<Hit> {
         let pre = PreparedRay::new(ray);
         let test = Tester::new(&self.prims, objects, &pre);
-        let mut best: Option<(f64, ObjectId, ShapeHit)> = None;
+        let blocks = test.compact().filter(|_| !self.blocks.is_empty());
+        let mut best: leaf::Best = None;
         let mut cut = tmax;
-        let mut consider = |id: ObjectId, cut: &mut f64| {
-            let bound = if best.is_some() { next_up(*cut) } else { *cut };
-            if let Some(h) = test.intersect(id, tmin, bound) {
-                if best.is_none_or(|(bt, bid, _)| h.t < bt || (h.t == bt && id < bid)) {
-                    best = Some((h.t, id, h));
-                    *cut = h.t;
-                }
-            }
-        };
         for &id in &self.unbounded {
-            consider(id, &mut cut);
+            packet::consider(&test, tmin, id, &mut cut, &mut best);
         }
         if !self.nodes.is_empty() {
             let slab = Slab::new(ray, pre.inv_dir);
@@ -849,34 +864,52 @@ impl Bvh {
             let (mut link, mut count) = (0u32, 0u32);
             loop {
                 if count > 0 {
-                    let s = link as usize;
-                    for &id in &self.ids[s..s + count as usize] {
-                        consider(id, &mut cut);
+                    let (s, count) = (link as usize, count as usize);
+                    let mut ids = &self.ids[s..s + count];
+                    if let Some((prims, tr)) = blocks {
+                        let (tris, polys) = self.blocks.leaf(s, count);
+                        leaf::nearest::<E>(tris, prims, tr, tmin, &mut cut, &mut best);
+                        ids = &ids[polys..];
+                    }
+                    for &id in ids {
+                        packet::consider(&test, tmin, id, &mut cut, &mut best);
                     }
                 } else {
                     let n = &self.nodes[link as usize];
-                    let (mut m, t0) = E::enter4(&slab, n, tmin, cut);
-                    if m != 0 && m & (m - 1) == 0 {
-                        // One child entered (the common case): on to it.
-                        let lane = m.trailing_zeros() as usize;
-                        (link, count) = (n.link[lane], n.count[lane]);
-                        continue;
-                    }
-                    // The children entered, farthest pushed first (ties
-                    // by lane: deterministic).
-                    let base = sp;
-                    while m != 0 {
-                        let lane = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        let e = (n.link[lane], n.count[lane], t0[lane]);
-                        let mut j = sp;
-                        // SAFETY: `j - 1 < sp`: written.
-                        while j > base && unsafe { stack[j - 1].assume_init() }.2 < e.2 {
-                            stack[j] = stack[j - 1];
-                            j -= 1;
+                    let (m, t0) = E::enter4(&slab, n, tmin, cut);
+                    if m != 0 {
+                        // On to the nearest child entered (the first of
+                        // equal ones); the others pending, farthest pushed
+                        // first (ties by lane: deterministic).
+                        let mut near = m.trailing_zeros() as usize;
+                        let mut rest = m & (m - 1);
+                        if rest != 0 {
+                            let mut r = rest;
+                            while r != 0 {
+                                let lane = r.trailing_zeros() as usize;
+                                r &= r - 1;
+                                if t0[lane] < t0[near] {
+                                    near = lane;
+                                }
+                            }
+                            rest = m & !(1 << near);
                         }
-                        stack[j] = MaybeUninit::new(e);
-                        sp += 1;
+                        let base = sp;
+                        while rest != 0 {
+                            let lane = rest.trailing_zeros() as usize;
+                            rest &= rest - 1;
+                            let e = (n.link[lane], n.count[lane], t0[lane]);
+                            let mut j = sp;
+                            // SAFETY: `j - 1 < sp`: written.
+                            while j > base && unsafe { stack[j - 1].assume_init() }.2 < e.2 {
+                                stack[j] = stack[j - 1];
+                                j -= 1;
+                            }
+                            stack[j] = MaybeUninit::new(e);
+                            sp += 1;
+                        }
+                        (link, count) = (n.link[near], n.count[near]);
+                        continue;
                     }
                 }
                 // The nearest pending child still in front of the cut.
@@ -913,10 +946,13 @@ impl Bvh {
             // SAFETY: the processor has AVX2.
             return unsafe { self.occluded_avx2(objects, ray, tmin, tmax, ignore) };
         }
-        if self.depth as usize <= SHALLOW {
-            self.occluded_impl::<{ 3 * SHALLOW }, O>(objects, ray, tmin, tmax, ignore)
-        } else {
-            self.occluded_impl::<{ 3 * STACK }, O>(objects, ray, tmin, tmax, ignore)
+        // SAFETY: portable code.
+        unsafe {
+            if self.depth as usize <= SHALLOW {
+                self.occluded_impl::<{ 3 * SHALLOW }, Portable, O>(objects, ray, tmin, tmax, ignore)
+            } else {
+                self.occluded_impl::<{ 3 * STACK }, Portable, O>(objects, ray, tmin, tmax, ignore)
+            }
         }
     }
 
@@ -932,14 +968,16 @@ impl Bvh {
         ignore: Option<ObjectId>,
     ) -> bool {
         if self.depth as usize <= SHALLOW {
-            self.occluded_impl::<{ 3 * SHALLOW }, O>(objects, ray, tmin, tmax, ignore)
+            self.occluded_impl::<{ 3 * SHALLOW }, Avx2, O>(objects, ray, tmin, tmax, ignore)
         } else {
-            self.occluded_impl::<{ 3 * STACK }, O>(objects, ray, tmin, tmax, ignore)
+            self.occluded_impl::<{ 3 * STACK }, Avx2, O>(objects, ray, tmin, tmax, ignore)
         }
     }
 
+    /// # Safety
+    /// `E`'s instructions must be available.
     #[inline(always)]
-    fn occluded_impl<const N: usize, O: ObjectSet + ?Sized>(
+    unsafe fn occluded_impl<const N: usize, E: Enter, O: ObjectSet + ?Sized>(
         &self,
         objects: &O,
         ray: &Ray,
@@ -949,10 +987,14 @@ impl Bvh {
     ) -> bool {
         let pre = PreparedRay::new(ray);
         let test = Tester::new(&self.prims, objects, &pre);
-        let blocks = |id: ObjectId| Some(id) != ignore && test.occludes(id, tmin, tmax);
-        if self.unbounded.iter().any(|&id| blocks(id)) {
+        let occludes = |id: ObjectId| Some(id) != ignore && test.occludes(id, tmin, tmax);
+        if self.unbounded.iter().any(|&id| occludes(id)) {
             return true;
         }
+        let tr = test
+            .compact()
+            .filter(|_| !self.blocks.is_empty())
+            .map(|(_, tr)| tr);
         if self.nodes.is_empty() {
             return false;
         }
@@ -968,10 +1010,18 @@ impl Bvh {
                 if t0[lane] > t1[lane] {
                     continue;
                 }
-                let count = n.count[lane];
+                let count = n.count[lane] as usize;
                 if count > 0 {
                     let s = n.link[lane] as usize;
-                    if self.ids[s..s + count as usize].iter().any(|&id| blocks(id)) {
+                    let mut ids = &self.ids[s..s + count];
+                    if let Some(tr) = tr {
+                        let (tris, polys) = self.blocks.leaf(s, count);
+                        if leaf::any::<E>(tris, tr, tmin, tmax, ignore) {
+                            return true;
+                        }
+                        ids = &ids[polys..];
+                    }
+                    if ids.iter().any(|&id| occludes(id)) {
                         return true;
                     }
                 } else if next == u32::MAX {

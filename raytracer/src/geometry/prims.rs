@@ -185,11 +185,11 @@ pub(crate) struct Prims {
 /// like the axes (`o[0]` is the origin's `kx` coordinate, and so on).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct TriRay {
-    k: [usize; 3],
-    o: [f64; 3],
-    sx: f64,
-    sy: f64,
-    sz: f64,
+    pub(crate) k: [usize; 3],
+    pub(crate) o: [f64; 3],
+    pub(crate) sx: f64,
+    pub(crate) sy: f64,
+    pub(crate) sz: f64,
 }
 
 impl TriRay {
@@ -209,12 +209,24 @@ impl TriRay {
 impl Prims {
     /// The data for `objects` (in id order).
     pub(crate) fn build(objects: &[Object]) -> Prims {
+        Self::build_inner(objects, true)
+    }
+
+    /// [`Prims::build`] for a hierarchy that keeps its polygons' triangles
+    /// itself (in its leaves' blocks): polygons are tested through their
+    /// shapes (the same answers) where asked for by id, and keep their
+    /// normals.
+    pub(crate) fn build_without_polygons(objects: &[Object]) -> Prims {
+        Self::build_inner(objects, false)
+    }
+
+    fn build_inner(objects: &[Object], polygons: bool) -> Prims {
         // Reserved exactly: growing the pair array from empty cost a
         // hierarchy build about 15% of its time.
         let pairs = objects
             .iter()
             .map(|o| match &o.shape {
-                Shape::Polygon(poly) => poly.tri_verts.len().div_ceil(2),
+                Shape::Polygon(poly) if polygons => poly.tri_verts.len().div_ceil(2),
                 _ => 0,
             })
             .sum();
@@ -227,6 +239,11 @@ impl Prims {
         };
         for o in objects {
             let quadric = match &o.shape {
+                Shape::Polygon(poly) if !polygons => {
+                    p.refs.push(PrimRef::default());
+                    p.normals.push(poly.normal);
+                    continue;
+                }
                 Shape::Polygon(poly) if !poly.tri_verts.is_empty() => {
                     let start = p.pairs.len() as u32;
                     for two in poly.tri_verts.chunks(2) {
@@ -344,6 +361,12 @@ impl Prims {
             Some(Some(shared)) => shared,
             _ => &self.pairs[r.start as usize..(r.start + r.pairs) as usize],
         }
+    }
+
+    /// The normal a hit on polygon `id` reports.
+    #[inline(always)]
+    pub(crate) fn normal(&self, id: ObjectId) -> Vec3 {
+        self.normals[id as usize]
     }
 
     /// True if this data was built for `objects` (callers fall back to the
@@ -465,6 +488,13 @@ impl<'a, O: ObjectSet + ?Sized> Tester<'a, O> {
             pre,
             tr: TriRay::new(pre),
         }
+    }
+
+    /// The compact data and this ray's constants for the triangle test,
+    /// where the data was built for the objects.
+    #[inline(always)]
+    pub(crate) fn compact(&self) -> Option<(&'a Prims, &TriRay)> {
+        self.prims.map(|p| (p, &self.tr))
     }
 
     /// Nearest hit of a processor's copy of an object (`object`, with its

@@ -24,9 +24,9 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::Avx2;
-use super::{Bvh, Enter, Portable, Slab, Tester, Wide, SHALLOW, STACK};
+use super::{leaf, Bvh, Enter, Portable, Slab, Tester, Wide, SHALLOW, STACK};
 use crate::geometry::robust::next_up;
-use crate::geometry::shape::{Hit, Object, ObjectId, ShapeHit};
+use crate::geometry::shape::{Hit, Object, ObjectId, ObjectSet, ShapeHit};
 use crate::geometry::{PreparedRay, Ray};
 
 /// Most rays in one packet (an 8 x 8 tile).
@@ -150,8 +150,8 @@ fn split(n: &Wide, mask: u32) -> (u32, u32) {
 /// Object `id` for one ray of a packet: the single-ray traversal's test
 /// (the nearest hit, the smaller id of equal ones).
 #[inline(always)]
-fn consider(
-    test: &Tester,
+pub(super) fn consider<O: ObjectSet + ?Sized>(
+    test: &Tester<O>,
     tmin: f64,
     id: ObjectId,
     cut: &mut f64,
@@ -212,6 +212,10 @@ impl Bvh {
         let test: Vec<Tester> = pre
             .iter()
             .map(|p| Tester::new(&self.prims, objects, p))
+            .collect();
+        let compact: Vec<_> = test
+            .iter()
+            .map(|t| t.compact().filter(|_| !self.blocks.is_empty()))
             .collect();
         let tmin: Vec<f64> = rays.iter().map(|r| r.1).collect();
         let mut cut: Vec<f64> = rays.iter().map(|r| r.2).collect();
@@ -284,8 +288,14 @@ impl Bvh {
                         if t > cut[r] {
                             break;
                         }
-                        let s = n_.link[l] as usize;
-                        for &id in &self.ids[s..s + n_.count[l] as usize] {
+                        let (s, count) = (n_.link[l] as usize, n_.count[l] as usize);
+                        let mut ids = &self.ids[s..s + count];
+                        if let Some((prims, tr)) = compact[r] {
+                            let (tris, polys) = self.blocks.leaf(s, count);
+                            leaf::nearest::<E>(tris, prims, tr, tmin[r], &mut cut[r], &mut best[r]);
+                            ids = &ids[polys..];
+                        }
+                        for &id in ids {
                             consider(&test[r], tmin[r], id, &mut cut[r], &mut best[r]);
                         }
                     }
@@ -369,12 +379,20 @@ impl Bvh {
             .iter()
             .map(|p| Tester::new(&self.prims, objects, p))
             .collect();
-        let blocks = |r: usize, id: ObjectId| {
+        let occludes = |r: usize, id: ObjectId| {
             Some(id) != ignore && test[r].occludes(id, rays[r].1, rays[r].2)
         };
+        let tri_rays: Vec<_> = test
+            .iter()
+            .map(|t| {
+                t.compact()
+                    .filter(|_| !self.blocks.is_empty())
+                    .map(|(_, tr)| tr)
+            })
+            .collect();
         let mut open = n;
         for (r, o) in out.iter_mut().enumerate() {
-            if self.unbounded.iter().any(|&id| blocks(r, id)) {
+            if self.unbounded.iter().any(|&id| occludes(r, id)) {
                 *o = true;
                 open -= 1;
             }
@@ -416,11 +434,15 @@ impl Bvh {
                 while lm != 0 {
                     let l = lm.trailing_zeros() as usize;
                     lm &= lm - 1;
-                    let s = n_.link[l] as usize;
-                    if self.ids[s..s + n_.count[l] as usize]
-                        .iter()
-                        .any(|&id| blocks(r, id))
-                    {
+                    let (s, count) = (n_.link[l] as usize, n_.count[l] as usize);
+                    let mut ids = &self.ids[s..s + count];
+                    let mut hit = false;
+                    if let Some(tr) = tri_rays[r] {
+                        let (tris, polys) = self.blocks.leaf(s, count);
+                        hit = leaf::any::<E>(tris, tr, rays[r].1, rays[r].2, ignore);
+                        ids = &ids[polys..];
+                    }
+                    if hit || ids.iter().any(|&id| occludes(r, id)) {
                         out[r] = true;
                         open -= 1;
                         break;

@@ -1,0 +1,455 @@
+//! A leaf's triangles four at a time.
+//!
+//! The compact data ([`Prims`]) keeps a polygon's triangles in pairs, one
+//! polygon at a time, so a leaf of single triangles (a mesh) runs the
+//! two-lane test once per triangle with its second lane repeating the
+//! first. Here, at the build, each leaf's polygons are gathered into
+//! blocks of four triangles from any of its objects (`v[vertex][axis]
+//! [lane]`, each lane with its object's id; the last block repeats its last
+//! triangle), tested with the same watertight test four lanes wide (AVX2),
+//! or lane by lane. Embree's leaves hold triangles four to a block for the
+//! same reason.
+//!
+//! **Same answers.** Each lane does the pair test's operations
+//! ([`crate::geometry::intersect_triangle`]'s, in its order, with its exact
+//! recomputation of a zero edge function), so each triangle's distance is
+//! bit for bit the pair test's; a hit is taken with the traversal's rule
+//! (the nearest, the smaller id of equal ones), which does not depend on
+//! the order triangles are tested in. Objects that are not polygons are
+//! tested by id as before: a leaf's ids hold its polygons first.
+
+use super::{Enter, Wide};
+use crate::geometry::prims::{Prims, TriRay};
+use crate::geometry::robust::{diff_of_products, next_up};
+use crate::geometry::shape::{Object, ObjectId, Shape, ShapeHit};
+
+/// Four triangles side by side: `v[vertex][axis][lane]`, and each lane's
+/// object.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Tri4 {
+    v: [[[f64; 4]; 3]; 3],
+    id: [ObjectId; 4],
+}
+
+/// Every leaf's blocks, in leaf order.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Blocks {
+    /// At a leaf's first position in the hierarchy's ids (and at the ids'
+    /// end): its first block, and how many of its ids (the first ones) are
+    /// polygons tested through the blocks. Other positions are unused.
+    at: Vec<(u32, u32)>,
+    tris: Vec<Tri4>,
+}
+
+impl Blocks {
+    /// The blocks of the leaves of `nodes` (links into `ids`), putting
+    /// each leaf's polygons first in `ids`. Empty when no leaf holds a
+    /// polygon.
+    pub(super) fn build(nodes: &[Wide], ids: &mut [ObjectId], objects: &[Object]) -> Blocks {
+        let triangles = |id: ObjectId| match &objects[id as usize].shape {
+            Shape::Polygon(p) => &p.tri_verts[..],
+            _ => &[],
+        };
+        let mut leaves: Vec<(u32, u32)> = nodes
+            .iter()
+            .flat_map(|n| (0..4).map(move |l| (n.link[l], n.count[l])))
+            .filter(|&(_, count)| count > 0)
+            .collect();
+        leaves.sort_unstable();
+        // Reserved (at most one partial block a leaf; growing from empty
+        // cost the build 10%), then shrunk (the bound is nearly twice what
+        // a mesh's leaves fill).
+        let tris: usize = objects
+            .iter()
+            .map(|o| match &o.shape {
+                Shape::Polygon(p) => p.tri_verts.len(),
+                _ => 0,
+            })
+            .sum();
+        let mut b = Blocks {
+            at: vec![(0, 0); ids.len() + 1],
+            tris: Vec::with_capacity(tris / 4 + leaves.len()),
+        };
+        for (s, count) in leaves {
+            let leaf = &mut ids[s as usize..(s + count) as usize];
+            let mut polys = leaf
+                .iter()
+                .take_while(|&&id| !triangles(id).is_empty())
+                .count();
+            if polys < leaf.len() {
+                // Stable: polygons first, each side in its order.
+                leaf.sort_by_key(|&id| triangles(id).is_empty());
+                polys = leaf
+                    .iter()
+                    .take_while(|&&id| !triangles(id).is_empty())
+                    .count();
+            }
+            b.at[s as usize] = (b.tris.len() as u32, polys as u32);
+            let mut blk = Tri4 {
+                v: [[[0.0; 4]; 3]; 3],
+                id: [0; 4],
+            };
+            let mut k = 0;
+            for &id in &leaf[..polys] {
+                for t in triangles(id) {
+                    for (vert, out) in blk.v.iter_mut().enumerate() {
+                        let p = t[vert].to_array();
+                        for axis in 0..3 {
+                            out[axis][k] = p[axis];
+                        }
+                    }
+                    blk.id[k] = id;
+                    k += 1;
+                    if k == 4 {
+                        b.tris.push(blk);
+                        k = 0;
+                    }
+                }
+            }
+            if k > 0 {
+                // The last triangle again in the unused lanes.
+                for lane in k..4 {
+                    for out in blk.v.iter_mut() {
+                        for axis in out.iter_mut() {
+                            axis[lane] = axis[k - 1];
+                        }
+                    }
+                    blk.id[lane] = blk.id[k - 1];
+                }
+                b.tris.push(blk);
+            }
+        }
+        b.at[ids.len()] = (b.tris.len() as u32, 0);
+        b.tris.shrink_to_fit();
+        if b.tris.is_empty() {
+            return Blocks::default();
+        }
+        b
+    }
+
+    pub(super) fn is_empty(&self) -> bool {
+        self.tris.is_empty()
+    }
+
+    /// The blocks of the leaf at `start` with `count` ids, and how many of
+    /// its ids they stand for.
+    #[inline(always)]
+    pub(super) fn leaf(&self, start: usize, count: usize) -> (&[Tri4], usize) {
+        let (first, polys) = self.at[start];
+        let end = self.at[start + count].0;
+        (&self.tris[first as usize..end as usize], polys as usize)
+    }
+
+    pub(super) fn memory_bytes(&self) -> usize {
+        self.at.capacity() * size_of::<(u32, u32)>() + self.tris.capacity() * size_of::<Tri4>()
+    }
+}
+
+/// The nearest hit so far: distance, object, what the object reported.
+pub(super) type Best = Option<(f64, ObjectId, ShapeHit)>;
+
+/// The triangles of `blocks` for one ray, with the traversal's rule (see
+/// `consider` in the traversals): a hit with `tmin < t` no farther than
+/// `cut` (strictly nearer while nothing is hit), the smaller id of equal
+/// distances.
+///
+/// # Safety
+/// `E`'s instructions must be available.
+#[inline(always)]
+pub(super) unsafe fn nearest<E: Enter>(
+    blocks: &[Tri4],
+    prims: &Prims,
+    tr: &TriRay,
+    tmin: f64,
+    cut: &mut f64,
+    best: &mut Best,
+) {
+    for b in blocks {
+        let t = E::tri4(tr, b);
+        for (l, &t) in t.iter().enumerate() {
+            let bound = if best.is_some() { next_up(*cut) } else { *cut };
+            if !(t > tmin && t < bound) {
+                continue;
+            }
+            let id = b.id[l];
+            if best.is_none_or(|(bt, bid, _)| t < bt || (t == bt && id < bid)) {
+                *best = Some((
+                    t,
+                    id,
+                    ShapeHit {
+                        t,
+                        normal: prims.normal(id),
+                        inner: None,
+                    },
+                ));
+                *cut = t;
+            }
+        }
+    }
+}
+
+/// Whether a triangle of `blocks` other than `ignore`'s is hit with
+/// `tmin < t < tmax`.
+///
+/// # Safety
+/// `E`'s instructions must be available.
+#[inline(always)]
+pub(super) unsafe fn any<E: Enter>(
+    blocks: &[Tri4],
+    tr: &TriRay,
+    tmin: f64,
+    tmax: f64,
+    ignore: Option<ObjectId>,
+) -> bool {
+    // Loops, not closures: a closure would not inherit the caller's
+    // target features, and the intrinsics would not be inlined.
+    for b in blocks {
+        let t = E::tri4(tr, b);
+        for (&t, &id) in t.iter().zip(&b.id) {
+            if t > tmin && t < tmax && Some(id) != ignore {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// Lane `l`'s distance, or NaN where the ray misses: the pair test's
+/// operations on one lane (see `pair_hits_lanes` in [`Prims`]' module).
+#[inline(always)]
+fn lane(tr: &TriRay, b: &Tri4, l: usize) -> f64 {
+    let [kx, ky, kz] = tr.k;
+    let [a, bv, c] = &b.v;
+    let (ox, oy, oz) = (tr.o[0], tr.o[1], tr.o[2]);
+    let (a_x, a_y, a_z) = (a[kx][l] - ox, a[ky][l] - oy, a[kz][l] - oz);
+    let (b_x, b_y, b_z) = (bv[kx][l] - ox, bv[ky][l] - oy, bv[kz][l] - oz);
+    let (c_x, c_y, c_z) = (c[kx][l] - ox, c[ky][l] - oy, c[kz][l] - oz);
+    let ax = a_x - tr.sx * a_z;
+    let ay = a_y - tr.sy * a_z;
+    let bx = b_x - tr.sx * b_z;
+    let by = b_y - tr.sy * b_z;
+    let cx = c_x - tr.sx * c_z;
+    let cy = c_y - tr.sy * c_z;
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        u = diff_of_products(cx, by, cy, bx);
+        v = diff_of_products(ax, cy, ay, cx);
+        w = diff_of_products(bx, ay, by, ax);
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return f64::NAN;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return f64::NAN;
+    }
+    let az = tr.sz * a_z;
+    let bz = tr.sz * b_z;
+    let cz = tr.sz * c_z;
+    (u * az + v * bz + w * cz) / det
+}
+
+/// The four lanes one by one.
+#[inline(always)]
+pub(super) fn lanes(tr: &TriRay, b: &Tri4) -> [f64; 4] {
+    std::array::from_fn(|l| lane(tr, b, l))
+}
+
+/// The four lanes at once (the pair test's SSE2 code, twice as wide);
+/// any zero edge function sends the block to [`lanes`].
+///
+/// # Safety
+/// The processor must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn lanes_avx2(tr: &TriRay, b: &Tri4) -> [f64; 4] {
+    use std::arch::x86_64::*;
+    let [kx, ky, kz] = tr.k;
+    let [a, bv, c] = &b.v;
+    let ld = |x: &[f64; 4]| _mm256_loadu_pd(x.as_ptr());
+    let (ox, oy, oz) = (
+        _mm256_set1_pd(tr.o[0]),
+        _mm256_set1_pd(tr.o[1]),
+        _mm256_set1_pd(tr.o[2]),
+    );
+    let (sx, sy) = (_mm256_set1_pd(tr.sx), _mm256_set1_pd(tr.sy));
+    let a_z = _mm256_sub_pd(ld(&a[kz]), oz);
+    let b_z = _mm256_sub_pd(ld(&bv[kz]), oz);
+    let c_z = _mm256_sub_pd(ld(&c[kz]), oz);
+    let ax = _mm256_sub_pd(_mm256_sub_pd(ld(&a[kx]), ox), _mm256_mul_pd(sx, a_z));
+    let ay = _mm256_sub_pd(_mm256_sub_pd(ld(&a[ky]), oy), _mm256_mul_pd(sy, a_z));
+    let bx = _mm256_sub_pd(_mm256_sub_pd(ld(&bv[kx]), ox), _mm256_mul_pd(sx, b_z));
+    let by = _mm256_sub_pd(_mm256_sub_pd(ld(&bv[ky]), oy), _mm256_mul_pd(sy, b_z));
+    let cx = _mm256_sub_pd(_mm256_sub_pd(ld(&c[kx]), ox), _mm256_mul_pd(sx, c_z));
+    let cy = _mm256_sub_pd(_mm256_sub_pd(ld(&c[ky]), oy), _mm256_mul_pd(sy, c_z));
+    let u = _mm256_sub_pd(_mm256_mul_pd(cx, by), _mm256_mul_pd(cy, bx));
+    let v = _mm256_sub_pd(_mm256_mul_pd(ax, cy), _mm256_mul_pd(ay, cx));
+    let w = _mm256_sub_pd(_mm256_mul_pd(bx, ay), _mm256_mul_pd(by, ax));
+    let z = _mm256_setzero_pd();
+    let zero = _mm256_or_pd(
+        _mm256_or_pd(
+            _mm256_cmp_pd::<_CMP_EQ_OQ>(u, z),
+            _mm256_cmp_pd::<_CMP_EQ_OQ>(v, z),
+        ),
+        _mm256_cmp_pd::<_CMP_EQ_OQ>(w, z),
+    );
+    if _mm256_movemask_pd(zero) != 0 {
+        return lanes(tr, b);
+    }
+    let neg = _mm256_or_pd(
+        _mm256_or_pd(
+            _mm256_cmp_pd::<_CMP_LT_OQ>(u, z),
+            _mm256_cmp_pd::<_CMP_LT_OQ>(v, z),
+        ),
+        _mm256_cmp_pd::<_CMP_LT_OQ>(w, z),
+    );
+    let pos = _mm256_or_pd(
+        _mm256_or_pd(
+            _mm256_cmp_pd::<_CMP_GT_OQ>(u, z),
+            _mm256_cmp_pd::<_CMP_GT_OQ>(v, z),
+        ),
+        _mm256_cmp_pd::<_CMP_GT_OQ>(w, z),
+    );
+    // As in the pair test: a NaN edge function is no miss here and goes
+    // on to a NaN distance.
+    let mut miss = _mm256_and_pd(neg, pos);
+    if _mm256_movemask_pd(miss) == 0xf {
+        return [f64::NAN; 4];
+    }
+    let det = _mm256_add_pd(_mm256_add_pd(u, v), w);
+    miss = _mm256_or_pd(miss, _mm256_cmp_pd::<_CMP_EQ_OQ>(det, z));
+    let sz = _mm256_set1_pd(tr.sz);
+    let (az, bz, cz) = (
+        _mm256_mul_pd(sz, a_z),
+        _mm256_mul_pd(sz, b_z),
+        _mm256_mul_pd(sz, c_z),
+    );
+    let num = _mm256_add_pd(
+        _mm256_add_pd(_mm256_mul_pd(u, az), _mm256_mul_pd(v, bz)),
+        _mm256_mul_pd(w, cz),
+    );
+    let t = _mm256_div_pd(num, det);
+    let t = _mm256_or_pd(
+        _mm256_andnot_pd(miss, t),
+        _mm256_and_pd(miss, _mm256_set1_pd(f64::NAN)),
+    );
+    let mut out = [0.0; 4];
+    _mm256_storeu_pd(out.as_mut_ptr(), t);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::accel::{intersect_brute_force, occluded_brute_force};
+    use crate::geometry::{Bvh, Object, Ray, Segment, Shape, Vec3, PACKET};
+
+    fn tri(a: Vec3, b: Vec3, c: Vec3) -> Object {
+        Object {
+            name: String::new(),
+            shape: Shape::polygon(vec![a, b, c]).unwrap(),
+            material: 0,
+        }
+    }
+
+    /// A height field of single triangles sharing edges and vertices (so
+    /// rays through them make edge functions zero), a copy of one triangle
+    /// (equal distances, told apart by id), a hexagon (a polygon of four
+    /// triangles, split across blocks) and a sphere (tested by id) at
+    /// `scale`.
+    fn mesh(scale: f64) -> Vec<Object> {
+        let p = |x: f64, y: f64| {
+            let z = ((x * 1.3).sin() + (y * 0.7).cos()) * 0.25;
+            Vec3::new(x, y, z) * scale
+        };
+        let mut objects = Vec::new();
+        for i in 0..12 {
+            for j in 0..12 {
+                let (x, y) = (i as f64, j as f64);
+                objects.push(tri(p(x, y), p(x + 1.0, y), p(x + 1.0, y + 1.0)));
+                objects.push(tri(p(x, y), p(x + 1.0, y + 1.0), p(x, y + 1.0)));
+            }
+        }
+        objects.push(objects[40].clone());
+        let hexagon = (0..6)
+            .map(|k| {
+                let a = k as f64 * std::f64::consts::PI / 3.0;
+                Vec3::new(6.0 + 2.0 * a.cos(), 6.0 + 2.0 * a.sin(), 1.5) * scale
+            })
+            .collect();
+        objects.push(Object {
+            name: String::new(),
+            shape: Shape::polygon(hexagon).unwrap(),
+            material: 0,
+        });
+        objects.push(Object {
+            name: String::new(),
+            shape: Shape::Sphere {
+                center: Vec3::new(3.0, 9.0, 1.0) * scale,
+                radius: 0.7 * scale,
+                inward: false,
+            },
+            material: 0,
+        });
+        objects
+    }
+
+    #[test]
+    fn blocks_answer_as_brute_force_through_vertices_and_edges() {
+        for scale in [1e-5, 1.0, 1e5] {
+            let objects = mesh(scale);
+            let bvh = Bvh::build(&objects);
+            assert!(!bvh.blocks.is_empty());
+            let eye = Vec3::new(5.5, 4.5, 9.0) * scale;
+            let mut rays: Vec<Segment> = Vec::new();
+            for o in &objects {
+                let Shape::Polygon(p) = &o.shape else {
+                    continue;
+                };
+                for t in &p.tri_verts {
+                    // Each vertex, each edge's midpoint, the centre.
+                    let aims = [
+                        t[0],
+                        t[1],
+                        t[2],
+                        (t[0] + t[1]) * 0.5,
+                        (t[1] + t[2]) * 0.5,
+                        (t[2] + t[0]) * 0.5,
+                        (t[0] + t[1] + t[2]) / 3.0,
+                    ];
+                    for aim in aims {
+                        rays.push((Ray::new(eye, aim - eye), 0.0, f64::INFINITY));
+                    }
+                }
+            }
+            let mut hits = 0;
+            for (ray, tmin, tmax) in &rays {
+                let want = intersect_brute_force(&objects, ray, *tmin, *tmax);
+                assert_eq!(bvh.intersect(&objects, ray, *tmin, *tmax), want);
+                let Some(h) = want else { continue };
+                hits += 1;
+                // Shadow segments ending just short of the hit, and past it
+                // ignoring the object hit.
+                let short = h.t * (1.0 - 1e-9);
+                assert_eq!(
+                    bvh.occluded(&objects, ray, *tmin, short, None),
+                    occluded_brute_force(&objects, ray, *tmin, short, None)
+                );
+                assert_eq!(
+                    bvh.occluded(&objects, ray, *tmin, *tmax, Some(h.object)),
+                    occluded_brute_force(&objects, ray, *tmin, *tmax, Some(h.object))
+                );
+            }
+            assert!(hits > rays.len() / 2, "{hits} of {}", rays.len());
+            // The same rays as packets.
+            let mut out = [None; PACKET];
+            for packet in rays.chunks(PACKET) {
+                bvh.intersect_packet(&objects, packet, &mut out);
+                for ((ray, tmin, tmax), got) in packet.iter().zip(&out) {
+                    assert_eq!(*got, intersect_brute_force(&objects, ray, *tmin, *tmax));
+                }
+            }
+        }
+    }
+}
