@@ -139,6 +139,12 @@ trait Enter {
     /// # Safety
     /// The implementation's instructions must be available.
     unsafe fn tri4(tr: &TriRay, b: &leaf::Tri4) -> [f64; 4];
+
+    /// The lanes of `t` with `lo < t < hi`: bit `i` for lane `i`.
+    ///
+    /// # Safety
+    /// The implementation's instructions must be available.
+    unsafe fn within(t: &[f64; 4], lo: f64, hi: f64) -> u32;
 }
 
 /// Portable code.
@@ -158,6 +164,15 @@ impl Enter for Portable {
     #[inline(always)]
     unsafe fn tri4(tr: &TriRay, b: &leaf::Tri4) -> [f64; 4] {
         leaf::lanes(tr, b)
+    }
+
+    #[inline(always)]
+    unsafe fn within(t: &[f64; 4], lo: f64, hi: f64) -> u32 {
+        let mut m = 0;
+        for (l, &t) in t.iter().enumerate() {
+            m |= ((t > lo && t < hi) as u32) << l;
+        }
+        m
     }
 }
 
@@ -195,6 +210,15 @@ impl Enter for Avx2 {
     #[inline(always)]
     unsafe fn tri4(tr: &TriRay, b: &leaf::Tri4) -> [f64; 4] {
         leaf::lanes_avx2(tr, b)
+    }
+
+    #[inline(always)]
+    unsafe fn within(t: &[f64; 4], lo: f64, hi: f64) -> u32 {
+        use std::arch::x86_64::*;
+        let t = _mm256_loadu_pd(t.as_ptr());
+        let above = _mm256_cmp_pd::<_CMP_GT_OQ>(t, _mm256_set1_pd(lo));
+        let below = _mm256_cmp_pd::<_CMP_LT_OQ>(t, _mm256_set1_pd(hi));
+        _mm256_movemask_pd(_mm256_and_pd(above, below)) as u32
     }
 }
 

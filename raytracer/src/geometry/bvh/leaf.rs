@@ -166,12 +166,17 @@ pub(super) unsafe fn nearest<E: Enter>(
 ) {
     for b in blocks {
         let t = E::tri4(tr, b);
-        for (l, &t) in t.iter().enumerate() {
+        // The lanes in range (the bound only shrinks as lanes are taken).
+        let bound = if best.is_some() { next_up(*cut) } else { *cut };
+        let mut m = E::within(&t, tmin, bound);
+        while m != 0 {
+            let l = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let (t, id) = (t[l], b.id[l]);
             let bound = if best.is_some() { next_up(*cut) } else { *cut };
-            if !(t > tmin && t < bound) {
+            if t >= bound {
                 continue;
             }
-            let id = b.id[l];
             if best.is_none_or(|(bt, bid, _)| t < bt || (t == bt && id < bid)) {
                 *best = Some((
                     t,
@@ -205,8 +210,14 @@ pub(super) unsafe fn any<E: Enter>(
     // target features, and the intrinsics would not be inlined.
     for b in blocks {
         let t = E::tri4(tr, b);
-        for (&t, &id) in t.iter().zip(&b.id) {
-            if t > tmin && t < tmax && Some(id) != ignore {
+        let mut m = E::within(&t, tmin, tmax);
+        if m != 0 && ignore.is_none() {
+            return true;
+        }
+        while m != 0 {
+            let l = m.trailing_zeros() as usize;
+            m &= m - 1;
+            if Some(b.id[l]) != ignore {
                 return true;
             }
         }
