@@ -13,8 +13,13 @@
 //! trace primary rays about twice as fast as binary ones, shadow rays about
 //! 1.3 times; the build takes about twice Embree's time.
 //!
+//! A leaf's polygons are tested four triangles at a time ([`leaf`]'s
+//! blocks, Embree's leaf layout), each lane with the pair test's
+//! operations; its other objects through [`Tester`].
+//!
 //! **Same answers as the octree.** A node is only a filter: the objects it
-//! lets through are tested with the same code ([`Tester`]), and the answer
+//! lets through are tested with the same operations ([`Tester`], or a
+//! block's lanes), and the answer
 //! (the nearest hit, the smaller id of equal ones; any hit) does not depend
 //! on the order objects are tested in. Every box is enlarged by the
 //! octree's margin (`1e-9` of the scene's size), far beyond the rounding of
@@ -718,7 +723,9 @@ impl Bvh {
     }
 
     /// [`Bvh::build`] with the objects' intersection data given (built for
-    /// `objects`, in order: [`Prims::concat`] of copies' data).
+    /// `objects`, in order: [`Prims::from_ones`] of copies' data), without
+    /// the leaves' blocks: the polygons are tested through that data (a
+    /// processor's copies share their triangle pairs with it).
     pub(crate) fn build_with<O: ObjectSet + ?Sized>(objects: &O, prims: Prims) -> Bvh {
         debug_assert!(prims.matches(objects));
         let mut unbounded = Vec::new();
