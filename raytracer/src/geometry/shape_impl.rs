@@ -644,28 +644,13 @@ pub fn intersect_triangle(
     // Arrays: indexing by the runtime axis permutation without glam's
     // per-index match.
     let (a, b, c) = ((a - o).to_array(), (b - o).to_array(), (c - o).to_array());
-    let k = |v: [f64; 3]| [v[pre.kx], v[pre.ky], v[pre.kz]];
-    let t = watertight(k(a), k(b), k(c), pre.sx, pre.sy, pre.sz);
-    if t > tmin && t < tmax {
-        Some(t)
-    } else {
-        None
-    }
-}
-
-/// The watertight test ([`intersect_triangle`]) from the vertices relative
-/// to the ray's origin, their coordinates permuted like the ray's axes
-/// (`[kx, ky, kz]`), and the ray's shear: the distance, or NaN where the
-/// ray misses. The hierarchy's blocks of four triangles call it lane by
-/// lane; the SIMD forms of the test do its operations in its order.
-#[inline(always)]
-pub(crate) fn watertight(a: [f64; 3], b: [f64; 3], c: [f64; 3], sx: f64, sy: f64, sz: f64) -> f64 {
-    let ax = a[0] - sx * a[2];
-    let ay = a[1] - sy * a[2];
-    let bx = b[0] - sx * b[2];
-    let by = b[1] - sy * b[2];
-    let cx = c[0] - sx * c[2];
-    let cy = c[1] - sy * c[2];
+    let (kx, ky, kz) = (pre.kx, pre.ky, pre.kz);
+    let ax = a[kx] - pre.sx * a[kz];
+    let ay = a[ky] - pre.sy * a[kz];
+    let bx = b[kx] - pre.sx * b[kz];
+    let by = b[ky] - pre.sy * b[kz];
+    let cx = c[kx] - pre.sx * c[kz];
+    let cy = c[ky] - pre.sy * c[kz];
     let mut u = cx * by - cy * bx;
     let mut v = ax * cy - ay * cx;
     let mut w = bx * ay - by * ax;
@@ -675,13 +660,21 @@ pub(crate) fn watertight(a: [f64; 3], b: [f64; 3], c: [f64; 3], sx: f64, sy: f64
         w = diff_of_products(bx, ay, by, ax);
     }
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return f64::NAN;
+        return None;
     }
     let det = u + v + w;
     if det == 0.0 {
-        return f64::NAN;
+        return None;
     }
-    (u * (sz * a[2]) + v * (sz * b[2]) + w * (sz * c[2])) / det
+    let az = pre.sz * a[kz];
+    let bz = pre.sz * b[kz];
+    let cz = pre.sz * c[kz];
+    let t = (u * az + v * bz + w * cz) / det;
+    if t > tmin && t < tmax {
+        Some(t)
+    } else {
+        None
+    }
 }
 
 /// Nearest hit of a polygon's triangles.

@@ -20,9 +20,8 @@
 
 use super::{Enter, Wide};
 use crate::geometry::prims::{Prims, TriRay};
-use crate::geometry::robust::next_up;
+use crate::geometry::robust::{diff_of_products, next_up};
 use crate::geometry::shape::{Object, ObjectId, Shape, ShapeHit};
-use crate::geometry::shape_impl::watertight;
 
 /// Four triangles side by side: `v[vertex][axis][lane]`, and each lane's
 /// object.
@@ -226,16 +225,41 @@ pub(super) unsafe fn any<E: Enter>(
     false
 }
 
-/// Lane `l`'s distance, or NaN where the ray misses: the scalar test's
-/// operations ([`watertight`]) on the lane's triangle.
+/// Lane `l`'s distance, or NaN where the ray misses: the pair test's
+/// operations on one lane (see `pair_hits_lanes` in [`Prims`]' module).
 #[inline(always)]
 fn lane(tr: &TriRay, b: &Tri4, l: usize) -> f64 {
-    let rel = |v: &[[f64; 4]; 3]| {
-        let [kx, ky, kz] = tr.k;
-        [v[kx][l] - tr.o[0], v[ky][l] - tr.o[1], v[kz][l] - tr.o[2]]
-    };
+    let [kx, ky, kz] = tr.k;
     let [a, bv, c] = &b.v;
-    watertight(rel(a), rel(bv), rel(c), tr.sx, tr.sy, tr.sz)
+    let (ox, oy, oz) = (tr.o[0], tr.o[1], tr.o[2]);
+    let (a_x, a_y, a_z) = (a[kx][l] - ox, a[ky][l] - oy, a[kz][l] - oz);
+    let (b_x, b_y, b_z) = (bv[kx][l] - ox, bv[ky][l] - oy, bv[kz][l] - oz);
+    let (c_x, c_y, c_z) = (c[kx][l] - ox, c[ky][l] - oy, c[kz][l] - oz);
+    let ax = a_x - tr.sx * a_z;
+    let ay = a_y - tr.sy * a_z;
+    let bx = b_x - tr.sx * b_z;
+    let by = b_y - tr.sy * b_z;
+    let cx = c_x - tr.sx * c_z;
+    let cy = c_y - tr.sy * c_z;
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        u = diff_of_products(cx, by, cy, bx);
+        v = diff_of_products(ax, cy, ay, cx);
+        w = diff_of_products(bx, ay, by, ax);
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return f64::NAN;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return f64::NAN;
+    }
+    let az = tr.sz * a_z;
+    let bz = tr.sz * b_z;
+    let cz = tr.sz * c_z;
+    (u * az + v * bz + w * cz) / det
 }
 
 /// The four lanes one by one.
