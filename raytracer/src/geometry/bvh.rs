@@ -469,8 +469,8 @@ impl Builder {
         if p.depth >= SAH_DEPTH || !(widest.is_finite() && widest > 0.0) {
             return self.by_count(p);
         }
-        // Fewer bins than objects would leave most of them empty.
-        let nb = n.min(BINS);
+        // Fewer bins for fewer objects, as Embree's binner counts them.
+        let nb = (4 + n / 20).min(n).min(BINS);
         let cmin = p.centres.lo;
         let mut scale = [0.0f32; 4];
         for k in 0..3 {
@@ -904,7 +904,7 @@ impl Bvh {
                     let (s, count) = (link as usize, count as usize);
                     let mut ids = &self.ids[s..s + count];
                     if let Some((prims, tr)) = blocks {
-                        let (tris, polys) = self.blocks.leaf(s, count);
+                        let (tris, polys) = self.blocks.leaf(s);
                         leaf::nearest::<E>(tris, prims, tr, tmin, &mut cut, &mut best);
                         ids = &ids[polys..];
                     }
@@ -1052,7 +1052,7 @@ impl Bvh {
                     let s = n.link[lane] as usize;
                     let mut ids = &self.ids[s..s + count];
                     if let Some(tr) = tr {
-                        let (tris, polys) = self.blocks.leaf(s, count);
+                        let (tris, polys) = self.blocks.leaf(s);
                         if leaf::any::<E>(tris, tr, tmin, tmax, ignore) {
                             return true;
                         }

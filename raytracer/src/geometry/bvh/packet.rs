@@ -291,7 +291,7 @@ impl Bvh {
                         let (s, count) = (n_.link[l] as usize, n_.count[l] as usize);
                         let mut ids = &self.ids[s..s + count];
                         if let Some((prims, tr)) = compact[r] {
-                            let (tris, polys) = self.blocks.leaf(s, count);
+                            let (tris, polys) = self.blocks.leaf(s);
                             leaf::nearest::<E>(tris, prims, tr, tmin[r], &mut cut[r], &mut best[r]);
                             ids = &ids[polys..];
                         }
@@ -438,7 +438,7 @@ impl Bvh {
                     let mut ids = &self.ids[s..s + count];
                     let mut hit = false;
                     if let Some(tr) = tri_rays[r] {
-                        let (tris, polys) = self.blocks.leaf(s, count);
+                        let (tris, polys) = self.blocks.leaf(s);
                         hit = leaf::any::<E>(tris, tr, rays[r].1, rays[r].2, ignore);
                         ids = &ids[polys..];
                     }
