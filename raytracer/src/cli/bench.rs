@@ -712,7 +712,7 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
     // in streams.
     let row = |what: String, n: usize, here: f64, one: f64, streams: f64| {
         outln!(
-            "| {what}, Mrays/s | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+            "| {what}, Mrays/s | {:.2} | {:.2} | {:.2} | {:.3} | {:.3} |",
             mrays(n, here),
             mrays(n, one),
             mrays(n, streams),
