@@ -223,13 +223,17 @@ impl Prims {
     fn build_inner(objects: &[Object], polygons: bool) -> Prims {
         // Reserved exactly: growing the pair array from empty cost a
         // hierarchy build about 15% of its time.
-        let pairs = objects
-            .iter()
-            .map(|o| match &o.shape {
-                Shape::Polygon(poly) if polygons => poly.tri_verts.len().div_ceil(2),
-                _ => 0,
-            })
-            .sum();
+        let pairs = if polygons {
+            objects
+                .iter()
+                .map(|o| match &o.shape {
+                    Shape::Polygon(poly) => poly.tri_verts.len().div_ceil(2),
+                    _ => 0,
+                })
+                .sum()
+        } else {
+            0
+        };
         let mut p = Prims {
             refs: Vec::with_capacity(objects.len()),
             pairs: Vec::with_capacity(pairs),
