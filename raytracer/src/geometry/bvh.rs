@@ -488,19 +488,17 @@ impl Builder {
         // bin 0). The mask changes no bin (`nb <= BINS`, a power of two);
         // it lets the compiler drop the bounds checks.
         let top = (nb - 1) as f32;
-        let bin = move |c: f32, k: usize| {
-            let x = fmin(fmax((c - cmin[k]) * scale[k], 0.0), top);
-            // SAFETY: `x` is in `[0, top]`, finite.
-            unsafe { x.to_int_unchecked::<u32>() as usize & (BINS - 1) }
-        };
+        // A coordinate's position along axis `k`, in `[0, top]`.
+        let pos = move |c: f32, k: usize| fmin(fmax((c - cmin[k]) * scale[k], 0.0), top);
+        // SAFETY (both): `pos` is in `[0, top]`, finite.
+        let index = |x: f32| unsafe { x.to_int_unchecked::<u32>() as usize & (BINS - 1) };
+        let bin = move |c: f32, k: usize| index(pos(c, k));
         // The three axes' positions in one pass of four lanes (lane 3
         // unused).
         let bins_of = move |r: &Ref| {
             let c = r.centre();
-            let x: [f32; 4] =
-                std::array::from_fn(|k| fmin(fmax((c[k] - cmin[k]) * scale[k], 0.0), top));
-            // SAFETY: lanes 0 to 2 are in `[0, top]`, finite.
-            [0, 1, 2].map(|k| unsafe { x[k].to_int_unchecked::<u32>() as usize & (BINS - 1) })
+            let x: [f32; 4] = std::array::from_fn(|k| pos(c[k], k));
+            [0, 1, 2].map(|k| index(x[k]))
         };
         let bins = &mut self.bins;
         for bins in bins.iter_mut() {
