@@ -140,6 +140,16 @@ impl Slab {
 /// Every implementation does [`Slab::test`]'s IEEE operations in its
 /// order, so all give the same answers.
 trait Enter {
+    /// The any-hit traversal goes through the children entered as the bits
+    /// of [`Enter::enter`]'s mask (AVX-512), rather than through all
+    /// children with a branch on each one's bit (AVX2 and portable code,
+    /// where the processor runs ahead on the predicted branches). Measured
+    /// with `bench --embree`, shadow rays against `rtcOccluded1`: with
+    /// AVX2, 0.54 going through the mask's bits, 0.64 with a branch per
+    /// child on the scalar test's distances, 0.67 with a branch per bit;
+    /// with AVX-512, 0.82 through the bits.
+    const MASK: bool;
+
     /// # Safety
     /// The implementation's instructions must be available.
     unsafe fn enter(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; W]);
@@ -162,6 +172,8 @@ trait Enter {
 struct Portable;
 
 impl Enter for Portable {
+    const MASK: bool = false;
+
     #[inline(always)]
     unsafe fn enter(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; W]) {
         let (t0, t1) = s.test(n, tmin, tmax);
@@ -196,6 +208,8 @@ struct Avx2;
 
 #[cfg(target_arch = "x86_64")]
 impl Enter for Avx2 {
+    const MASK: bool = false;
+
     #[inline(always)]
     unsafe fn enter(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; W]) {
         use std::arch::x86_64::*;
@@ -245,6 +259,8 @@ struct Avx512;
 
 #[cfg(target_arch = "x86_64")]
 impl Enter for Avx512 {
+    const MASK: bool = true;
+
     #[inline(always)]
     unsafe fn enter(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; W]) {
         use std::arch::x86_64::*;
@@ -1129,11 +1145,15 @@ impl Bvh {
         let mut node = 0u32;
         loop {
             let n = &self.nodes[node as usize];
-            let (mut m, _) = E::enter(&slab, n, tmin, tmax);
+            let (e, _) = E::enter(&slab, n, tmin, tmax);
+            let mut m = if E::MASK { e } else { (1 << W) - 1 };
             let mut next = u32::MAX;
             while m != 0 {
                 let lane = m.trailing_zeros() as usize;
                 m &= m - 1;
+                if !E::MASK && e >> lane & 1 == 0 {
+                    continue;
+                }
                 let count = n.count[lane] as usize;
                 if count > 0 {
                     let s = n.link[lane] as usize;
@@ -1468,6 +1488,27 @@ mod tests {
                 if std::arch::is_x86_feature_detected!("avx512f") {
                     let h = unsafe { bvh.intersect_avx512(&objects[..], &ray, tmin, tmax) };
                     assert_eq!(key(h), key(portable), "ray {i}");
+                }
+                // And the any-hit traversals, to a point short of the hit.
+                let end = portable.map_or(tmax, |h| 0.5 * (tmin + h.t));
+                for t in [end, tmax] {
+                    let p = unsafe {
+                        bvh.occluded_impl::<{ (W - 1) * STACK }, Portable, _>(
+                            &objects[..],
+                            &ray,
+                            tmin,
+                            t,
+                            None,
+                        )
+                    };
+                    if std::arch::is_x86_feature_detected!("avx2") {
+                        let o = unsafe { bvh.occluded_avx2(&objects[..], &ray, tmin, t, None) };
+                        assert_eq!(o, p, "ray {i}");
+                    }
+                    if std::arch::is_x86_feature_detected!("avx512f") {
+                        let o = unsafe { bvh.occluded_avx512(&objects[..], &ray, tmin, t, None) };
+                        assert_eq!(o, p, "ray {i}");
+                    }
                 }
                 rays += portable.is_some() as usize;
             }
