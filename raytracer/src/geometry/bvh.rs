@@ -11,10 +11,12 @@
 //! or two AVX2 ones); the nearest child entered is visited first.
 //! Measured (`hybrid-rt bench --embree`, the studio as 48,684 triangles,
 //! one core): four-wide nodes traced primary rays about twice as fast as
-//! binary ones, shadow rays about 1.3 times; eight-wide ones (2026-11-30)
-//! primary rays 1.16 times as fast as four-wide ones and shadow rays 1.15
-//! times. The build takes a little under twice Embree's time (0.50 to 0.53
-//! of its speed).
+//! binary ones, shadow rays about 1.3 times; eight-wide ones (2026-11-30,
+//! AVX-512) primary rays 1.16 times as fast as four-wide ones and shadow
+//! rays 1.05 to 1.1 times (without AVX-512, in two AVX2 halves, primary
+//! rays about as fast and shadow rays about a tenth slower: the book's
+//! Benchmarks chapter). The build takes a little under twice Embree's time
+//! (0.52 to 0.54 of its speed).
 //!
 //! A leaf's polygons are tested four triangles at a time ([`leaf`]'s
 //! blocks, Embree's leaf layout), each lane with the pair test's
