@@ -31,9 +31,9 @@ fn too_large(cap: u64) -> io::Error {
 }
 
 fn human(cap: u64) -> String {
-    if cap >= 1 << 30 && cap.is_multiple_of(1 << 30) {
+    if cap >= 1 << 30 && cap % (1 << 30) == 0 {
         format!("{} GiB", cap >> 30)
-    } else if cap >= 1 << 20 && cap.is_multiple_of(1 << 20) {
+    } else if cap >= 1 << 20 && cap % (1 << 20) == 0 {
         format!("{} MiB", cap >> 20)
     } else {
         format!("{cap} bytes")

@@ -279,7 +279,7 @@ fn damaged_truncated_and_foreign_files_are_errors_naming_the_offset() {
         let mut bad = good.clone();
         let rep = HEADER_LEN..HEADER_LEN + rep_len;
         for b in bad[rep.clone()].iter_mut() {
-            if next(&mut rng).is_multiple_of(64) {
+            if next(&mut rng) % 64 == 0 {
                 *b = next(&mut rng) as u8;
             }
         }

@@ -142,7 +142,7 @@ pub fn run_lockstep<W: Workload>(
         let mut keep = VecDeque::with_capacity(net.len());
         while let Some(p) = net.pop_front() {
             let link = (p.from, p.to);
-            if held.contains(&link) || rng.next_u64().is_multiple_of(2) {
+            if held.contains(&link) || rng.next_u64() % 2 == 0 {
                 held.insert(link);
                 keep.push_back(p);
                 continue;

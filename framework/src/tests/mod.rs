@@ -132,7 +132,7 @@ impl Mini {
     }
     fn dest(&self, key: u64, procs: usize) -> Addr {
         let h = mix(key ^ 99);
-        if h.is_multiple_of(4) {
+        if h % 4 == 0 {
             Addr::Master
         } else {
             Addr::Proc((h / 4) as usize % procs)
@@ -154,7 +154,7 @@ impl Mini {
                 });
             }
         }
-        if self.hops > 0 && mix(t.key ^ 6).is_multiple_of(2) {
+        if self.hops > 0 && mix(t.key ^ 6) % 2 == 0 {
             ctx.spawn_dp(Walk {
                 key: t.key | (1 << 63),
                 path: self.ids(t.key, 2, self.hops as u64),

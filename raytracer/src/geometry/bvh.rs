@@ -4,19 +4,15 @@
 //! cells, and the structure a resumable query's progress is counted in. For
 //! rays whose whole path is in one set of objects (the sequential renderer,
 //! a whole scene, the shared geometry of instances), this hierarchy answers the same queries with fewer steps:
-//! eight-wide nodes (the layout of Embree's `BVH8`) built with the binned
-//! surface area heuristic ([`Builder`]), each holding its eight children's
-//! boxes (in single precision, rounded outwards) so that all are tested at
-//! once, eight double-precision lanes side by side (one AVX-512 register,
-//! or two AVX2 ones); the nearest child entered is visited first.
-//! Measured (`hybrid-rt bench --embree`, the studio as 48,684 triangles,
-//! one core): four-wide nodes traced primary rays about twice as fast as
-//! binary ones, shadow rays about 1.3 times; eight-wide ones (2026-11-30,
-//! AVX-512) primary rays 1.16 times as fast as four-wide ones and shadow
-//! rays 1.05 to 1.1 times (without AVX-512, in two AVX2 halves, primary
-//! rays about as fast and shadow rays about a tenth slower: the book's
-//! Benchmarks chapter). The build takes a little under twice Embree's time
-//! (0.52 to 0.54 of its speed).
+//! four-wide nodes (Embree's layout) built with the binned surface area
+//! heuristic ([`Builder`]), each holding its four children's boxes (in
+//! single precision, rounded outwards) so that all are tested at once,
+//! four double-precision lanes side by side; the nearest child entered is
+//! visited first. Measured (`hybrid-rt bench
+//! --embree`, the studio as 48,684 triangles, one core): the wide nodes
+//! trace primary rays about twice as fast as binary ones, shadow rays about
+//! 1.3 times; the build takes a little under twice Embree's time (0.50 to
+//! 0.54 of its speed, 2026-11-30).
 //!
 //! A leaf's polygons are tested four triangles at a time ([`leaf`]'s
 //! blocks, Embree's leaf layout), each lane with the pair test's
@@ -60,39 +56,38 @@ const NODE_COST: f64 = 0.5;
 const SAH_DEPTH: u32 = 48;
 /// Size of the traversal stack: at least the tree's depth.
 const STACK: usize = 96;
-/// Trees at most this deep are traversed with a smaller stack (each wide
-/// level leaves at most `W - 1` children pending).
+/// Trees at most this deep are traversed with a smaller stack (a
+/// traversal's stack is zeroed for every ray: 4.6 kB for [`STACK`], 1.9 kB
+/// for this). Each wide level leaves at most three children pending.
 const SHALLOW: usize = 40;
-/// Children of a wide node.
-const W: usize = 8;
 
-/// Eight children, the traversal's node: [`Node`]'s layout eight lanes
-/// wide (`b[axis][0]` the lower corners, `b[axis][1]` the upper, each
-/// `[child 0, .., child 7]`). Built by collapsing the binary tree: each
+/// Four children, the traversal's node: [`Node`]'s layout four lanes wide
+/// (`b[axis][0]` the lower corners, `b[axis][1]` the upper, each
+/// `[child 0, .., child 3]`). Built by collapsing the binary tree: each
 /// wide node takes a binary node's children and opens the largest internal
-/// one until it has eight (Embree's "wide nodes", as its `BVH8`: a third
-/// of the binary tree's levels, the eight box tests side by side). Unused
-/// children have empty boxes.
+/// one until it has four (Embree's "wide nodes": half the levels, the four
+/// box tests side by side). Unused children have empty boxes.
 ///
 /// The boxes are single precision, each rounded outwards from the exact
 /// double-precision union (lower corners down, upper corners up), so a
 /// node is only ever larger than what it holds and filters out no object
-/// a ray could hit; the slab test widens them to double precision. A node
-/// is 256 bytes, aligned to a cache line pair's start (64 bytes), so each
-/// eight-lane row loads in one instruction.
+/// a ray could hit; the slab test widens them to double precision and
+/// runs as before. A node is 128 bytes instead of 224 (Embree's nodes are
+/// single precision too): a processor's hierarchy over 150,000 resident
+/// objects took 16.8 MB of nodes in double precision.
 #[derive(Debug, Clone, Copy)]
-#[repr(C, align(64))]
+#[repr(C, align(32))]
 struct Wide {
-    b: [[[f32; W]; 2]; 3],
-    link: [u32; W],
-    count: [u32; W],
+    b: [[[f32; 4]; 2]; 3],
+    link: [u32; 4],
+    count: [u32; 4],
 }
 
 impl Wide {
     const UNUSED: Wide = Wide {
-        b: [[[f32::INFINITY; W], [f32::NEG_INFINITY; W]]; 3],
-        link: [0; W],
-        count: [0; W],
+        b: [[[f32::INFINITY; 4], [f32::NEG_INFINITY; 4]]; 3],
+        link: [0; 4],
+        count: [0; 4],
     };
 }
 
@@ -115,17 +110,17 @@ impl Slab {
         }
     }
 
-    /// Entry and exit distances of a wide node's children's boxes within
-    /// `[tmin, tmax]` (the ray enters child `i` if `t0[i] <= t1[i]`).
+    /// Entry and exit distances of a wide node's four children's boxes
+    /// within `[tmin, tmax]` (the ray enters child `i` if `t0[i] <= t1[i]`).
     #[inline(always)]
-    fn test(&self, n: &Wide, tmin: f64, tmax: f64) -> ([f64; W], [f64; W]) {
-        let mut t0 = [tmin; W];
-        let mut t1 = [tmax; W];
+    fn test4(&self, n: &Wide, tmin: f64, tmax: f64) -> ([f64; 4], [f64; 4]) {
+        let mut t0 = [tmin; 4];
+        let mut t1 = [tmax; 4];
         for a in 0..3 {
             let (o, inv) = (self.o[a], self.inv[a]);
             let lo = n.b[a][self.near[a]].map(f64::from);
             let hi = n.b[a][1 - self.near[a]].map(f64::from);
-            for l in 0..W {
+            for l in 0..4 {
                 let e = (lo[l] - o) * inv;
                 let x = (hi[l] - o) * inv;
                 // Written so a NaN (0 * inf) keeps the bound: `maxpd`/`minpd`.
@@ -137,24 +132,14 @@ impl Slab {
     }
 }
 
-/// The slab test of one ray against a node's children: the mask of
+/// The slab test of one ray against a node's four children: the mask of
 /// children entered (bit `i` for child `i`) and their entry distances.
-/// Every implementation does [`Slab::test`]'s IEEE operations in its
+/// Every implementation does [`Slab::test4`]'s IEEE operations in its
 /// order, so all give the same answers.
 trait Enter {
-    /// The any-hit traversal goes through the children entered as the bits
-    /// of [`Enter::enter`]'s mask (AVX-512), rather than through all
-    /// children with a branch on each one's bit (AVX2 and portable code,
-    /// where the processor runs ahead on the predicted branches). Measured
-    /// with `bench --embree`, shadow rays against `rtcOccluded1`: with
-    /// AVX2, 0.54 going through the mask's bits, 0.64 with a branch per
-    /// child on the scalar test's distances, 0.67 with a branch per bit;
-    /// with AVX-512, 0.82 through the bits.
-    const MASK: bool;
-
     /// # Safety
     /// The implementation's instructions must be available.
-    unsafe fn enter(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; W]);
+    unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]);
 
     /// The distances of a leaf block's four triangles ([`leaf::Tri4`]),
     /// NaN where the ray misses; every implementation gives the same.
@@ -174,13 +159,11 @@ trait Enter {
 struct Portable;
 
 impl Enter for Portable {
-    const MASK: bool = false;
-
     #[inline(always)]
-    unsafe fn enter(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; W]) {
-        let (t0, t1) = s.test(n, tmin, tmax);
+    unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]) {
+        let (t0, t1) = s.test4(n, tmin, tmax);
         let mut m = 0;
-        for l in 0..W {
+        for l in 0..4 {
             m |= ((t0[l] <= t1[l]) as u32) << l;
         }
         (m, t0)
@@ -201,40 +184,34 @@ impl Enter for Portable {
     }
 }
 
-/// AVX2: four children in one register per quantity, the node in two
-/// halves. `maxpd(e, t0)` is `if e > t0 { e } else { t0 }` and
-/// `minpd(x, t1)` is `if x < t1 { x } else { t1 }`, the scalar test's
-/// choices, NaN included.
+/// AVX2: the four children in one register per quantity. `maxpd(e, t0)`
+/// is `if e > t0 { e } else { t0 }` and `minpd(x, t1)` is `if x < t1 { x }
+/// else { t1 }`, the scalar test's choices, NaN included.
 #[cfg(target_arch = "x86_64")]
 struct Avx2;
 
 #[cfg(target_arch = "x86_64")]
 impl Enter for Avx2 {
-    const MASK: bool = false;
-
     #[inline(always)]
-    unsafe fn enter(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; W]) {
+    unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]) {
         use std::arch::x86_64::*;
-        let mut m = 0;
-        let mut out = [0.0; W];
-        for h in [0, 4] {
-            let mut t0 = _mm256_set1_pd(tmin);
-            let mut t1 = _mm256_set1_pd(tmax);
-            for a in 0..3 {
-                let o = _mm256_set1_pd(s.o[a]);
-                let inv = _mm256_set1_pd(s.inv[a]);
-                // `Wide` is aligned to 64 bytes, each half row of it to
-                // 16; widening to double precision is exact.
-                let lo = _mm256_cvtps_pd(_mm_load_ps(n.b[a][s.near[a]][h..].as_ptr()));
-                let hi = _mm256_cvtps_pd(_mm_load_ps(n.b[a][1 - s.near[a]][h..].as_ptr()));
-                let e = _mm256_mul_pd(_mm256_sub_pd(lo, o), inv);
-                let x = _mm256_mul_pd(_mm256_sub_pd(hi, o), inv);
-                t0 = _mm256_max_pd(e, t0);
-                t1 = _mm256_min_pd(x, t1);
-            }
-            m |= (_mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(t0, t1)) as u32) << h;
-            _mm256_storeu_pd(out[h..].as_mut_ptr(), t0);
+        let mut t0 = _mm256_set1_pd(tmin);
+        let mut t1 = _mm256_set1_pd(tmax);
+        for a in 0..3 {
+            let o = _mm256_set1_pd(s.o[a]);
+            let inv = _mm256_set1_pd(s.inv[a]);
+            // `Wide` is aligned to 32 bytes, each `[f32; 4]` of it to 16;
+            // widening to double precision is exact.
+            let lo = _mm256_cvtps_pd(_mm_load_ps(n.b[a][s.near[a]].as_ptr()));
+            let hi = _mm256_cvtps_pd(_mm_load_ps(n.b[a][1 - s.near[a]].as_ptr()));
+            let e = _mm256_mul_pd(_mm256_sub_pd(lo, o), inv);
+            let x = _mm256_mul_pd(_mm256_sub_pd(hi, o), inv);
+            t0 = _mm256_max_pd(e, t0);
+            t1 = _mm256_min_pd(x, t1);
         }
+        let m = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(t0, t1)) as u32;
+        let mut out = [0.0; 4];
+        _mm256_storeu_pd(out.as_mut_ptr(), t0);
         (m, out)
     }
 
@@ -250,49 +227,6 @@ impl Enter for Avx2 {
         let above = _mm256_cmp_pd::<_CMP_GT_OQ>(t, _mm256_set1_pd(lo));
         let below = _mm256_cmp_pd::<_CMP_LT_OQ>(t, _mm256_set1_pd(hi));
         _mm256_movemask_pd(_mm256_and_pd(above, below)) as u32
-    }
-}
-
-/// AVX-512: the eight children in one register per quantity, the same
-/// operations as [`Avx2`]'s (`vmaxpd`/`vminpd` choose as `maxpd`/`minpd`
-/// do); the leaf blocks as [`Avx2`] tests them.
-#[cfg(target_arch = "x86_64")]
-struct Avx512;
-
-#[cfg(target_arch = "x86_64")]
-impl Enter for Avx512 {
-    const MASK: bool = true;
-
-    #[inline(always)]
-    unsafe fn enter(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; W]) {
-        use std::arch::x86_64::*;
-        let mut t0 = _mm512_set1_pd(tmin);
-        let mut t1 = _mm512_set1_pd(tmax);
-        for a in 0..3 {
-            let o = _mm512_set1_pd(s.o[a]);
-            let inv = _mm512_set1_pd(s.inv[a]);
-            // Each row of `Wide` (eight singles) is aligned to 32 bytes.
-            let lo = _mm512_cvtps_pd(_mm256_load_ps(n.b[a][s.near[a]].as_ptr()));
-            let hi = _mm512_cvtps_pd(_mm256_load_ps(n.b[a][1 - s.near[a]].as_ptr()));
-            let e = _mm512_mul_pd(_mm512_sub_pd(lo, o), inv);
-            let x = _mm512_mul_pd(_mm512_sub_pd(hi, o), inv);
-            t0 = _mm512_max_pd(e, t0);
-            t1 = _mm512_min_pd(x, t1);
-        }
-        let m = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(t0, t1) as u32;
-        let mut out = [0.0; W];
-        _mm512_storeu_pd(out.as_mut_ptr(), t0);
-        (m, out)
-    }
-
-    #[inline(always)]
-    unsafe fn tri4(tr: &TriRay, b: &leaf::Tri4) -> [f64; 4] {
-        leaf::lanes_avx2(tr, b)
-    }
-
-    #[inline(always)]
-    unsafe fn within(t: &[f64; 4], lo: f64, hi: f64) -> u32 {
-        Avx2::within(t, lo, hi)
     }
 }
 
@@ -402,9 +336,18 @@ enum Kid {
     /// Not yet looked at.
     Open(Part),
     Leaf(Part),
-    /// Split in two (the sides); becomes a wide node of its own unless
-    /// opened.
-    Split(Part, Part),
+    /// Split in two (its box's half area, the sides); becomes a wide node
+    /// of its own unless opened.
+    Split(f32, Part, Part),
+}
+
+impl Kid {
+    fn half_area(&self) -> f32 {
+        match self {
+            Kid::Open(p) | Kid::Leaf(p) => p.bounds.half_area(),
+            Kid::Split(a, _, _) => *a,
+        }
+    }
 }
 
 /// `a.min(b)` and `a.max(b)` without the NaN cases: one `minps`/`maxps`
@@ -429,9 +372,9 @@ fn fmax(a: f32, b: f32) -> f32 {
 
 /// The build, Embree's way: the binned surface area heuristic on
 /// single-precision boxes ([`Ref`], all three axes binned in one pass),
-/// partitions in place in one array (no allocation per node), wide
+/// partitions in place in one array (no allocation per node), four-wide
 /// nodes built directly (the binary split of the largest child repeated
-/// until there are [`W`]). Deterministic: every step is a function of the
+/// until there are four). Deterministic: every step is a function of the
 /// refs' order, which only the steps themselves change; no threads.
 struct Builder {
     refs: Vec<Ref>,
@@ -655,39 +598,34 @@ impl Builder {
 
     /// The wide node over a part split into `first`; returns its index and
     /// exact box. Its children: the two sides, the largest side that
-    /// splits split again until there are [`W`] (the first of equal areas).
+    /// splits split again until there are four (the first of equal areas).
     fn wide(&mut self, first: (Part, Part), depth: u32) -> (u32, Aabb) {
-        let mut kids = [Kid::Open(first.1); W];
-        kids[0] = Kid::Open(first.0);
-        // Each kid's half area, minus infinity for a leaf (never opened).
-        let mut area = [0.0f32; W];
-        area[0] = first.0.bounds.half_area();
-        area[1] = first.1.bounds.half_area();
+        let mut kids = [
+            Kid::Open(first.0),
+            Kid::Open(first.1),
+            Kid::Open(first.1),
+            Kid::Open(first.1),
+        ];
         let mut n = 2;
-        while n < W {
-            let mut i = 0;
-            for j in 1..n {
-                if area[j] > area[i] {
-                    i = j;
+        while n < 4 {
+            let mut open: Option<(usize, f32)> = None;
+            for (i, k) in kids[..n].iter().enumerate() {
+                if matches!(k, Kid::Leaf(_)) {
+                    continue;
+                }
+                let a = k.half_area();
+                if open.is_none_or(|(_, b)| a > b) {
+                    open = Some((i, a));
                 }
             }
-            if area[i] == f32::NEG_INFINITY {
-                break;
-            }
-            match kids[i] {
-                Kid::Split(l, r) => {
-                    kids[i] = Kid::Open(l);
-                    area[i] = l.bounds.half_area();
+            let Some((i, _)) = open else { break };
+            kids[i] = match kids[i] {
+                Kid::Split(_, l, r) => {
                     kids[n] = Kid::Open(r);
-                    area[n] = r.bounds.half_area();
                     n += 1;
+                    Kid::Open(l)
                 }
-                Kid::Open(p) | Kid::Leaf(p) => {
-                    kids[i] = self.decide(&p);
-                    if matches!(kids[i], Kid::Leaf(_)) {
-                        area[i] = f32::NEG_INFINITY;
-                    }
-                }
+                Kid::Open(p) | Kid::Leaf(p) => self.decide(&p),
             }
         }
         let id = self.nodes.len() as u32;
@@ -699,7 +637,7 @@ impl Builder {
                 k => k,
             };
             let (link, count, b) = match kid {
-                Kid::Split(l, r) => {
+                Kid::Split(_, l, r) => {
                     let (link, b) = self.wide((l, r), depth + 1);
                     (link, 0, b)
                 }
@@ -723,7 +661,7 @@ impl Builder {
     /// `p` as a leaf or split.
     fn decide(&mut self, p: &Part) -> Kid {
         match self.split(p) {
-            Some((l, r)) => Kid::Split(l, r),
+            Some((l, r)) => Kid::Split(p.bounds.half_area(), l, r),
             None => Kid::Leaf(*p),
         }
     }
@@ -753,7 +691,13 @@ fn to_f32(x: f64) -> f32 {
 fn round_down(x: f64) -> f32 {
     let f = x as f32;
     if f64::from(f) > x {
-        f.next_down()
+        // `f32::next_down`, which the supported Rust (1.85) lacks: `f` is
+        // above a finite `x`, so neither NaN nor minus infinity.
+        match f {
+            0.0 => -f32::from_bits(1),
+            f if f > 0.0 => f32::from_bits(f.to_bits() - 1),
+            f => f32::from_bits(f.to_bits() + 1),
+        }
     } else {
         f
     }
@@ -764,7 +708,12 @@ fn round_down(x: f64) -> f32 {
 fn round_up(x: f64) -> f32 {
     let f = x as f32;
     if f64::from(f) < x {
-        f.next_up()
+        // `f32::next_up` (see `round_down`): `f` is below a finite `x`.
+        match f {
+            0.0 => f32::from_bits(1),
+            f if f > 0.0 => f32::from_bits(f.to_bits() + 1),
+            f => f32::from_bits(f.to_bits() - 1),
+        }
     } else {
         f
     }
@@ -890,11 +839,6 @@ impl Bvh {
         tmax: f64,
     ) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the processor has AVX-512 (and so AVX2).
-            return unsafe { self.intersect_avx512(objects, ray, tmin, tmax) };
-        }
-        #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the processor has AVX2.
             return unsafe { self.intersect_avx2(objects, ray, tmin, tmax) };
@@ -902,22 +846,18 @@ impl Bvh {
         // SAFETY: portable code.
         unsafe {
             if self.depth as usize <= SHALLOW {
-                self.intersect_impl::<{ (W - 1) * SHALLOW + 1 }, Portable, O>(
-                    objects, ray, tmin, tmax,
-                )
+                self.intersect_impl::<{ 3 * SHALLOW + 1 }, Portable, O>(objects, ray, tmin, tmax)
             } else {
-                self.intersect_impl::<{ (W - 1) * STACK + 1 }, Portable, O>(
-                    objects, ray, tmin, tmax,
-                )
+                self.intersect_impl::<{ 3 * STACK + 1 }, Portable, O>(objects, ray, tmin, tmax)
             }
         }
     }
 
-    /// [`Bvh::intersect`] compiled for AVX2 (four lanes of a slab test
+    /// [`Bvh::intersect`] compiled for AVX2 (the four lanes of a slab test
     /// in one instruction). The same IEEE operations in the same order (no
     /// fused multiply-add): the same answers, bit for bit. Measured
-    /// (`hybrid-rt bench --embree`, three runs side by side, four-wide
-    /// nodes): about 6% faster than portable code, primary and shadow rays.
+    /// (`hybrid-rt bench --embree`, three runs side by side): about 6%
+    /// faster, primary and shadow rays.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn intersect_avx2<O: ObjectSet + ?Sized>(
@@ -928,27 +868,9 @@ impl Bvh {
         tmax: f64,
     ) -> Option<Hit> {
         if self.depth as usize <= SHALLOW {
-            self.intersect_impl::<{ (W - 1) * SHALLOW + 1 }, Avx2, O>(objects, ray, tmin, tmax)
+            self.intersect_impl::<{ 3 * SHALLOW + 1 }, Avx2, O>(objects, ray, tmin, tmax)
         } else {
-            self.intersect_impl::<{ (W - 1) * STACK + 1 }, Avx2, O>(objects, ray, tmin, tmax)
-        }
-    }
-
-    /// [`Bvh::intersect`] compiled for AVX-512 (a node's eight slab tests
-    /// in one instruction each): the same answers, bit for bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,avx512f")]
-    unsafe fn intersect_avx512<O: ObjectSet + ?Sized>(
-        &self,
-        objects: &O,
-        ray: &Ray,
-        tmin: f64,
-        tmax: f64,
-    ) -> Option<Hit> {
-        if self.depth as usize <= SHALLOW {
-            self.intersect_impl::<{ (W - 1) * SHALLOW + 1 }, Avx512, O>(objects, ray, tmin, tmax)
-        } else {
-            self.intersect_impl::<{ (W - 1) * STACK + 1 }, Avx512, O>(objects, ray, tmin, tmax)
+            self.intersect_impl::<{ 3 * STACK + 1 }, Avx2, O>(objects, ray, tmin, tmax)
         }
     }
 
@@ -992,7 +914,7 @@ impl Bvh {
                     }
                 } else {
                     let n = &self.nodes[link as usize];
-                    let (m, t0) = E::enter(&slab, n, tmin, cut);
+                    let (m, t0) = E::enter4(&slab, n, tmin, cut);
                     if m != 0 {
                         // On to the nearest child entered (the first of
                         // equal ones); the others pending, farthest pushed
@@ -1058,11 +980,6 @@ impl Bvh {
         ignore: Option<ObjectId>,
     ) -> bool {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the processor has AVX-512 (and so AVX2).
-            return unsafe { self.occluded_avx512(objects, ray, tmin, tmax, ignore) };
-        }
-        #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the processor has AVX2.
             return unsafe { self.occluded_avx2(objects, ray, tmin, tmax, ignore) };
@@ -1070,13 +987,9 @@ impl Bvh {
         // SAFETY: portable code.
         unsafe {
             if self.depth as usize <= SHALLOW {
-                self.occluded_impl::<{ (W - 1) * SHALLOW }, Portable, O>(
-                    objects, ray, tmin, tmax, ignore,
-                )
+                self.occluded_impl::<{ 3 * SHALLOW }, Portable, O>(objects, ray, tmin, tmax, ignore)
             } else {
-                self.occluded_impl::<{ (W - 1) * STACK }, Portable, O>(
-                    objects, ray, tmin, tmax, ignore,
-                )
+                self.occluded_impl::<{ 3 * STACK }, Portable, O>(objects, ray, tmin, tmax, ignore)
             }
         }
     }
@@ -1093,27 +1006,9 @@ impl Bvh {
         ignore: Option<ObjectId>,
     ) -> bool {
         if self.depth as usize <= SHALLOW {
-            self.occluded_impl::<{ (W - 1) * SHALLOW }, Avx2, O>(objects, ray, tmin, tmax, ignore)
+            self.occluded_impl::<{ 3 * SHALLOW }, Avx2, O>(objects, ray, tmin, tmax, ignore)
         } else {
-            self.occluded_impl::<{ (W - 1) * STACK }, Avx2, O>(objects, ray, tmin, tmax, ignore)
-        }
-    }
-
-    /// [`Bvh::occluded`] compiled for AVX-512 (see [`Bvh::intersect_avx512`]).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,avx512f")]
-    unsafe fn occluded_avx512<O: ObjectSet + ?Sized>(
-        &self,
-        objects: &O,
-        ray: &Ray,
-        tmin: f64,
-        tmax: f64,
-        ignore: Option<ObjectId>,
-    ) -> bool {
-        if self.depth as usize <= SHALLOW {
-            self.occluded_impl::<{ (W - 1) * SHALLOW }, Avx512, O>(objects, ray, tmin, tmax, ignore)
-        } else {
-            self.occluded_impl::<{ (W - 1) * STACK }, Avx512, O>(objects, ray, tmin, tmax, ignore)
+            self.occluded_impl::<{ 3 * STACK }, Avx2, O>(objects, ray, tmin, tmax, ignore)
         }
     }
 
@@ -1147,13 +1042,10 @@ impl Bvh {
         let mut node = 0u32;
         loop {
             let n = &self.nodes[node as usize];
-            let (e, _) = E::enter(&slab, n, tmin, tmax);
-            let mut m = if E::MASK { e } else { (1 << W) - 1 };
+            let (t0, t1) = slab.test4(n, tmin, tmax);
             let mut next = u32::MAX;
-            while m != 0 {
-                let lane = m.trailing_zeros() as usize;
-                m &= m - 1;
-                if !E::MASK && e >> lane & 1 == 0 {
+            for lane in 0..4 {
+                if t0[lane] > t1[lane] {
                     continue;
                 }
                 let count = n.count[lane] as usize;
@@ -1346,7 +1238,7 @@ mod tests {
     fn check_boxes(bvh: &Bvh, objects: &[Object], node: u32, margin: f64) -> usize {
         let n = &bvh.nodes[node as usize];
         let mut held = 0;
-        for l in 0..W {
+        for l in 0..4 {
             let lane = lane_box(n, l);
             if lane.is_empty() {
                 continue;
@@ -1365,7 +1257,7 @@ mod tests {
             } else {
                 held += check_boxes(bvh, objects, n.link[l], margin);
                 let c = &bvh.nodes[n.link[l] as usize];
-                (0..W).fold(Aabb::EMPTY, |b, k| b.union(lane_box(c, k)))
+                (0..4).fold(Aabb::EMPTY, |b, k| b.union(lane_box(c, k)))
             };
             assert_eq!(
                 (lane.min, lane.max),
@@ -1401,35 +1293,29 @@ mod tests {
         }
     }
 
-    /// The slab test's masks and entry distances as the instruction sets
-    /// the processor has compute them.
+    /// The slab test's mask and entry distances, portable and (where the
+    /// processor has it) AVX2.
     #[cfg(target_arch = "x86_64")]
-    fn enter_on_every_set(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> Vec<(u32, [u64; W])> {
+    fn enter_on_every_set(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> Vec<(u32, [u64; 4])> {
         #[target_feature(enable = "avx2")]
-        unsafe fn avx2(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; W]) {
-            Avx2::enter(s, n, tmin, tmax)
+        unsafe fn avx2(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]) {
+            Avx2::enter4(s, n, tmin, tmax)
         }
-        #[target_feature(enable = "avx2,avx512f")]
-        unsafe fn avx512(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; W]) {
-            Avx512::enter(s, n, tmin, tmax)
-        }
-        let bits = |(m, t0): (u32, [f64; W])| (m, t0.map(f64::to_bits));
-        // SAFETY: each set is used only where the processor has it.
-        let mut out = vec![bits(unsafe { Portable::enter(s, n, tmin, tmax) })];
+        let bits = |(m, t0): (u32, [f64; 4])| (m, t0.map(f64::to_bits));
+        // SAFETY: AVX2 only where the processor has it.
+        let mut out = vec![bits(unsafe { Portable::enter4(s, n, tmin, tmax) })];
         if std::arch::is_x86_feature_detected!("avx2") {
             out.push(bits(unsafe { avx2(s, n, tmin, tmax) }));
-        }
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            out.push(bits(unsafe { avx512(s, n, tmin, tmax) }));
         }
         out
     }
 
-    /// Every instruction set the slab test is written for gives the same
-    /// masks and entry distances, bit for bit, at every node, and the
-    /// traversals compiled for each give the same answers: rays from
-    /// inside and outside the scene, along the axes (infinite inverses),
-    /// starting on box planes, at scales 1e-5 to 1e5.
+    /// The portable slab test and the AVX2 one give the same masks and
+    /// entry distances, bit for bit, at every node, and the traversals
+    /// compiled for each the same nearest and any hits: rays from inside
+    /// and outside the scene, along the axes (infinite inverses), in a box
+    /// plane (the `0 * inf` NaN, which must keep the bound), at scales 1e-5
+    /// to 1e5.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn instruction_sets_agree_at_every_node() {
@@ -1437,7 +1323,7 @@ mod tests {
         for scale in [1e-5, 1.0, 1e5] {
             let objects = scene_at(6, 1500, scale);
             let bvh = Bvh::build(&objects);
-            let mut rays = 0;
+            let mut hits = 0;
             for i in 0..300 {
                 let mut v = || Vec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64());
                 let mut o = (v() * 14.0 - Vec3::splat(2.0)) * scale;
@@ -1450,8 +1336,6 @@ mod tests {
                 match i % 6 {
                     0 => d.x = 0.0,
                     1 => (d.y, d.z) = (0.0, 0.0),
-                    // In the lower plane of a root child's box (0 * inf:
-                    // NaN, which must keep the bound).
                     2 => (o.x, d.x) = (f64::from(bvh.nodes[0].b[0][0][0]), 0.0),
                     _ => {}
                 }
@@ -1461,60 +1345,54 @@ mod tests {
                 let ray = Ray::new(o, d.normalize());
                 let pre = PreparedRay::new(&ray);
                 let slab = Slab::new(&ray, pre.inv_dir);
-                let (tmin, tmax) = (
-                    1e-9 * scale,
-                    if i % 2 == 0 {
-                        f64::INFINITY
-                    } else {
-                        8.0 * scale
-                    },
-                );
+                let tmin = 1e-9 * scale;
+                let tmax = if i % 4 < 2 {
+                    f64::INFINITY
+                } else {
+                    8.0 * scale
+                };
                 for n in &bvh.nodes {
                     let all = enter_on_every_set(&slab, n, tmin, tmax);
                     assert!(all.iter().all(|x| *x == all[0]), "ray {i}: {all:?}");
                 }
-                // SAFETY: each set only where the processor has it.
-                let portable = unsafe {
-                    bvh.intersect_impl::<{ (W - 1) * STACK + 1 }, Portable, _>(
-                        &objects[..],
-                        &ray,
-                        tmin,
-                        tmax,
-                    )
-                };
+                if !std::arch::is_x86_feature_detected!("avx2") {
+                    continue;
+                }
                 let key = |h: Option<Hit>| h.map(|h| (h.t.to_bits(), h.object));
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    let h = unsafe { bvh.intersect_avx2(&objects[..], &ray, tmin, tmax) };
-                    assert_eq!(key(h), key(portable), "ray {i}");
-                }
-                if std::arch::is_x86_feature_detected!("avx512f") {
-                    let h = unsafe { bvh.intersect_avx512(&objects[..], &ray, tmin, tmax) };
-                    assert_eq!(key(h), key(portable), "ray {i}");
-                }
-                // And the any-hit traversals, to a point short of the hit.
-                let end = portable.map_or(tmax, |h| 0.5 * (tmin + h.t));
-                for t in [end, tmax] {
-                    let p = unsafe {
-                        bvh.occluded_impl::<{ (W - 1) * STACK }, Portable, _>(
+                // SAFETY: the processor has AVX2.
+                let (portable, avx2) = unsafe {
+                    (
+                        bvh.intersect_impl::<{ 3 * STACK + 1 }, Portable, _>(
                             &objects[..],
                             &ray,
                             tmin,
-                            t,
-                            None,
+                            tmax,
+                        ),
+                        bvh.intersect_avx2(&objects[..], &ray, tmin, tmax),
+                    )
+                };
+                assert_eq!(key(avx2), key(portable), "ray {i}");
+                // And the any-hit traversals, to the hit and short of it.
+                let end = portable.map_or(tmax, |h| 0.5 * (tmin + h.t));
+                for t in [end, tmax] {
+                    // SAFETY: the processor has AVX2.
+                    let (p, a) = unsafe {
+                        (
+                            bvh.occluded_impl::<{ 3 * STACK }, Portable, _>(
+                                &objects[..],
+                                &ray,
+                                tmin,
+                                t,
+                                None,
+                            ),
+                            bvh.occluded_avx2(&objects[..], &ray, tmin, t, None),
                         )
                     };
-                    if std::arch::is_x86_feature_detected!("avx2") {
-                        let o = unsafe { bvh.occluded_avx2(&objects[..], &ray, tmin, t, None) };
-                        assert_eq!(o, p, "ray {i}");
-                    }
-                    if std::arch::is_x86_feature_detected!("avx512f") {
-                        let o = unsafe { bvh.occluded_avx512(&objects[..], &ray, tmin, t, None) };
-                        assert_eq!(o, p, "ray {i}");
-                    }
+                    assert_eq!(a, p, "ray {i}");
                 }
-                rays += portable.is_some() as usize;
+                hits += portable.is_some() as usize;
             }
-            assert!(rays > 30, "{rays} rays hit at scale {scale}");
+            assert!(hits > 30, "{hits} rays hit at scale {scale}");
         }
     }
 }

@@ -854,7 +854,7 @@ impl Builder {
         }
         match t {
             "polygon" => {
-                if !r.len().is_multiple_of(3) || r.len() < 9 {
+                if r.len() % 3 != 0 || r.len() < 9 {
                     return Err(Error::parse(
                         p.loc.clone(),
                         format!(

@@ -234,7 +234,7 @@ pub(crate) fn transform_prim(p: &RawPrim, xf: &Xf, invert: bool) -> Result<RawPr
     };
     match p.ptype.as_str() {
         "polygon" => {
-            if !p.reals.len().is_multiple_of(3) || p.reals.len() < 9 {
+            if p.reals.len() % 3 != 0 || p.reals.len() < 9 {
                 return Err(bad("a multiple of 3 (at least 9)"));
             }
             let n = p.reals.len() / 3;

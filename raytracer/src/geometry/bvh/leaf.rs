@@ -24,7 +24,7 @@
 //! on the ray, whose hits are real). Objects that are not polygons are
 //! tested by id as before: a leaf's ids hold its polygons first.
 
-use super::{Enter, Wide, W};
+use super::{Enter, Wide};
 use crate::geometry::prims::{Prims, TriRay};
 use crate::geometry::robust::{diff_of_products, next_up};
 use crate::geometry::shape::{Object, ObjectId, Shape, ShapeHit};
@@ -65,7 +65,7 @@ impl Blocks {
         };
         let mut leaves: Vec<(u32, u32)> = nodes
             .iter()
-            .flat_map(|n| (0..W).map(move |l| (n.link[l], n.count[l])))
+            .flat_map(|n| (0..4).map(move |l| (n.link[l], n.count[l])))
             .filter(|&(_, count)| count > 0)
             .collect();
         leaves.sort_unstable();
@@ -466,7 +466,7 @@ mod tests {
             let starts: Vec<u32> = bvh
                 .nodes
                 .iter()
-                .flat_map(|n| (0..super::W).filter(|&l| n.count[l] > 0).map(|l| n.link[l]))
+                .flat_map(|n| (0..4).filter(|&l| n.count[l] > 0).map(|l| n.link[l]))
                 .filter_map(|s| {
                     let (first, blocks, _) = bvh.blocks.at[s as usize];
                     (blocks > 0).then_some(first)

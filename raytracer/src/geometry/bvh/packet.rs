@@ -22,9 +22,9 @@
 //! code ([`Tester`]), and the answer (the nearest hit, the smaller id of
 //! equal ones; any hit) does not depend on the order objects are tested in.
 
-use super::{leaf, Bvh, Enter, Portable, Slab, Tester, Wide, SHALLOW, STACK, W};
 #[cfg(target_arch = "x86_64")]
-use super::{Avx2, Avx512};
+use super::Avx2;
+use super::{leaf, Bvh, Enter, Portable, Slab, Tester, Wide, SHALLOW, STACK};
 use crate::geometry::robust::next_up;
 use crate::geometry::shape::{Hit, Object, ObjectId, ObjectSet, ShapeHit};
 use crate::geometry::{PreparedRay, Ray};
@@ -100,16 +100,16 @@ impl Frustum {
     /// The lanes of `n` some ray of the packet may enter before `cut` (a
     /// bound on every ray's segment end): bit `i` for child `i`.
     #[inline(always)]
-    fn test(&self, n: &Wide, cut: f64) -> u32 {
-        let mut t0 = [self.tmin; W];
-        let mut t1 = [cut; W];
+    fn test4(&self, n: &Wide, cut: f64) -> u32 {
+        let mut t0 = [self.tmin; 4];
+        let mut t1 = [cut; 4];
         for a in 0..3 {
             if !self.axes[a] {
                 continue;
             }
             let lo = n.b[a][self.near[a]].map(f64::from);
             let hi = n.b[a][1 - self.near[a]].map(f64::from);
-            for l in 0..W {
+            for l in 0..4 {
                 // The least entry and the greatest exit over the packet.
                 let (e0, e1) = (lo[l] - self.o_hi[a], lo[l] - self.o_lo[a]);
                 let e = (e0 * self.inv_lo[a])
@@ -126,7 +126,7 @@ impl Frustum {
             }
         }
         let mut mask = 0;
-        for l in 0..W {
+        for l in 0..4 {
             // A NaN (an empty lane's infinite planes) rejects nothing.
             if t0[l].partial_cmp(&t1[l]) != Some(std::cmp::Ordering::Greater) {
                 mask |= 1 << l;
@@ -177,11 +177,6 @@ impl Bvh {
     pub fn intersect_packet(&self, objects: &[Object], rays: &[Segment], out: &mut [Option<Hit>]) {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the processor has AVX-512 (and so AVX2).
-            return unsafe { self.intersect_packet_avx512(objects, rays, out) };
-        }
-        #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the processor has AVX2.
             return unsafe { self.intersect_packet_avx2(objects, rays, out) };
@@ -201,18 +196,6 @@ impl Bvh {
         out: &mut [Option<Hit>],
     ) {
         self.intersect_packet_impl::<Avx2>(objects, rays, out)
-    }
-
-    /// [`Bvh::intersect_packet`] compiled for AVX-512.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,avx512f")]
-    unsafe fn intersect_packet_avx512(
-        &self,
-        objects: &[Object],
-        rays: &[Segment],
-        out: &mut [Option<Hit>],
-    ) {
-        self.intersect_packet_impl::<Avx512>(objects, rays, out)
     }
 
     /// # Safety
@@ -246,13 +229,11 @@ impl Bvh {
         if !self.nodes.is_empty() && n > 0 {
             let slabs: Vec<Slab> = pre.iter().map(|p| Slab::new(&p.ray, p.inv_dir)).collect();
             let frustum = Frustum::new(&pre, &tmin);
-            let cap = (W - 1)
-                * if self.depth as usize <= SHALLOW {
-                    SHALLOW
-                } else {
-                    STACK
-                }
-                + 1;
+            let cap = 3 * if self.depth as usize <= SHALLOW {
+                SHALLOW
+            } else {
+                STACK
+            } + 1;
             // Pending nodes, nearest on top: (node, first ray, entry of
             // that ray).
             let mut stack: Vec<(u32, u32, f64)> = Vec::with_capacity(cap);
@@ -264,19 +245,19 @@ impl Bvh {
                     .iter()
                     .copied()
                     .fold(f64::NEG_INFINITY, f64::max);
-                let mask = frustum.test(n_, hi);
+                let mask = frustum.test4(n_, hi);
                 if mask == 0 {
                     continue;
                 }
                 let (leaves, inner) = split(n_, mask);
                 // Each inner child's first ray and its entry.
-                let mut enter = [(u32::MAX, 0.0f64); W];
+                let mut enter = [(u32::MAX, 0.0f64); 4];
                 let mut open = inner;
                 for r in first..n {
                     if open == 0 && leaves == 0 {
                         break;
                     }
-                    let (m, t0) = E::enter(&slabs[r], n_, tmin[r], cut[r]);
+                    let (m, t0) = E::enter4(&slabs[r], n_, tmin[r], cut[r]);
                     let mut newly = m & open;
                     open &= !m;
                     while newly != 0 {
@@ -290,7 +271,7 @@ impl Bvh {
                     }
                     // This ray's leaves, nearest first, each while still
                     // in front of the ray's cut.
-                    let mut order = [(0usize, 0.0f64); W];
+                    let mut order = [(0usize, 0.0f64); 4];
                     let mut k = 0;
                     while lm != 0 {
                         let l = lm.trailing_zeros() as usize;
@@ -359,11 +340,6 @@ impl Bvh {
     ) {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the processor has AVX-512 (and so AVX2).
-            return unsafe { self.occluded_packet_avx512(objects, rays, ignore, out) };
-        }
-        #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the processor has AVX2.
             return unsafe { self.occluded_packet_avx2(objects, rays, ignore, out) };
@@ -383,19 +359,6 @@ impl Bvh {
         out: &mut [bool],
     ) {
         self.occluded_packet_impl::<Avx2>(objects, rays, ignore, out)
-    }
-
-    /// [`Bvh::occluded_packet`] compiled for AVX-512.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,avx512f")]
-    unsafe fn occluded_packet_avx512(
-        &self,
-        objects: &[Object],
-        rays: &[Segment],
-        ignore: Option<ObjectId>,
-        out: &mut [bool],
-    ) {
-        self.occluded_packet_impl::<Avx512>(objects, rays, ignore, out)
     }
 
     /// # Safety
@@ -445,12 +408,12 @@ impl Bvh {
         let mut stack: Vec<(u32, u32)> = vec![(0, 0)];
         while let Some((node, first)) = stack.pop() {
             let n_ = &self.nodes[node as usize];
-            let mask = frustum.test(n_, hi);
+            let mask = frustum.test4(n_, hi);
             if mask == 0 {
                 continue;
             }
             let (leaves, inner) = split(n_, mask);
-            let mut enter = [u32::MAX; W];
+            let mut enter = [u32::MAX; 4];
             let mut todo = inner;
             for r in first as usize..n {
                 if todo == 0 && leaves == 0 {
@@ -459,7 +422,7 @@ impl Bvh {
                 if out[r] {
                     continue;
                 }
-                let (m, _) = E::enter(&slabs[r], n_, rays[r].1, rays[r].2);
+                let (m, _) = E::enter4(&slabs[r], n_, rays[r].1, rays[r].2);
                 let mut newly = m & todo;
                 todo &= !m;
                 while newly != 0 {
