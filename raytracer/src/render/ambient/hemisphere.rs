@@ -388,6 +388,8 @@ impl Hemisphere {
             .map(|k| {
                 let dir = self.first[k].0;
                 let dist = self.first_dist[k].clamp(FTINY, far);
+                let p = self.point + dir * dist;
+                let r = p - self.point;
                 Sample {
                     y: if lit {
                         0.99 * n as f64 * b[k] / total + 0.01
@@ -395,7 +397,9 @@ impl Hemisphere {
                         1.0
                     },
                     inv_dist: self.inv_near[k],
-                    p: self.point + dir * dist,
+                    p,
+                    r,
+                    inv_r2: 1.0 / r.dot(r),
                 }
             })
             .collect();
@@ -489,6 +493,10 @@ struct Sample {
     inv_dist: f64,
     /// Where the first sample hit (clamped to a far distance).
     p: Vec3,
+    /// `p` seen from the hemisphere's point, and `1 / |r|^2`: every edge
+    /// at the sample reads them (Radiance computes them for each).
+    r: Vec3,
+    inv_r2: f64,
 }
 
 /// The hemisphere's samples as a grid of triangles, seen from `origin`.
@@ -499,27 +507,50 @@ struct Grid<'a> {
     normal: Vec3,
 }
 
-/// Edge terms of the Hessian and gradient (Radiance's `FFTRI`).
+/// Edge terms of the Hessian and gradient (Radiance's `FFTRI`), with the
+/// products both of them read.
 struct Edge {
     r_i: Vec3,
-    r_i1: Vec3,
     e_i: Vec3,
     rcp: Vec3,
     ri2_ej2: Vec3,
+    /// `normal x e_i`.
+    ncp: Vec3,
     i1: f64,
     i2: f64,
+    /// `1 / |r_i|^2`, `1 / |r_i1|^2`, `|e_i|^2`, `e_i . r_i`, `e_i . r_i1`
+    /// and `|rcp|^2`.
+    rdot_r: f64,
+    rdot_r1: f64,
+    dot_e: f64,
+    dot_er: f64,
+    dot_er1: f64,
+    dot_cp: f64,
 }
 
 type Mat3 = [[f64; 3]; 3];
 
+/// A symmetric 3x3 matrix as its upper triangle, in the order of [`SYM`].
+/// Every matrix of the Hessian is symmetric entry for entry (each
+/// `compose` is, and the diagonal term keeps it so), so its lower
+/// triangle would repeat the same sums bit for bit.
+type Sym3 = [f64; 6];
+
+/// The (row, column) of each entry of a [`Sym3`].
+const SYM: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+
 /// `va vb^T + vb va^T`.
-fn compose(va: Vec3, vb: Vec3) -> Mat3 {
+fn compose(va: Vec3, vb: Vec3) -> Sym3 {
     let (a, b) = (va.to_array(), vb.to_array());
+    SYM.map(|(i, j)| a[i] * b[j] + a[j] * b[i])
+}
+
+/// The full matrix of a [`Sym3`].
+fn full(h: &Sym3) -> Mat3 {
     let mut m = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            m[i][j] = a[i] * b[j] + a[j] * b[i];
-        }
+    for (&(i, j), &x) in SYM.iter().zip(h) {
+        m[i][j] = x;
+        m[j][i] = x;
     }
     m
 }
@@ -527,17 +558,15 @@ fn compose(va: Vec3, vb: Vec3) -> Mat3 {
 /// An edge's share of the Hessian and of the translational gradient.
 #[derive(Clone, Copy)]
 struct Terms {
-    h: Mat3,
+    h: Sym3,
     g: Vec3,
 }
 
 impl Terms {
     /// The same edge walked the other way.
     fn reverse(&mut self) {
-        for row in self.h.iter_mut() {
-            for x in row.iter_mut() {
-                *x = -*x;
-            }
+        for x in self.h.iter_mut() {
+            *x = -*x;
         }
         self.g = -self.g;
     }
@@ -618,65 +647,70 @@ impl Grid<'_> {
     }
 
     fn edge(&self, n0: usize, n1: usize) -> Edge {
-        let r_i = self.samples[n0].p - self.origin;
-        let r_i1 = self.samples[n1].p - self.origin;
-        let e_i = self.samples[n1].p - self.samples[n0].p;
+        let (s0, s1) = (&self.samples[n0], &self.samples[n1]);
+        let (r_i, r_i1) = (s0.r, s1.r);
+        let e_i = s1.p - s0.p;
         let rcp = r_i.cross(r_i1);
-        let rdot_cp = 1.0 / rcp.dot(rcp);
+        let dot_cp = rcp.dot(rcp);
+        let rdot_cp = 1.0 / dot_cp;
         let dot_e = e_i.dot(e_i);
         let dot_er = e_i.dot(r_i);
-        let rdot_r = 1.0 / r_i.dot(r_i);
-        let rdot_r1 = 1.0 / r_i1.dot(r_i1);
+        let (rdot_r, rdot_r1) = (s0.inv_r2, s1.inv_r2);
         let cos = (r_i.dot(r_i1) * (rdot_r * rdot_r1).sqrt()).clamp(-1.0, 1.0);
         let i1 = cos.acos() * rdot_cp.sqrt();
-        let i2 = (e_i.dot(r_i1) * rdot_r1 - dot_er * rdot_r + dot_e * i1) * 0.5 * rdot_cp;
+        let dot_er1 = e_i.dot(r_i1);
+        let i2 = (dot_er1 * rdot_r1 - dot_er * rdot_r + dot_e * i1) * 0.5 * rdot_cp;
         let j2 = (0.5 * (rdot_r - rdot_r1) - dot_er * i2) / dot_e;
         Edge {
             r_i,
-            r_i1,
             e_i,
             rcp,
             ri2_ej2: r_i * i2 + e_i * j2,
+            ncp: self.normal.cross(e_i),
             i1,
             i2,
+            rdot_r,
+            rdot_r1,
+            dot_e,
+            dot_er,
+            dot_er1,
+            dot_cp,
         }
     }
 
-    fn edge_hessian(&self, f: &Edge) -> Mat3 {
+    /// Radiance's `comp_hessian`, the same operations on the upper
+    /// triangle only (the products `edge` shares are the ones it would
+    /// compute again: `1 / |r_i|^2` is `rdot_r`, and so on).
+    fn edge_hessian(&self, f: &Edge) -> Sym3 {
         let nrm = self.normal;
-        let d1 = 1.0 / f.r_i.dot(f.r_i);
-        let d2 = 1.0 / f.r_i1.dot(f.r_i1);
-        let d3 = 1.0 / f.e_i.dot(f.e_i);
-        let d4 = f.e_i.dot(f.r_i);
-        let i3 = (f.e_i.dot(f.r_i1) * d2 * d2 - d4 * d1 * d1 + 3.0 / d3 * f.i2)
-            / (4.0 * f.rcp.dot(f.rcp));
+        let d1 = f.rdot_r;
+        let d2 = f.rdot_r1;
+        let d3 = 1.0 / f.dot_e;
+        let d4 = f.dot_er;
+        let i3 = (f.dot_er1 * d2 * d2 - d4 * d1 * d1 + 3.0 / d3 * f.i2) / (4.0 * f.dot_cp);
         let j3 = 0.25 * d3 * (d1 * d1 - d2 * d2) - d4 * d3 * i3;
         let k3 = d3 * (f.i2 - i3 / d1 - 2.0 * d4 * j3);
-        let ncp = nrm.cross(f.e_i);
-        let m1 = compose(ncp, f.ri2_ej2);
+        let m1 = compose(f.ncp, f.ri2_ej2);
         let m2 = compose(f.r_i, f.r_i);
         let m3 = compose(f.e_i, f.e_i);
         let m4 = compose(f.r_i, f.e_i);
         let dn = nrm.dot(f.rcp);
         let diag = -dn * f.i2;
         let dn = 2.0 * dn;
-        let mut h = [[0.0; 3]; 3];
-        for i in 0..3 {
-            for j in 0..3 {
-                let mut v = m1[i][j] + dn * (i3 * m2[i][j] + k3 * m3[i][j] + 2.0 * j3 * m4[i][j]);
-                if i == j {
-                    v += diag;
-                }
-                h[i][j] = v * (-1.0 / PI);
+        let mut h = [0.0; 6];
+        for (k, &(i, j)) in SYM.iter().enumerate() {
+            let mut v = m1[k] + dn * (i3 * m2[k] + k3 * m3[k] + 2.0 * j3 * m4[k]);
+            if i == j {
+                v += diag;
             }
+            h[k] = v * (-1.0 / PI);
         }
         h
     }
 
     fn edge_gradient(&self, f: &Edge) -> Vec3 {
         let f1 = 2.0 * self.normal.dot(f.rcp);
-        let ncp = self.normal.cross(f.e_i);
-        (ncp * f.i1 + f.ri2_ej2 * f1) * (0.5 / PI)
+        (f.ncp * f.i1 + f.ri2_ej2 * f1) * (0.5 / PI)
     }
 
     /// Edge `n0`-`n1`'s terms.
@@ -692,16 +726,14 @@ impl Grid<'_> {
     /// and the translational gradient along those axes (`ambHessian`).
     fn hessian(&self, ux: Vec3, uy: Vec3, max_radius: f64) -> ([Vec3; 2], [f64; 2], [f64; 2]) {
         let ns = self.ns;
-        let mut hess = [[0.0; 3]; 3];
+        let mut hess: Sym3 = [0.0; 6];
         let mut grad = Vec3::ZERO;
         // A triangle's three edges, weighted by its farthest sample's
         // brightness.
         let mut add = |edges: [&Terms; 3], v: f64| {
             for e in edges {
-                for (row, erow) in hess.iter_mut().zip(&e.h) {
-                    for (x, ex) in row.iter_mut().zip(erow) {
-                        *x += v * ex;
-                    }
+                for (x, ex) in hess.iter_mut().zip(&e.h) {
+                    *x += v * ex;
                 }
                 grad += e.g * v;
             }
@@ -727,7 +759,7 @@ impl Grid<'_> {
                 }
             }
         }
-        let (uv, ra) = eigenvectors([ux, uy], &hess, max_radius);
+        let (uv, ra) = eigenvectors([ux, uy], &full(&hess), max_radius);
         let pg = [grad.dot(uv[0]), grad.dot(uv[1])];
         (uv, ra, pg)
     }
