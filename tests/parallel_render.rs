@@ -457,6 +457,10 @@ fn every_shadow_bundle_data_parallel_and_the_worst_distribution() {
         p.workload.tile = 8;
         p.workload.shadow_dp_below = usize::MAX;
         p.workload.distribution = distribution;
+        // As the paper schedules them: with coarse tasks a bundle that
+        // stops where its point was shaded joins the point's task instead
+        // (below).
+        p.workload.inline_local_shadows = false;
         let out = check(&c, &p);
         assert_eq!(
             out.work(Work::ShadowBundlesDp),
@@ -470,6 +474,34 @@ fn every_shadow_bundle_data_parallel_and_the_worst_distribution() {
                 "bundles should have migrated mid-way"
             );
         }
+    }
+}
+
+/// With coarse tasks a data-parallel bundle starts where its point was
+/// shaded; one that stops at a cell held elsewhere joins the point's
+/// demand-driven task (selected, fetched and run again there) instead of
+/// migrating on its own. The picture is the sequential one.
+#[test]
+fn stopped_data_parallel_bundles_join_their_points_task() {
+    let c = case("studio", 32, 24, RenderOptions::default());
+    for (procs, cache) in [(3, CacheSize::Unlimited), (4, CacheSize::Percent(5.0))] {
+        let mut p = ParallelOptions::new(procs);
+        p.cache = cache;
+        p.workload.tile = 8;
+        p.workload.shadow_dp_below = usize::MAX;
+        let out = check(&c, &p);
+        let what = format!("{procs} processors, cache {cache:?}");
+        assert_eq!(
+            out.work(Work::ShadowBundlesDp),
+            out.work(Work::ShadowSpawned),
+            "{what}: every bundle should have started data-parallel"
+        );
+        assert!(
+            out.work(Work::ShadowJoined) > 0,
+            "{what}: no bundle stopped and joined its point's task"
+        );
+        p.workload.inline_local_shadows = false;
+        assert_eq!(check(&c, &p).work(Work::ShadowJoined), 0, "{what}");
     }
 }
 

@@ -31,6 +31,10 @@ hybrid_sched::work_kinds! {
         /// (a processor with its own hierarchy) that needed a cell held
         /// elsewhere, and were scheduled as usual.
         ShadowTriedElsewhere = "shadow.tried_elsewhere",
+        /// Data-parallel bundles started where their point was shaded that
+        /// stopped at a cell held elsewhere and joined the point's
+        /// demand-driven task (option `inline_local_shadows`).
+        ShadowJoined = "shadow.joined",
         ShadowSpawned = "shadow.spawned",
         ShadowRetired = "shadow.retired",
         ShadowPatches = "shadow.patches",
