@@ -258,9 +258,9 @@ impl RtWorkload {
                             // held elsewhere, it joins the point's one task
                             // and is selected, fetched and run again like
                             // the point's other bundles, rather than
-                            // migrating on its own: the cells near a light
-                            // that stopped it serve the next bundles from
-                            // the same cells to it (studio, simulated, 32
+                            // migrating on its own: what is fetched for it
+                            // stays cached for later bundles towards the
+                            // same light (the simulated studio at 32
                             // processors: 1.404 -> 1.137 s; EXPERIMENTS.md).
                             ctx.charge(Work::ShadowBundlesInline, 1);
                             match self.try_shadow(bundle, Replay::default(), path(), data, ctx) {
