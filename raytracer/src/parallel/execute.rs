@@ -14,7 +14,6 @@ use super::work::Work;
 use super::workload::RtWorkload;
 use crate::accel::{Hit, Judged, NodeId, Partial, TraceCursor};
 use crate::render::direct::{run_shadow_bundle, ShadowCounts};
-use crate::render::light::LightExtent;
 use crate::render::material::shade;
 use crate::render::RayCaster;
 use crate::render::{RayKind, RayTask, Request, ShadowBundle};
@@ -34,26 +33,6 @@ thread_local! {
 }
 
 impl RtWorkload {
-    /// Whether a new shadow bundle should run data-parallel: too few rays to
-    /// be worth clipping, or a pyramid that would not bound it (the point
-    /// inside the source's box, a very wide distant source).
-    pub(super) fn shadow_goes_dp(&self, b: &ShadowBundle) -> bool {
-        let Some(light) = self.renderer.lights().get(b.light as usize) else {
-            return true;
-        };
-        match light.extent() {
-            None => true,
-            Some(LightExtent::Distant { cos_half, .. }) => {
-                cos_half < 0.5 || self.opts.shadow_dp_below > 1
-            }
-            Some(LightExtent::Finite(_)) => {
-                light.box_holds(b.point)
-                    || light.patch_estimate(b.point, self.renderer.options().ds)
-                        < self.opts.shadow_dp_below
-            }
-        }
-    }
-
     pub(super) fn primary(&self, x: u32, y: u32) -> Option<RayTask> {
         self.renderer
             .primary_task(&self.view, self.width, self.height, x as usize, y as usize)
@@ -249,28 +228,24 @@ impl RtWorkload {
                         replay,
                         next,
                     };
+                    let job = |bundle: &ShadowBundle| ShadowJob {
+                        key: key.child(i),
+                        bundle: *bundle,
+                    };
                     let inline = self.opts.inline_local_shadows;
                     let run = if self.shadow_goes_dp(bundle) {
                         ctx.charge(Work::ShadowBundlesDp, 1);
                         if inline {
                             // Its first step would run here (it names no
-                            // cell yet): run it now. Should it need a cell
-                            // held elsewhere, it joins the point's one task
-                            // and is selected, fetched and run again like
-                            // the point's other bundles, rather than
-                            // migrating on its own: what is fetched for it
-                            // stays cached for later bundles towards the
-                            // same light (the simulated studio at 32
-                            // processors: 1.404 -> 1.137 s; EXPERIMENTS.md).
+                            // cell yet): run it now. Stopped by a cell held
+                            // elsewhere, it joins the point's task (fetched
+                            // cells serve later bundles) instead of migrating.
                             ctx.charge(Work::ShadowBundlesInline, 1);
                             match self.try_shadow(bundle, Replay::default(), path(), data, ctx) {
                                 ShadowRun::Done(v) => Some(v),
                                 ShadowRun::Blocked(..) => {
                                     ctx.charge(Work::ShadowJoined, 1);
-                                    scheduled.push(ShadowJob {
-                                        key: key.child(i),
-                                        bundle: *bundle,
-                                    });
+                                    scheduled.push(job(bundle));
                                     None
                                 }
                             }
@@ -308,10 +283,7 @@ impl RtWorkload {
                                 if tried.is_some() {
                                     ctx.charge(Work::ShadowTriedElsewhere, 1);
                                 }
-                                scheduled.push(ShadowJob {
-                                    key: key.child(i),
-                                    bundle: *bundle,
-                                });
+                                scheduled.push(job(bundle));
                                 None
                             }
                         }

@@ -13,6 +13,7 @@ use super::work::Work;
 use super::workload::{ClipEntry, RtWorkload};
 use crate::accel::{NodeId, Pyramid};
 use crate::geometry::Vec3;
+use crate::render::light::LightExtent;
 use crate::render::ShadowBundle;
 use crate::scene::ViewType;
 
@@ -80,6 +81,26 @@ impl RtWorkload {
         match self.shadow_pyramid(b) {
             Some(pyramid) => self.clip(&pyramid, ctx),
             None => Vec::new(),
+        }
+    }
+
+    /// Whether a new shadow bundle should run data-parallel: too few rays to
+    /// be worth clipping, or a pyramid that would not bound it (the point
+    /// inside the source's box, a very wide distant source).
+    pub(super) fn shadow_goes_dp(&self, b: &ShadowBundle) -> bool {
+        let Some(light) = self.renderer.lights().get(b.light as usize) else {
+            return true;
+        };
+        match light.extent() {
+            None => true,
+            Some(LightExtent::Distant { cos_half, .. }) => {
+                cos_half < 0.5 || self.opts.shadow_dp_below > 1
+            }
+            Some(LightExtent::Finite(_)) => {
+                light.box_holds(b.point)
+                    || light.patch_estimate(b.point, self.renderer.options().ds)
+                        < self.opts.shadow_dp_below
+            }
         }
     }
 

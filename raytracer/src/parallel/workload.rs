@@ -54,12 +54,8 @@ pub struct WorkloadOptions {
     /// once per shadow bundle, with the convex hull of the cell and the
     /// light (which holds every bundle shaded in the cell), and reuse the
     /// selection for every later bundle from that cell to that light.
-    /// A selection holds every shadow ray of the bundles it serves, but is
-    /// not a superset of theirs: a bundle's own pyramid reaches to a plane
-    /// past the light, the hull ends at the light's box (on the conference
-    /// room, 4 processors, the hulls of the first bundles selected 17,218
-    /// cells where the bundles' own pyramids would have selected 56,818).
-    /// Clipping work drops by the bundles per cell.
+    /// Selections hold every ray of the bundles they serve (not every cell
+    /// their own pyramids reach: EXPERIMENTS.md); clipping drops by the bundles per cell.
     #[serde(default)]
     pub clip_cache: bool,
     /// Beyond the paper: shadow bundles start in the step that shaded their
@@ -67,11 +63,8 @@ pub struct WorkloadOptions {
     /// first step would run on this processor anyway) and a demand-driven
     /// one whose every ray stays among the cells its processor holds
     /// resident (a selection step and an execution step saved for what
-    /// is, in the studio, 1.7 rays). The point's other bundles travel as
-    /// one demand-driven task, joined by a data-parallel one that stopped
-    /// at a cell held elsewhere (it does not migrate on its own). Pictures
-    /// do not change; off, every bundle is scheduled as the paper
-    /// schedules it.
+    /// is, in the studio, 1.7 rays); the rest, with data-parallel ones stopped by a cell held
+    /// elsewhere, as one task per point. Pictures do not change; off, as the paper schedules.
     #[serde(default = "yes")]
     pub inline_local_shadows: bool,
     /// Beyond the paper: each processor builds a hierarchy over its
