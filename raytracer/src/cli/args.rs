@@ -505,7 +505,7 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub shadow_dp_below: usize,
-    /// Clip once per (cell, light) with the cell-to-light hull and reuse the selection for every shadow bundle from that cell (fewer clipping steps, slightly larger selections); `--clip-cache false`: clip every bundle, as the paper does.
+    /// Clip once per (cell, light) with the cell-to-light hull and reuse the selection for every shadow bundle from that cell (fewer clipping steps; a hull ends at the light, where a bundle's own pyramid reaches past it, so a selection can hold fewer cells); `--clip-cache false`: clip every bundle, as the paper does.
     #[arg(
         long = "clip-cache",
         value_name = "BOOL",
@@ -516,7 +516,7 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub clip_cache: bool,
-    /// Run a shadow bundle whose rays stay among its processor's resident cells in the step that shaded its point (no task of its own; pictures do not change); `--inline-shadows false`: every bundle a demand-driven task, as the paper schedules them.
+    /// Run a shadow bundle whose rays stay among its processor's resident cells in the step that shaded its point (no task of its own; pictures do not change), and a point's other bundles, with data-parallel ones stopped there by a cell held elsewhere, as one task; `--inline-shadows false`: every bundle a task of its own, as the paper schedules them.
     #[arg(
         long = "inline-shadows",
         value_name = "BOOL",
