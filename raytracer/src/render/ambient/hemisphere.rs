@@ -406,7 +406,6 @@ impl Hemisphere {
         let grid = Grid {
             ns: self.ns as usize,
             samples: &samples,
-            origin: self.point,
             normal: self.normal,
         };
         let (uv, mut ra, pg) = grid.hessian(self.ux, self.uy, s.max_radius);
@@ -499,11 +498,11 @@ struct Sample {
     inv_r2: f64,
 }
 
-/// The hemisphere's samples as a grid of triangles, seen from `origin`.
+/// The hemisphere's samples as a grid of triangles, seen from the
+/// hemisphere's point (each sample's `r`).
 struct Grid<'a> {
     ns: usize,
     samples: &'a [Sample],
-    origin: Vec3,
     normal: Vec3,
 }
 
@@ -611,7 +610,7 @@ impl Grid<'_> {
                 if d <= FTINY || d >= max_d {
                     continue; // too far or too near
                 }
-                let vec = sample.p - self.origin;
+                let vec = sample.r;
                 let (u, v) = (vec.dot(uv[0]), vec.dot(uv[1]));
                 if (r0 * r0 * u * u + r1 * r1 * v * v) * d * d <= u * u + v * v {
                     continue; // the occluder is outside the ellipse
@@ -768,7 +767,7 @@ impl Grid<'_> {
     fn direction_gradient(&self, uv: [Vec3; 2]) -> [f64; 2] {
         let mut g = [0.0; 2];
         for s in self.samples {
-            let vd = s.p - self.origin;
+            let vd = s.r;
             let f = s.y / self.normal.dot(vd);
             g[0] -= uv[1].dot(vd) * f;
             g[1] += uv[0].dot(vd) * f;
