@@ -344,3 +344,36 @@ fn back_faces_are_invisible_with_bv_off() {
         }
     }
 }
+
+#[test]
+fn hemisphere_samples_measure_distance_through_mist_boundaries() {
+    // A floor under a lamp and a ceiling, with and without a sheet of
+    // clear mist 0.01 above the floor (as the suite's mist box lies just
+    // inside its walls). Radiance's raytrans() counts a sample's distance
+    // to the surface beyond the sheet, so the sheet changes nothing in the
+    // records' radii: about as many hemispheres either way. Counted to the
+    // sheet, every sample would be 0.01 away and every record the
+    // smallest `-ar` allows.
+    let room = "void plastic grey 0 0 5 .5 .5 .5 0 0\n\
+                grey polygon floor 0 0 12 -10 -10 0  10 -10 0  10 10 0  -10 10 0\n\
+                grey polygon ceiling 0 0 12 -10 -10 6  -10 10 6  10 10 6  10 -10 6\n\
+                void light lamp 0 0 3 50 50 50\n\
+                lamp polygon bulb 0 0 12 -.5 -.5 5  -.5 .5 5  .5 .5 5  .5 -.5 5\n";
+    let sheet = "void mist veil 0 0 3 0 0 0\n\
+                 veil polygon sheet 0 0 12 -10 -10 .01  10 -10 .01  10 10 .01  -10 10 .01\n";
+    let v = view("-vtv -vp 0 0 4 -vd 0 0 -1 -vu 0 1 0 -vh 90 -vv 90");
+    let mut o = RenderOptions::default();
+    o.apply_words("-ab 1 -aa .1 -ar 64 -ad 256 -as 0 -av 0 0 0")
+        .unwrap();
+    let count = |text: &str| {
+        let (_, stats) = render(&scene(text), &v, 24, 24, o.clone());
+        stats.rays.ambient_cache.hemispheres
+    };
+    let clear = count(room);
+    let veiled = count(&format!("{room}{sheet}"));
+    assert!(clear > 0);
+    assert!(
+        (veiled as f64) < 1.2 * clear as f64 + 2.0,
+        "the sheet multiplied the hemispheres: {veiled} against {clear}"
+    );
+}

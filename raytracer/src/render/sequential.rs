@@ -485,7 +485,8 @@ impl<'s> Renderer<'s> {
     }
 
     /// Radiance along `task.ray` and the distance to the surface it hit
-    /// (infinite if it left the scene).
+    /// (infinite if it left the scene; through surfaces that only pass the
+    /// ray on, as Radiance's `raytrans()` counts it).
     pub fn trace(&self, task: &RayTask, st: &mut TraceState) -> (Color, f64) {
         let bucket = match task.kind {
             RayKind::Primary | RayKind::PassThrough => Bucket::Primary,
@@ -516,11 +517,30 @@ impl<'s> Renderer<'s> {
         for req in shaded.ambient.iter().flatten() {
             sum += req.coef * self.ambient_value(task, req, st);
         }
+        // Radiance's `raytrans()`: a surface that only passes the ray on
+        // (a mist's boundary, `void`, a clipped surface, a back face under
+        // `-bv-`) is not where the ray ends; its distance is that of the
+        // surface beyond (`r->rxt = r->rot + tr.rxt`), which is what a
+        // hemisphere's sample measures its neighbourhood by.
+        let passes_on = shaded.base == Color::ZERO
+            && shaded.ambient.iter().all(Option::is_none)
+            && matches!(
+                st.requests[start..end],
+                [Request::Trace { task: child, coef }, ..]
+                    if child.kind == RayKind::PassThrough && coef == Color::ONE
+            )
+            && st.requests[start + 1..end]
+                .iter()
+                .all(|r| matches!(r, Request::Scatter(_)));
+        let mut dist = hit.t;
         let mut i = start;
         while i < end {
             match st.requests[i] {
                 Request::Trace { task: child, coef } => {
-                    let c = self.radiance(&child, st);
+                    let (c, t) = self.trace(&child, st);
+                    if passes_on {
+                        dist = hit.t + t;
+                    }
                     sum += coef * c;
                     i += 1;
                 }
@@ -572,7 +592,7 @@ impl<'s> Renderer<'s> {
             });
         }
         st.requests.truncate(start);
-        (sum, hit.t)
+        (sum, dist)
     }
 
     /// The ambient radiance for `req` at the hit of `task`: interpolated
