@@ -935,7 +935,7 @@ impl Octree {
             best.is_some_and(|(bt, _, _)| bt <= t1)
         };
         self.traverse::<ONCE, _>(ray, pre.inv_dir, tmin, tmax, &mut visit);
-        best.map(|(t, id, h)| Hit::on(&objects[id as usize], id, ray, t, h.normal, h.inner))
+        best.map(|(t, id, h)| Hit::on(&objects[id as usize], id, ray, t, &h))
     }
 
     /// True if any object other than `ignore` is hit with `tmin < t < tmax`.
@@ -1055,7 +1055,7 @@ impl Octree {
                     };
                     if let Some(h) = h {
                         if best.is_none_or(|b| h.t < b.t || (h.t == b.t && id < b.object)) {
-                            best = Some(Hit::on(obj, id, ray, h.t, h.normal, h.inner));
+                            best = Some(Hit::on(obj, id, ray, h.t, &h));
                             *cut = h.t;
                         }
                     }
@@ -1300,7 +1300,7 @@ pub fn intersect_brute_force(objects: &[Object], ray: &Ray, tmin: f64, tmax: f64
         let bound = best.map_or(tmax, |b| next_up(b.t));
         if let Some(h) = o.shape.intersect_prepared(&pre, tmin, bound) {
             if best.is_none_or(|b| h.t < b.t) {
-                best = Some(Hit::on(o, id as u32, ray, h.t, h.normal, h.inner));
+                best = Some(Hit::on(o, id as u32, ray, h.t, &h));
             }
         }
     }

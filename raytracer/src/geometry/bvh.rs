@@ -967,7 +967,7 @@ impl Bvh {
                 }
             }
         }
-        best.map(|(t, id, h)| Hit::on(objects.object(id as usize), id, ray, t, h.normal, h.inner))
+        best.map(|(t, id, h)| Hit::on(objects.object(id as usize), id, ray, t, &h))
     }
 
     /// True if any object other than `ignore` is hit with `tmin < t < tmax`.

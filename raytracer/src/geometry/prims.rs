@@ -77,6 +77,7 @@ impl Quadric {
                     t,
                     normal: sphere_normal(pre.ray.at(t), center, inward),
                     inner: None,
+                    surface: None,
                 })
             }
             Quadric::Cone { ref c, inward } => {
@@ -85,6 +86,7 @@ impl Quadric {
                     t,
                     normal: if inward { -n } else { n },
                     inner: None,
+                    surface: None,
                 })
             }
         }
@@ -410,6 +412,7 @@ impl Prims {
             t,
             normal: self.normals[id as usize],
             inner: None,
+            surface: None,
         })
     }
 
@@ -518,6 +521,7 @@ impl<'a, O: ObjectSet + ?Sized> Tester<'a, O> {
                     t,
                     normal: *normal,
                     inner: None,
+                    surface: None,
                 })
             }
             OnePrim::Quadric(q) => q.intersect(self.pre, tmin, tmax),

@@ -215,7 +215,8 @@ pub struct Hit {
     /// The top-level object hit.
     pub object: ObjectId,
     /// For instances: index of the hit object in the instance's geometry (its
-    /// material is the one that shades the hit).
+    /// material shades the hit, or, where it is an instance itself, that of
+    /// the object hit inside it: [`Hit::surface`]).
     pub inner: Option<u32>,
     /// What shading needs of the object hit: its material (an instance's:
     /// its inner object's) and whether the surface is flat (a polygon or a
@@ -232,24 +233,20 @@ const FLAT_BIT: u32 = 1 << 31;
 
 impl Hit {
     /// The hit at distance `t` along `ray` on object `id` (`obj`), with the
-    /// shape's normal and instance index.
+    /// shape's normal, instance index and (for instances) innermost surface.
     #[inline]
-    pub fn on(
-        obj: &Object,
-        id: ObjectId,
-        ray: &Ray,
-        t: f64,
-        normal: Vec3,
-        inner: Option<u32>,
-    ) -> Hit {
-        let (material, flat) = obj.surface_at(inner);
+    pub fn on(obj: &Object, id: ObjectId, ray: &Ray, t: f64, h: &ShapeHit) -> Hit {
+        let surface = h.surface.unwrap_or_else(|| {
+            let (material, flat) = obj.surface_at(h.inner);
+            Hit::surface_word(material, flat)
+        });
         Hit {
             t,
             point: ray.at(t),
-            normal,
+            normal: h.normal,
             object: id,
-            inner,
-            surface: Hit::surface_word(material, flat),
+            inner: h.inner,
+            surface,
         }
     }
 
@@ -322,6 +319,10 @@ pub struct ShapeHit {
     pub normal: Vec3,
     /// For instances: index of the hit object inside `InstanceGeometry::objects`.
     pub inner: Option<u32>,
+    /// For instances: the [`Hit::surface`] of the innermost object hit,
+    /// resolved through instances nested in the instance's geometry (an
+    /// instance's own material is not what shades it).
+    pub surface: Option<u32>,
 }
 
 // Intersection, bounds, area and sampling are implemented in `shape_impl.rs`

@@ -267,6 +267,7 @@ impl Shape {
                     t,
                     normal: p.normal,
                     inner: None,
+                    surface: None,
                 })
             }
             Shape::Sphere {
@@ -280,6 +281,7 @@ impl Shape {
                     t,
                     normal: n,
                     inner: None,
+                    surface: None,
                 })
             }
             Shape::Cone {
@@ -294,6 +296,7 @@ impl Shape {
                     t,
                     normal: if *inward { -n } else { n },
                     inner: None,
+                    surface: None,
                 })
             }
             Shape::Ring {
@@ -307,6 +310,7 @@ impl Shape {
                     t,
                     normal: *normal,
                     inner: None,
+                    surface: None,
                 })
             }
             Shape::Instance(inst) => {
@@ -321,6 +325,7 @@ impl Shape {
                     t,
                     normal: inst.transform.normal(h.normal),
                     inner: Some(h.object),
+                    surface: Some(h.surface),
                 })
             }
         }

@@ -230,6 +230,7 @@ pub(super) unsafe fn nearest<E: Enter>(
                         t,
                         normal: prims.normal(id),
                         inner: None,
+                        surface: None,
                     },
                 ));
                 *cut = t;

@@ -320,7 +320,7 @@ impl Bvh {
         }
         for (r, o) in out[..n].iter_mut().enumerate() {
             *o = best[r].map(|(t, id, h)| {
-                Hit::on(&objects[id as usize], id, &rays[r].0, t, h.normal, h.inner)
+                Hit::on(&objects[id as usize], id, &rays[r].0, t, &h)
             });
         }
     }
