@@ -593,14 +593,20 @@ fn instances_share_geometry_and_nest() {
     // it (it was the inner instance's `void`, which let every ray through:
     // the conference room's chairs had no casters).
     let ray = crate::geometry::Ray::new(Vec3::new(-5.0, 0.0, 5.5), Vec3::X);
-    let h = s.objects[0].shape.intersect(&ray, 1e-9, f64::INFINITY).unwrap();
+    let h = s.objects[0]
+        .shape
+        .intersect(&ray, 1e-9, f64::INFINITY)
+        .unwrap();
     assert!((h.t - 4.9).abs() < 1e-9, "{}", h.t);
     let hit = crate::geometry::Hit::on(&s.objects[0], 0, &ray, h.t, &h);
     assert_eq!(s.material_names[hit.material() as usize], "wood");
     assert!(!hit.flat());
     // The seat, one level down, as before.
     let down = crate::geometry::Ray::new(Vec3::new(0.3, 0.0, 9.0), -Vec3::Z);
-    let h = s.objects[0].shape.intersect(&down, 1e-9, f64::INFINITY).unwrap();
+    let h = s.objects[0]
+        .shape
+        .intersect(&down, 1e-9, f64::INFINITY)
+        .unwrap();
     let hit = crate::geometry::Hit::on(&s.objects[0], 0, &down, h.t, &h);
     assert_eq!(s.material_names[hit.material() as usize], "seat");
     assert!(hit.flat());

@@ -319,9 +319,7 @@ impl Bvh {
             }
         }
         for (r, o) in out[..n].iter_mut().enumerate() {
-            *o = best[r].map(|(t, id, h)| {
-                Hit::on(&objects[id as usize], id, &rays[r].0, t, &h)
-            });
+            *o = best[r].map(|(t, id, h)| Hit::on(&objects[id as usize], id, &rays[r].0, t, &h));
         }
     }
     /// Shadow rays as a packet of at most [`PACKET`] rays: `out[i]` is what
