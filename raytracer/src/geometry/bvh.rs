@@ -1094,6 +1094,7 @@ impl InstanceGeometry {
             accel,
             bounds,
             shading: None,
+            modified_instances: Vec::new(),
         }
     }
 }

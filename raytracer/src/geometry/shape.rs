@@ -183,6 +183,11 @@ pub struct InstanceGeometry {
     /// Vertex normals and (u, v) of a Radiance mesh (`.rtm`): its
     /// triangles shade smoothly and patterns see `Lu`, `Lv`.
     pub shading: Option<Arc<MeshShading>>,
+    /// Indices (ascending) of the objects that are instances with a
+    /// modifier of their own (not `void`): a hit inside one is shaded with
+    /// that modifier, as Radiance's `o_instance` does; a hit inside any
+    /// other nested instance with the material of the object hit there.
+    pub modified_instances: Vec<u32>,
 }
 
 /// Per-vertex data of a triangle mesh, for shading (Radiance's `o_mesh`).

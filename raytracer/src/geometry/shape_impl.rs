@@ -11,7 +11,9 @@ use std::f64::consts::PI;
 use std::sync::Arc;
 
 use super::robust::{diff_of_products, orthonormal_basis};
-use super::shape::{Instance, InstanceGeometry, MeshShading, Polygon, Shape, ShapeHit, Transform};
+use super::shape::{
+    Hit, Instance, InstanceGeometry, MeshShading, Polygon, Shape, ShapeHit, Transform,
+};
 use super::triangulate::{ear_clip, project};
 use super::{Aabb, PreparedRay, Ray, Vec3};
 
@@ -325,7 +327,11 @@ impl Shape {
                     t,
                     normal: inst.transform.normal(h.normal),
                     inner: Some(h.object),
-                    surface: Some(h.surface),
+                    surface: Some(if g.modified_instances.binary_search(&h.object).is_ok() {
+                        Hit::surface_word(g.objects[h.object as usize].material, h.flat())
+                    } else {
+                        h.surface
+                    }),
                 })
             }
         }

@@ -1116,6 +1116,12 @@ impl Builder {
         }
         let mut g = InstanceGeometry::new(source.display().to_string(), objects);
         g.shading = self.pending_shading.take().map(Arc::new);
+        g.modified_instances = (0..g.objects.len() as u32)
+            .filter(|&i| {
+                let o = &g.objects[i as usize];
+                matches!(o.shape, Shape::Instance(_)) && Some(o.material) != self.void_id
+            })
+            .collect();
         Ok(g)
     }
 

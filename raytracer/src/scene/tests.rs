@@ -610,6 +610,41 @@ fn instances_share_geometry_and_nest() {
     let hit = crate::geometry::Hit::on(&s.objects[0], 0, &down, h.t, &h);
     assert_eq!(s.material_names[hit.material() as usize], "seat");
     assert!(hit.flat());
+    // A modifier on an instance shades everything inside it, nested
+    // instances included (Radiance's o_instance), and one on a nested
+    // instance everything inside that.
+    std::fs::write(
+        d.join("painted.rad"),
+        "void plastic steel\n0\n0\n5 .6 .6 .6 0 0\n\
+         steel instance leg\n1 leg.oct\n0\n0\n",
+    )
+    .unwrap();
+    let over = d.join("over.rad");
+    std::fs::write(
+        &over,
+        "void plastic paint\n0\n0\n5 .8 .1 .1 0 0\n\
+         paint instance p\n1 stool.oct\n0\n0\n\
+         void instance q\n5 painted.oct -t 0 5 0\n0\n0\n",
+    )
+    .unwrap();
+    let s = load(&[&over]).unwrap();
+    let shade = |o: usize, ray: crate::geometry::Ray| {
+        let h = s.objects[o]
+            .shape
+            .intersect(&ray, 1e-9, f64::INFINITY)
+            .unwrap();
+        let hit = crate::geometry::Hit::on(&s.objects[o], o as u32, &ray, h.t, &h);
+        s.material_names[hit.material() as usize].clone()
+    };
+    let across = |y: f64| crate::geometry::Ray::new(Vec3::new(-5.0, y, 0.5), Vec3::X);
+    assert_eq!(shade(0, across(0.0)), "paint", "a leg of the painted stool");
+    let down = crate::geometry::Ray::new(Vec3::new(0.3, 0.0, 9.0), -Vec3::Z);
+    assert_eq!(shade(0, down), "paint", "the painted stool's seat");
+    assert_eq!(
+        shade(1, across(5.0)),
+        "steel",
+        "a leg placed with its own modifier"
+    );
     std::fs::remove_dir_all(&d).ok();
 }
 
