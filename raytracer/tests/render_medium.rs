@@ -177,7 +177,9 @@ fn single_scattering_from_a_small_source_matches_the_integral() {
         let d2 = dx * dx + z * z;
         let omega = PI * a * a / d2;
         let to_eye = (-sigma * (zmax - z)).exp();
-        let to_source = (-sigma * (1.0 - albedo) * d2.sqrt()).exp();
+        // Radiance attenuates a shadow ray up to where it meets the
+        // sphere (rayparticipate() over its length).
+        let to_source = (-sigma * (1.0 - albedo) * (d2.sqrt() - a)).exp();
         expected +=
             sigma * albedo / (4.0 * PI) * l * omega * to_eye * to_source * (2.0 * zmax / n as f64);
     }
@@ -376,4 +378,132 @@ fn hemisphere_samples_measure_distance_through_mist_boundaries() {
         (veiled as f64) < 1.2 * clear as f64 + 2.0,
         "the sheet multiplied the hemispheres: {veiled} against {clear}"
     );
+}
+
+/// A mist may name a distant source by its `source` primitive's name: a
+/// sun straight overhead scatters into eye rays down the middle of a mist
+/// sphere as the single-scattering integral says (its light attenuated by
+/// the absorbed part over the way up and out of the sphere).
+#[test]
+fn mist_scatters_a_named_distant_source() {
+    let (sigma, albedo, r, l, angle): (f64, f64, f64, f64, f64) = (0.2, 0.8, 3.0, 100.0, 5.0);
+    let text = format!(
+        "void light sun_mat 0 0 3 {l} {l} {l}\n\
+         sun_mat source sun 0 0 4 0 0 1 {angle}\n\
+         void plastic black 0 0 5 0 0 0 0 0\n\
+         black polygon wall 0 0 12 -50 -50 -4  50 -50 -4  50 50 -4  -50 50 -4\n\
+         void mist fog 1 sun 0 6 {sigma} {sigma} {sigma} {albedo} {albedo} {albedo}\n\
+         fog sphere cloud 0 0 4 0 0 0 {r}\n"
+    );
+    let s = scene(&text);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let omega = 2.0 * PI * (1.0 - (0.5 * angle).to_radians().cos());
+    let n = 100_000;
+    let mut expected = 0.0;
+    for i in 0..n {
+        let z = r - 2.0 * r * (i as f64 + 0.5) / n as f64;
+        let to_eye = (-sigma * (r - z)).exp();
+        let to_sun = (-sigma * (1.0 - albedo) * (r - z)).exp();
+        expected +=
+            sigma * albedo / (4.0 * PI) * l * omega * to_eye * to_sun * (2.0 * r / n as f64);
+    }
+    let opts = RenderOptions {
+        ms: 0.05,
+        pj: 1.0,
+        ..Default::default()
+    };
+    let got = mean_channel(&text, &axis_view(0.0, 5.0), 24, opts, 0);
+    let err = (got - expected).abs() / expected;
+    eprintln!("distant source in a mist: {got} vs {expected}");
+    assert!(err < 0.02, "{got} vs {expected} (err {err:.4})");
+}
+
+/// A mist may name a virtual source as Radiance does, `mirror>lamp`: the
+/// light a lamp scatters into eye rays by way of a mirror equals the
+/// mirror's reflectance times what a lamp at its image scatters.
+#[test]
+fn mist_scatters_a_named_relayed_source() {
+    let (sigma, albedo, rm) = (0.2, 0.8, 0.7);
+    // A small square lamp in the plane x = lamp_x, facing +x (towards the
+    // mirror) or -x (its image, towards the eye rays).
+    let scene_text = |lamp_x: f64, mirror: bool, names: &str| {
+        let (a, b) = if mirror { (0.05, -0.05) } else { (-0.05, 0.05) };
+        format!(
+            "void light lamp_mat 0 0 3 100 100 100\n\
+             lamp_mat polygon lamp 0 0 12 {lamp_x} {a} -.05  {lamp_x} {a} .05  {lamp_x} {b} .05  {lamp_x} {b} -.05\n\
+             void plastic black 0 0 5 0 0 0 0 0\n\
+             black polygon floor 0 0 12 -50 -50 -4  50 -50 -4  50 50 -4  -50 50 -4\n\
+             {}\
+             void mist fog {names} 0 6 {sigma} {sigma} {sigma} {albedo} {albedo} {albedo}\n\
+             fog sphere cloud 0 0 4 0 0 0 10\n",
+            if mirror {
+                format!(
+                    "void mirror silver 0 0 3 {rm} {rm} {rm}\n\
+                     silver polygon wall 0 0 12 1.5 -20 -20  1.5 -20 20  1.5 20 20  1.5 20 -20\n"
+                )
+            } else {
+                String::new()
+            }
+        )
+    };
+    let opts = RenderOptions {
+        ms: 0.1,
+        pj: 1.0,
+        ..Default::default()
+    };
+    let relayed_text = scene_text(0.0, true, "1 wall>lamp");
+    let s = scene(&relayed_text);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let relayed = mean_channel(&relayed_text, &axis_view(0.5, 12.0), 8, opts.clone(), 0);
+    let image = mean_channel(
+        &scene_text(3.0, false, "1 lamp"),
+        &axis_view(0.5, 12.0),
+        8,
+        opts.clone(),
+        0,
+    );
+    eprintln!("through the mirror {relayed}, from the image {image}");
+    assert!(image > 0.0);
+    assert!(
+        (relayed / image - rm).abs() < 1e-6,
+        "{relayed} vs {rm} x {image}"
+    );
+    // A relay name that matches no virtual source is reported.
+    let s = scene(&scene_text(0.0, true, "1 floor>lamp"));
+    let r = hybrid_rt::render::Renderer::new(&s, opts).unwrap();
+    assert!(
+        r.warnings()
+            .iter()
+            .any(|w| w.contains("unknown source \"floor>lamp\"")),
+        "{:?}",
+        r.warnings()
+    );
+}
+
+/// A shadow ray to a sphere source in a medium is attenuated up to where it
+/// meets the sphere, as Radiance's (the sample lies on the disk through its
+/// centre, half a radius or more further on).
+#[test]
+fn shadow_rays_to_a_sphere_in_a_medium_stop_at_its_surface() {
+    let (h, radius, sigma) = (2.0, 0.5, 1.0);
+    let text = format!(
+        "void light lamp_mat 0 0 3 10 10 10\n\
+         lamp_mat sphere lamp 0 0 4 0 0 {h} {radius}\n\
+         void plastic floor_mat 0 0 5 .5 .5 .5 0 0\n\
+         floor_mat polygon floor 0 0 12 -100 -100 0  100 -100 0  100 100 0  -100 100 0\n"
+    );
+    let mut clear = RenderOptions::default();
+    clear
+        .apply_words("-ds 0 -dj 0 -dt 0 -av 0 0 0 -ab 0")
+        .unwrap();
+    let mut murky = clear.clone();
+    murky
+        .apply_words(&format!("-me {sigma} {sigma} {sigma} -ma 0 0 0"))
+        .unwrap();
+    let eye = 0.05;
+    let a = mean_channel(&text, &axis_view(0.0, eye), 2, clear, 0);
+    let b = mean_channel(&text, &axis_view(0.0, eye), 2, murky, 0);
+    let want = (-sigma * (eye + h - radius)).exp();
+    eprintln!("attenuation {} (want {want})", b / a);
+    assert!((b / a / want - 1.0).abs() < 1e-6, "{} vs {want}", b / a);
 }

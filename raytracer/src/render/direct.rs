@@ -215,7 +215,7 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
 
 /// What a shadow ray must reach: the source object (none for distant
 /// sources), a distant source's cone (for a ray bent on the way), and the
-/// mirrors relaying a virtual source, in order.
+/// mirrors and prisms relaying a virtual source, in order.
 #[derive(Debug, Clone, Copy)]
 pub struct ShadowAim<'a> {
     pub target: Option<ObjectId>,
@@ -224,6 +224,9 @@ pub struct ShadowAim<'a> {
     /// A real `illum` or `glow` source: an illum met from the front
     /// blocks the ray (Radiance's `illumblock`, see [`shadow_filter`]).
     pub weak: bool,
+    /// The source's samples lie inside it (a sphere's): the ray ends where
+    /// it meets the surface, short of the sample's distance.
+    pub solid: bool,
 }
 
 impl<'a> ShadowAim<'a> {
@@ -246,6 +249,7 @@ impl<'a> ShadowAim<'a> {
                     real.material,
                     Material::Illum { .. } | Material::Glow { .. }
                 ),
+            solid: real.samples_inside(),
         }
     }
 }
@@ -267,7 +271,7 @@ fn bundle_medium(ctx: &ShadeContext, b: &ShadowBundle) -> Option<(Color, Medium)
 /// dielectric or interface refracts it (with its Fresnel transmission and
 /// absorption; a refracted ray counts only if it still reaches the
 /// source), antimatter and clipped surfaces let it pass, and a virtual
-/// source's mirrors reflect it in turn.
+/// source's mirrors reflect it and its prisms redirect it in turn.
 #[allow(clippy::too_many_arguments)]
 pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
     ctx: &ShadeContext,
@@ -291,7 +295,9 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
         f64::INFINITY
     };
     let mut ray = Ray { origin, dir };
-    if aim.relays.is_empty() {
+    // In a medium the light is attenuated up to where the ray meets the
+    // source: for a source sampled inside (a sphere), the loop finds that.
+    if aim.relays.is_empty() && !(aim.solid && medium.is_some()) {
         // Nothing but the source on the way: what the segment loop below
         // would also find (its first nearest hit is none or the source),
         // for one any-hit query.
@@ -407,7 +413,13 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
                 relayed += 1;
                 ray.origin =
                     offset_origin_scaled(hit.point, hit.normal, ray.dir, offset_scale.max(hit.t));
-                remaining -= hit.t;
+                // A mirror keeps the distance to the source; a prism does
+                // not, and its ray must meet the source itself.
+                remaining = if r.redirect.is_some() {
+                    f64::INFINITY
+                } else {
+                    remaining - hit.t
+                };
                 if intens(trans) <= FTINY || remaining.is_nan() || remaining <= 0.0 {
                     return Color::ZERO;
                 }

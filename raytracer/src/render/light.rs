@@ -96,7 +96,7 @@ pub struct PreparedLight {
     /// `nhits / ntests`); scales its untested contributions. 1 until
     /// [`super::direct::estimate_hit_ratios`] measures it.
     pub hit_ratio: f64,
-    /// A virtual source: the mirrors relaying a real one
+    /// A virtual source: the mirrors and prisms relaying a real one
     /// (see [`super::virtual_source`]); `None` for real sources.
     pub virt: Option<Box<Virtual>>,
     /// A spotlight's focal length: the length of its direction vector
@@ -121,7 +121,9 @@ pub fn prepare_lights(scene: &Scene) -> (Vec<PreparedLight>, Vec<String>) {
         };
         let name = |o: ObjectId| scene.object(o).map_or("?", |o| o.name.as_str()).to_string();
         let geometry = match &light.kind {
-            LightKind::Distant { dir, solid_angle } => {
+            LightKind::Distant {
+                dir, solid_angle, ..
+            } => {
                 if matches!(material, Material::Glow { .. }) {
                     // Radiance (source.c): a glow `source` is seen, never sampled.
                     continue;
@@ -470,6 +472,30 @@ impl PreparedLight {
         }
         let per_side = (size / (ds * dist)).ceil().max(1.0);
         (per_side * per_side).min(MAX_PATCHES as f64) as usize
+    }
+
+    /// The name of a real source: its surface's, or the distant `source`
+    /// primitive's.
+    pub fn name<'s>(&self, scene: &'s Scene) -> Option<&'s str> {
+        match &scene.lights.get(self.index)?.kind {
+            LightKind::Area { object } => scene.object(*object).map(|o| o.name.as_str()),
+            LightKind::Distant { name, .. } => Some(name),
+        }
+    }
+
+    /// True where samples lie inside the source (on a sphere's disk
+    /// through its centre), not on its surface.
+    pub fn samples_inside(&self) -> bool {
+        matches!(self.geometry, Geometry::Sphere { .. })
+    }
+
+    /// True for flat sources (polygons and rings), whose samples' solid
+    /// angles carry the cosine at the source.
+    fn is_flat(&self) -> bool {
+        matches!(
+            self.geometry,
+            Geometry::Polygon { .. } | Geometry::Ring { .. }
+        )
     }
 
     /// True for distant sources.
@@ -1005,42 +1031,74 @@ pub fn spot_admits(aim: Vec3, angle_deg: f64, to_point: Vec3) -> bool {
     aim.dot(to_point) >= half.cos()
 }
 
-/// One mirror plane a virtual source's light is relayed through.
+/// One mirror or prism plane a virtual source's light is relayed through.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Relay {
-    /// The mirror object (top level).
+    /// The mirror or prism object (top level).
     pub object: ObjectId,
-    /// Unit normal of its reflecting (front) side.
+    /// Unit normal of the side the relayed light reaches (a mirror's
+    /// reflecting front).
     pub normal: Vec3,
     /// `normal . x = offset` on the plane.
     pub offset: f64,
-    /// The mirror's reflectance per channel.
+    /// The mirror's reflectance per channel (one for a prism, whose
+    /// functions give the coefficient per ray).
     pub color: Color,
     /// For a prism (`prism1`/`prism2`) instead of a mirror: which
     /// projection of which redirecting functions relays the source.
     pub redirect: Option<Redirect>,
 }
 
-/// A prism's relay of a distant source: projection `projection` of the
-/// functions `modifier` bends the source's direction by Radiance's shear
-/// `x -> x + (x . plane) shear` (`dir_proj`).
+/// A prism's relay: projection `projection` of the functions `modifier`
+/// maps the source onto its image by Radiance's projection (`dir_proj`),
+/// the affine map `x -> x + ((x . plane) - offset) shear` that keeps the
+/// prism's plane in place. Where the functions send light back to the
+/// source's side the projection also mirrors (`mirrored`), and `shear`
+/// holds that reflection too (`shear . plane` is -2, 0 otherwise).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Redirect {
     pub modifier: crate::modifier::ModifierId,
     pub projection: u8,
+    /// Unit normal of the prism's plane, `plane . x = offset` on it.
     pub plane: Vec3,
+    pub offset: f64,
     pub shear: Vec3,
+    pub mirrored: bool,
+}
+
+impl Redirect {
+    /// The sign that inverts the projection: `x = y - sign ((y . plane) -
+    /// offset) shear` for its image `y` (the plane distance keeps its size
+    /// and, mirrored, changes sign).
+    #[inline]
+    fn inverse_sign(&self) -> f64 {
+        if self.mirrored {
+            -1.0
+        } else {
+            1.0
+        }
+    }
 }
 
 impl Relay {
-    /// Mirror image of the point `p` (a prism relays distant sources only:
-    /// points stay).
+    /// The point whose view of the relayed source equals `p`'s view of the
+    /// image: the mirror image of `p`, or the prism's inverse projection.
     #[inline]
     pub fn point(&self, p: Vec3) -> Vec3 {
-        if self.redirect.is_some() {
-            return p;
+        match &self.redirect {
+            None => p - self.normal * (2.0 * (self.normal.dot(p) - self.offset)),
+            Some(r) => p - r.shear * (r.inverse_sign() * (r.plane.dot(p) - r.offset)),
         }
-        p - self.normal * (2.0 * (self.normal.dot(p) - self.offset))
+    }
+
+    /// The image of the point `p` of the relayed source (the inverse of
+    /// [`Self::point`]).
+    #[inline]
+    pub fn image_point(&self, p: Vec3) -> Vec3 {
+        match &self.redirect {
+            None => self.point(p),
+            Some(r) => p + r.shear * (r.plane.dot(p) - r.offset),
+        }
     }
 
     /// Mirror image of the direction `d` (a mirror is its own inverse).
@@ -1049,20 +1107,38 @@ impl Relay {
         d - self.normal * (2.0 * self.normal.dot(d))
     }
 
+    /// The projection's linear part: the image of the vector `v`, not
+    /// normalised.
+    #[inline]
+    fn image_vec(&self, v: Vec3) -> Vec3 {
+        match &self.redirect {
+            None => self.dir(v),
+            Some(r) => v + r.shear * v.dot(r.plane),
+        }
+    }
+
+    /// The inverse of [`Self::image_vec`].
+    #[inline]
+    fn real_vec(&self, v: Vec3) -> Vec3 {
+        match &self.redirect {
+            None => self.dir(v),
+            Some(r) => v - r.shear * (r.inverse_sign() * v.dot(r.plane)),
+        }
+    }
+
     /// A direction towards the real source seen as towards its image.
     pub(super) fn image_dir(&self, d: Vec3) -> Vec3 {
         match &self.redirect {
             None => self.dir(d),
-            Some(r) => (d + r.shear * d.dot(r.plane)).normalize_or_zero(),
+            Some(_) => self.image_vec(d).normalize_or_zero(),
         }
     }
 
-    /// The inverse of [`Self::image_dir`] (the shear's inverse is
-    /// `y -> y - (y . plane) shear`, as `shear . plane` is 0).
+    /// The inverse of [`Self::image_dir`].
     fn real_dir(&self, d: Vec3) -> Vec3 {
         match &self.redirect {
             None => self.dir(d),
-            Some(r) => (d - r.shear * d.dot(r.plane)).normalize_or_zero(),
+            Some(_) => self.real_vec(d).normalize_or_zero(),
         }
     }
 }
@@ -1070,7 +1146,7 @@ impl Relay {
 /// What makes a prepared light virtual.
 #[derive(Debug, Clone)]
 pub struct Virtual {
-    /// The mirrors, in the order a shadow ray meets them.
+    /// The mirrors and prisms, in the order a shadow ray meets them.
     pub relays: Vec<Relay>,
     /// The real source behind them.
     pub real: Box<PreparedLight>,
@@ -1091,20 +1167,64 @@ impl Virtual {
         self.relays.iter().rev().fold(d, |d, r| r.image_dir(d))
     }
 
+    /// Whether a prism relays the source: its projection keeps neither
+    /// distances nor solid angles, as a mirror's does.
+    fn sheared(&self) -> bool {
+        self.relays.iter().any(|r| r.redirect.is_some())
+    }
+
+    /// A sample of the real source seen from [`Self::to_real`]`(p)` as the
+    /// same sample of the image seen from `p`. Through a prism the image of
+    /// a local source lies at another distance: as Radiance's virtual
+    /// sources (`makevsrc()` keeps the source's area and projects its
+    /// normal), the sample's solid angle is the patch's seen from there.
     fn sample_from_real(&self, s: PatchSample) -> PatchSample {
-        PatchSample {
+        let mut out = PatchSample {
             dir: self.dir_from_real(s.dir),
             normal: self.dir_from_real(s.normal),
             ..s
+        };
+        if s.dist.is_finite() && self.sheared() {
+            let v = self
+                .relays
+                .iter()
+                .rev()
+                .fold(s.dir * s.dist, |v, r| r.image_vec(v));
+            let dist = v.length();
+            if !(dist > 0.0 && dist.is_finite()) {
+                out.omega = 0.0;
+                return out;
+            }
+            let r = s.dist / dist;
+            let mut scale = r * r;
+            if self.real.is_flat() {
+                let before = s.normal.dot(s.dir).abs();
+                if before > 0.0 {
+                    scale *= out.normal.dot(out.dir).abs() / before;
+                }
+            }
+            out.dist = dist;
+            out.omega *= scale;
         }
+        out
     }
 
+    /// The sample of the real source behind the image's sample `s` (its
+    /// direction, distance and normal; the solid angle is the image's).
     fn sample_to_real(&self, s: &PatchSample) -> PatchSample {
-        PatchSample {
+        let mut out = PatchSample {
             dir: self.dir_to_real(s.dir),
             normal: self.dir_to_real(s.normal),
             ..*s
+        };
+        if s.dist.is_finite() && self.sheared() {
+            out.dist = self
+                .relays
+                .iter()
+                .fold(s.dir * s.dist, |v, r| r.real_vec(v))
+                .length();
         }
+        out
     }
 
     /// See [`PreparedLight::may_reach`]: `p` must be in front of the first

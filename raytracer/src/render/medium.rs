@@ -84,11 +84,11 @@ impl Media {
                 .to_string();
             let mut list: Vec<u32> = Vec::new();
             for s in sources {
-                let found = lights.iter().enumerate().rev().find(|(_, l)| {
-                    l.object
-                        .and_then(|o| scene.object(o))
-                        .is_some_and(|o| &o.name == s)
-                });
+                let found = lights
+                    .iter()
+                    .enumerate()
+                    .rev()
+                    .find(|(_, l)| names_source(scene, l, s));
                 match found {
                     None => warnings.push(format!(
                         "mist '{name}': unknown source \"{s}\" (not a sampled light source); ignored"
@@ -136,6 +136,26 @@ impl Media {
             }
         }
     }
+}
+
+/// Radiance's `srcmatch()`: whether `id` names the light `l`: a real
+/// source by its surface's (or distant `source`'s) name, a virtual one by
+/// its relays' names and the real source's, joined by `>` in the order a
+/// shadow ray meets them (`mirror2>mirror1>lamp`).
+fn names_source(scene: &Scene, l: &PreparedLight, id: &str) -> bool {
+    let mut parts = id.split('>');
+    if let Some(v) = &l.virt {
+        for r in &v.relays {
+            let Some(name) = parts.next() else {
+                return false;
+            };
+            if scene.object(r.object).is_none_or(|o| o.name != name) {
+                return false;
+            }
+        }
+        return parts.next() == v.real.name(scene) && parts.next().is_none();
+    }
+    parts.next() == l.name(scene) && parts.next().is_none()
 }
 
 /// A primary ray starts in the global medium (`-me`, `-ma`, `-mg`).

@@ -79,8 +79,8 @@ pub struct RenderOptions {
     pub pj: f64,
     /// Seed of all random streams (per pixel, derived from seed, x, y).
     pub seed: u64,
-    /// `-dr`: source relays: how many mirror reflections a virtual light
-    /// source may take (rpict's default 1; 0 = no virtual sources).
+    /// `-dr`: source relays: how many mirrors and prisms a virtual light
+    /// source may be relayed by (rpict's default 1; 0 = no virtual sources).
     pub dr: u32,
     /// `-bv`: back faces of plastic, metal and trans are visible (turned
     /// towards the ray); `-bv-` makes rays pass through them.
@@ -224,7 +224,7 @@ pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
     RadianceOption {
         name: "dr",
         arity: 1,
-        help: "source relays through mirrors: virtual light sources (default 1)",
+        help: "source relays through mirrors and prisms: virtual light sources (default 1)",
     },
     RadianceOption {
         name: "lr",

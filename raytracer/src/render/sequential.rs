@@ -347,7 +347,10 @@ impl<'s> Renderer<'s> {
             .lights
             .iter()
             .filter_map(|l| {
-                let LightKind::Distant { dir, solid_angle } = &l.kind else {
+                let LightKind::Distant {
+                    dir, solid_angle, ..
+                } = &l.kind
+                else {
                     return None;
                 };
                 let role = match scene.materials.get(l.material as usize)? {

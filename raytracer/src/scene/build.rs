@@ -969,6 +969,7 @@ impl Builder {
             kind: LightKind::Distant {
                 dir: dir.normalize(),
                 solid_angle,
+                name: p.id.clone(),
             },
             material,
         });

@@ -220,8 +220,13 @@ pub enum LightKind {
     /// into patches per `-ds`). The object is `Scene::objects[object]`.
     Area { object: ObjectId },
     /// Radiance `source`: a distant light in direction `dir` (unit, towards
-    /// the light) subtending `solid_angle` steradians.
-    Distant { dir: Vec3, solid_angle: f64 },
+    /// the light) subtending `solid_angle` steradians; `name` is the
+    /// `source` primitive's (mists name sources by it).
+    Distant {
+        dir: Vec3,
+        solid_angle: f64,
+        name: String,
+    },
 }
 
 #[derive(Debug, Clone, PartialEq)]

@@ -960,8 +960,15 @@ fn aliases_chains_and_light_materials() {
         })
         .collect();
     assert_eq!(names, ["b", "d", "e", "f"]);
-    let sun = s.lights.iter().find_map(|l| match l.kind {
-        LightKind::Distant { dir, solid_angle } => Some((dir, solid_angle)),
+    let sun = s.lights.iter().find_map(|l| match &l.kind {
+        LightKind::Distant {
+            dir,
+            solid_angle,
+            name,
+        } => {
+            assert_eq!(name, "sun");
+            Some((*dir, *solid_angle))
+        }
         _ => None,
     });
     let (dir, omega) = sun.unwrap();
