@@ -297,7 +297,12 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
     let mut ray = Ray { origin, dir };
     // In a medium the light is attenuated up to where the ray meets the
     // source: for a source sampled inside (a sphere), the loop finds that.
-    if aim.relays.is_empty() && !(aim.solid && medium.is_some()) {
+    // A ray inside a mist that names sources (scattering towards them, or
+    // lighting a surface in it) nearly always leaves it on the way: the
+    // any-hit query would stop at its boundary, so the loop starts at once.
+    let in_named_mist =
+        ctx.effects.transparent_shadows.enabled && medium.is_some_and(|(_, m)| m.scatter != 0);
+    if aim.relays.is_empty() && !(aim.solid && medium.is_some()) && !in_named_mist {
         // Nothing but the source on the way: what the segment loop below
         // would also find (its first nearest hit is none or the source),
         // for one any-hit query.
