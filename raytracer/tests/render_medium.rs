@@ -162,6 +162,30 @@ fn scatter_scene(sigma: f64, albedo: f64) -> String {
     )
 }
 
+/// Single scattering (isotropic) into an eye ray down the z axis through
+/// a mist from z = `zmax` to `-zmax` (midpoint rule): `source(z)` gives the
+/// source's radiance times solid angle seen from height `z` and the
+/// length of the way to it through the mist, over which the absorbed part
+/// attenuates it (srcscatter()).
+fn single_scattering(
+    sigma: f64,
+    albedo: f64,
+    zmax: f64,
+    source: impl Fn(f64) -> (f64, f64),
+) -> f64 {
+    let n = 100_000;
+    let dz = 2.0 * zmax / n as f64;
+    (0..n)
+        .map(|i| {
+            let z = zmax - (i as f64 + 0.5) * dz;
+            let (l_omega, way) = source(z);
+            let to_eye = (-sigma * (zmax - z)).exp();
+            let to_source = (-sigma * (1.0 - albedo) * way).exp();
+            sigma * albedo / (4.0 * PI) * l_omega * to_eye * to_source * dz
+        })
+        .sum()
+}
+
 #[test]
 fn single_scattering_from_a_small_source_matches_the_integral() {
     let (sigma, albedo, dx, a, l) = (0.2, 0.8, 1.0, 0.05, 100.0);
@@ -170,19 +194,12 @@ fn single_scattering_from_a_small_source_matches_the_integral() {
     // srcscatter with an isotropic phase: sigma * albedo / (4 pi) * L *
     // omega, attenuated to the eye over the mist and to the source by
     // the absorbed part only.
-    let n = 100_000;
-    let mut expected = 0.0;
-    for i in 0..n {
-        let z = zmax - 2.0 * zmax * (i as f64 + 0.5) / n as f64;
+    let expected = single_scattering(sigma, albedo, zmax, |z| {
         let d2 = dx * dx + z * z;
-        let omega = PI * a * a / d2;
-        let to_eye = (-sigma * (zmax - z)).exp();
         // Radiance attenuates a shadow ray up to where it meets the
         // sphere (rayparticipate() over its length).
-        let to_source = (-sigma * (1.0 - albedo) * (d2.sqrt() - a)).exp();
-        expected +=
-            sigma * albedo / (4.0 * PI) * l * omega * to_eye * to_source * (2.0 * zmax / n as f64);
-    }
+        (l * PI * a * a / d2, d2.sqrt() - a)
+    });
     let opts = RenderOptions {
         ms: 0.05,
         pj: 1.0,
@@ -398,15 +415,7 @@ fn mist_scatters_a_named_distant_source() {
     let s = scene(&text);
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     let omega = 2.0 * PI * (1.0 - (0.5 * angle).to_radians().cos());
-    let n = 100_000;
-    let mut expected = 0.0;
-    for i in 0..n {
-        let z = r - 2.0 * r * (i as f64 + 0.5) / n as f64;
-        let to_eye = (-sigma * (r - z)).exp();
-        let to_sun = (-sigma * (1.0 - albedo) * (r - z)).exp();
-        expected +=
-            sigma * albedo / (4.0 * PI) * l * omega * to_eye * to_sun * (2.0 * r / n as f64);
-    }
+    let expected = single_scattering(sigma, albedo, r, |z| (l * omega, r - z));
     let opts = RenderOptions {
         ms: 0.05,
         pj: 1.0,

@@ -11,15 +11,6 @@ const L: f64 = 10.0; // source radiance
 const RHO: f64 = 0.5; // floor reflectance
 const A: f64 = 0.1; // half side of the square light
 
-/// Direct-only options testing every patch, sources split finely.
-fn opts(dr: u32) -> RenderOptions {
-    let mut o = RenderOptions::default();
-    o.apply_words("-ds 0.02 -dj 0 -dt 0 -av 0 0 0 -ab 0")
-        .unwrap();
-    o.dr = dr;
-    o
-}
-
 /// Mean luminance of a tiny view straight down at the floor point (x, 0, 0).
 fn floor_radiance(text: &str, x: f64, o: RenderOptions) -> f64 {
     let s = scene(text);
@@ -49,7 +40,7 @@ fn pane_scene(pane: &str, sx: f64, sz: f64) -> String {
 
 fn virtual_count(text: &str, dr: u32) -> usize {
     let s = scene(text);
-    let r = Renderer::new(&s, opts(dr)).unwrap();
+    let r = Renderer::new(&s, direct_only(dr)).unwrap();
     r.context()
         .lights
         .iter()
@@ -65,13 +56,13 @@ fn prism_passes_a_local_source_with_its_coefficient() {
     let open = floor_radiance(
         &pane_scene("void mirror win 1 void 0 3 1 1 1", 0.0, 4.0),
         0.0,
-        opts(0),
+        direct_only(0),
     );
     assert!(open > 0.0);
     let prism = pane_scene("void prism1 win 5 .4 Dx Dy Dz . 0 0", 0.0, 4.0);
     assert_eq!(virtual_count(&prism, 1), 1);
-    assert_eq!(floor_radiance(&prism, 0.0, opts(0)), 0.0);
-    let through = floor_radiance(&prism, 0.0, opts(1));
+    assert_eq!(floor_radiance(&prism, 0.0, direct_only(0)), 0.0);
+    let through = floor_radiance(&prism, 0.0, direct_only(1));
     assert!(
         (through / open - 0.4).abs() < 1e-6,
         "{through} vs 0.4 x {open}"
@@ -81,9 +72,9 @@ fn prism_passes_a_local_source_with_its_coefficient() {
     let open = floor_radiance(
         &pane_scene("void mirror win 1 void 0 3 1 1 1", 0.0, 4.0),
         0.7,
-        opts(0),
+        direct_only(0),
     );
-    let both = floor_radiance(&prism2, 0.7, opts(1));
+    let both = floor_radiance(&prism2, 0.7, direct_only(1));
     assert!((both / open - 0.65).abs() < 1e-6, "{both} vs 0.65 x {open}");
 }
 
@@ -103,7 +94,7 @@ fn prism_relays_a_local_source_to_its_projected_image() {
         4.0,
     );
     assert_eq!(virtual_count(&prism, 1), 1);
-    let got = floor_radiance(&prism, 0.0, opts(1));
+    let got = floor_radiance(&prism, 0.0, direct_only(1));
     // Shear h = (-1/2, 0, 0) per unit height above the pane: the image is
     // at (0, 0, 4), and the source's normal (0, 0, -1) becomes (1/2, 0, -1).
     let cos = 1.0 / (1.0f64 + 0.25).sqrt();
@@ -113,7 +104,7 @@ fn prism_relays_a_local_source_to_its_projected_image() {
     eprintln!("through the prism {got}, Radiance's projection {want}");
     assert!((got / want - 1.0).abs() < 2e-3, "{got} vs {want}");
     // Without the relay the pane blocks the source.
-    assert_eq!(floor_radiance(&prism, 0.0, opts(0)), 0.0);
+    assert_eq!(floor_radiance(&prism, 0.0, direct_only(0)), 0.0);
 }
 
 /// A vertical mirror, or a prism in its place whose functions reflect as
@@ -136,9 +127,9 @@ fn prism_that_mirrors_relays_as_the_mirror() {
     let prism = base("void prism1 win 5 .8 -Dx Dy Dz . 0 0");
     assert_eq!(virtual_count(&prism, 1), 1);
     for x in [0.0, -0.5, 0.6] {
-        let m = floor_radiance(&mirror, x, opts(1));
-        let p = floor_radiance(&prism, x, opts(1));
-        let direct = floor_radiance(&mirror, x, opts(0));
+        let m = floor_radiance(&mirror, x, direct_only(1));
+        let p = floor_radiance(&prism, x, direct_only(1));
+        let direct = floor_radiance(&mirror, x, direct_only(0));
         eprintln!("x = {x}: mirror {m}, prism {p}, direct only {direct}");
         assert!(m > direct * 1.01, "the mirror adds light at {x}");
         assert!((p / m - 1.0).abs() < 1e-6, "{p} vs {m} at {x}");
@@ -173,8 +164,8 @@ fn relayed_spotlight_lights_the_reflected_cone() {
         (edge + 0.02, false),
         (0.0, false),
     ] {
-        let direct = floor_radiance(&text, x, opts(0));
-        let relayed = floor_radiance(&text, x, opts(1));
+        let direct = floor_radiance(&text, x, direct_only(0));
+        let relayed = floor_radiance(&text, x, direct_only(1));
         eprintln!("x = {x}: direct {direct}, relayed {relayed}");
         assert_eq!(direct, 0.0, "the spotlight faces away from {x}");
         assert_eq!(relayed > 0.0, lit, "x = {x}: {relayed}");
@@ -201,7 +192,7 @@ fn parallel_equals_sequential_with_prism_relays() {
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     assert!(virtual_count(&text, 2) >= 3, "{}", virtual_count(&text, 2));
     let v = view("-vtv -vp -2 -2 1.5 -vd 1.5 1.5 -1 -vu 0 0 1 -vh 60 -vv 60");
-    let mut o = opts(2);
+    let mut o = direct_only(2);
     o.ds = 0.2;
     o.dj = 0.5;
     o.dt = 0.05;

@@ -18,15 +18,6 @@ const RHO: f64 = 0.5; // floor reflectance
 const H: f64 = 1.0; // light height
 const A: f64 = 0.1; // half side of the square light
 
-/// Direct-only options testing every patch, sources split finely.
-fn opts(dr: u32) -> RenderOptions {
-    let mut o = RenderOptions::default();
-    o.apply_words("-ds 0.02 -dj 0 -dt 0 -av 0 0 0 -ab 0")
-        .unwrap();
-    o.dr = dr;
-    o
-}
-
 /// A floor at z = 0, a square light (side 2A) at height H facing down
 /// over the origin, and `extra` (a mirror); the view looks straight down
 /// at a tiny spot around the origin.
@@ -88,14 +79,14 @@ fn virtual_source_adds_the_mirrored_irradiance() {
     let e_direct = square_irradiance_at(0.0);
     let e_image = square_irradiance_at(2.0);
     let (s, v) = mirror_scene(&mirror(rm, -3.0, 3.0, 0.01, 3.0, ""));
-    let direct_only = spot_radiance(&s, &v, opts(0));
-    let relayed = spot_radiance(&s, &v, opts(1));
+    let unrelayed = spot_radiance(&s, &v, direct_only(0));
+    let relayed = spot_radiance(&s, &v, direct_only(1));
     let want_direct = RHO / std::f64::consts::PI * e_direct;
     let want = RHO / std::f64::consts::PI * (e_direct + rm * e_image);
-    eprintln!("direct {direct_only} (want {want_direct}), with mirror {relayed} (want {want})");
+    eprintln!("direct {unrelayed} (want {want_direct}), with mirror {relayed} (want {want})");
     assert!(
-        (direct_only / want_direct - 1.0).abs() < 0.01,
-        "-dr 0: {direct_only} vs {want_direct}"
+        (unrelayed / want_direct - 1.0).abs() < 0.01,
+        "-dr 0: {unrelayed} vs {want_direct}"
     );
     assert!(
         (relayed / want - 1.0).abs() < 0.005,
@@ -103,7 +94,7 @@ fn virtual_source_adds_the_mirrored_irradiance() {
     );
     // The mirror's share (3%) is well above the tolerance, so a missing or
     // doubled relay fails.
-    assert!(relayed - direct_only > 0.02 * direct_only);
+    assert!(relayed - unrelayed > 0.02 * unrelayed);
 }
 
 /// A virtual source never adds more than the mirror's reflectance times
@@ -117,13 +108,13 @@ fn virtual_source_energy_is_bounded_by_the_mirror() {
     let bound = RHO / std::f64::consts::PI * rm * e_image;
     let base = {
         let (s, v) = mirror_scene("");
-        spot_radiance(&s, &v, opts(1))
+        spot_radiance(&s, &v, direct_only(1))
     };
     // The shadow ray to the image meets the plane x = 1 at z ~ 0.5: a
     // mirror strip z in [0.45, 0.5] relays only part of the image.
     for (z0, z1, full) in [(0.01, 3.0, true), (0.45, 0.5, false), (0.5, 0.52, false)] {
         let (s, v) = mirror_scene(&mirror(rm, -3.0, 3.0, z0, z1, ""));
-        let added = spot_radiance(&s, &v, opts(1)) - base;
+        let added = spot_radiance(&s, &v, direct_only(1)) - base;
         eprintln!("mirror z {z0}..{z1}: added {added}, bound {bound}");
         assert!(
             added >= -1e-12 && added <= bound * (1.0 + 0.01),
@@ -136,7 +127,7 @@ fn virtual_source_energy_is_bounded_by_the_mirror() {
         }
     }
     let (s, v) = mirror_scene(&mirror(0.0, -3.0, 3.0, 0.01, 3.0, ""));
-    let added = spot_radiance(&s, &v, opts(1)) - base;
+    let added = spot_radiance(&s, &v, direct_only(1)) - base;
     assert!(
         added.abs() < 1e-12,
         "a black mirror relays nothing: {added}"
@@ -148,7 +139,7 @@ fn virtual_source_energy_is_bounded_by_the_mirror() {
     );
     let (s, v) = mirror_scene(&patterned);
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
-    let added = spot_radiance(&s, &v, opts(1)) - base;
+    let added = spot_radiance(&s, &v, direct_only(1)) - base;
     assert!(
         (added / bound - 0.5).abs() < 0.01,
         "patterned: {added} vs {bound} / 2"
@@ -158,7 +149,7 @@ fn virtual_source_energy_is_bounded_by_the_mirror() {
         "void mirror m 0 0 3 1 1 1\n\
          m polygon back 0 0 12 -3 -3 2  3 -3 2  3 3 2  -3 3 2\n",
     );
-    let r = Renderer::new(&s, opts(2)).unwrap();
+    let r = Renderer::new(&s, direct_only(2)).unwrap();
     let facing_down = r
         .context()
         .lights
@@ -182,7 +173,7 @@ fn relay_depth_counts_images() {
          m polygon left 0 0 12 -1 -3 0.01  -1 3 0.01  -1 3 3  -1 -3 3\n",
     );
     let count = |dr: u32| {
-        let r = Renderer::new(&s, opts(dr)).unwrap();
+        let r = Renderer::new(&s, direct_only(dr)).unwrap();
         let n = r
             .context()
             .lights
@@ -196,8 +187,8 @@ fn relay_depth_counts_images() {
     assert_eq!(count(2), 4);
     // And the second-order images add light (both mirrors see them).
     let (_, v) = mirror_scene("");
-    let one = spot_radiance(&s, &v, opts(1));
-    let two = spot_radiance(&s, &v, opts(2));
+    let one = spot_radiance(&s, &v, direct_only(1));
+    let two = spot_radiance(&s, &v, direct_only(2));
     assert!(two > one * 1.001, "-dr 2 {two} vs -dr 1 {one}");
 }
 
@@ -222,17 +213,17 @@ fn mirror_alternate_material() {
     // Looking at the mirror from the room: pink plastic lit by the lamp,
     // not the mirror image of the (dark) room.
     let v = view("-vtv -vp 0 0 0.5 -vd 1 0 0 -vu 0 0 1 -vh 1 -vv 1");
-    let (film, _) = render(&s, &v, 4, 4, opts(1));
+    let (film, _) = render(&s, &v, 4, 4, direct_only(1));
     let c = film.get(2, 2);
     assert!(c.x > c.y * 1.3, "pink expected, got {c:?}");
     // The relay still works.
     let (_, spot) = mirror_scene("");
-    let with = spot_radiance(&s, &spot, opts(1));
-    let without = spot_radiance(&s, &spot, opts(0));
+    let with = spot_radiance(&s, &spot, direct_only(1));
+    let without = spot_radiance(&s, &spot, direct_only(0));
     assert!(with > without * 1.02);
     // Void alternate: the camera sees through it to the background.
     let (s, _) = mirror_scene(&mirror(0.8, -3.0, 3.0, 0.01, 3.0, "void"));
-    let (film, _) = render(&s, &v, 4, 4, opts(1));
+    let (film, _) = render(&s, &v, 4, 4, direct_only(1));
     assert_eq!(film.get(2, 2), Color::ZERO);
 }
 
@@ -250,7 +241,7 @@ fn parallel_equals_sequential_with_virtual_sources() {
         mirror(0.8, -3.0, 3.0, 0.01, 3.0, "")
     ));
     let v = view("-vtv -vp -2 -2 2.5 -vd 1.5 1.5 -2 -vu 0 0 1 -vh 60 -vv 60");
-    let mut o = opts(2);
+    let mut o = direct_only(2);
     o.ds = 0.2;
     o.dj = 0.5;
     o.dt = 0.05;
@@ -405,7 +396,7 @@ fn floor_scene(extra: &str) -> (hybrid_rt::scene::Scene, hybrid_rt::scene::View)
 fn shadow_rays_through_interface_and_dielectric_slabs() {
     let open = {
         let (s, v) = floor_scene("");
-        spot_radiance(&s, &v, opts(0))
+        spot_radiance(&s, &v, direct_only(0))
     };
     assert!(open > 0.0);
     let slab = |m: &str| {
@@ -416,16 +407,16 @@ fn shadow_rays_through_interface_and_dielectric_slabs() {
         )
     };
     let (s, v) = floor_scene(&slab("void interface d 0 0 8 1 1 1 1.4 1 1 1 1.4"));
-    let same = spot_radiance(&s, &v, opts(0));
+    let same = spot_radiance(&s, &v, direct_only(0));
     assert!((same / open - 1.0).abs() < 1e-6, "{same} vs {open}");
     let (s, v) = floor_scene(&slab("void dielectric d 0 0 5 1 1 1 1.5 0"));
-    let glassy = spot_radiance(&s, &v, opts(0));
+    let glassy = spot_radiance(&s, &v, direct_only(0));
     // Normal incidence: R = 0.04 per boundary.
     let want = open * 0.96 * 0.96;
     assert!((glassy / want - 1.0).abs() < 0.01, "{glassy} vs {want}");
     // An absorbing dielectric (transmission 0.5 per unit, 0.2 thick).
     let (s, v) = floor_scene(&slab("void dielectric d 0 0 5 .5 .5 .5 1.5 0"));
-    let dark = spot_radiance(&s, &v, opts(0));
+    let dark = spot_radiance(&s, &v, direct_only(0));
     let want = open * 0.96 * 0.96 * 0.5f64.powf(0.2);
     assert!((dark / want - 1.0).abs() < 0.01, "{dark} vs {want}");
 }
@@ -444,7 +435,7 @@ fn antimatter_cuts_a_hole_into_a_sphere() {
                 back polygon ground 0 0 12 -9 -9 -3  9 -9 -3  9 9 -3  -9 9 -3\n\
                 red sphere ball 0 0 4 0 0 0 1\n";
     let v = view("-vtl -vp 0 0 5 -vd 0 0 -1 -vu 0 1 0 -vh 2.4 -vv 2.4");
-    let o = opts(0);
+    let o = direct_only(0);
     let (plain, _) = render(&scene(base), &v, 24, 24, o.clone());
     let s = scene(&format!(
         "{base}void antimatter cut 1 red 0 0\n\
@@ -623,7 +614,7 @@ fn suite_scenes_load_without_stand_ins() {
         .iter()
         .any(|m| matches!(m, Material::Antimatter { clips, .. } if *clips != 0)));
     // The wall mirror relays the sun (a distant source).
-    let r = Renderer::new(&mirror, opts(1)).unwrap();
+    let r = Renderer::new(&mirror, direct_only(1)).unwrap();
     let virtuals = r
         .context()
         .lights
@@ -652,7 +643,7 @@ fn suite_scenes_load_without_stand_ins() {
             .materials
             .iter()
             .any(|m| matches!(m, Material::Prism { projections: n, .. } if *n == projections)));
-        let r = Renderer::new(&s, opts(1)).unwrap();
+        let r = Renderer::new(&s, direct_only(1)).unwrap();
         let n = r
             .context()
             .lights
@@ -729,15 +720,15 @@ fn prism_relays_a_distant_source() {
     // An invisible window (a mirror whose alternate is void) for reference.
     let open = {
         let (s, v) = window_scene("void mirror win 1 void 0 3 1 1 1");
-        spot_radiance(&s, &v, opts(0))
+        spot_radiance(&s, &v, direct_only(0))
     };
     assert!(open > 0.0);
     let (s, v) = window_scene("void prism1 win 5 .4 Dx Dy Dz . 0 0");
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     // The real source is blocked by the prism, as in Radiance.
-    let blocked = spot_radiance(&s, &v, opts(0));
+    let blocked = spot_radiance(&s, &v, direct_only(0));
     assert_eq!(blocked, 0.0);
-    let r = Renderer::new(&s, opts(1)).unwrap();
+    let r = Renderer::new(&s, direct_only(1)).unwrap();
     assert_eq!(
         r.context()
             .lights
@@ -746,21 +737,21 @@ fn prism_relays_a_distant_source() {
             .count(),
         1
     );
-    let through = spot_radiance(&s, &v, opts(1));
+    let through = spot_radiance(&s, &v, direct_only(1));
     assert!(
         (through / open - 0.4).abs() < 1e-3,
         "{through} vs 0.4 x {open}"
     );
     let (s, v) = window_scene("void prism2 win 9 .4 Dx Dy Dz .25 Dx Dy Dz . 0 0");
-    let both = spot_radiance(&s, &v, opts(1));
+    let both = spot_radiance(&s, &v, direct_only(1));
     assert!((both / open - 0.65).abs() < 1e-3, "{both} vs 0.65 x {open}");
     // A prism whose coefficient is 0 relays nothing.
     let (s, v) = window_scene("void prism1 win 5 0 Dx Dy Dz . 0 0");
-    assert_eq!(spot_radiance(&s, &v, opts(1)), 0.0);
+    assert_eq!(spot_radiance(&s, &v, direct_only(1)), 0.0);
     // Camera rays through the prism: one redirected ray per projection.
     let (s, _) = window_scene("void prism2 win 9 .4 Dx Dy Dz .25 Dx Dy Dz . 0 0");
     let up = view("-vtl -vp 0 0 1 -vd 0 0 1 -vu 0 1 0 -vh 0.001 -vv 0.001");
-    let (_, stats) = render(&s, &up, 2, 2, opts(1));
+    let (_, stats) = render(&s, &up, 2, 2, direct_only(1));
     assert_eq!(stats.rays.refraction, 8);
 }
 
@@ -773,9 +764,9 @@ fn prism_bends_a_distant_source() {
     // below (shadow rays, Dz > 0) leave towards the source at (0.3, 0, 1).
     let (s, v) = window_scene("void prism1 win 5 1 if(Dz,.3,0) 0 if(Dz,1,-1) . 0 0");
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
-    let bent = spot_radiance(&s, &v, opts(1));
+    let bent = spot_radiance(&s, &v, direct_only(1));
     let (s, v) = window_scene("void mirror win 1 void 0 3 1 1 1");
-    let open = spot_radiance(&s, &v, opts(1));
+    let open = spot_radiance(&s, &v, direct_only(1));
     let want = 1.09f64.sqrt();
     assert!(
         (bent / open - want).abs() < 1e-3,
@@ -790,7 +781,7 @@ fn prism_bends_a_distant_source() {
 #[test]
 fn sampled_rays_stay_sampled_after_mirrors() {
     let (s, _) = mirror_scene(&mirror(0.8, -3.0, 3.0, 0.01, 3.0, ""));
-    let r = Renderer::new(&s, opts(1)).unwrap();
+    let r = Renderer::new(&s, direct_only(1)).unwrap();
     let ctx = r.context();
     let mirror_obj = s
         .objects

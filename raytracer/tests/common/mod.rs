@@ -28,6 +28,16 @@ pub fn render(
     r.render(view, w, h).expect("render")
 }
 
+/// Direct light only, every patch tested, sources split finely, `-dr dr`:
+/// the virtual-source tests' settings.
+pub fn direct_only(dr: u32) -> RenderOptions {
+    let mut o = RenderOptions::default();
+    o.apply_words("-ds 0.02 -dj 0 -dt 0 -av 0 0 0 -ab 0")
+        .unwrap();
+    o.dr = dr;
+    o
+}
+
 pub fn lum(c: Color) -> f64 {
     hybrid_rt::image::brightness(c)
 }
