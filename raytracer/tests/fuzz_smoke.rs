@@ -282,6 +282,10 @@ const RAD_WORDS: &[&str] = &[
     "brighttext",
     "antimatter",
     "mist",
+    "prism1",
+    "prism2",
+    ">",
+    "if(Dz,Dx,-Dx)",
     "!xform",
     "!genbox",
     "!gensurf",
@@ -332,6 +336,22 @@ fn rad_seeds() -> Vec<String> {
          !xform -rz 30 -t 1 0 0 -a 3 -t 0 1 0 chair.rad\n\
          !genbox m box 1 2 3 -r .1\n\
          m instance i 1 cornell.rad 0 0\n"
+            .into(),
+    );
+    // Virtual sources: a lamp and a sun relayed by a mirror and a
+    // bending prism, a mist naming a relay and the sun.
+    seeds.push(
+        "void light l 0 0 3 10 10 10\n\
+         l polygon lamp 0 0 12 .9 -.1 3  .9 .1 3  1.1 .1 3  1.1 -.1 3\n\
+         l source sun 0 0 4 .3 0 1 .5\n\
+         void mirror mi 0 0 3 .8 .8 .8\n\
+         mi polygon wall 0 0 12 3 -5 .01  3 -5 5  3 5 5  3 5 .01\n\
+         void prism1 pr 5 .5 if(Dz,1-Px,Dx) if(Dz,-Py,Dy) if(Dz,4-Pz,Dz) . 0 0\n\
+         pr polygon pane 0 0 12 -5 -5 2  -5 5 2  5 5 2  5 -5 2\n\
+         void prism2 pp 9 .4 Dx Dy Dz .25 -Dx Dy Dz . 0 0\n\
+         pp ring disk 0 0 8 0 0 1 0 0 1 0 1\n\
+         void mist fog 3 wall>lamp sun pane>wall>lamp 0 6 .1 .1 .1 .8 .8 .8\n\
+         fog sphere cloud 0 0 4 0 0 1 .8\n"
             .into(),
     );
     seeds
