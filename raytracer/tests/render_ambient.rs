@@ -293,3 +293,53 @@ fn an_ambient_file_carries_the_cache_to_the_next_render() {
     assert!(d < 0.01, "mean difference {d}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `-aw` moves the constant `-av` met past the last bounce towards the
+/// cache's values (Radiance's moving average): `-aw 0` is the default
+/// picture bit for bit; a weight changes the picture, brightening a dark
+/// `-av`; a huge weight gives `-av` back; and the parallel renderer's
+/// picture equals the sequential one bit for bit (every pixel averages the
+/// records of its wave's cache and its own, in their order).
+#[test]
+fn ambient_weight_averages_the_constant_ambient() {
+    let s = scene(RADIANCE_CORNELL);
+    let v = view(RADIANCE_CORNELL_VIEW);
+    let o = RenderOptions {
+        ab: 1,
+        ad: 32,
+        as_: 8,
+        av: hybrid_rt::scene::Color::splat(0.001),
+        seed: 3,
+        ..Default::default()
+    };
+    let (plain, _) = render(&s, &v, 12, 12, o.clone());
+    let mut zero = o.clone();
+    zero.apply_words("-aw 0").unwrap();
+    assert_eq!(render(&s, &v, 12, 12, zero).0.pixels(), plain.pixels());
+    let mut weighted = o.clone();
+    weighted.apply_words("-aw 2").unwrap();
+    let (avg, _) = render(&s, &v, 12, 12, weighted.clone());
+    assert!(
+        avg.mean_brightness() > 1.01 * plain.mean_brightness(),
+        "{} vs {}",
+        avg.mean_brightness(),
+        plain.mean_brightness()
+    );
+    let mut heavy = o.clone();
+    heavy.aw = 1_000_000_000;
+    let (back, _) = render(&s, &v, 12, 12, heavy);
+    assert!(mean_rel_diff(&back, &plain) < 1e-6);
+    let par = hybrid_rt::parallel::ambient::render_ambient_parallel(
+        std::sync::Arc::new(s),
+        weighted,
+        &v,
+        12,
+        12,
+        &hybrid_rt::parallel::ParallelOptions::new(3),
+        &[],
+        None,
+    )
+    .unwrap()
+    .unwrap();
+    assert_eq!(par.film.pixels(), avg.pixels());
+}

@@ -243,6 +243,9 @@ pub struct RadianceArgs {
     /// -av: constant ambient radiance [default: 0 0 0]
     #[arg(long = "av", num_args = 3, value_names = ["R", "G", "B"], allow_hyphen_values = true)]
     pub av: Option<Vec<String>>,
+    /// -aw: weight of -av in a moving average of the computed ambient values, 0 = -av as given [default: 0]
+    #[arg(long = "aw", value_name = "N", allow_hyphen_values = true)]
+    pub aw: Option<String>,
     /// -ab: ambient bounces (diffuse inter-reflection) [default: 0]
     #[arg(long = "ab", value_name = "N", allow_hyphen_values = true)]
     pub ab: Option<String>,
@@ -331,6 +334,7 @@ impl RadianceArgs {
                     .as_ref()
                     .map(|a| a.iter().map(String::as_str).collect()),
             ),
+            ("aw", one(&self.aw)),
             ("ab", one(&self.ab)),
             ("aa", one(&self.aa)),
             ("ar", one(&self.ar)),

@@ -314,6 +314,11 @@ pub struct AmbientCache {
     cells: HashMap<(u8, [i64; 3]), Vec<u32>>,
     /// Bit `l` set: grid level `l` holds records.
     levels: u64,
+    /// Sum of the logarithms of the records' brightnesses (those above
+    /// `FTINY`) and their number: Radiance's `avsum` and `navsum`, for
+    /// `-aw` ([`AmbientStore::ambient_value`]).
+    log_sum: f64,
+    log_count: u32,
 }
 
 fn cell_of(p: Vec3, cell: f64) -> [i64; 3] {
@@ -460,6 +465,11 @@ impl AmbientCache {
         let lo = cell_of(r.point - Vec3::splat(influence), cell);
         let hi = cell_of(r.point + Vec3::splat(influence), cell);
         let id = self.records.len() as u32;
+        let b = crate::image::brightness(r.value);
+        if b > FTINY {
+            self.log_sum += b.ln();
+            self.log_count += 1;
+        }
         self.records.push(r);
         self.levels |= 1 << l;
         for x in lo[0]..=hi[0] {
@@ -535,6 +545,33 @@ impl AmbientStore {
     pub fn insert(&mut self, s: &AmbientSettings, r: AmbientRecord) {
         match self {
             AmbientStore::Local(c) | AmbientStore::Frozen { own: c, .. } => c.insert(s, r),
+        }
+    }
+
+    /// The constant ambient value, `av` (`-av`), where no bounce is left
+    /// or no hemisphere is sampled: with `aw` (`-aw`) above 0, Radiance's
+    /// moving average (`multambient()`): the brightness becomes the
+    /// geometric mean of `av`'s, weighted `aw`, and the values of the
+    /// records stored so far, each weighted 1, keeping `av`'s colour (a
+    /// neutral grey if `av` is black). The records are those this store
+    /// holds: for the waves' deterministic order, the cache of the wave
+    /// and this trace's own.
+    pub fn ambient_value(&self, av: Color, aw: u32) -> Color {
+        let (sum, n) = match self {
+            AmbientStore::Local(c) => (c.log_sum, c.log_count),
+            AmbientStore::Frozen { base, own } => {
+                (base.log_sum + own.log_sum, base.log_count + own.log_count)
+            }
+        };
+        if aw == 0 || n == 0 {
+            return av;
+        }
+        let l = crate::image::brightness(av);
+        if l > FTINY {
+            let d = (l.ln() * aw as f64 + sum) / (aw as f64 + n as f64);
+            av * (d.exp() / l)
+        } else {
+            Color::splat((sum / n as f64).exp())
         }
     }
 

@@ -52,6 +52,7 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
         start: 0,
         offset_scale,
         ambient: [None; 2],
+        constant: Color::ZERO,
         scale: 1.0,
         salt: 0,
         uv: [0.0; 2],
@@ -62,6 +63,7 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
         extinction: task.extinction,
         medium: task.medium,
         ambient: [None; 2],
+        constant: Color::ZERO,
     };
     if !ctx.scene.clip_bits.is_empty() {
         // Antimatter (m_clip.c): clipped surfaces are not there for this
@@ -87,6 +89,7 @@ pub fn shade(ctx: &ShadeContext, task: &RayTask, hit: &Hit, out: &mut Vec<Reques
     em.uv = uv;
     shade_material(&mut em, &mut shaded, hit.material(), flat, start, 0);
     shaded.ambient = em.ambient;
+    shaded.constant = em.constant;
     if shaded.medium.scatter != 0 {
         scatter_requests(ctx, task, shaded.extinction, &shaded.medium, hit.t, em.out);
     }

@@ -40,6 +40,11 @@ pub struct RenderOptions {
     pub lw: f64,
     /// `-av`: constant ambient radiance, multiplied by diffuse reflectance.
     pub av: Color,
+    /// `-aw`: weight of `-av` in the moving average with the irradiance
+    /// cache's values that replaces it (Radiance's; 0, the default, keeps
+    /// `-av` as given). See [`super::ambient::AmbientStore::ambient_value`].
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub aw: u32,
     /// `-ab`: ambient bounces: diffuse inter-reflection computed with an
     /// irradiance cache (see [`super::ambient`]); 0 uses the constant `-av`.
     pub ab: u32,
@@ -113,6 +118,7 @@ impl Default for RenderOptions {
             lr: 7,
             lw: 0.002,
             av: Color::ZERO,
+            aw: 0,
             ab: 0,
             aa: 0.1,
             ar: 256,
@@ -242,6 +248,11 @@ pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
         help: "ambient value r g b (default 0 0 0)",
     },
     RadianceOption {
+        name: "aw",
+        arity: 1,
+        help: "ambient value weight: -av joins a moving average of the computed ambient values with this weight, 0 = -av as given (default 0)",
+    },
+    RadianceOption {
         name: "ab",
         arity: 1,
         help: "ambient bounces: diffuse inter-reflection depth (default 0)",
@@ -344,6 +355,12 @@ pub const RADIANCE_OPTIONS: &[RadianceOption] = &[
 ];
 
 /// A switch written with its state (`bv-`, `bv+`): the name and the state.
+/// Whether `-aw` keeps its default (left out of serialized options, so
+/// outputs written before it existed stay the same).
+fn is_zero(x: &u32) -> bool {
+    *x == 0
+}
+
 fn split_switch(name: &str) -> (&str, Option<bool>) {
     let is_switch = |n: &str| RADIANCE_OPTIONS.iter().any(|o| o.name == n && o.arity == 0);
     for (suffix, on) in [('+', true), ('-', false)] {
@@ -443,6 +460,7 @@ impl RenderOptions {
                 }
                 self.av = Color::from_array(c);
             }
+            "aw" => self.aw = integer(name, v0)?,
             "ab" => self.ab = integer(name, v0)?,
             "aa" => self.aa = in_range(name, number(name, v0)?, 0.0, 1.0)?,
             "ar" => self.ar = integer(name, v0)?,

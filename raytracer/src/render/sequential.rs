@@ -517,6 +517,14 @@ impl<'s> Renderer<'s> {
         let shaded = shade(&ctx, task, &hit, &mut st.requests);
         let end = st.requests.len();
         let mut sum = shaded.base;
+        if self.options.aw > 0
+            && shaded.constant != Color::ZERO
+            && ctx.effects.diffuse_interreflection.enabled
+        {
+            // -aw: the -av term in `base` moves to the cache's average.
+            let av = st.ambient.ambient_value(self.options.av, self.options.aw);
+            sum += shaded.constant * (av - self.options.av);
+        }
         for req in shaded.ambient.iter().flatten() {
             sum += req.coef * self.ambient_value(task, req, st);
         }
@@ -619,7 +627,7 @@ impl<'s> Renderer<'s> {
         }
         let Some(mut h) = Hemisphere::new(s, &self.options, task, req) else {
             st.counts.ambient_cache.fallbacks += 1;
-            return self.options.av;
+            return st.ambient.ambient_value(self.options.av, self.options.aw);
         };
         st.counts.ambient_cache.hemispheres += 1;
         for (div, t) in h.first_pass() {

@@ -93,6 +93,10 @@ pub struct Shaded {
     /// reflected and transmitted sides. Their value replaces the `-av`
     /// term; see [`super::ambient`].
     pub ambient: [Option<AmbientRequest>; 2],
+    /// The coefficients `-av` was multiplied by in `base` (where no
+    /// bounces were left): with `-aw` the renderer moves that term to the
+    /// average of the irradiance cache ([`super::ambient::AmbientStore::ambient_value`]).
+    pub constant: Color,
 }
 
 /// Everything shading reads: scene, options, lights, enabled effects.
@@ -131,6 +135,8 @@ pub(crate) struct Emitter<'c, 'o> {
     pub(super) start: usize,
     pub(crate) offset_scale: f64,
     pub(super) ambient: [Option<AmbientRequest>; 2],
+    /// See [`Shaded::constant`].
+    pub(super) constant: Color,
     /// Share of the current material in a mixture (1 outside mixtures):
     /// every coefficient this point asks for is scaled by it.
     pub(crate) scale: f64,
@@ -159,6 +165,7 @@ impl Emitter<'_, '_> {
             });
             Color::ZERO
         } else {
+            self.constant += coef * self.scale;
             coef * opts.av
         }
     }

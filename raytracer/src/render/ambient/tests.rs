@@ -601,3 +601,48 @@ fn ceiling_and_wall(h: f64, w: f64, hw: f64) -> impl Fn(&Ray) -> (Color, f64) {
         (Color::ONE, t)
     }
 }
+
+/// `-aw` (Radiance's `multambient()`): the constant ambient value's
+/// brightness becomes the weighted geometric mean of its own (weight
+/// `aw`) and the stored records' (weight 1 each), its colour kept; a black
+/// `-av` gives the records' geometric mean as grey; `-aw 0`, or no record,
+/// leaves `-av` as it is. A frozen store counts its base and its own
+/// records.
+#[test]
+fn ambient_value_weight_averages_in_the_records() {
+    let s = settings(0.1);
+    let av = Color::new(0.2, 0.1, 0.05);
+    let l = crate::image::brightness(av);
+    let mut store = AmbientStore::default();
+    assert_eq!(store.ambient_value(av, 4), av);
+    store.insert(&s, rec(Vec3::ZERO, 1.0, 0.5));
+    store.insert(&s, rec(Vec3::X, 1.0, 2.0));
+    // A black record (no light) does not count, as in Radiance's avstore.
+    store.insert(&s, rec(Vec3::Y, 1.0, 0.0));
+    assert_eq!(store.ambient_value(av, 0), av);
+    let b = |v: f64| crate::image::brightness(Color::splat(v));
+    for aw in [1u32, 4, 1000] {
+        let mean = ((l.ln() * aw as f64 + b(0.5).ln() + b(2.0).ln()) / (aw as f64 + 2.0)).exp();
+        let got = store.ambient_value(av, aw);
+        assert!(((crate::image::brightness(got) / mean) - 1.0).abs() < 1e-12);
+        // The colour of -av is kept.
+        assert!((got.x / got.y - 2.0).abs() < 1e-12 && (got.y / got.z - 2.0).abs() < 1e-12);
+    }
+    // With a large weight -av itself comes back.
+    let heavy = store.ambient_value(av, 1_000_000_000);
+    assert!((heavy - av).abs().max_element() < 1e-6 * l);
+    // Black -av: the records' geometric mean, grey.
+    let grey = store.ambient_value(Color::ZERO, 3);
+    let want = ((b(0.5).ln() + b(2.0).ln()) / 2.0).exp();
+    assert_eq!(grey, Color::splat(grey.x));
+    assert!((grey.x / want - 1.0).abs() < 1e-12);
+    // A frozen store: its base's records and its own.
+    let mut base = AmbientCache::default();
+    base.insert(&s, rec(Vec3::ZERO, 1.0, 0.5));
+    let mut frozen = AmbientStore::Frozen {
+        base: std::sync::Arc::new(base),
+        own: AmbientCache::default(),
+    };
+    frozen.insert(&s, rec(Vec3::X, 1.0, 2.0));
+    assert_eq!(frozen.ambient_value(av, 4), store.ambient_value(av, 4));
+}
