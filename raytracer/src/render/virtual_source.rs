@@ -153,7 +153,12 @@ fn relay_surfaces(scene: &Scene, warnings: &mut Vec<String>) -> Vec<RelaySurface
         let Some((normal, offset, center, radius2)) = plane_of(&o.shape) else {
             if !matches!(o.shape, Shape::Polygon(_) | Shape::Ring { .. }) {
                 curved += 1;
-                first_curved.get_or_insert(o.name.clone());
+                let kind = if matches!(m, Material::Mirror { .. }) {
+                    "mirror"
+                } else {
+                    "prism"
+                };
+                first_curved.get_or_insert((kind, o.name.clone()));
             }
             continue;
         };
@@ -183,9 +188,9 @@ fn relay_surfaces(scene: &Scene, warnings: &mut Vec<String>) -> Vec<RelaySurface
             radius2,
         });
     }
-    if let Some(name) = first_curved {
+    if let Some((kind, name)) = first_curved {
         warnings.push(format!(
-            "mirror or prism surface {name:?}{}: not planar, so it relays no light sources (secondary sources not supported)",
+            "{kind} surface {name:?}{}: not planar, so it relays no light sources (secondary sources not supported)",
             if curved > 1 {
                 format!(" and {} more", curved - 1)
             } else {
