@@ -60,7 +60,8 @@ pub enum Material {
     },
     /// Radiance `prism1` (one projection) and `prism2` (two): rays are
     /// redirected by functions ([`crate::modifier::Patterns::redirect`]),
-    /// and distant sources are relayed as virtual sources.
+    /// and light sources are relayed as virtual sources (see
+    /// `render::virtual_source`).
     Prism {
         modifier: crate::modifier::ModifierId,
         projections: u8,
