@@ -185,13 +185,15 @@ fn mpirun_renders_the_sequential_picture() {
 
 /// Diffuse inter-reflection (`-ab 2`, the irradiance cache in waves: one
 /// epoch each, the records broadcast to every rank between them) under
-/// MPI: the sequential picture, bit for bit, and the same cache.
+/// MPI: the sequential picture, bit for bit, and the same cache. With
+/// `-aw 2`, the constant ambient past the last bounce is the cache's
+/// moving average, which every rank must compute alike.
 #[test]
 fn mpirun_renders_two_bounces_as_the_sequential_renderer() {
     let d = tmpdir("ab2");
     let (rad, vf) = cornell(&d);
     let ab = [
-        "-ab", "2", "-aa", ".2", "-ad", "32", "-as", "8", "-ar", "16",
+        "-ab", "2", "-aa", ".2", "-ad", "32", "-as", "8", "-ar", "16", "-aw", "2",
     ];
     let seq = d.join("seq.hdr");
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_hybrid-rt"));
