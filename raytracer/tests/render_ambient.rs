@@ -98,17 +98,23 @@ fn ab_zero_ignores_the_ambient_options() {
     assert_eq!(sa.rays.ambient_cache.lookups, 0);
 }
 
+/// One cached bounce with few hemisphere rays: small renders of
+/// Radiance's Cornell box.
+fn one_bounce(seed: u64) -> RenderOptions {
+    RenderOptions {
+        ab: 1,
+        ad: 32,
+        as_: 8,
+        seed,
+        ..Default::default()
+    }
+}
+
 #[test]
 fn cached_render_is_deterministic_and_brighter() {
     let s = scene(RADIANCE_CORNELL);
     let v = view(RADIANCE_CORNELL_VIEW);
-    let o = RenderOptions {
-        ab: 1,
-        ad: 32,
-        as_: 8,
-        seed: 7,
-        ..Default::default()
-    };
+    let o = one_bounce(7);
     let (a, sa) = render(&s, &v, 12, 12, o.clone());
     let (b, sb) = render(&s, &v, 12, 12, o.clone());
     assert_eq!(a.pixels(), b.pixels());
@@ -305,12 +311,8 @@ fn ambient_weight_averages_the_constant_ambient() {
     let s = scene(RADIANCE_CORNELL);
     let v = view(RADIANCE_CORNELL_VIEW);
     let o = RenderOptions {
-        ab: 1,
-        ad: 32,
-        as_: 8,
         av: hybrid_rt::scene::Color::splat(0.001),
-        seed: 3,
-        ..Default::default()
+        ..one_bounce(3)
     };
     let (plain, _) = render(&s, &v, 12, 12, o.clone());
     let mut zero = o.clone();

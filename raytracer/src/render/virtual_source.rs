@@ -51,14 +51,12 @@ pub const MAX_VIRTUAL_SOURCES: usize = 4096;
 /// What a relay surface does with a source.
 #[derive(Debug, Clone, Copy)]
 enum RelayKind {
-    /// A mirror: its relay (front normal, reflectance).
-    Mirror(Relay),
-    /// A prism: its redirecting functions and plane.
+    /// A mirror of this reflectance.
+    Mirror(Color),
+    /// A prism: its redirecting functions.
     Prism {
         modifier: ModifierId,
         projections: u8,
-        normal: Vec3,
-        offset: f64,
     },
 }
 
@@ -67,6 +65,10 @@ enum RelayKind {
 struct RelaySurface {
     object: ObjectId,
     kind: RelayKind,
+    /// Unit normal of its plane (a mirror's front), `normal . x = offset`
+    /// on it.
+    normal: Vec3,
+    offset: f64,
     /// Centre and squared radius of a disk holding it (`getmaxdisk`).
     center: Vec3,
     radius2: f64,
@@ -163,27 +165,21 @@ fn relay_surfaces(scene: &Scene, warnings: &mut Vec<String>) -> Vec<RelaySurface
             continue;
         };
         let kind = match m {
-            Material::Mirror { color, .. } => RelayKind::Mirror(Relay {
-                object: i,
-                normal,
-                offset,
-                color: *color,
-                redirect: None,
-            }),
+            Material::Mirror { color, .. } => RelayKind::Mirror(*color),
             Material::Prism {
                 modifier,
                 projections,
             } => RelayKind::Prism {
                 modifier: *modifier,
                 projections: *projections,
-                normal,
-                offset,
             },
             _ => continue,
         };
         out.push(RelaySurface {
             object: i,
             kind,
+            normal,
+            offset,
             center,
             radius2,
         });
@@ -287,7 +283,7 @@ impl Projector<'_> {
                     if d * d >= m.radius2 {
                         continue;
                     }
-                    let c = prev.normal.dot(m.normal());
+                    let c = prev.normal.dot(m.normal);
                     if d * d >= m.radius2 * (1.0 - c * c) {
                         continue;
                     }
@@ -315,33 +311,31 @@ impl Projector<'_> {
 }
 
 impl RelaySurface {
-    /// Unit normal of its plane.
-    fn normal(&self) -> Vec3 {
-        match &self.kind {
-            RelayKind::Mirror(r) => r.normal,
-            RelayKind::Prism { normal, .. } => *normal,
-        }
-    }
-
     /// The relays of a source at `loc` through this surface: a mirror's if
     /// its front faces the source (`mir_proj()`); a prism's for each
     /// projection whose functions, for light from the source's centre
     /// through the prism's centre, give a significant coefficient and a
     /// direction not along the plane (`dir_proj()`).
     fn projections(&self, scene: &Scene, loc: Location, out: &mut Vec<Relay>) {
-        let (modifier, projections, nv, od) = match &self.kind {
-            RelayKind::Mirror(r) => {
-                if loc.side(r) > FTINY {
-                    out.push(*r);
+        let (nv, od) = (self.normal, self.offset);
+        let (modifier, projections) = match self.kind {
+            RelayKind::Mirror(color) => {
+                let r = Relay {
+                    object: self.object,
+                    normal: nv,
+                    offset: od,
+                    color,
+                    redirect: None,
+                };
+                if loc.side(&r) > FTINY {
+                    out.push(r);
                 }
                 return;
             }
             RelayKind::Prism {
                 modifier,
                 projections,
-                normal,
-                offset,
-            } => (*modifier, *projections, *normal, *offset),
+            } => (modifier, projections),
         };
         // The direction light travels from the source to the prism.
         let olddir = match loc {
