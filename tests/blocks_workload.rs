@@ -89,6 +89,75 @@ fn the_fetch_limit_sends_larger_fetches_to_the_fallback_and_changes_no_result() 
     }
 }
 
+/// `Config::complete_cache`: with a cache without budget, a processor that
+/// has asked for the given share of the bytes placed elsewhere asks for the
+/// rest. Each block is asked for once per processor, a processor that
+/// completes ends up holding every block, and the results are the
+/// sequential ones under every policy. With a budget or a fetch limit
+/// nothing is completed.
+#[test]
+fn completing_the_cache_fetches_each_block_once_and_changes_no_result() {
+    use hybrid_sched::{Addr, Workload};
+    let w = Blocks::new(small(3));
+    for procs in 2..=4 {
+        let placement = w.placement(procs);
+        for policy in Policy::ALL {
+            for pct in [0u8, 30, 100] {
+                let cfg = Config::new(procs)
+                    .with_policy(policy)
+                    .with_complete_cache(Some(pct))
+                    .with_credits(4);
+                let what = format!("{procs} procs, {policy}, completing at {pct}%");
+                let r = threads(&w, cfg);
+                assert_matches_sequential(&w, &r, &what);
+                if pct == 0 {
+                    assert!(r.stats.procs.iter().any(|p| p.cache_completed), "{what}");
+                }
+                for p in &r.stats.procs {
+                    let Addr::Proc(id) = p.addr else { continue };
+                    let elsewhere: Vec<u64> = placement
+                        .iter()
+                        .filter(|pl| pl.owner != id)
+                        .map(|pl| pl.bytes)
+                        .collect();
+                    let asked = p.data_items_requested as usize;
+                    assert!(asked <= elsewhere.len(), "{what}: p{id} asked twice");
+                    assert_eq!(p.cache.insertions as usize, asked, "{what}: p{id}");
+                    if p.cache_completed {
+                        assert_eq!(asked, elsewhere.len(), "{what}: p{id} holds everything");
+                    }
+                    if pct == 0 && asked > 0 {
+                        assert!(
+                            p.cache_completed,
+                            "{what}: p{id} completes at its first fetch"
+                        );
+                    }
+                    if pct == 100 {
+                        // Asked for everything before it could complete.
+                        assert!(!p.cache_completed || asked == elsewhere.len(), "{what}");
+                    }
+                }
+            }
+        }
+    }
+    let budget = 3 * w.largest_block_bytes() as u64;
+    for cfg in [
+        Config::new(3).with_cache_bytes(Some(budget)),
+        Config::new(3).with_fetch_limit(Some(budget)),
+    ] {
+        let r = threads(&w, cfg.clone().with_complete_cache(Some(0)));
+        assert_matches_sequential(&w, &r, "a budget or a fetch limit");
+        assert!(
+            r.stats.procs.iter().all(|p| !p.cache_completed),
+            "{cfg:?}: only a cache without budget completes"
+        );
+    }
+    assert_eq!(
+        Config::new(2).with_complete_cache(Some(101)).validate(),
+        Err(ConfigError::CompletionPercent(101))
+    );
+}
+
 #[test]
 fn cache_counters_and_data_requests_are_consistent() {
     let w = Blocks::new(small(5));

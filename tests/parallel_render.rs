@@ -395,6 +395,41 @@ fn a_hierarchy_grown_over_the_cache_changes_no_answer() {
     }
 }
 
+/// Completing the cache (`complete_cache`): with a cache without budget a
+/// processor that has asked for the given share of the cells held
+/// elsewhere asks for the rest, and once its hierarchy is grown over every
+/// cell it traces as a processor holding the scene (no selection, no
+/// judgement, no walk). The picture and every ray count stay the
+/// sequential ones; at 0 every processor completes at its first fetch and
+/// walks fewer octree leaves than the paper's cache (`None`) does.
+#[test]
+fn completing_the_cache_changes_no_answer() {
+    let c = case("studio", 96, 72, RenderOptions::default());
+    for procs in [2, 3] {
+        let mut paper = ParallelOptions::new(procs);
+        paper.workload.tile = 8;
+        let (mut at_once, mut half) = (paper.clone(), paper.clone());
+        at_once.complete_cache = Some(0);
+        half.complete_cache = Some(50);
+        let (a, b) = (check(&c, &at_once), check(&c, &paper));
+        check(&c, &half);
+        let what = format!("procs {procs}");
+        assert_same_rays(&a, &b, &what);
+        for s in &a.stats.procs {
+            if s.data_items_requested > 0 {
+                assert!(s.cache_completed, "{what}: {:?} did not complete", s.addr);
+            }
+        }
+        assert!(b.stats.procs.iter().all(|s| !s.cache_completed), "{what}");
+        assert!(
+            a.work(Work::TraceLeaves) < b.work(Work::TraceLeaves),
+            "{what}: no walk saved ({} against {})",
+            a.work(Work::TraceLeaves),
+            b.work(Work::TraceLeaves)
+        );
+    }
+}
+
 /// Views whose tiles have no bounding pyramid (fisheye, parallel): a
 /// tile's selection walks its primary rays and leaves them for its
 /// execution or its data-parallel fallback, which must still trace each

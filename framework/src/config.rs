@@ -77,6 +77,17 @@ pub struct Config {
     /// and 6); what it trades is bytes fetched against work migrated.
     #[serde(default)]
     pub fetch_limit: Option<u64>,
+    /// Completing the cache (beyond the paper): with a cache that never
+    /// evicts (`cache_bytes` `None`) and no `fetch_limit`, once a
+    /// processor has fetched (or asked for) this percentage of the bytes
+    /// placed on other processors, it asks for the rest in one request per
+    /// owner, and from then on holds every item. `None`: never (the
+    /// paper's cache). At 50 the bytes fetched are at most twice what
+    /// the tasks asked for: it stops paying for each task's fetches once
+    /// it has paid for half of the rest. What changes is only where data
+    /// is, never a result (SEMANTICS.md section 6).
+    #[serde(default)]
+    pub complete_cache: Option<u8>,
     /// Bundling of low-priority traffic.
     pub bundle: BundleConfig,
     /// Flow control: how many credit-limited messages (tasks and results) one
@@ -126,6 +137,7 @@ impl Config {
             policy: Policy::Local,
             cache_bytes: None,
             fetch_limit: None,
+            complete_cache: None,
             bundle: BundleConfig::default(),
             credits_per_link: 64,
             flight_bytes: DEFAULT_FLIGHT_BYTES,
@@ -151,6 +163,13 @@ impl Config {
     /// Sets the most bytes one demand-driven task may have fetched.
     pub fn with_fetch_limit(mut self, bytes: Option<u64>) -> Self {
         self.fetch_limit = bytes;
+        self
+    }
+
+    /// Sets the percentage of the data placed elsewhere after which a
+    /// processor completes its cache ([`Config::complete_cache`]).
+    pub fn with_complete_cache(mut self, percent: Option<u8>) -> Self {
+        self.complete_cache = percent;
         self
     }
 
@@ -228,6 +247,9 @@ impl Config {
                 bytes: self.flight_bytes,
                 procs: self.procs,
             });
+        }
+        if let Some(p) = self.complete_cache.filter(|&p| p > 100) {
+            return Err(ConfigError::CompletionPercent(p));
         }
         if self.max_waiting_tasks == 0 {
             return Err(ConfigError::ZeroWaitingTasks);

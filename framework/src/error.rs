@@ -66,6 +66,9 @@ pub enum ConfigError {
     /// A zero time limit.
     #[error("the time limit must be positive")]
     ZeroTimeLimit,
+    /// A cache completion percentage above 100.
+    #[error("the cache completes after a percentage of the data held elsewhere: {0} is above 100")]
+    CompletionPercent(u8),
     /// An unknown scheduling policy name.
     #[error("unknown scheduling policy '{0}' (expected one of: local, via-master, to-origin, round-robin)")]
     UnknownPolicy(String),

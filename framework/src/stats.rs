@@ -272,6 +272,10 @@ pub struct ProcStats {
     pub data_requests_served: u64,
     /// Data items sent in replies.
     pub data_items_served: u64,
+    /// Whether it asked for every item it did not hold
+    /// ([`crate::Config::complete_cache`]).
+    #[serde(default)]
+    pub cache_completed: bool,
     /// Memory high-water marks.
     pub memory: MemoryHighWater,
     /// Termination-detection waves (master only).
@@ -298,6 +302,7 @@ impl ProcStats {
             data_items_requested: 0,
             data_requests_served: 0,
             data_items_served: 0,
+            cache_completed: false,
             memory: MemoryHighWater::default(),
             termination_waves: 0,
             epochs: 0,

@@ -88,6 +88,15 @@ impl<Id: Ord + Clone + std::fmt::Debug> Directory<Id> {
     pub(crate) fn count_on(&self, proc: usize) -> usize {
         self.entries.iter().filter(|e| e.1 as usize == proc).count()
     }
+
+    /// Bytes of the items placed on other processors than `proc`.
+    fn bytes_elsewhere(&self, proc: usize) -> u64 {
+        self.entries
+            .iter()
+            .filter(|e| e.1 as usize != proc)
+            .map(|e| e.2)
+            .sum()
+    }
 }
 
 /// Data items with their ids, as carried by a data reply.
@@ -139,6 +148,11 @@ pub(crate) struct DataStore<W: Workload> {
     cache: ByteLru<W::DataId, W::DataItem>,
     /// [`crate::Config::fetch_limit`].
     fetch_limit: Option<u64>,
+    /// [`crate::Config::complete_cache`]: the bytes asked for after which
+    /// the rest is asked for (`None`: never, or done).
+    complete_at: Option<u64>,
+    /// Bytes asked for from other processors so far.
+    asked_bytes: u64,
     dir: Directory<W::DataId>,
     in_flight: IdMap<W::DataId, InFlight>,
     waiting: HashMap<TaskKey, WaitingTask<W>>,
@@ -149,13 +163,15 @@ pub(crate) struct DataStore<W: Workload> {
 }
 
 impl<W: Workload> DataStore<W> {
-    /// A store for processor `me` holding `resident`, checked against `dir`.
+    /// A store for processor `me` holding `resident`, checked against `dir`
+    /// (`complete_cache`: [`crate::Config::complete_cache`]).
     pub(crate) fn new(
         me: usize,
         resident: Vec<(W::DataId, W::DataItem)>,
         dir: Directory<W::DataId>,
         cache_bytes: Option<u64>,
         fetch_limit: Option<u64>,
+        complete_cache: Option<u8>,
     ) -> Result<Self, String> {
         let mut resident_bytes = 0u64;
         for (id, item) in &resident {
@@ -190,12 +206,19 @@ impl<W: Workload> DataStore<W> {
                 map.len()
             ));
         }
+        // Only a cache that never evicts can hold the rest, and a fetch
+        // limit says that large fetches cost more than migrating work.
+        let complete_at = complete_cache
+            .filter(|_| cache_bytes.is_none() && fetch_limit.is_none())
+            .map(|p| (u128::from(dir.bytes_elsewhere(me)) * u128::from(p) / 100) as u64);
         Ok(DataStore {
             me,
             resident: map,
             resident_bytes,
             cache: ByteLru::new(cache_bytes),
             fetch_limit,
+            complete_at,
+            asked_bytes: 0,
             dir,
             in_flight: IdMap::default(),
             waiting: HashMap::new(),
@@ -347,6 +370,7 @@ impl<W: Workload> DataStore<W> {
                 Some(f) => f.waiters.push(key),
                 None => {
                     let bytes = self.dir.bytes(id).unwrap_or(0);
+                    self.asked_bytes += bytes;
                     self.in_flight.insert(
                         id.clone(),
                         InFlight {
@@ -379,6 +403,39 @@ impl<W: Workload> DataStore<W> {
         self.waiting_high_water = self.waiting_high_water.max(self.waiting.len());
         self.waiting_bytes_high_water = self.waiting_bytes_high_water.max(self.waiting_bytes);
         Ok(Admission::Waiting(requests.into_iter().collect()))
+    }
+
+    /// Completing the cache ([`crate::Config::complete_cache`]): once the
+    /// bytes asked for reach the threshold, every item placed elsewhere
+    /// and neither cached nor on its way, as requests (owner, ids), once.
+    /// No task waits for them; they join the cache unpinned.
+    pub(crate) fn complete(&mut self) -> Vec<(usize, Vec<W::DataId>)> {
+        if self.complete_at.is_none_or(|at| self.asked_bytes < at) {
+            return Vec::new();
+        }
+        self.complete_at = None;
+        let mut requests: BTreeMap<usize, Vec<W::DataId>> = BTreeMap::new();
+        let mut bytes = 0u64;
+        for (id, owner, b) in &self.dir.entries {
+            let owner = *owner as usize;
+            if owner == self.me || self.cache.contains(id) || self.in_flight.contains_key(id) {
+                continue;
+            }
+            self.in_flight.insert(
+                id.clone(),
+                InFlight {
+                    bytes: *b,
+                    waiters: Vec::new(),
+                },
+            );
+            bytes += b;
+            requests.entry(owner).or_default().push(id.clone());
+        }
+        self.asked_bytes += bytes;
+        // Never refused: the cache has no budget.
+        let reserved = self.cache.reserve(bytes);
+        debug_assert!(reserved, "completion needs a cache without a budget");
+        requests.into_iter().collect()
     }
 
     /// Stores the items of a data reply and returns the tasks it completed,

@@ -103,8 +103,15 @@ impl<W: Workload> Processor<W> {
         let placement_err = |m: String| RunError::Config(crate::ConfigError::Placement(m));
         let dir = Directory::build(workload.placement(procs), procs).map_err(placement_err)?;
         let resident = workload.load_partition(id, procs);
-        let store = DataStore::new(id, resident, dir, config.cache_bytes, config.fetch_limit)
-            .map_err(placement_err)?;
+        let store = DataStore::new(
+            id,
+            resident,
+            dir,
+            config.cache_bytes,
+            config.fetch_limit,
+            config.complete_cache,
+        )
+        .map_err(placement_err)?;
         let addr = Addr::Proc(id);
         let credits = config.credits_per_link as u32;
         Ok(Processor {
@@ -431,10 +438,15 @@ impl<W: Workload> Processor<W> {
             Admission::Waiting(requests) => {
                 // One request per owner, sent once selection is complete.
                 for (owner, ids) in requests {
-                    self.stats.data_requests_sent += 1;
-                    self.stats.data_items_requested += ids.len() as u64;
-                    trace!(proc = self.id, owner, n = ids.len(), "request data");
-                    self.send(Addr::Proc(owner), Msg::DataRequest(ids), now);
+                    self.request_data(owner, ids, now);
+                }
+                let rest = self.store.complete();
+                if !rest.is_empty() {
+                    debug!(proc = self.id, owners = rest.len(), "completing the cache");
+                    self.stats.cache_completed = true;
+                }
+                for (owner, ids) in rest {
+                    self.request_data(owner, ids, now);
                 }
             }
             Admission::Deferred(env, ids) => self.deferred.push_back((env, ids)),
@@ -448,6 +460,13 @@ impl<W: Workload> Processor<W> {
             }
         }
         Ok(())
+    }
+
+    fn request_data(&mut self, owner: usize, ids: Vec<W::DataId>, now: Time) {
+        self.stats.data_requests_sent += 1;
+        self.stats.data_items_requested += ids.len() as u64;
+        trace!(proc = self.id, owner, n = ids.len(), "request data");
+        self.send(Addr::Proc(owner), Msg::DataRequest(ids), now);
     }
 
     fn execute_dp(&mut self, env: DpEnvelope<W>, now: Time) -> Result<(), String> {

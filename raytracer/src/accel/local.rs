@@ -335,6 +335,11 @@ impl GrownKernel {
         self.covered.has(node)
     }
 
+    /// Whether it was built over every non-empty leaf of the octree.
+    pub fn covers_all(&self) -> bool {
+        self.covered.has(0)
+    }
+
     /// Leaves it was built over.
     pub fn leaves(&self) -> usize {
         self.leaves
@@ -377,4 +382,8 @@ pub struct GrownSlot {
 pub struct Grown {
     pub slot: std::sync::Mutex<GrownSlot>,
     pub walked: std::sync::atomic::AtomicU64,
+    /// The build over every non-empty leaf, once there is one: with a
+    /// cache that never evicts it is never rebuilt, and its queries need
+    /// no judgement (read without the lock).
+    pub whole: std::sync::OnceLock<std::sync::Arc<GrownKernel>>,
 }

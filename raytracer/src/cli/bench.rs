@@ -333,13 +333,22 @@ fn scaling(a: &BenchArgs) -> Result<()> {
     let (w, h) = (w as usize, h as usize);
     let scene = Arc::new(scene::load(&[&path])?);
     let mut configs: Vec<(String, Option<ParallelOptions>)> = vec![("sequential".into(), None)];
-    for dist in [Distribution::Replicated, Distribution::Octree] {
+    // The octree cut twice: with `render`'s default cache, which completes
+    // itself (`--complete-cache 50`), and with the paper's, which fetches
+    // only what tasks select.
+    let groups = [
+        ("replicated", Distribution::Replicated, Some(50)),
+        ("octree", Distribution::Octree, Some(50)),
+        ("octree, paper's cache", Distribution::Octree, None),
+    ];
+    for (name, dist, complete) in groups {
         for &n in &a.scaling {
             let mut p = ParallelOptions::new(n);
             p.workload.distribution = dist;
             // As `render` does by default.
             p.workload.clip_cache = true;
-            configs.push((format!("{dist} {n}"), Some(p)));
+            p.complete_cache = complete;
+            configs.push((format!("{name} {n}"), Some(p)));
         }
     }
     let mut times = vec![Vec::new(); configs.len()];
@@ -391,7 +400,7 @@ fn scaling(a: &BenchArgs) -> Result<()> {
     outln!("| --- | --- | --- | --- | --- |");
     outln!("| sequential | - | {:.3} | - | 1.00 |", med[0]);
     let per = a.scaling.len();
-    for (d, dist) in ["replicated", "octree"].iter().enumerate() {
+    for (d, (dist, ..)) in groups.iter().enumerate() {
         let one = a
             .scaling
             .iter()

@@ -78,6 +78,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
             .fetch_limit
             .parse()
             .map_err(|e| usage(format!("--fetch-limit: {e}")))?,
+        complete_cache: a.complete_cache.0,
         workload: WorkloadOptions {
             tile: a.tile,
             shadow_dp_below: a.shadow_dp_below,

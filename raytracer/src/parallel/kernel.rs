@@ -255,13 +255,32 @@ impl RtWorkload {
     /// no judgement, no walk and no record for a replay.
     #[inline]
     pub(super) fn whole_caster(&self, proc: usize) -> Option<CountingCaster<'_>> {
-        match self.kernels.get(proc)?.get()? {
-            Kernel::Whole => Some(CountingCaster {
-                inner: self.renderer.caster(),
-                queries: std::cell::Cell::new(0),
-            }),
-            _ => None,
-        }
+        let inner = match self.kernels.get(proc)?.get()? {
+            Kernel::Whole => WholeSource::Scene(self.renderer.caster()),
+            _ => WholeSource::Grown {
+                octree: self.renderer.octree(),
+                hierarchy: self.grown.get(proc)?.whole.get()?.hierarchy(),
+                ignored: std::cell::Cell::new(None),
+            },
+        };
+        Some(CountingCaster {
+            inner,
+            queries: std::cell::Cell::new(0),
+        })
+    }
+
+    /// Whether processor `proc` holds every non-empty cell: resident (one
+    /// processor, or the `worst` distribution's), or resident and cached
+    /// in a hierarchy grown over them all ([`crate::accel::Grown::whole`]).
+    /// Then no bundle of it needs a selection, and no query a judgement.
+    pub(super) fn holds_everything(&self, proc: usize) -> bool {
+        self.subtree_owner
+            .first()
+            .is_some_and(|&o| o == EMPTY || o as usize == proc)
+            || self
+                .grown
+                .get(proc)
+                .is_some_and(|g| g.whole.get().is_some())
     }
 
     /// Whether processor `proc` has a hierarchy of its own (option
@@ -326,8 +345,11 @@ impl RtWorkload {
         if !data.keeps_everything() {
             return None;
         }
-        let cached = data.cached_len();
         let grown = self.grown.get(proc)?;
+        if let Some(g) = grown.whole.get() {
+            return Some(Arc::clone(g));
+        }
+        let cached = data.cached_len();
         let mut slot = grown.slot.lock().unwrap_or_else(|e| e.into_inner());
         let walked = grown.walked.load(std::sync::atomic::Ordering::Relaxed);
         let paid = slot.kernel.as_ref().is_some_and(|k| {
@@ -351,7 +373,11 @@ impl RtWorkload {
             );
             slot.next_build = cached + g.leaves().div_ceil(4).max(1);
             slot.built_over = cached;
-            slot.kernel = Some(Arc::new(g));
+            let g = Arc::new(g);
+            if g.covers_all() {
+                let _ = grown.whole.set(Arc::clone(&g));
+            }
+            slot.kernel = Some(g);
             grown.walked.store(0, std::sync::atomic::Ordering::Relaxed);
         }
         slot.kernel.clone()
@@ -399,20 +425,62 @@ impl<'a, 'v> CellMemo<'a, 'v> {
 /// A caster that counts the queries it answers (charged as
 /// [`super::work::Work::TraceLocal`], as the hierarchy's answers are).
 pub(super) struct CountingCaster<'a> {
-    inner: BvhCaster<'a>,
+    inner: WholeSource<'a>,
     pub(super) queries: std::cell::Cell<u64>,
+}
+
+/// A hierarchy over every object of the scene.
+enum WholeSource<'a> {
+    /// The renderer's (the scene loaded whole).
+    Scene(BvhCaster<'a>),
+    /// A processor's grown over every non-empty leaf: every answer is
+    /// the octree's, with nothing to judge.
+    Grown {
+        octree: &'a crate::accel::Octree,
+        hierarchy: Hierarchy<'a>,
+        /// The last object ignored and its index (as [`LocalPath`]'s).
+        ignored: std::cell::Cell<Option<(ObjectId, Option<ObjectId>)>>,
+    },
 }
 
 impl RayCaster for CountingCaster<'_> {
     #[inline]
     fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         self.queries.set(self.queries.get() + 1);
-        self.inner.intersect(ray, tmin, tmax)
+        match &self.inner {
+            WholeSource::Scene(c) => c.intersect(ray, tmin, tmax),
+            WholeSource::Grown {
+                octree, hierarchy, ..
+            } => match hierarchy.intersect(octree, ray, tmin, tmax, &|_| true, &|_| true) {
+                Judged::Decided(h) | Judged::Partly(h) => h,
+            },
+        }
     }
 
     #[inline]
     fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> bool {
         self.queries.set(self.queries.get() + 1);
-        self.inner.occluded(ray, tmin, tmax, ignore)
+        match &self.inner {
+            WholeSource::Scene(c) => c.occluded(ray, tmin, tmax, ignore),
+            WholeSource::Grown {
+                octree,
+                hierarchy,
+                ignored,
+            } => {
+                let index = ignore.and_then(|id| match ignored.get() {
+                    Some((i, k)) if i == id => k,
+                    _ => {
+                        let k = hierarchy.index_of(id);
+                        ignored.set(Some((id, k)));
+                        k
+                    }
+                });
+                match hierarchy
+                    .occluded_indexed(octree, ray, tmin, tmax, index, &|_| true, &|_| true)
+                {
+                    Judged::Decided(b) | Judged::Partly(b) => b,
+                }
+            }
+        }
     }
 }

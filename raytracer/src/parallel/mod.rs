@@ -160,6 +160,10 @@ pub struct ParallelOptions {
     /// Most data one demand-driven task may have fetched (see
     /// [`hybrid_sched::Config::fetch_limit`]).
     pub fetch_limit: CacheSize,
+    /// Completing the cache after this percentage of the data held
+    /// elsewhere is fetched ([`hybrid_sched::Config::complete_cache`]);
+    /// `None` (the paper's cache) unless set: `render` sets 50.
+    pub complete_cache: Option<u8>,
     pub workload: WorkloadOptions,
     /// Worker threads for the threads runtime (`None`: one per core).
     pub threads: Option<usize>,
@@ -199,6 +203,7 @@ impl ParallelOptions {
             policy: Policy::Local,
             cache: CacheSize::Unlimited,
             fetch_limit: CacheSize::Unlimited,
+            complete_cache: None,
             workload: WorkloadOptions::default(),
             threads: None,
             time_limit: None,

@@ -22,7 +22,8 @@ pub(crate) fn run_on<W: hybrid_sched::Workload>(
     let mut config = Config::new(popts.procs)
         .with_policy(popts.policy)
         .with_cache_bytes(cache_bytes)
-        .with_fetch_limit(fetch_limit);
+        .with_fetch_limit(fetch_limit)
+        .with_complete_cache(popts.complete_cache);
     config.threads = popts.threads;
     config.time_limit = popts.time_limit;
     config.credits_per_link = popts.credits;

@@ -304,14 +304,6 @@ impl RtWorkload {
         o == EMPTY || o as usize == proc
     }
 
-    /// True if processor `proc` holds every non-empty cell (one processor,
-    /// or the `worst` distribution's): no bundle of it needs a selection.
-    pub(super) fn holds_everything(&self, proc: usize) -> bool {
-        self.subtree_owner
-            .first()
-            .is_some_and(|&o| o == EMPTY || o as usize == proc)
-    }
-
     pub fn renderer(&self) -> &Renderer<'static> {
         &self.renderer
     }
