@@ -10,8 +10,14 @@
 //! rank's actors with exactly the `Node` calls the threads runtime makes
 //! (`deliver`, `step`, `take_packets`, `account`, `blocked_state`, `finish`)
 //! and talks to the MPI thread through std channels: it hands over encoded
-//! packets and receives encoded packets. On rank 0 the master and processor
-//! 0 exchange packets directly, without MPI.
+//! packets and receives encoded packets. On rank 0 the master runs on a
+//! thread of its own, the *master thread*, with the same calls: the MPI
+//! thread hands it the packets tagged [`TAG_MASTER`] directly, so a
+//! processor's request for work is answered while processor 0 is in the
+//! middle of a step (sharing the processor loop, the master waited for
+//! that step to end, and on the studio scene at `-np 2` rank 1 was idle
+//! 35% of the time). The master and processor 0 exchange encoded packets
+//! through the same channels, without MPI.
 //!
 //! # Wire format
 //! One MPI message (tag [`TAG_PACKET`]) is the postcard encoding of one
@@ -47,6 +53,7 @@
 //! finalising MPI) after its first step.
 
 use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, TryRecvError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -67,7 +74,9 @@ use crate::stats::{ProcStats, RankTraffic, State};
 pub use self::transport::{
     abort, decode_packet, encode_packet, init, last_world, world, World, TAG_FINAL, TAG_PACKET,
 };
-use self::transport::{decode, finish, phase, runtime_err, Cmd, Event, Phase, Session};
+use self::transport::{
+    decode, finish, phase, runtime_err, Cmd, Event, MasterChannels, Phase, Session, TAG_MASTER,
+};
 
 mod transport;
 
@@ -120,8 +129,53 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
     let started = Instant::now();
     let deadline = config.time_limit.map(|limit| (started + limit, limit));
     let fault = Fault::from_env(world.rank);
-    let mut rank_loop = RankLoop::new(session, workload, config, deadline, fault)?;
-    rank_loop.run()?;
+    // Only rank 0 has a master; elsewhere its channels go now.
+    let channels = session.master.take().filter(|_| world.rank == 0);
+    let master = channels.map(|ch| {
+        let node = Node::Master(Box::new(Master::new(workload.clone(), config)));
+        (node, ch)
+    });
+    let to_master = master.as_ref().map(|(_, ch)| ch.to_master.clone());
+    let mut rank_loop = RankLoop::new(session, workload, config, deadline, fault, to_master)?;
+    match master {
+        None => rank_loop.run()?,
+        Some((node, ch)) => {
+            let cmds = session.cmds.clone();
+            let stop = AtomicBool::new(false);
+            let (looped, mastered) = std::thread::scope(|s| {
+                let master = std::thread::Builder::new()
+                    .name("master".into())
+                    .spawn_scoped(s, || {
+                        master_loop(node, ch, cmds, world.size, deadline, &stop)
+                    });
+                let Ok(master) = master else {
+                    return (
+                        Err(runtime_err("rank 0: cannot start the master's thread")),
+                        None,
+                    );
+                };
+                let looped = rank_loop.run();
+                stop.store(true, Ordering::Relaxed);
+                let mastered = master
+                    .join()
+                    .unwrap_or_else(|_| Err(runtime_err("rank 0: the master's thread panicked")));
+                (looped, Some(mastered))
+            });
+            // The master's own error first: the loop only heard of it.
+            let ((addr, acc, stats), traffic) = match (mastered, looped) {
+                (Some(Err(e)), _) | (_, Err(e)) => return Err(e),
+                (Some(Ok(m)), Ok(())) => m,
+                (None, Ok(())) => return Err(runtime_err("rank 0: the master did not run")),
+            };
+            rank_loop.finished.push((addr, acc, stats));
+            let t = &mut rank_loop.traffic;
+            t.messages_sent += traffic.messages_sent;
+            t.bytes_sent += traffic.bytes_sent;
+            t.messages_received += traffic.messages_received;
+            t.bytes_received += traffic.bytes_received;
+            t.local_packets += traffic.local_packets;
+        }
+    }
     let RankLoop {
         clock,
         finished,
@@ -152,6 +206,152 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
     let mut report = assemble("mpi", world.size, all, elapsed);
     report.extras = Extras::Ranks(ranks);
     Ok(report)
+}
+
+/// The master's thread on rank 0: the processor loop's calls for the
+/// master alone, its inbox fed by the MPI thread (packets tagged
+/// [`TAG_MASTER`]) and by the processor loop. It ends when the master
+/// finishes, on an error (told to the processor loop as
+/// [`Event::Failed`]), or when `stop` is set (the processor loop ended
+/// first, on an error of its own).
+fn master_loop<W: Workload>(
+    mut node: Node<W>,
+    ch: MasterChannels,
+    cmds: std::sync::mpsc::Sender<Cmd>,
+    size: usize,
+    deadline: Option<(Instant, Duration)>,
+    stop: &AtomicBool,
+) -> Result<(Finished<W>, RankTraffic), RunError> {
+    let clock = WallClock::new();
+    let mut traffic = RankTraffic::default();
+    let result = (|| loop {
+        if stop.load(Ordering::Relaxed) {
+            return Err(runtime_err(
+                "rank 0: the master stopped with the processor loop",
+            ));
+        }
+        loop {
+            match ch.inbox.try_recv() {
+                Ok(ev) => master_receives(&mut node, ev, &clock, &mut traffic)?,
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => {
+                    return Err(runtime_err("rank 0: the master's inbox closed"))
+                }
+            }
+        }
+        let t1 = clock.now();
+        let step = node.step(t1)?;
+        let t2 = clock.now();
+        match step {
+            Step::Worked(state) => node.account(state, t2 - t1),
+            _ => node.account(State::Sending, t2 - t1),
+        }
+        for packet in node.take_packets(t2) {
+            let to = host(packet.to);
+            if to >= size {
+                return Err(runtime_err(format!(
+                    "rank 0: the master sent a packet to {}, but the job has only {size} ranks",
+                    packet.to
+                )));
+            }
+            let bytes = encode_packet(&packet).map_err(|e| runtime_err(format!("rank 0: {e}")))?;
+            let sent = if to == 0 {
+                traffic.local_packets += 1;
+                ch.to_loop
+                    .send(Event::Received {
+                        from: 0,
+                        tag: TAG_PACKET,
+                        bytes,
+                    })
+                    .is_ok()
+            } else {
+                traffic.messages_sent += 1;
+                traffic.bytes_sent += bytes.len() as u64;
+                cmds.send(Cmd::Send {
+                    to,
+                    tag: TAG_PACKET,
+                    bytes,
+                })
+                .is_ok()
+            };
+            if !sent {
+                return Err(runtime_err("rank 0: the MPI thread stopped unexpectedly"));
+            }
+        }
+        node.account(State::Sending, clock.now() - t2);
+        match step {
+            Step::Finished => {
+                let addr = node.addr();
+                let (acc, stats) = node.finish();
+                return Ok(((addr, acc, stats), traffic));
+            }
+            Step::Worked(_) => {}
+            Step::Idle => {
+                let wait = match deadline {
+                    Some((at, limit)) => {
+                        let now = Instant::now();
+                        if now >= at {
+                            return Err(RunError::TimedOut { limit });
+                        }
+                        (at - now).min(MAX_BLOCK)
+                    }
+                    None => MAX_BLOCK,
+                };
+                let t = clock.now();
+                let got = ch.inbox.recv_timeout(wait);
+                let state = node.blocked_state();
+                node.account(state, clock.now() - t);
+                match got {
+                    Ok(ev) => master_receives(&mut node, ev, &clock, &mut traffic)?,
+                    Err(RecvTimeoutError::Timeout) => {}
+                    Err(RecvTimeoutError::Disconnected) => {
+                        return Err(runtime_err("rank 0: the master's inbox closed"))
+                    }
+                }
+            }
+        }
+    })();
+    if let Err(e) = &result {
+        // The processor loop stops on it (and the caller reports this one).
+        let _ = ch
+            .to_loop
+            .send(Event::Failed(format!("the master failed: {e}")));
+    }
+    result
+}
+
+/// Hands a packet from the master's inbox to the master.
+fn master_receives<W: Workload>(
+    node: &mut Node<W>,
+    ev: Event,
+    clock: &WallClock,
+    traffic: &mut RankTraffic,
+) -> Result<(), RunError> {
+    let Event::Received { from, tag, bytes } = ev else {
+        return Err(runtime_err(
+            "rank 0: the master's inbox got a control event",
+        ));
+    };
+    if tag != TAG_MASTER {
+        return Err(runtime_err(format!(
+            "rank 0: the master got a message with tag {tag} from rank {from}"
+        )));
+    }
+    if from != 0 {
+        traffic.messages_received += 1;
+        traffic.bytes_received += bytes.len() as u64;
+    }
+    let packet = decode_packet::<W>(&bytes, from, 0)?;
+    if host(packet.from) != from || packet.to != Addr::Master {
+        return Err(runtime_err(format!(
+            "rank 0: rank {from} sent the master a packet from {} to {}",
+            packet.from, packet.to
+        )));
+    }
+    let t = clock.now();
+    node.deliver(packet, t);
+    node.account(State::Receiving, clock.now() - t);
+    Ok(())
 }
 
 /// The rank hosting `addr`.
@@ -204,8 +404,11 @@ struct RankLoop<'s, W: Workload> {
     size: usize,
     clock: WallClock,
     deadline: Option<(Instant, Duration)>,
-    /// Slot 0: processor `rank`; slot 1 (rank 0 only): the master.
+    /// Processor `rank` (one slot: the master has its own thread).
     nodes: Vec<Option<Node<W>>>,
+    /// Rank 0: the master's inbox (its packets are encoded as they would
+    /// be for MPI and travel in-process).
+    to_master: Option<std::sync::mpsc::Sender<Event>>,
     local: VecDeque<Packet<W>>,
     finished: Vec<Finished<W>>,
     /// Final reports by rank (rank 0 only).
@@ -221,18 +424,15 @@ impl<'s, W: Workload> RankLoop<'s, W> {
         config: &Config,
         deadline: Option<(Instant, Duration)>,
         fault: Option<Fault>,
+        to_master: Option<std::sync::mpsc::Sender<Event>>,
     ) -> Result<Self, RunError> {
         let World { rank, size } = session.world;
         // Only this rank's processor: it loads only its own partition.
-        let mut nodes = vec![Some(Node::Worker(Box::new(Processor::new(
-            rank,
-            workload.clone(),
-            config,
+        let nodes = vec![Some(Node::Worker(Box::new(Processor::new(
+            rank, workload, config,
         )?)))];
-        if rank == 0 {
-            nodes.push(Some(Node::Master(Box::new(Master::new(workload, config)))));
-        }
         Ok(RankLoop {
+            to_master,
             session,
             rank,
             size,
@@ -253,7 +453,6 @@ impl<'s, W: Workload> RankLoop<'s, W> {
     fn slot_of(&self, addr: Addr) -> Option<usize> {
         match addr {
             Addr::Proc(p) if p == self.rank => Some(0),
-            Addr::Master if self.rank == 0 => Some(1),
             _ => None,
         }
     }
@@ -431,13 +630,29 @@ impl<'s, W: Workload> RankLoop<'s, W> {
                 self.rank, packet.from, packet.to, self.size
             )));
         }
-        if to == self.rank {
+        let for_master = packet.to == Addr::Master;
+        if to == self.rank && !for_master {
             self.traffic.local_packets += 1;
             self.local.push_back(packet);
             return Ok(());
         }
         let mut bytes =
             encode_packet(&packet).map_err(|e| runtime_err(format!("rank {}: {e}", self.rank)))?;
+        if for_master && to == self.rank {
+            self.traffic.local_packets += 1;
+            let ev = Event::Received {
+                from: self.rank,
+                tag: TAG_MASTER,
+                bytes,
+            };
+            return match &self.to_master {
+                Some(m) if m.send(ev).is_ok() => Ok(()),
+                _ => Err(runtime_err(format!(
+                    "rank {}: the master's thread is gone",
+                    self.rank
+                ))),
+            };
+        }
         if self.fault == Some(Fault::Garbage) {
             self.fault = None;
             eprintln!(
@@ -448,7 +663,7 @@ impl<'s, W: Workload> RankLoop<'s, W> {
         }
         self.traffic.messages_sent += 1;
         self.traffic.bytes_sent += bytes.len() as u64;
-        self.send(to, TAG_PACKET, bytes)
+        self.send(to, if for_master { TAG_MASTER } else { TAG_PACKET }, bytes)
     }
 
     fn send(&self, to: usize, tag: i32, bytes: Vec<u8>) -> Result<(), RunError> {

@@ -24,6 +24,9 @@ use crate::protocol::workload::Workload;
 pub const TAG_PACKET: i32 = 1;
 /// MPI tag of a rank's final report (to rank 0).
 pub const TAG_FINAL: i32 = 2;
+/// MPI tag of a packet for the master (on rank 0): the MPI thread hands it
+/// to the master's thread, not to the processor loop.
+pub const TAG_MASTER: i32 = 3;
 
 /// Shortest and longest idle wait of the MPI thread between polls. The
 /// longest bounds the latency an idle rank adds to every message (a data
@@ -69,7 +72,20 @@ pub(crate) struct Session {
     pub(crate) world: World,
     pub(crate) cmds: Sender<Cmd>,
     pub(crate) events: Receiver<Event>,
+    /// The master's channels, taken by the run (a process runs one): into
+    /// `events`, for the master's packets to processor 0 on rank 0; and
+    /// the packets tagged [`TAG_MASTER`], from the MPI thread or from the
+    /// processor loop. Held only while the run is (an `events` whose every
+    /// sender is gone tells that the MPI thread stopped).
+    pub(crate) master: Option<MasterChannels>,
     pub(crate) thread: Option<JoinHandle<()>>,
+}
+
+/// See [`Session::master`].
+pub(crate) struct MasterChannels {
+    pub(crate) to_loop: Sender<Event>,
+    pub(crate) to_master: Sender<Event>,
+    pub(crate) inbox: Receiver<Event>,
 }
 
 pub(crate) enum Phase {
@@ -105,9 +121,11 @@ pub fn init() -> Result<World, RunError> {
     let (ready_tx, ready_rx) = mpsc::channel();
     let (cmd_tx, cmd_rx) = mpsc::channel();
     let (ev_tx, ev_rx) = mpsc::channel();
+    let (master_tx, master_rx) = mpsc::channel();
+    let (events_tx, to_master) = (ev_tx.clone(), master_tx.clone());
     let thread = std::thread::Builder::new()
         .name("mpi".into())
-        .spawn(move || mpi_thread(ready_tx, cmd_rx, ev_tx))
+        .spawn(move || mpi_thread(ready_tx, cmd_rx, ev_tx, to_master))
         .map_err(|e| runtime_err(format!("cannot start the MPI thread: {e}")))?;
     let world = match ready_rx.recv() {
         Ok(Ok(world)) => world,
@@ -118,6 +136,11 @@ pub fn init() -> Result<World, RunError> {
         world,
         cmds: cmd_tx,
         events: ev_rx,
+        master: Some(MasterChannels {
+            to_loop: events_tx,
+            to_master: master_tx,
+            inbox: master_rx,
+        }),
         thread: Some(thread),
     });
     Ok(world)
@@ -307,6 +330,7 @@ pub(crate) fn mpi_thread(
     ready: Sender<Result<World, String>>,
     cmds: Receiver<Cmd>,
     events: Sender<Event>,
+    master: Sender<Event>,
 ) {
     let Some((universe, threading)) = mpi::initialize_with_threading(mpi::Threading::Funneled)
     else {
@@ -375,11 +399,18 @@ pub(crate) fn mpi_thread(
             };
             let (bytes, status) = probed.matched_receive_vec::<u8>();
             busy = true;
-            let _ = events.send(Event::Received {
+            let ev = Event::Received {
                 from: status.source_rank() as usize,
                 tag: status.tag(),
                 bytes,
-            });
+            };
+            // The master's packets go straight to its thread: it answers
+            // while processor 0 is in the middle of a step.
+            let _ = if status.tag() == TAG_MASTER {
+                master.send(ev)
+            } else {
+                events.send(ev)
+            };
         }
         let before = pending.len();
         pending.retain_mut(|p| !p.test());
