@@ -378,6 +378,8 @@ fn bad_parallel_options_are_usage_errors() {
         ("--tile", "0", "--tile 0"),
         ("--time-limit", "0", "--time-limit 0"),
         ("--flight-bytes", "10%", "--flight-bytes"),
+        ("--complete-cache", "101", "from 0 to 100, or off"),
+        ("--complete-cache", "half", "--complete-cache"),
     ] {
         let mut args = vec![
             "render",
@@ -633,6 +635,7 @@ fn bench_scaling_prints_the_curve_and_checks_every_picture() {
         "| replicated | 1 |",
         "| replicated | 2 |",
         "| octree | 2 |",
+        "| octree, paper's cache | 2 |",
     ] {
         assert!(out.contains(row), "{row} missing in\n{out}");
     }
