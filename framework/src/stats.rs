@@ -272,8 +272,9 @@ pub struct ProcStats {
     pub data_requests_served: u64,
     /// Data items sent in replies.
     pub data_items_served: u64,
-    /// Whether it asked for every item it did not hold
-    /// ([`crate::Config::complete_cache`]).
+    /// Whether it completed its cache ([`crate::Config::complete_cache`]):
+    /// asked for every item placed elsewhere that it had not asked for
+    /// yet (maybe none).
     #[serde(default)]
     pub cache_completed: bool,
     /// Memory high-water marks.

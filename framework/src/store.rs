@@ -407,11 +407,12 @@ impl<W: Workload> DataStore<W> {
 
     /// Completing the cache ([`crate::Config::complete_cache`]): once the
     /// bytes asked for reach the threshold, every item placed elsewhere
-    /// and neither cached nor on its way, as requests (owner, ids), once.
-    /// No task waits for them; they join the cache unpinned.
-    pub(crate) fn complete(&mut self) -> Vec<(usize, Vec<W::DataId>)> {
+    /// and neither cached nor on its way, as requests (owner, ids; none
+    /// where everything is asked for already), once: `None` before and
+    /// after. No task waits for them; they join the cache unpinned.
+    pub(crate) fn complete(&mut self) -> Option<Vec<(usize, Vec<W::DataId>)>> {
         if self.complete_at.is_none_or(|at| self.asked_bytes < at) {
-            return Vec::new();
+            return None;
         }
         self.complete_at = None;
         let mut requests: BTreeMap<usize, Vec<W::DataId>> = BTreeMap::new();
@@ -435,7 +436,7 @@ impl<W: Workload> DataStore<W> {
         // Never refused: the cache has no budget.
         let reserved = self.cache.reserve(bytes);
         debug_assert!(reserved, "completion needs a cache without a budget");
-        requests.into_iter().collect()
+        Some(requests.into_iter().collect())
     }
 
     /// Stores the items of a data reply and returns the tasks it completed,

@@ -125,16 +125,23 @@ fn mpirun_renders_the_sequential_picture() {
     assert!(r.status.success(), "sequential: {}", r.stderr);
     let want = std::fs::read(&seq).unwrap();
 
-    for (np, extra) in [
+    for (k, (np, extra)) in [
         (1, &[][..]),
         (2, &["--procs", "2"][..]),
         (
             4,
             &["--cache", "10%", "--policy", "round-robin", "--tile", "8"][..],
         ),
-    ] {
-        let out = d.join(format!("mpi{np}.hdr"));
-        let json = d.join(format!("mpi{np}.json"));
+        // Every rank asks for the rest of the scene at its first fetch
+        // (large data replies), and the paper's cache.
+        (3, &["--complete-cache", "0", "--tile", "8"][..]),
+        (2, &["--complete-cache", "off"][..]),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let out = d.join(format!("mpi{k}.hdr"));
+        let json = d.join(format!("mpi{k}.json"));
         let mut args = base(&rad, &vf);
         args.extend(["--runtime", "mpi", "--time-limit", "200"]);
         args.extend(extra);
@@ -144,7 +151,7 @@ fn mpirun_renders_the_sequential_picture() {
             "-o",
             out.to_str().unwrap(),
         ]);
-        let r = mpirun(np, &args, &[], &d, &format!("np{np}"));
+        let r = mpirun(np, &args, &[], &d, &format!("np{np}-{k}"));
         assert!(r.status.success(), "-np {np}: {}", r.stderr);
         assert!(
             std::fs::read(&out).unwrap() == want,
@@ -163,6 +170,14 @@ fn mpirun_renders_the_sequential_picture() {
             serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         assert_eq!(stats["stats"]["runtime"], "mpi");
         assert_eq!(stats["stats"]["procs"].as_array().unwrap().len(), np);
+        for p in stats["stats"]["procs"].as_array().unwrap() {
+            let completed = p["cache_completed"].as_bool();
+            if extra.contains(&"off") || extra.contains(&"10%") {
+                assert_eq!(completed, Some(false), "-np {np} {extra:?}: {p}");
+            } else if extra.contains(&"0") && p["data_items_requested"].as_u64() > Some(0) {
+                assert_eq!(completed, Some(true), "-np {np} {extra:?}: {p}");
+            }
+        }
         let ranks = stats["ranks"].as_array().unwrap();
         assert_eq!(ranks.len(), np);
         for (i, t) in ranks.iter().enumerate() {

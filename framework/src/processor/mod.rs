@@ -440,13 +440,12 @@ impl<W: Workload> Processor<W> {
                 for (owner, ids) in requests {
                     self.request_data(owner, ids, now);
                 }
-                let rest = self.store.complete();
-                if !rest.is_empty() {
+                if let Some(rest) = self.store.complete() {
                     debug!(proc = self.id, owners = rest.len(), "completing the cache");
                     self.stats.cache_completed = true;
-                }
-                for (owner, ids) in rest {
-                    self.request_data(owner, ids, now);
+                    for (owner, ids) in rest {
+                        self.request_data(owner, ids, now);
+                    }
                 }
             }
             Admission::Deferred(env, ids) => self.deferred.push_back((env, ids)),

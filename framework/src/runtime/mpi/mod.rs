@@ -53,7 +53,7 @@
 //! finalising MPI) after its first step.
 
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, TryRecvError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -71,21 +71,21 @@ use crate::protocol::{Addr, Class};
 use crate::runtime::{assemble, Extras, Node, RunReport, Runtime};
 use crate::stats::{ProcStats, RankTraffic, State};
 
+use self::master::{master_loop, Finished, LOOP_DONE, LOOP_FAILED, LOOP_RUNNING};
 pub use self::transport::{
-    abort, decode_packet, encode_packet, init, last_world, world, World, TAG_FINAL, TAG_PACKET,
+    abort, decode_packet, encode_packet, init, last_world, world, World, TAG_FINAL, TAG_MASTER,
+    TAG_PACKET,
 };
 use self::transport::{
-    decode, finish, phase, runtime_err, Cmd, Event, MasterChannels, Phase, Session, TAG_MASTER,
+    decode, finish, host, phase, runtime_err, Cmd, Event, Phase, Session, MAX_BLOCK,
 };
 
+mod master;
 mod transport;
 
 /// How long a rank waits at the final barrier for the others when the time
 /// limit leaves less (or there is none).
 pub const FINISH_GRACE: Duration = Duration::from_secs(60);
-
-/// Longest a blocked processor loop waits before checking its time limit.
-const MAX_BLOCK: Duration = Duration::from_millis(100);
 
 /// The MPI runtime: one processor per rank, the master on rank 0. MPI must
 /// be running ([`init`]); a process runs one MPI job.
@@ -141,12 +141,12 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
         None => rank_loop.run()?,
         Some((node, ch)) => {
             let cmds = session.cmds.clone();
-            let stop = AtomicBool::new(false);
+            let loop_state = AtomicU8::new(LOOP_RUNNING);
             let (looped, mastered) = std::thread::scope(|s| {
                 let master = std::thread::Builder::new()
                     .name("master".into())
                     .spawn_scoped(s, || {
-                        master_loop(node, ch, cmds, world.size, deadline, &stop)
+                        master_loop(node, ch, cmds, world.size, deadline, &loop_state)
                     });
                 let Ok(master) = master else {
                     return (
@@ -155,7 +155,12 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
                     );
                 };
                 let looped = rank_loop.run();
-                stop.store(true, Ordering::Relaxed);
+                let state = if looped.is_ok() {
+                    LOOP_DONE
+                } else {
+                    LOOP_FAILED
+                };
+                loop_state.store(state, Ordering::Relaxed);
                 let mastered = master
                     .join()
                     .unwrap_or_else(|_| Err(runtime_err("rank 0: the master's thread panicked")));
@@ -164,8 +169,8 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
             // The master's own error first: the loop only heard of it.
             let ((addr, acc, stats), traffic) = match (mastered, looped) {
                 (Some(Err(e)), _) | (_, Err(e)) => return Err(e),
-                (Some(Ok(m)), Ok(())) => m,
-                (None, Ok(())) => return Err(runtime_err("rank 0: the master did not run")),
+                (Some(Ok(Some(m))), Ok(())) => m,
+                (_, Ok(())) => return Err(runtime_err("rank 0: the master did not finish")),
             };
             rank_loop.finished.push((addr, acc, stats));
             let t = &mut rank_loop.traffic;
@@ -208,160 +213,6 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
     Ok(report)
 }
 
-/// The master's thread on rank 0: the processor loop's calls for the
-/// master alone, its inbox fed by the MPI thread (packets tagged
-/// [`TAG_MASTER`]) and by the processor loop. It ends when the master
-/// finishes, on an error (told to the processor loop as
-/// [`Event::Failed`]), or when `stop` is set (the processor loop ended
-/// first, on an error of its own).
-fn master_loop<W: Workload>(
-    mut node: Node<W>,
-    ch: MasterChannels,
-    cmds: std::sync::mpsc::Sender<Cmd>,
-    size: usize,
-    deadline: Option<(Instant, Duration)>,
-    stop: &AtomicBool,
-) -> Result<(Finished<W>, RankTraffic), RunError> {
-    let clock = WallClock::new();
-    let mut traffic = RankTraffic::default();
-    let result = (|| loop {
-        if stop.load(Ordering::Relaxed) {
-            return Err(runtime_err(
-                "rank 0: the master stopped with the processor loop",
-            ));
-        }
-        loop {
-            match ch.inbox.try_recv() {
-                Ok(ev) => master_receives(&mut node, ev, &clock, &mut traffic)?,
-                Err(TryRecvError::Empty) => break,
-                Err(TryRecvError::Disconnected) => {
-                    return Err(runtime_err("rank 0: the master's inbox closed"))
-                }
-            }
-        }
-        let t1 = clock.now();
-        let step = node.step(t1)?;
-        let t2 = clock.now();
-        match step {
-            Step::Worked(state) => node.account(state, t2 - t1),
-            _ => node.account(State::Sending, t2 - t1),
-        }
-        for packet in node.take_packets(t2) {
-            let to = host(packet.to);
-            if to >= size {
-                return Err(runtime_err(format!(
-                    "rank 0: the master sent a packet to {}, but the job has only {size} ranks",
-                    packet.to
-                )));
-            }
-            let bytes = encode_packet(&packet).map_err(|e| runtime_err(format!("rank 0: {e}")))?;
-            let sent = if to == 0 {
-                traffic.local_packets += 1;
-                ch.to_loop
-                    .send(Event::Received {
-                        from: 0,
-                        tag: TAG_PACKET,
-                        bytes,
-                    })
-                    .is_ok()
-            } else {
-                traffic.messages_sent += 1;
-                traffic.bytes_sent += bytes.len() as u64;
-                cmds.send(Cmd::Send {
-                    to,
-                    tag: TAG_PACKET,
-                    bytes,
-                })
-                .is_ok()
-            };
-            if !sent {
-                return Err(runtime_err("rank 0: the MPI thread stopped unexpectedly"));
-            }
-        }
-        node.account(State::Sending, clock.now() - t2);
-        match step {
-            Step::Finished => {
-                let addr = node.addr();
-                let (acc, stats) = node.finish();
-                return Ok(((addr, acc, stats), traffic));
-            }
-            Step::Worked(_) => {}
-            Step::Idle => {
-                let wait = match deadline {
-                    Some((at, limit)) => {
-                        let now = Instant::now();
-                        if now >= at {
-                            return Err(RunError::TimedOut { limit });
-                        }
-                        (at - now).min(MAX_BLOCK)
-                    }
-                    None => MAX_BLOCK,
-                };
-                let t = clock.now();
-                let got = ch.inbox.recv_timeout(wait);
-                let state = node.blocked_state();
-                node.account(state, clock.now() - t);
-                match got {
-                    Ok(ev) => master_receives(&mut node, ev, &clock, &mut traffic)?,
-                    Err(RecvTimeoutError::Timeout) => {}
-                    Err(RecvTimeoutError::Disconnected) => {
-                        return Err(runtime_err("rank 0: the master's inbox closed"))
-                    }
-                }
-            }
-        }
-    })();
-    if let Err(e) = &result {
-        // The processor loop stops on it (and the caller reports this one).
-        let _ = ch
-            .to_loop
-            .send(Event::Failed(format!("the master failed: {e}")));
-    }
-    result
-}
-
-/// Hands a packet from the master's inbox to the master.
-fn master_receives<W: Workload>(
-    node: &mut Node<W>,
-    ev: Event,
-    clock: &WallClock,
-    traffic: &mut RankTraffic,
-) -> Result<(), RunError> {
-    let Event::Received { from, tag, bytes } = ev else {
-        return Err(runtime_err(
-            "rank 0: the master's inbox got a control event",
-        ));
-    };
-    if tag != TAG_MASTER {
-        return Err(runtime_err(format!(
-            "rank 0: the master got a message with tag {tag} from rank {from}"
-        )));
-    }
-    if from != 0 {
-        traffic.messages_received += 1;
-        traffic.bytes_received += bytes.len() as u64;
-    }
-    let packet = decode_packet::<W>(&bytes, from, 0)?;
-    if host(packet.from) != from || packet.to != Addr::Master {
-        return Err(runtime_err(format!(
-            "rank 0: rank {from} sent the master a packet from {} to {}",
-            packet.from, packet.to
-        )));
-    }
-    let t = clock.now();
-    node.deliver(packet, t);
-    node.account(State::Receiving, clock.now() - t);
-    Ok(())
-}
-
-/// The rank hosting `addr`.
-fn host(addr: Addr) -> usize {
-    match addr {
-        Addr::Master => 0,
-        Addr::Proc(p) => p,
-    }
-}
-
 /// A rank's part of the result, sent to rank 0 at the end.
 #[derive(Serialize, Deserialize)]
 #[serde(bound = "")]
@@ -370,8 +221,6 @@ struct FinalReport<W: Workload> {
     nodes: Vec<(Addr, W::Accumulator, ProcStats)>,
     traffic: RankTraffic,
 }
-
-type Finished<W> = (Addr, <W as Workload>::Accumulator, ProcStats);
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Fault {
@@ -693,123 +542,4 @@ impl<'s, W: Workload> RankLoop<'s, W> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::protocol::message::Msg;
-    use crate::tests::Mini;
-
-    fn packet() -> Packet<Mini> {
-        Packet {
-            from: Addr::Proc(1),
-            to: Addr::Master,
-            class: Class::Control,
-            items: vec![Msg::WorkRequest { roots: true }, Msg::Credit(3, 120)],
-            bytes: 48,
-            load: 7,
-        }
-    }
-
-    #[test]
-    fn packets_round_trip() {
-        let p = packet();
-        let bytes = encode_packet(&p).unwrap();
-        let q = decode_packet::<Mini>(&bytes, 1, 0).unwrap();
-        assert_eq!(q.from, p.from);
-        assert_eq!(q.to, p.to);
-        assert_eq!(q.class, p.class);
-        assert_eq!(q.bytes, p.bytes);
-        assert_eq!(q.load, p.load);
-        assert_eq!(format!("{:?}", q.items), format!("{:?}", p.items));
-    }
-
-    /// The epoch messages cross the wire whole: the broadcast's items, not
-    /// only their count (which is all their `Debug` shows).
-    #[test]
-    fn epoch_messages_round_trip() {
-        let p: Packet<Mini> = Packet {
-            from: Addr::Master,
-            to: Addr::Proc(2),
-            class: Class::Data,
-            items: vec![
-                Msg::Broadcast {
-                    epoch: 3,
-                    items: vec![
-                        (7, crate::tests::Item(vec![1, 2, 3])),
-                        (9, crate::tests::Item(vec![])),
-                    ],
-                },
-                Msg::BroadcastHeld(3),
-            ],
-            bytes: 96,
-            load: 0,
-        };
-        let q = decode_packet::<Mini>(&encode_packet(&p).unwrap(), 0, 2).unwrap();
-        match q.items.as_slice() {
-            [Msg::Broadcast { epoch: 3, items }, Msg::BroadcastHeld(3)] => {
-                assert_eq!(
-                    format!("{items:?}"),
-                    "[(7, Item([1, 2, 3])), (9, Item([]))]"
-                );
-            }
-            other => panic!("decoded {other:?}"),
-        }
-    }
-
-    /// The final report crosses the wire whole, whatever its statistics
-    /// hold: postcard is not self-describing, so a field left out when it
-    /// has its default value would shift every field after it.
-    #[test]
-    fn final_reports_round_trip() {
-        for completed in [false, true] {
-            let mut stats = ProcStats::new(Addr::Proc(1));
-            stats.cache_completed = completed;
-            stats.data_items_served = 17;
-            stats.epochs = 2;
-            let report: FinalReport<Mini> = FinalReport {
-                rank: 1,
-                nodes: vec![(Addr::Proc(1), Default::default(), stats)],
-                traffic: RankTraffic::default(),
-            };
-            let bytes = postcard::to_stdvec(&report).unwrap();
-            let back: FinalReport<Mini> = decode(&bytes, "final report", 1, 0).unwrap();
-            let s = &back.nodes[0].2;
-            assert_eq!(s.cache_completed, completed);
-            assert_eq!((s.data_items_served, s.epochs), (17, 2));
-        }
-    }
-
-    #[test]
-    fn garbage_is_a_clear_error_naming_both_ranks() {
-        let err =
-            decode_packet::<Mini>(b"not a packet", 3, 2).expect_err("garbage must not decode");
-        let text = err.to_string();
-        assert!(text.contains("rank 2"), "{text}");
-        assert!(text.contains("from rank 3"), "{text}");
-        assert!(text.contains("cannot decode"), "{text}");
-        assert!(text.contains("12-byte"), "{text}");
-    }
-
-    #[test]
-    fn truncated_and_padded_messages_are_rejected() {
-        let bytes = encode_packet(&packet()).unwrap();
-        for cut in 0..bytes.len() {
-            let err = decode_packet::<Mini>(&bytes[..cut], 1, 0).err();
-            assert!(err.is_some(), "a packet cut to {cut} bytes decoded");
-        }
-        let mut padded = bytes.clone();
-        padded.push(0);
-        let text = decode_packet::<Mini>(&padded, 1, 0)
-            .expect_err("trailing bytes must be rejected")
-            .to_string();
-        assert!(text.contains("left over"), "{text}");
-    }
-
-    #[test]
-    fn faults_are_read_for_one_rank_only() {
-        assert_eq!(Fault::parse("garbage:1", 1), Some(Fault::Garbage));
-        assert_eq!(Fault::parse("garbage:1", 0), None);
-        assert_eq!(Fault::parse("exit: 2", 2), Some(Fault::Exit));
-        assert_eq!(Fault::parse("explode:0", 0), None);
-        assert_eq!(Fault::parse("", 0), None);
-    }
-}
+mod tests;

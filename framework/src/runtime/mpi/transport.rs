@@ -19,11 +19,24 @@ use serde::{Deserialize, Serialize};
 use crate::error::RunError;
 use crate::protocol::message::Packet;
 use crate::protocol::workload::Workload;
+use crate::protocol::Addr;
 
 /// MPI tag of a packet.
 pub const TAG_PACKET: i32 = 1;
 /// MPI tag of a rank's final report (to rank 0).
 pub const TAG_FINAL: i32 = 2;
+/// Longest a blocked processor loop (or the master's thread) waits before
+/// checking its time limit.
+pub(crate) const MAX_BLOCK: Duration = Duration::from_millis(100);
+
+/// The rank hosting `addr`.
+pub(crate) fn host(addr: Addr) -> usize {
+    match addr {
+        Addr::Master => 0,
+        Addr::Proc(p) => p,
+    }
+}
+
 /// MPI tag of a packet for the master (on rank 0): the MPI thread hands it
 /// to the master's thread, not to the processor loop.
 pub const TAG_MASTER: i32 = 3;
@@ -147,7 +160,7 @@ pub fn init() -> Result<World, RunError> {
 }
 
 /// The [`World`] while MPI runs in this process (after [`init`], before the
-/// end of a successful [`run_mpi`]).
+/// end of a successful [`super::run_mpi`]).
 pub fn world() -> Option<World> {
     match &*PHASE.try_lock().ok()? {
         Phase::Running(s) => Some(s.world),
