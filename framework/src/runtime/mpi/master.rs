@@ -34,8 +34,8 @@ pub(super) const LOOP_FAILED: u8 = 2;
 /// finishes, on an error (told to the processor loop as
 /// [`Event::Failed`]), or, with `Ok(None)`, once the processor loop has
 /// failed (`loop_state`). After the processor loop has ended well (its
-/// processor got the master's termination) the master has
-/// [`super::FINISH_GRACE`] to finish.
+/// processor got the master's termination) the master has `grace` to
+/// finish.
 pub(super) fn master_loop<W: Workload>(
     mut node: Node<W>,
     ch: MasterChannels,
@@ -43,15 +43,16 @@ pub(super) fn master_loop<W: Workload>(
     size: usize,
     deadline: Option<(Instant, Duration)>,
     loop_state: &AtomicU8,
+    grace: Duration,
 ) -> Result<Option<(Finished<W>, RankTraffic)>, RunError> {
     let clock = WallClock::new();
     let mut traffic = RankTraffic::default();
-    let mut grace: Option<Instant> = None;
+    let mut finish_by: Option<Instant> = None;
     let result = (|| loop {
         match loop_state.load(Ordering::Relaxed) {
             LOOP_FAILED => return Ok(None),
             LOOP_DONE => {
-                let by = *grace.get_or_insert_with(|| Instant::now() + super::FINISH_GRACE);
+                let by = *finish_by.get_or_insert_with(|| Instant::now() + grace);
                 if Instant::now() >= by {
                     return Err(runtime_err(
                         "rank 0: the master did not finish after its processors had",

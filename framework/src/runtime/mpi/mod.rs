@@ -146,7 +146,15 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
                 let master = std::thread::Builder::new()
                     .name("master".into())
                     .spawn_scoped(s, || {
-                        master_loop(node, ch, cmds, world.size, deadline, &loop_state)
+                        master_loop(
+                            node,
+                            ch,
+                            cmds,
+                            world.size,
+                            deadline,
+                            &loop_state,
+                            FINISH_GRACE,
+                        )
                     });
                 let Ok(master) = master else {
                     return (
