@@ -84,8 +84,8 @@ pub struct Config {
     /// owner, and from then on holds every item. `None`: never (the
     /// paper's cache). At 50 the bytes fetched are at most twice what
     /// the tasks asked for: it stops paying for each task's fetches once
-    /// it has paid for half of the rest. What changes is only where data
-    /// is, never a result (SEMANTICS.md section 6).
+    /// it has paid for half of what is held elsewhere. What changes is
+    /// only where data is, never a result (SEMANTICS.md section 6).
     #[serde(default)]
     pub complete_cache: Option<u8>,
     /// Bundling of low-priority traffic.

@@ -249,10 +249,12 @@ impl RtWorkload {
             .collect()
     }
 
-    /// The renderer's own caster, counting its queries, where processor
-    /// `proc` holds every object of a scene loaded whole: its hierarchy is
-    /// the renderer's, every answer is decided there, and a query needs
-    /// no judgement, no walk and no record for a replay.
+    /// A caster over every object, counting its queries, where processor
+    /// `proc` has one: the renderer's own where it holds every object of a
+    /// scene loaded whole (its hierarchy is the renderer's), or its
+    /// hierarchy grown over every cell once its cache holds them all
+    /// ([`crate::accel::Grown::whole`]). Every answer is decided there, and
+    /// a query needs no judgement, no walk and no record for a replay.
     #[inline]
     pub(super) fn whole_caster(&self, proc: usize) -> Option<CountingCaster<'_>> {
         let inner = match self.kernels.get(proc)?.get()? {

@@ -25,6 +25,10 @@ use crate::protocol::Addr;
 pub const TAG_PACKET: i32 = 1;
 /// MPI tag of a rank's final report (to rank 0).
 pub const TAG_FINAL: i32 = 2;
+/// MPI tag of a packet for the master (on rank 0): the MPI thread hands it
+/// to the master's thread, not to the processor loop.
+pub const TAG_MASTER: i32 = 3;
+
 /// Longest a blocked processor loop (or the master's thread) waits before
 /// checking its time limit.
 pub(crate) const MAX_BLOCK: Duration = Duration::from_millis(100);
@@ -36,10 +40,6 @@ pub(crate) fn host(addr: Addr) -> usize {
         Addr::Proc(p) => p,
     }
 }
-
-/// MPI tag of a packet for the master (on rank 0): the MPI thread hands it
-/// to the master's thread, not to the processor loop.
-pub const TAG_MASTER: i32 = 3;
 
 /// Shortest and longest idle wait of the MPI thread between polls. The
 /// longest bounds the latency an idle rank adds to every message (a data
