@@ -6,7 +6,7 @@ use std::sync::mpsc::{RecvTimeoutError, Sender, TryRecvError};
 use std::time::{Duration, Instant};
 
 use super::transport::{
-    decode_packet, encode_packet, host, runtime_err, Cmd, Event, MasterChannels, MAX_BLOCK,
+    decode_packet, encode_packet, host, idle_wait, runtime_err, Cmd, Event, MasterChannels,
     TAG_MASTER, TAG_PACKET,
 };
 use crate::clock::{Clock, WallClock};
@@ -118,16 +118,7 @@ pub(super) fn master_loop<W: Workload>(
             }
             Step::Worked(_) => {}
             Step::Idle => {
-                let wait = match deadline {
-                    Some((at, limit)) => {
-                        let now = Instant::now();
-                        if now >= at {
-                            return Err(RunError::TimedOut { limit });
-                        }
-                        (at - now).min(MAX_BLOCK)
-                    }
-                    None => MAX_BLOCK,
-                };
+                let wait = idle_wait(deadline)?;
                 let t = clock.now();
                 let got = ch.inbox.recv_timeout(wait);
                 let state = node.blocked_state();

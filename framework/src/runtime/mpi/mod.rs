@@ -77,7 +77,7 @@ pub use self::transport::{
     TAG_PACKET,
 };
 use self::transport::{
-    decode, finish, host, phase, runtime_err, Cmd, Event, Phase, Session, MAX_BLOCK,
+    decode, finish, host, idle_wait, phase, runtime_err, Cmd, Event, Phase, Session,
 };
 
 mod master;
@@ -382,16 +382,7 @@ impl<'s, W: Workload> RankLoop<'s, W> {
                     return Ok(());
                 }
             }
-            let wait = match self.deadline {
-                Some((at, limit)) => {
-                    let now = Instant::now();
-                    if now >= at {
-                        return Err(RunError::TimedOut { limit });
-                    }
-                    (at - now).min(MAX_BLOCK)
-                }
-                None => MAX_BLOCK,
-            };
+            let wait = idle_wait(self.deadline)?;
             if !worked && self.local.is_empty() {
                 let t = self.clock.now();
                 let got = self.session.events.recv_timeout(wait);

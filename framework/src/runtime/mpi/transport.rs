@@ -31,7 +31,23 @@ pub const TAG_MASTER: i32 = 3;
 
 /// Longest a blocked processor loop (or the master's thread) waits before
 /// checking its time limit.
-pub(crate) const MAX_BLOCK: Duration = Duration::from_millis(100);
+const MAX_BLOCK: Duration = Duration::from_millis(100);
+
+/// How long a blocked loop may wait for its next event: at most
+/// [`MAX_BLOCK`], and not past the run's deadline (an error once it has
+/// passed).
+pub(crate) fn idle_wait(deadline: Option<(Instant, Duration)>) -> Result<Duration, RunError> {
+    match deadline {
+        Some((at, limit)) => {
+            let now = Instant::now();
+            if now >= at {
+                return Err(RunError::TimedOut { limit });
+            }
+            Ok((at - now).min(MAX_BLOCK))
+        }
+        None => Ok(MAX_BLOCK),
+    }
+}
 
 /// The rank hosting `addr`.
 pub(crate) fn host(addr: Addr) -> usize {
