@@ -99,6 +99,13 @@ impl<Id: Ord + Clone + std::fmt::Debug> Directory<Id> {
     }
 }
 
+/// Most accounted bytes asked for in one request when a cache completes
+/// itself ([`DataStore::complete`]): the rest of a large scene comes in
+/// replies of about this size, not one that a transport cannot carry (MPI
+/// counts a message's bytes in an `int`) or that doubles the owner's
+/// memory while it is encoded.
+const COMPLETION_REPLY_BYTES: u64 = 8 << 20;
+
 /// Data items with their ids, as carried by a data reply.
 pub(crate) type Items<W> = Vec<(<W as Workload>::DataId, <W as Workload>::DataItem)>;
 
@@ -407,15 +414,17 @@ impl<W: Workload> DataStore<W> {
 
     /// Completing the cache ([`crate::Config::complete_cache`]): once the
     /// bytes asked for reach the threshold, every item placed elsewhere
-    /// and neither cached nor on its way, as requests (owner, ids; none
-    /// where everything is asked for already), once: `None` before and
-    /// after. No task waits for them; they join the cache unpinned.
+    /// and neither cached nor on its way, as requests (owner, ids; about
+    /// [`COMPLETION_REPLY_BYTES`] each at most; none where everything is
+    /// asked for already), once: `None` before and after. No task waits
+    /// for them; they join the cache unpinned.
     pub(crate) fn complete(&mut self) -> Option<Vec<(usize, Vec<W::DataId>)>> {
         if self.complete_at.is_none_or(|at| self.asked_bytes < at) {
             return None;
         }
         self.complete_at = None;
-        let mut requests: BTreeMap<usize, Vec<W::DataId>> = BTreeMap::new();
+        // Per owner: the requests so far, the last one's bytes.
+        let mut requests: BTreeMap<usize, (Vec<Vec<W::DataId>>, u64)> = BTreeMap::new();
         let mut bytes = 0u64;
         for (id, owner, b) in &self.dir.entries {
             let owner = *owner as usize;
@@ -430,13 +439,24 @@ impl<W: Workload> DataStore<W> {
                 },
             );
             bytes += b;
-            requests.entry(owner).or_default().push(id.clone());
+            let (chunks, last) = requests.entry(owner).or_default();
+            if chunks.is_empty() || *last + b > COMPLETION_REPLY_BYTES {
+                chunks.push(Vec::new());
+                *last = 0;
+            }
+            *last += b;
+            chunks.last_mut().expect("pushed").push(id.clone());
         }
         self.asked_bytes += bytes;
         // Never refused: the cache has no budget.
         let reserved = self.cache.reserve(bytes);
         debug_assert!(reserved, "completion needs a cache without a budget");
-        Some(requests.into_iter().collect())
+        Some(
+            requests
+                .into_iter()
+                .flat_map(|(owner, (chunks, _))| chunks.into_iter().map(move |ids| (owner, ids)))
+                .collect(),
+        )
     }
 
     /// Stores the items of a data reply and returns the tasks it completed,

@@ -6,8 +6,8 @@
 //!
 //! `mod.rs` holds the test workload ([`Mini`]) and the checks; the tests
 //! are grouped by topic: whole runs ([`runs`]), messages and the outbox
-//! ([`messages`]), the simulator ([`sim`]) and the runtime interface
-//! ([`runtime_api`]).
+//! ([`messages`]), the simulator ([`sim`]), the runtime interface
+//! ([`runtime_api`]) and the data store's completion ([`store`]).
 
 mod epochs;
 mod messages;
@@ -15,6 +15,7 @@ mod runs;
 mod runtime_api;
 mod semantics;
 mod sim;
+mod store;
 
 use std::collections::BTreeMap;
 use std::sync::Arc;

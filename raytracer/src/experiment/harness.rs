@@ -154,6 +154,8 @@ impl Ctx<'_> {
         p.runtime = RuntimeKind::Sim;
         p.policy = spec.policy;
         p.cache = spec.cache;
+        // The paper's cache: it fetches only what tasks select.
+        p.complete_cache = None;
         p.workload = WorkloadOptions {
             distribution: spec.distribution,
             clip_cache: spec.clip_cache,
