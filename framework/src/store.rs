@@ -106,6 +106,9 @@ impl<Id: Ord + Clone + std::fmt::Debug> Directory<Id> {
 /// memory while it is encoded.
 const COMPLETION_REPLY_BYTES: u64 = 8 << 20;
 
+/// One owner's completion requests, and the bytes of the last.
+type Chunks<Id> = (Vec<Vec<Id>>, u64);
+
 /// Data items with their ids, as carried by a data reply.
 pub(crate) type Items<W> = Vec<(<W as Workload>::DataId, <W as Workload>::DataItem)>;
 
@@ -424,7 +427,7 @@ impl<W: Workload> DataStore<W> {
         }
         self.complete_at = None;
         // Per owner: the requests so far, the last one's bytes.
-        let mut requests: BTreeMap<usize, (Vec<Vec<W::DataId>>, u64)> = BTreeMap::new();
+        let mut requests: BTreeMap<usize, Chunks<W::DataId>> = BTreeMap::new();
         let mut bytes = 0u64;
         for (id, owner, b) in &self.dir.entries {
             let owner = *owner as usize;
