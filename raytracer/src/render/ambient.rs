@@ -41,7 +41,9 @@
 //! (`plugaleak`), its ambient file (`-af`), and the rotational gradient of
 //! a textured normal without a cache.
 
+use std::collections::HashMap;
 use std::f64::consts::PI;
+use std::hash::{BuildHasherDefault, Hasher};
 use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
@@ -310,9 +312,8 @@ impl AmbientCounts {
 #[derive(Debug, Clone, Default)]
 pub struct AmbientCache {
     records: Vec<AmbientRecord>,
-    /// By (level, cell), hashed as the framework's maps are (not SipHash:
-    /// 1.2% of a render with `-ab 1`); only looked up, never iterated.
-    cells: hybrid_sched::IdMap<(u8, [i64; 3]), Vec<u32>>,
+    /// By (level, cell); only looked up, never iterated.
+    cells: CellMap,
     /// Bit `l` set: grid level `l` holds records.
     levels: u64,
     /// Sum of the logarithms of the records' brightnesses (those above
@@ -320,6 +321,48 @@ pub struct AmbientCache {
     /// `-aw` ([`AmbientStore::ambient_value`]).
     log_sum: f64,
     log_count: u32,
+}
+
+/// The grid's cells, hashed by [`CellHasher`].
+type CellMap = HashMap<(u8, [i64; 3]), Vec<u32>, BuildHasherDefault<CellHasher>>;
+
+/// A hasher for the grid's keys, four integers: a rotate, an xor and a
+/// multiply per word (FxHash's mixing). SipHash's resistance to chosen
+/// keys buys nothing for cells of a scene's geometry, and it took 1.2% of
+/// a render with `-ab 1`. The map is never iterated, so its order does
+/// not matter.
+#[derive(Clone, Copy, Debug, Default)]
+struct CellHasher(u64);
+
+impl CellHasher {
+    #[inline]
+    fn add(&mut self, word: u64) {
+        self.0 = (self.0.rotate_left(5) ^ word).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+}
+
+impl Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.add(u64::from(b));
+        }
+    }
+
+    fn write_u8(&mut self, i: u8) {
+        self.add(u64::from(i));
+    }
+
+    fn write_i64(&mut self, i: i64) {
+        self.add(i as u64);
+    }
+
+    fn write_usize(&mut self, i: usize) {
+        self.add(i as u64);
+    }
 }
 
 fn cell_of(p: Vec3, cell: f64) -> [i64; 3] {
