@@ -29,17 +29,17 @@
 //! larger at most twice the smaller.
 //!
 //! **Evaluation order.** A cache makes a pixel depend on which records
-//! existed when it was shaded, so an image depends on the order in which
-//! pixels are rendered. The sequential renderer is deterministic for a
-//! given order (scanlines top to bottom, left to right; the per-pixel
-//! random streams of [`super::rng`] are unchanged), and tests fix it. A
-//! parallel render evaluates in another order and agrees only within a
-//! tolerance (the parallel renderer's ambient pass). With `-aa 0` there is no
-//! cache and the image is again independent of the order.
+//! existed when it was shaded. Both renderers therefore shade pixels in
+//! waves ([`super::waves`]): within a wave every pixel reads the cache as
+//! it was when the wave began plus the records its own trace makes, and
+//! the wave's records join the cache in pixel order; so the picture does
+//! not depend on the order in which pixels are shaded, nor on the number
+//! of processors. With `-aa 0` there is no cache.
 //!
-//! Not implemented: Radiance's leak test for records near occluders
-//! (`plugaleak`), its ambient file (`-af`), and the rotational gradient of
-//! a textured normal without a cache.
+//! Radiance's leak test for records near occluders (`plugaleak`, the
+//! records' `corral`) and its ambient file (`-af`, in `ambient/file.rs`)
+//! are implemented. Not implemented: the rotational gradient of a
+//! textured normal without a cache.
 
 use std::collections::HashMap;
 use std::f64::consts::PI;
