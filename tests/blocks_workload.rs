@@ -7,12 +7,16 @@ use std::time::Duration;
 
 use hybrid_examples::{Blocks, BlocksParams, Distribution};
 use hybrid_sched::{
-    run_lockstep, run_threads, BundleConfig, Config, ConfigError, Policy, RunError, RunReport,
+    run_lockstep, run_threads, BundleConfig, Config, ConfigError, DataService, Policy, RunError,
+    RunReport,
 };
 use hybrid_tests::{assert_matches_sequential, guarded, small};
 use proptest::prelude::*;
 
 const LIMIT: Duration = Duration::from_secs(60);
+
+/// Both ways of answering data requests.
+const SERVICES: [DataService; 2] = [DataService::BetweenSteps, DataService::OnArrival];
 
 fn threads(w: &Blocks, cfg: Config) -> RunReport<Blocks> {
     let w = Arc::new(w.clone());
@@ -29,16 +33,27 @@ fn every_task_once_and_results_equal_sequential_for_all_procs_policies_caches() 
     // task whose data is not resident must take the data-parallel fallback.
     let tiny = (w.smallest_block_bytes() / 2) as u64;
     let medium = 3 * w.largest_block_bytes() as u64;
-    for procs in 1..=8 {
+    for (procs, service) in (1..=8).flat_map(|p| SERVICES.map(|s| (p, s))) {
         for policy in Policy::ALL {
             for cache in [Some(tiny), Some(medium), None] {
                 let cfg = Config::new(procs)
                     .with_policy(policy)
                     .with_cache_bytes(cache)
+                    .with_data_service(service)
                     .with_credits(4);
-                let what = format!("{procs} procs, {policy}, cache {cache:?}");
+                let what = format!("{procs} procs, {policy}, cache {cache:?}, {service:?}");
                 let r = threads(&w, cfg);
                 assert_matches_sequential(&w, &r, &what);
+                assert_eq!(
+                    r.stats.sum(|p| p.data_requests_served),
+                    r.stats.sum(|p| p.data_requests_sent),
+                    "{what}: every request answered once"
+                );
+                if service == DataService::OnArrival {
+                    // Answered by the owners' servers, never in a step.
+                    let in_steps = r.stats.sum(|p| p.time_ns.serving_data);
+                    assert_eq!(in_steps, 0, "{what}");
+                }
                 let fallbacks = r.stats.sum(|p| p.tasks.fallbacks);
                 if cache == Some(tiny) && procs > 1 {
                     assert!(fallbacks > 0, "{what}: expected data-parallel fallbacks");
@@ -373,11 +388,13 @@ proptest! {
         policy in 0usize..4,
         cache in prop_oneof![Just(None), (1u64..3000).prop_map(Some)],
         credits in 1usize..8,
+        service in 0usize..2,
     ) {
         let w = Blocks::new(small(seed));
         let cfg = Config::new(procs)
             .with_policy(Policy::ALL[policy])
             .with_cache_bytes(cache)
+            .with_data_service(SERVICES[service])
             .with_credits(credits);
         let r = threads(&w, cfg.clone());
         assert_matches_sequential(&w, &r, &format!("threads {cfg:?}"));

@@ -42,6 +42,26 @@ impl Default for BundleConfig {
     }
 }
 
+/// When a processor answers the data requests for the items it owns.
+///
+/// The results are the same either way (SEMANTICS.md section 6); what
+/// changes is how long a requesting task waits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum DataService {
+    /// Between two of its steps, as any other message (the paper's: a
+    /// request waits for the owner's current task to end).
+    #[default]
+    BetweenSteps,
+    /// When the request arrives, by the processor's data server, while the
+    /// processor computes: the simulator serves at arrival on the owner's
+    /// CPU (delaying its current step by the time it takes), the threads
+    /// runtime in the requesting processor's step (a one-sided read of the
+    /// owner's items), the MPI runtime on the owner's MPI thread. Runtimes
+    /// that run one step at a time (sequential, lockstep) serve between
+    /// steps.
+    OnArrival,
+}
+
 /// Everything a run needs besides the workload.
 ///
 /// # Example
@@ -88,6 +108,9 @@ pub struct Config {
     /// only where data is, never a result (SEMANTICS.md section 6).
     #[serde(default)]
     pub complete_cache: Option<u8>,
+    /// When data requests are answered ([`DataService`]).
+    #[serde(default)]
+    pub data_service: DataService,
     /// Bundling of low-priority traffic.
     pub bundle: BundleConfig,
     /// Flow control: how many credit-limited messages (tasks and results) one
@@ -138,6 +161,7 @@ impl Config {
             cache_bytes: None,
             fetch_limit: None,
             complete_cache: None,
+            data_service: DataService::BetweenSteps,
             bundle: BundleConfig::default(),
             credits_per_link: 64,
             flight_bytes: DEFAULT_FLIGHT_BYTES,
@@ -170,6 +194,12 @@ impl Config {
     /// processor completes its cache ([`Config::complete_cache`]).
     pub fn with_complete_cache(mut self, percent: Option<u8>) -> Self {
         self.complete_cache = percent;
+        self
+    }
+
+    /// Sets when data requests are answered ([`Config::data_service`]).
+    pub fn with_data_service(mut self, service: DataService) -> Self {
+        self.data_service = service;
         self
     }
 

@@ -156,6 +156,7 @@ pub mod protocol;
 pub mod resident;
 pub mod rng;
 pub mod runtime;
+mod server;
 pub mod stats;
 mod store;
 
@@ -169,7 +170,7 @@ pub use serde;
 
 pub use cache::{ByteLru, IdMap};
 pub use clock::{Clock, Time, WallClock};
-pub use config::{BundleConfig, Config};
+pub use config::{BundleConfig, Config, DataService};
 pub use error::{ConfigError, RunError};
 pub use policy::Policy;
 pub use protocol::message::{Msg, Packet};

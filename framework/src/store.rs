@@ -15,6 +15,7 @@
 //!    arrived; after execution the task's pins are released.
 
 use std::collections::{BTreeMap, HashMap};
+use std::sync::Arc;
 
 use crate::cache::{ByteLru, IdMap};
 use crate::protocol::message::DdEnvelope;
@@ -153,7 +154,12 @@ pub(crate) enum Admission<W: Workload> {
 /// The data store of one processor. See the module documentation.
 pub(crate) struct DataStore<W: Workload> {
     me: usize,
-    resident: Resident<W::DataId, W::DataItem>,
+    /// The items placed here, shared with the processor's data server
+    /// (read-only for the whole run).
+    resident: Arc<Resident<W::DataId, W::DataItem>>,
+    /// Write-once broadcast items ([`crate::Epoch::broadcast`]), held as
+    /// resident but never served.
+    broadcast: Resident<W::DataId, W::DataItem>,
     resident_bytes: u64,
     cache: ByteLru<W::DataId, W::DataItem>,
     /// [`crate::Config::fetch_limit`].
@@ -223,7 +229,8 @@ impl<W: Workload> DataStore<W> {
             .map(|p| (u128::from(dir.bytes_elsewhere(me)) * u128::from(p) / 100) as u64);
         Ok(DataStore {
             me,
-            resident: map,
+            resident: Arc::new(map),
+            broadcast: Resident::default(),
             resident_bytes,
             cache: ByteLru::new(cache_bytes),
             fetch_limit,
@@ -250,7 +257,7 @@ impl<W: Workload> DataStore<W> {
                 ));
             }
             let bytes = item.byte_size() as u64;
-            if self.resident.insert(id.clone(), item).is_some() {
+            if self.broadcast.insert(id.clone(), item).is_some() {
                 return Err(format!(
                     "broadcast data {id:?} is already held (broadcast data is written once)"
                 ));
@@ -277,12 +284,12 @@ impl<W: Workload> DataStore<W> {
 
     /// Whether `id` is resident or cached.
     pub(crate) fn is_local(&self, id: &W::DataId) -> bool {
-        self.resident.contains_key(id) || self.cache.contains(id)
+        self.holds(id) || self.cache.contains(id)
     }
 
     /// A read-only view of local data for a hook.
     pub(crate) fn view(&self) -> DataView<'_, W> {
-        DataView::new(&self.resident, Some(&self.cache))
+        DataView::new(&self.resident, Some(&self.cache)).with_broadcast(&self.broadcast)
     }
 
     /// Refreshes LRU recency of cached items a hook used (counted as hits).
@@ -307,17 +314,14 @@ impl<W: Workload> DataStore<W> {
         (self.waiting_high_water, self.waiting_bytes_high_water)
     }
 
-    /// Copies of resident items for a data request.
-    pub(crate) fn serve(&self, ids: &[W::DataId]) -> Result<Items<W>, String> {
-        ids.iter()
-            .map(|id| match self.resident.get(id) {
-                Some(item) => Ok((id.clone(), item.clone())),
-                None => Err(format!(
-                    "processor {} was asked for data {id:?} that it does not own",
-                    self.me
-                )),
-            })
-            .collect()
+    /// Whether `id` is resident (placed here, or broadcast).
+    fn holds(&self, id: &W::DataId) -> bool {
+        self.resident.contains_key(id) || self.broadcast.contains_key(id)
+    }
+
+    /// The items placed here, for the processor's data server.
+    pub(crate) fn resident_items(&self) -> Arc<Resident<W::DataId, W::DataItem>> {
+        Arc::clone(&self.resident)
     }
 
     /// Admits a demand-driven task whose selection returned `ids`.
@@ -331,7 +335,7 @@ impl<W: Workload> DataStore<W> {
         let mut remote = Vec::new();
         let (mut total, mut to_pin, mut new_bytes) = (0u64, 0u64, 0u64);
         for id in ids {
-            if self.resident.contains_key(&id) {
+            if self.holds(&id) {
                 continue;
             }
             let bytes = self

@@ -39,9 +39,11 @@ use crate::policy::Placer;
 use crate::protocol::message::{DdEnvelope, DpEnvelope, Incoming, Msg, Packet};
 use crate::protocol::workload::{Ctx, Workload};
 use crate::protocol::{Addr, Class, DpOutcome};
+use crate::server::DataServer;
 use crate::stats::{ProcStats, State};
 
 mod dispatch;
+mod outputs;
 use crate::store::{Admission, DataStore, Directory, ReadyTask};
 
 /// What one [`Processor::step`] (or [`crate::master::Master::step`]) did.
@@ -65,6 +67,9 @@ pub(crate) struct Processor<W: Workload> {
     ready: VecDeque<ReadyTask<W>>,
     deferred: VecDeque<(DdEnvelope<W>, Vec<W::DataId>)>,
     store: DataStore<W>,
+    /// Answers data requests for `store`'s resident items (here between
+    /// steps, or by the runtime on arrival: [`crate::DataService`]).
+    server: Arc<DataServer<W>>,
     outbox: Outbox<W>,
     placer: Placer,
     acc: W::Accumulator,
@@ -114,7 +119,9 @@ impl<W: Workload> Processor<W> {
         .map_err(placement_err)?;
         let addr = Addr::Proc(id);
         let credits = config.credits_per_link as u32;
+        let server = Arc::new(DataServer::new(id, store.resident_items()));
         Ok(Processor {
+            server,
             id,
             addr,
             procs,
@@ -153,6 +160,11 @@ impl<W: Workload> Processor<W> {
     /// This processor's address.
     pub(crate) fn addr(&self) -> Addr {
         self.addr
+    }
+
+    /// Its data server ([`crate::DataService::OnArrival`]).
+    pub(crate) fn server(&self) -> &Arc<DataServer<W>> {
+        &self.server
     }
 
     fn flush_work(&mut self) {
@@ -323,7 +335,7 @@ impl<W: Workload> Processor<W> {
         }
         match inc.msg {
             Msg::DataRequest(ids) => {
-                let items = self.store.serve(&ids)?;
+                let items = self.server.copies(&ids)?;
                 self.stats.data_requests_served += 1;
                 self.stats.data_items_served += items.len() as u64;
                 trace!(proc = self.id, to = %inc.from, n = items.len(), "serve data");
@@ -534,64 +546,15 @@ impl<W: Workload> Processor<W> {
         if let Some(wave) = self.probe {
             if self.is_passive() {
                 self.probe = None;
+                // With the requests and replies its data server handled.
+                let (sent, received) = self.server.basic();
                 let reply = Msg::ProbeReply {
                     wave,
-                    sent: self.basic_sent,
-                    received: self.basic_received,
+                    sent: self.basic_sent + sent,
+                    received: self.basic_received + received,
                 };
                 self.send(Addr::Master, reply, now);
             }
         }
-    }
-
-    /// Packets to transmit now (bundles that became due by age included).
-    pub(crate) fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
-        self.outbox.pump(now, false);
-        let mut packets = self.outbox.take_ready();
-        let load = self.load();
-        for p in &mut packets {
-            p.load = load;
-            self.stats.sent.record(p.class, p.items.len(), p.bytes);
-            if p.items.len() > 1 {
-                self.stats.bundles_sent += 1;
-            }
-        }
-        packets
-    }
-
-    /// Tasks queued here: the load piggybacked on every packet.
-    pub(crate) fn load(&self) -> u32 {
-        (self.mailbox.len_of(Class::DataParallel)
-            + self.mailbox.len_of(Class::DemandDriven)
-            + self.ready.len()
-            + self.deferred.len()
-            + self.store.waiting_len()) as u32
-    }
-
-    fn note_queues(&mut self) {
-        let queued = self.mailbox.len_of(Class::DataParallel)
-            + self.mailbox.len_of(Class::DemandDriven)
-            + self.ready.len()
-            + self.deferred.len();
-        self.queued_high_water = self.queued_high_water.max(queued);
-    }
-
-    /// Ends the run for this processor: its accumulator and statistics.
-    pub(crate) fn finish(mut self) -> (W::Accumulator, ProcStats) {
-        self.flush_work();
-        let m = &mut self.stats.memory;
-        m.resident_bytes = self.store.resident_bytes();
-        m.cached_bytes = self.store.cache().high_water();
-        (m.waiting_tasks, m.waiting_task_bytes) = self.store.waiting_high_water();
-        (m.input_buffer_items, m.input_buffer_bytes) = self.outbox.input_high_water();
-        m.mailbox_items = self.mailbox.high_water();
-        m.queued_tasks = self.queued_high_water;
-        m.send_backlog = self.outbox.backlog_high_water();
-        m.send_backlog_bytes = self.outbox.backlog_bytes_high_water();
-        m.in_flight_bytes = self.outbox.in_flight_high_water();
-        m.root_task_bytes = self.roots_held.1;
-        m.selection_bytes = self.largest_selection;
-        self.stats.cache = self.store.cache().counters();
-        (self.acc, self.stats)
     }
 }

@@ -476,6 +476,8 @@ impl<W: Workload> Ctx<W> {
 /// processor can refresh their LRU recency after the hook returns.
 pub struct DataView<'a, W: Workload> {
     resident: &'a Resident<W::DataId, W::DataItem>,
+    /// Broadcast items, resident too (`None`: none).
+    broadcast: Option<&'a Resident<W::DataId, W::DataItem>>,
     cache: Option<&'a ByteLru<W::DataId, W::DataItem>>,
     touched: RefCell<Vec<W::DataId>>,
 }
@@ -488,14 +490,30 @@ impl<'a, W: Workload> DataView<'a, W> {
     ) -> Self {
         DataView {
             resident,
+            broadcast: None,
             cache,
             touched: RefCell::new(Vec::new()),
         }
     }
 
+    /// The same view with broadcast items besides the resident ones (none
+    /// are looked at when it is empty).
+    pub(crate) fn with_broadcast(mut self, items: &'a Resident<W::DataId, W::DataItem>) -> Self {
+        self.broadcast = (!items.is_empty()).then_some(items);
+        self
+    }
+
+    /// A resident or broadcast item.
+    #[inline]
+    fn held(&self, id: &W::DataId) -> Option<&'a W::DataItem> {
+        self.resident
+            .get(id)
+            .or_else(|| self.broadcast.and_then(|b| b.get(id)))
+    }
+
     /// The item, if it is resident or cached here.
     pub fn get(&self, id: &W::DataId) -> Option<&'a W::DataItem> {
-        if let Some(item) = self.resident.get(id) {
+        if let Some(item) = self.held(id) {
             return Some(item);
         }
         let item = self.cache?.peek(id)?;
@@ -512,19 +530,18 @@ impl<'a, W: Workload> DataView<'a, W> {
     /// a use: for a task that reads again, in the same step, what it has
     /// read already (its uses are counted once).
     pub fn peek(&self, id: &W::DataId) -> Option<&'a W::DataItem> {
-        self.resident
-            .get(id)
+        self.held(id)
             .or_else(|| self.cache.and_then(|c| c.peek(id)))
     }
 
     /// Whether the item is resident or cached here.
     pub fn is_local(&self, id: &W::DataId) -> bool {
-        self.resident.contains_key(id) || self.cache.is_some_and(|c| c.contains(id))
+        self.held(id).is_some() || self.cache.is_some_and(|c| c.contains(id))
     }
 
-    /// Whether the item is resident (owned) here.
+    /// Whether the item is resident (owned, or broadcast) here.
     pub fn is_resident(&self, id: &W::DataId) -> bool {
-        self.resident.contains_key(id)
+        self.held(id).is_some()
     }
 
     /// Whether the cache has no budget: nothing cached is ever evicted, so
@@ -543,6 +560,7 @@ impl<'a, W: Workload> DataView<'a, W> {
     pub fn local_items(&self) -> impl Iterator<Item = (&'a W::DataId, &'a W::DataItem)> {
         self.resident
             .iter()
+            .chain(self.broadcast.into_iter().flat_map(|b| b.iter()))
             .chain(self.cache.into_iter().flat_map(|c| c.iter()))
     }
 

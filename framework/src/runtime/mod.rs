@@ -40,6 +40,7 @@ use crate::processor::{Processor, Step};
 use crate::protocol::message::Packet;
 use crate::protocol::workload::Workload;
 use crate::protocol::Addr;
+use crate::server::DataServer;
 use crate::stats::{ProcStats, RankTraffic, RunStats, State};
 
 pub use self::timeline::{Timeline, MAX_BUCKETS};
@@ -264,6 +265,14 @@ impl<W: Workload> Node<W> {
     }
 
     /// Packets to transmit.
+    /// A worker's data server (`None`: the master).
+    pub(crate) fn server(&self) -> Option<Arc<DataServer<W>>> {
+        match self {
+            Node::Worker(p) => Some(Arc::clone(p.server())),
+            Node::Master(_) => None,
+        }
+    }
+
     pub(crate) fn take_packets(&mut self, now: Time) -> Vec<Packet<W>> {
         match self {
             Node::Master(m) => m.take_packets(now),

@@ -34,13 +34,14 @@ use serde::{Deserialize, Serialize};
 use super::Timeline;
 use super::{assemble, Extras, Node, RunReport, Runtime};
 use crate::clock::Time;
-use crate::config::Config;
+use crate::config::{Config, DataService};
 use crate::error::{ConfigError, RunError};
 use crate::processor::Step;
 use crate::protocol::message::Packet;
 use crate::protocol::workload::{WorkKind, Workload};
 use crate::protocol::{Addr, Class};
 use crate::rng::SplitMix64;
+use crate::server::DataServer;
 use crate::stats::State;
 
 /// Compute costs in nanoseconds of this machine's CPU; the network's
@@ -246,6 +247,48 @@ enum Event {
     Arrive(u64),
 }
 
+/// The network's state: links, packets on their way, the event queue.
+struct Wires<W: Workload> {
+    queue: BinaryHeap<Reverse<(Time, u64, Event)>>,
+    seq: u64,
+    in_flight: BTreeMap<u64, Packet<W>>,
+    /// When each actor's outgoing and incoming link is free.
+    out_free: Vec<Time>,
+    in_free: Vec<Time>,
+    /// Routes set up so far.
+    links: HashSet<(usize, usize)>,
+    rng: SplitMix64,
+}
+
+impl<W: Workload> Wires<W> {
+    fn push(&mut self, at: Time, event: Event) {
+        self.queue.push(Reverse((at, self.seq, event)));
+        self.seq += 1;
+    }
+
+    /// `packet` leaves actor `slot`'s CPU at `now`: it departs when the
+    /// sender's link is free and arrives after the latency (and the
+    /// route's set-up the first time), after any packet arriving before it.
+    fn transmit(&mut self, net: &Network, slot: usize, packet: Packet<W>, now: Time, procs: usize) {
+        let ns = |x: f64| -> Time { x.max(0.0).round() as Time };
+        let dst = packet.to.slot(procs);
+        let tx = ns(net.transfer_ns(packet.bytes));
+        let depart = now.max(self.out_free[slot]);
+        self.out_free[slot] = depart + tx;
+        let mut lat = net.latency_ns;
+        if net.jitter > 0.0 {
+            lat *= 1.0 + net.jitter * self.rng.next_f64();
+        }
+        if self.links.insert((slot, dst)) {
+            lat += net.link_setup_ns;
+        }
+        let arrive = (depart + ns(lat)).max(self.in_free[dst]) + tx;
+        self.in_free[dst] = arrive;
+        self.in_flight.insert(self.seq, packet);
+        self.push(arrive, Event::Arrive(self.seq));
+    }
+}
+
 /// Runs `workload` in the simulator; returns the report (virtual times)
 /// and the timeline.
 ///
@@ -353,28 +396,34 @@ pub fn run_sim<W: Workload>(
     let ns = |x: f64| -> Time { x.max(0.0).round() as Time };
     let scale = net.cpu_scale;
 
-    let mut queue: BinaryHeap<Reverse<(Time, u64, Event)>> = BinaryHeap::new();
-    let mut seq = 0u64;
-    let mut in_flight: BTreeMap<u64, Packet<W>> = BTreeMap::new();
+    let mut wires = Wires {
+        queue: BinaryHeap::new(),
+        seq: 0,
+        in_flight: BTreeMap::new(),
+        out_free: vec![0; n],
+        in_free: vec![0; n],
+        links: HashSet::new(),
+        rng: SplitMix64::new(sim.seed ^ 0x5151_5EED),
+    };
+    let servers: Vec<_> = nodes
+        .iter()
+        .map(|node| node.as_ref().and_then(Node::server))
+        .collect();
+    let on_arrival = config.data_service == DataService::OnArrival;
     let mut free_at = vec![0 as Time; n];
     let mut scheduled = vec![false; n];
     let mut blocked_since: Vec<Option<(Time, State)>> = vec![None; n];
-    let mut out_free = vec![0 as Time; n];
-    let mut in_free = vec![0 as Time; n];
-    let mut links: HashSet<(usize, usize)> = HashSet::new();
     let mut finished: Vec<_> = Vec::with_capacity(n);
     let mut done = vec![false; n];
-    let mut rng = SplitMix64::new(sim.seed ^ 0x5151_5EED);
     let mut timeline = Timeline::new(n, sim.bucket_ns.unwrap_or(10_000));
     let mut end = 0 as Time;
 
     for (slot, s) in scheduled.iter_mut().enumerate() {
-        queue.push(Reverse((0, seq, Event::Run(slot))));
-        seq += 1;
+        wires.push(0, Event::Run(slot));
         *s = true;
     }
     let mut events = 0u64;
-    while let Some(Reverse((t, _, event))) = queue.pop() {
+    while let Some(Reverse((t, _, event))) = wires.queue.pop() {
         events += 1;
         if events > sim.max_events {
             return Err(RunError::Runtime(format!(
@@ -390,13 +439,53 @@ pub fn run_sim<W: Workload>(
         }
         match event {
             Event::Arrive(id) => {
-                let packet = in_flight.remove(&id).expect("packet in flight");
+                let packet = wires.in_flight.remove(&id).expect("packet in flight");
                 let slot = packet.to.slot(procs);
                 if done[slot] {
                     return Err(RunError::Runtime(format!(
                         "{} sent a message to {}, which has already finished",
                         packet.from, packet.to
                     )));
+                }
+                if let Some(server) = servers[slot]
+                    .as_ref()
+                    .filter(|_| on_arrival && DataServer::is_request(&packet))
+                {
+                    // The owner's CPU takes the request in, copies the
+                    // items and sends the reply now, delaying its current
+                    // step (or its wait) by that long.
+                    let cost_in = net.recv_overhead_ns + net.cpu_byte_ns * packet.bytes as f64;
+                    let reply = server.serve(packet).map_err(|message| RunError::Workload {
+                        at: Addr::from_slot(slot, procs),
+                        message,
+                    })?;
+                    let cost_out = net.send_overhead_ns + net.cpu_byte_ns * reply.bytes as f64;
+                    let d = ns(cost_in + cost_out);
+                    let node = nodes[slot].as_mut().expect("live node");
+                    node.account(State::ServingData, d);
+                    timeline.sent(slot, reply.class, t + d, reply.bytes);
+                    wires.transmit(net, slot, reply, t + d, procs);
+                    match blocked_since[slot].as_mut() {
+                        // Waiting: the wait resumes after the service.
+                        Some((since, state)) => {
+                            let from = (*since).max(free_at[slot]);
+                            if t > from {
+                                node.account(*state, t - from);
+                                timeline.add(slot, *state, from, t);
+                            }
+                            timeline.add(slot, State::ServingData, t.max(from), t.max(from) + d);
+                            *since = t.max(from) + d;
+                            free_at[slot] = *since;
+                        }
+                        // Busy: its step ends that much later.
+                        None => {
+                            let busy_until = free_at[slot].max(t);
+                            timeline.add(slot, State::ServingData, busy_until, busy_until + d);
+                            free_at[slot] = busy_until + d;
+                        }
+                    }
+                    end = end.max(free_at[slot]);
+                    continue;
                 }
                 let node = nodes[slot].as_mut().expect("live node");
                 // An actor waiting for input wakes up now; a busy one takes
@@ -424,8 +513,7 @@ pub fn run_sim<W: Workload>(
                 free_at[slot] = start + d;
                 if !scheduled[slot] {
                     scheduled[slot] = true;
-                    queue.push(Reverse((free_at[slot], seq, Event::Run(slot))));
-                    seq += 1;
+                    wires.push(free_at[slot], Event::Run(slot));
                 }
             }
             Event::Run(slot) => {
@@ -436,8 +524,7 @@ pub fn run_sim<W: Workload>(
                 if t < free_at[slot] {
                     // A packet was taken in meanwhile: run when free.
                     scheduled[slot] = true;
-                    queue.push(Reverse((free_at[slot], seq, Event::Run(slot))));
-                    seq += 1;
+                    wires.push(free_at[slot], Event::Run(slot));
                     continue;
                 }
                 let node = nodes[slot].as_mut().expect("live node");
@@ -464,22 +551,7 @@ pub fn run_sim<W: Workload>(
                     timeline.add(slot, State::Sending, now, now + so);
                     now += so;
                     timeline.sent(slot, packet.class, now, packet.bytes);
-                    let dst = packet.to.slot(procs);
-                    let tx = ns(net.transfer_ns(packet.bytes));
-                    let depart = now.max(out_free[slot]);
-                    out_free[slot] = depart + tx;
-                    let mut lat = net.latency_ns;
-                    if net.jitter > 0.0 {
-                        lat *= 1.0 + net.jitter * rng.next_f64();
-                    }
-                    if links.insert((slot, dst)) {
-                        lat += net.link_setup_ns;
-                    }
-                    let arrive = (depart + ns(lat)).max(in_free[dst]) + tx;
-                    in_free[dst] = arrive;
-                    in_flight.insert(seq, packet);
-                    queue.push(Reverse((arrive, seq, Event::Arrive(seq))));
-                    seq += 1;
+                    wires.transmit(net, slot, packet, now, procs);
                 }
                 free_at[slot] = now;
                 end = end.max(now);
@@ -493,8 +565,7 @@ pub fn run_sim<W: Workload>(
                     }
                     Step::Worked(_) => {
                         scheduled[slot] = true;
-                        queue.push(Reverse((now, seq, Event::Run(slot))));
-                        seq += 1;
+                        wires.push(now, Event::Run(slot));
                     }
                     Step::Idle => {
                         blocked_since[slot] = Some((now, node.blocked_state()));

@@ -17,12 +17,13 @@ use tracing::Instrument;
 
 use super::{assemble, Node, RunReport, Runtime};
 use crate::clock::{Clock, WallClock};
-use crate::config::Config;
+use crate::config::{Config, DataService};
 use crate::error::RunError;
 use crate::processor::Step;
 use crate::protocol::message::Packet;
 use crate::protocol::workload::Workload;
 use crate::protocol::Addr;
+use crate::server::DataServer;
 use crate::stats::{ProcStats, State};
 
 /// The threads runtime (see the module documentation).
@@ -199,13 +200,24 @@ async fn run_actors<W: Workload>(
         rxs.push(rx);
     }
     let txs = Arc::new(txs);
+    // Data requests answered on arrival: by the owner's server, in the
+    // requesting actor's step (a one-sided read of the owner's items).
+    let servers: Arc<Vec<_>> = Arc::new(if config.data_service == DataService::OnArrival {
+        nodes.iter().map(Node::server).collect()
+    } else {
+        Vec::new()
+    });
     let mut set = JoinSet::new();
     let mut addrs = HashMap::new();
     for (node, rx) in nodes.into_iter().zip(rxs) {
         let addr = node.addr();
         let span = tracing::debug_span!("actor", %addr);
+        let links = Links {
+            txs: txs.clone(),
+            servers: servers.clone(),
+        };
         let handle =
-            set.spawn(actor(node, rx, txs.clone(), clock.clone(), procs, share).instrument(span));
+            set.spawn(actor(node, rx, links, clock.clone(), procs, share).instrument(span));
         addrs.insert(handle.id(), addr);
     }
     drop(txs);
@@ -243,13 +255,20 @@ async fn run_actors<W: Workload>(
     Ok(assemble("threads", procs, finished, clock.now()))
 }
 
+/// Where an actor's packets go: every actor's channel, and the data
+/// servers that answer requests on arrival (empty: none do).
+struct Links<W: Workload> {
+    txs: Arc<Vec<UnboundedSender<Packet<W>>>>,
+    servers: Arc<Vec<Option<Arc<DataServer<W>>>>>,
+}
+
 /// Longest stretch of work an actor does before yielding its thread.
 const YIELD_EVERY_NS: u64 = 200_000;
 
 async fn actor<W: Workload>(
     mut node: Node<W>,
     mut rx: UnboundedReceiver<Packet<W>>,
-    txs: Arc<Vec<UnboundedSender<Packet<W>>>>,
+    links: Links<W>,
     clock: Arc<WallClock>,
     procs: usize,
     share: bool,
@@ -282,10 +301,20 @@ async fn actor<W: Workload>(
         }
         now = t2;
         let packets = node.take_packets(t2);
+        let mut answered = false;
         if !packets.is_empty() {
+            let mut replies = Vec::new();
             for packet in packets {
                 let to = packet.to;
-                txs[to.slot(procs)].send(packet).map_err(|_| {
+                let server = links.servers.get(to.slot(procs)).and_then(Option::as_ref);
+                if let Some(server) = server.filter(|_| DataServer::is_request(&packet)) {
+                    let reply = server
+                        .serve(packet)
+                        .map_err(|message| RunError::Workload { at: to, message })?;
+                    replies.push(reply);
+                    continue;
+                }
+                links.txs[to.slot(procs)].send(packet).map_err(|_| {
                     RunError::Runtime(format!(
                         "{addr} sent a message to {to}, which has already finished"
                     ))
@@ -293,6 +322,15 @@ async fn actor<W: Workload>(
             }
             now = clock.now();
             node.account(State::Sending, now - t2);
+            if !replies.is_empty() {
+                answered = true;
+                for reply in replies {
+                    node.deliver(reply, now);
+                }
+                let t3 = clock.now();
+                node.account(State::Receiving, t3 - now);
+                now = t3;
+            }
         }
         match step {
             Step::Finished => break,
@@ -308,6 +346,8 @@ async fn actor<W: Workload>(
                 }
             }
             Step::Worked(_) => {}
+            // The replies it just took in are work.
+            Step::Idle if answered => {}
             Step::Idle => {
                 let blocked = node.blocked_state();
                 let packet = rx

@@ -28,8 +28,8 @@ use crate::protocol::message::{DdEnvelope, Msg, Packet};
 use crate::protocol::{Addr, Class};
 use crate::runtime::RunReport;
 use crate::{
-    run_sequential, run_threads, BundleConfig, ByteSize, Config, Ctx, DataView, DpOutcome,
-    Placement, Policy, RunError, Workload,
+    run_sequential, run_threads, BundleConfig, ByteSize, Config, Ctx, DataService, DataView,
+    DpOutcome, Placement, Policy, RunError, Workload,
 };
 
 use crate::rng::mix;

@@ -114,3 +114,56 @@ fn presets_by_name() {
     }
     assert!(Network::preset("token-ring").is_none());
 }
+
+#[test]
+fn serving_on_arrival_changes_no_result_and_covers_the_run() {
+    let w = Mini::default();
+    let item = (24 + 8 * w.words) as u64;
+    let (mut waited, mut waited_on_arrival) = (0u64, 0u64);
+    for procs in [2, 3, 5] {
+        for policy in Policy::ALL {
+            for cache in [Some(1), Some(3 * item), None] {
+                for net in [Network::parsytec_cc(), Network::ten_gbe()] {
+                    let cfg = Config::new(procs)
+                        .with_policy(policy)
+                        .with_cache_bytes(cache)
+                        .with_credits(2);
+                    let run = |service| {
+                        let cfg = cfg.clone().with_data_service(service);
+                        run_sim(Arc::new(w.clone()), &cfg, &sim(net.clone()))
+                            .unwrap_or_else(|e| panic!("{procs} procs, {policy}: {e}"))
+                    };
+                    let before = run(DataService::BetweenSteps);
+                    let r = run(DataService::OnArrival);
+                    check_against_sequential(&w, &r);
+                    let what = format!("{procs} procs, {policy}, cache {cache:?}");
+                    for p in r.stats.procs.iter().chain([&r.stats.master]) {
+                        assert_eq!(p.time_ns.total(), r.stats.elapsed_ns, "{what}: {}", p.addr);
+                    }
+                    let tl = r.timeline().unwrap();
+                    for (k, actor) in tl.actors.iter().enumerate() {
+                        let total: u64 = actor.iter().map(|s| s.total()).sum();
+                        assert_eq!(total, r.stats.elapsed_ns, "{what}: actor {k}'s timeline");
+                    }
+                    // Every request answered once, by its owner's server.
+                    let sent = r.stats.sum(|p| p.data_requests_sent);
+                    assert_eq!(r.stats.sum(|p| p.data_requests_served), sent, "{what}");
+                    assert_eq!(
+                        r.stats.sum(|p| p.data_items_served),
+                        r.stats.sum(|p| p.data_items_requested),
+                        "{what}"
+                    );
+                    if sent > 0 {
+                        assert!(r.stats.sum(|p| p.time_ns.serving_data) > 0, "{what}");
+                    }
+                    waited += before.stats.sum(|p| p.time_ns.waiting_data);
+                    waited_on_arrival += r.stats.sum(|p| p.time_ns.waiting_data);
+                }
+            }
+        }
+    }
+    assert!(
+        waited_on_arrival < waited,
+        "waiting for data: {waited_on_arrival} ns served on arrival, {waited} ns between steps"
+    );
+}

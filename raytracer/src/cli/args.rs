@@ -109,6 +109,27 @@ impl From<DistributionArg> for crate::parallel::Distribution {
     }
 }
 
+/// `--serve-data`: when a processor answers requests for its data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum ServeDataArg {
+    /// By its data server, as the request arrives (beyond the paper).
+    #[default]
+    #[value(alias = "arrival")]
+    OnArrival,
+    /// Between two of its steps (the paper's).
+    #[value(alias = "steps")]
+    BetweenSteps,
+}
+
+impl From<ServeDataArg> for hybrid_sched::DataService {
+    fn from(s: ServeDataArg) -> Self {
+        match s {
+            ServeDataArg::OnArrival => hybrid_sched::DataService::OnArrival,
+            ServeDataArg::BetweenSteps => hybrid_sched::DataService::BetweenSteps,
+        }
+    }
+}
+
 /// `--network`: the simulated machines.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
 pub enum NetworkArg {
@@ -492,6 +513,15 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub complete_cache: PercentOrOff,
+    /// When a processor answers requests for the scene data it holds: `on-arrival` (beyond the paper: its data server answers while the processor traces; the simulator charges the time to the owner's CPU, the threads runtime reads the owner's cells in the requesting processor's step, MPI answers on the owner's MPI thread) or `between-steps` (the paper's: a request waits for the owner's current task to end). The picture is the same.
+    #[arg(
+        long,
+        default_value = "on-arrival",
+        value_name = "WHEN",
+        value_enum,
+        help_heading = "Parallel rendering"
+    )]
+    pub serve_data: ServeDataArg,
     /// Data distribution: octree (equal memory), predicted (equal predicted work) or worst (one processor holds everything).
     #[arg(
         long,

@@ -79,6 +79,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
             .parse()
             .map_err(|e| usage(format!("--fetch-limit: {e}")))?,
         complete_cache: a.complete_cache.0,
+        data_service: a.serve_data.into(),
         workload: WorkloadOptions {
             tile: a.tile,
             shadow_dp_below: a.shadow_dp_below,

@@ -156,6 +156,8 @@ impl Ctx<'_> {
         p.cache = spec.cache;
         // The paper's cache: it fetches only what tasks select.
         p.complete_cache = None;
+        // And the paper's service: a request waits for its owner's step.
+        p.data_service = hybrid_sched::DataService::BetweenSteps;
         p.workload = WorkloadOptions {
             distribution: spec.distribution,
             clip_cache: spec.clip_cache,

@@ -35,7 +35,7 @@ mod partition_tests;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use hybrid_sched::{Config, Extras, Network, Policy, RankTraffic, RunStats, Timeline};
+use hybrid_sched::{Config, DataService, Extras, Network, Policy, RankTraffic, RunStats, Timeline};
 use serde::Serialize;
 
 pub use distribution::Distribution;
@@ -164,6 +164,10 @@ pub struct ParallelOptions {
     /// elsewhere is fetched ([`hybrid_sched::Config::complete_cache`]);
     /// `None` (the paper's cache) unless set: `render` sets 50.
     pub complete_cache: Option<u8>,
+    /// When data requests are answered
+    /// ([`hybrid_sched::Config::data_service`]); between steps (the
+    /// paper's) unless set: `render` answers on arrival.
+    pub data_service: DataService,
     pub workload: WorkloadOptions,
     /// Worker threads for the threads runtime (`None`: one per core).
     pub threads: Option<usize>,
@@ -204,6 +208,7 @@ impl ParallelOptions {
             cache: CacheSize::Unlimited,
             fetch_limit: CacheSize::Unlimited,
             complete_cache: None,
+            data_service: DataService::BetweenSteps,
             workload: WorkloadOptions::default(),
             threads: None,
             time_limit: None,

@@ -23,7 +23,8 @@ pub(crate) fn run_on<W: hybrid_sched::Workload>(
         .with_policy(popts.policy)
         .with_cache_bytes(cache_bytes)
         .with_fetch_limit(fetch_limit)
-        .with_complete_cache(popts.complete_cache);
+        .with_complete_cache(popts.complete_cache)
+        .with_data_service(popts.data_service);
     config.threads = popts.threads;
     config.time_limit = popts.time_limit;
     config.credits_per_link = popts.credits;
