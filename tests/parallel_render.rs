@@ -430,6 +430,36 @@ fn completing_the_cache_changes_no_answer() {
     }
 }
 
+/// Data requests answered on arrival by the owner's data server (the
+/// threads runtime: a one-sided read in the requester's step; the
+/// simulator: at arrival, on the owner's CPU) change no answer: the
+/// sequential picture and ray counts, every request answered once, and on
+/// threads no processor spends a step serving.
+#[test]
+fn serving_data_on_arrival_changes_no_answer() {
+    let c = case("studio", 96, 72, RenderOptions::default());
+    for (procs, runtime) in [(2, RuntimeKind::Threads), (3, RuntimeKind::Sim)] {
+        let mut between = ParallelOptions::new(procs);
+        between.runtime = runtime;
+        between.workload.tile = 8;
+        let mut arrival = between.clone();
+        arrival.data_service = hybrid_sched::DataService::OnArrival;
+        let (a, b) = (check(&c, &arrival), check(&c, &between));
+        let what = format!("procs {procs}, {runtime:?}");
+        assert_same_rays(&a, &b, &what);
+        for out in [&a, &b] {
+            let sent = out.stats.sum(|s| s.data_requests_sent);
+            assert!(sent > 0, "{what}: nothing fetched");
+            assert_eq!(out.stats.sum(|s| s.data_requests_served), sent, "{what}");
+        }
+        if runtime == RuntimeKind::Threads {
+            assert_eq!(a.stats.sum(|s| s.time_ns.serving_data), 0, "{what}");
+        } else {
+            assert!(a.stats.sum(|s| s.time_ns.serving_data) > 0, "{what}");
+        }
+    }
+}
+
 /// Views whose tiles have no bounding pyramid (fisheye, parallel): a
 /// tile's selection walks its primary rays and leaves them for its
 /// execution or its data-parallel fallback, which must still trace each

@@ -82,10 +82,7 @@ impl<W: Workload> DataServer<W> {
     }
 
     /// Copies of the items `ids`, or which one this processor does not own.
-    pub(crate) fn copies(
-        &self,
-        ids: &[W::DataId],
-    ) -> Result<Items<W>, String> {
+    pub(crate) fn copies(&self, ids: &[W::DataId]) -> Result<Items<W>, String> {
         ids.iter()
             .map(|id| match self.items.get(id) {
                 Some(item) => Ok((id.clone(), item.clone())),

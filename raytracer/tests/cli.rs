@@ -380,6 +380,7 @@ fn bad_parallel_options_are_usage_errors() {
         ("--flight-bytes", "10%", "--flight-bytes"),
         ("--complete-cache", "101", "from 0 to 100, or off"),
         ("--complete-cache", "half", "--complete-cache"),
+        ("--serve-data", "sometimes", "on-arrival, between-steps"),
     ] {
         let mut args = vec![
             "render",
@@ -635,7 +636,8 @@ fn bench_scaling_prints_the_curve_and_checks_every_picture() {
         "| replicated | 1 |",
         "| replicated | 2 |",
         "| octree | 2 |",
-        "| octree, paper's cache | 2 |",
+        "| octree, served between steps | 2 |",
+        "| octree, the paper's cache and service | 2 |",
     ] {
         assert!(out.contains(row), "{row} missing in\n{out}");
     }

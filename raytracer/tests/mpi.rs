@@ -136,6 +136,12 @@ fn mpirun_renders_the_sequential_picture() {
         // (large data replies), and the paper's cache.
         (3, &["--complete-cache", "0", "--tile", "8"][..]),
         (2, &["--complete-cache", "off"][..]),
+        // Data requests answered by the owner between its steps (the
+        // others: on arrival, by the owner's MPI thread).
+        (
+            2,
+            &["--complete-cache", "off", "--serve-data", "between-steps"][..],
+        ),
     ]
     .into_iter()
     .enumerate()
@@ -170,7 +176,14 @@ fn mpirun_renders_the_sequential_picture() {
             serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         assert_eq!(stats["stats"]["runtime"], "mpi");
         assert_eq!(stats["stats"]["procs"].as_array().unwrap().len(), np);
-        for p in stats["stats"]["procs"].as_array().unwrap() {
+        let procs = stats["stats"]["procs"].as_array().unwrap();
+        let sum = |k: &str| procs.iter().map(|p| p[k].as_u64().unwrap()).sum::<u64>();
+        assert_eq!(
+            sum("data_requests_served"),
+            sum("data_requests_sent"),
+            "-np {np} {extra:?}: every data request answered once"
+        );
+        for p in procs {
             let completed = p["cache_completed"].as_bool();
             if extra.contains(&"off") || extra.contains(&"10%") {
                 assert_eq!(completed, Some(false), "-np {np} {extra:?}: {p}");

@@ -333,21 +333,36 @@ fn scaling(a: &BenchArgs) -> Result<()> {
     let (w, h) = (w as usize, h as usize);
     let scene = Arc::new(scene::load(&[&path])?);
     let mut configs: Vec<(String, Option<ParallelOptions>)> = vec![("sequential".into(), None)];
-    // The octree cut twice: with `render`'s default cache, which completes
-    // itself (`--complete-cache 50`), and with the paper's, which fetches
-    // only what tasks select.
+    // The octree cut three times: with `render`'s defaults (a cache that
+    // completes itself, `--complete-cache 50`, and data requests answered
+    // on arrival); with requests answered between the owner's steps; and
+    // the paper's way (its cache, which fetches only what tasks select,
+    // and requests answered between steps).
+    use hybrid_sched::DataService::{BetweenSteps, OnArrival};
     let groups = [
-        ("replicated", Distribution::Replicated, Some(50)),
-        ("octree", Distribution::Octree, Some(50)),
-        ("octree, paper's cache", Distribution::Octree, None),
+        ("replicated", Distribution::Replicated, Some(50), OnArrival),
+        ("octree", Distribution::Octree, Some(50), OnArrival),
+        (
+            "octree, served between steps",
+            Distribution::Octree,
+            Some(50),
+            BetweenSteps,
+        ),
+        (
+            "octree, the paper's cache and service",
+            Distribution::Octree,
+            None,
+            BetweenSteps,
+        ),
     ];
-    for (name, dist, complete) in groups {
+    for (name, dist, complete, service) in groups {
         for &n in &a.scaling {
             let mut p = ParallelOptions::new(n);
             p.workload.distribution = dist;
             // As `render` does by default.
             p.workload.clip_cache = true;
             p.complete_cache = complete;
+            p.data_service = service;
             configs.push((format!("{name} {n}"), Some(p)));
         }
     }

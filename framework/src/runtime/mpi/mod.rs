@@ -19,6 +19,15 @@
 //! 35% of the time). The master and processor 0 exchange encoded packets
 //! through the same channels, without MPI.
 //!
+//! Where the run answers data requests on arrival
+//! ([`crate::DataService::OnArrival`]), a processor sends its requests
+//! with tag [`TAG_DATA`], and the owner's MPI thread answers them itself
+//! with the rank's data server (decoding the request and encoding the
+//! reply there), while the processor loop computes. A request that
+//! arrives before the owner's run has given its MPI thread the server
+//! goes to the processor loop, which answers it between steps. The
+//! server's traffic joins the rank's [`RankTraffic`].
+//!
 //! # Wire format
 //! One MPI message (tag [`TAG_PACKET`]) is the postcard encoding of one
 //! [`Packet`]. At the end every rank other than 0 sends one message (tag
@@ -61,7 +70,7 @@ use std::time::{Duration, Instant};
 use serde::{Deserialize, Serialize};
 
 use crate::clock::{Clock, WallClock};
-use crate::config::Config;
+use crate::config::{Config, DataService};
 use crate::error::RunError;
 use crate::master::Master;
 use crate::processor::{Processor, Step};
@@ -69,18 +78,20 @@ use crate::protocol::message::Packet;
 use crate::protocol::workload::Workload;
 use crate::protocol::{Addr, Class};
 use crate::runtime::{assemble, Extras, Node, RunReport, Runtime};
+use crate::server::DataServer;
 use crate::stats::{ProcStats, RankTraffic, State};
 
 use self::master::{master_loop, Finished, LOOP_DONE, LOOP_FAILED, LOOP_RUNNING};
 pub use self::transport::{
-    abort, decode_packet, encode_packet, init, last_world, world, World, TAG_FINAL, TAG_MASTER,
-    TAG_PACKET,
+    abort, decode_packet, encode_packet, init, last_world, world, World, TAG_DATA, TAG_FINAL,
+    TAG_MASTER, TAG_PACKET,
 };
 use self::transport::{
-    decode, finish, host, idle_wait, phase, runtime_err, Cmd, Event, Phase, Session,
+    decode, finish, host, idle_wait, phase, runtime_err, Cmd, Event, MasterChannels, Phase, Session,
 };
 
 mod master;
+mod serve;
 mod transport;
 
 /// How long a rank waits at the final barrier for the others when the time
@@ -137,24 +148,63 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
     });
     let to_master = master.as_ref().map(|(_, ch)| ch.to_master.clone());
     let mut rank_loop = RankLoop::new(session, workload, config, deadline, fault, to_master)?;
+    let answering = rank_loop.install_data_handler();
+    let ran = run_rank(&mut rank_loop, master, deadline, world.size);
+    if answering {
+        *session.data.lock().unwrap_or_else(|e| e.into_inner()) = None;
+    }
+    ran?;
+    rank_loop.merge_served();
+    let RankLoop {
+        clock,
+        finished,
+        finals,
+        traffic,
+        ..
+    } = rank_loop;
+    let elapsed = clock.now();
+    let finish_by = deadline
+        .map_or(started, |(d, _)| d)
+        .max(Instant::now() + FINISH_GRACE);
+    finish(session, finish_by)?;
+    *guard = Phase::Finalized(world);
+    if world.rank != 0 {
+        let mut report = assemble("mpi", world.size, Vec::new(), elapsed);
+        report.extras = Extras::NotRoot { rank: world.rank };
+        return Ok(report);
+    }
+    let mut all = finished;
+    let mut ranks = vec![RankTraffic {
+        peak_resident_bytes: crate::stats::peak_resident_bytes().unwrap_or(0),
+        ..traffic
+    }];
+    for f in finals.into_iter().skip(1).flatten() {
+        all.extend(f.nodes);
+        ranks.push(f.traffic);
+    }
+    let mut report = assemble("mpi", world.size, all, elapsed);
+    report.extras = Extras::Ranks(ranks);
+    Ok(report)
+}
+
+/// Runs this rank's processor loop, and on rank 0 the master's thread
+/// beside it; the master's statistics and traffic join the loop's.
+fn run_rank<W: Workload>(
+    rank_loop: &mut RankLoop<'_, W>,
+    master: Option<(Node<W>, MasterChannels)>,
+    deadline: Option<(Instant, Duration)>,
+    size: usize,
+) -> Result<(), RunError> {
     match master {
         None => rank_loop.run()?,
         Some((node, ch)) => {
-            let cmds = session.cmds.clone();
+            let cmds = rank_loop.session.cmds.clone();
             let loop_state = AtomicU8::new(LOOP_RUNNING);
             let (looped, mastered) = std::thread::scope(|s| {
                 let master = std::thread::Builder::new()
                     .name("master".into())
                     .spawn_scoped(s, || {
-                        master_loop(
-                            node,
-                            ch,
-                            cmds,
-                            world.size,
-                            deadline,
-                            &loop_state,
-                            FINISH_GRACE,
-                        )
+                        master_loop(node, ch, cmds, size, deadline, &loop_state, FINISH_GRACE)
                     });
                 let Ok(master) = master else {
                     return (
@@ -189,36 +239,7 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
             t.local_packets += traffic.local_packets;
         }
     }
-    let RankLoop {
-        clock,
-        finished,
-        finals,
-        traffic,
-        ..
-    } = rank_loop;
-    let elapsed = clock.now();
-    let finish_by = deadline
-        .map_or(started, |(d, _)| d)
-        .max(Instant::now() + FINISH_GRACE);
-    finish(session, finish_by)?;
-    *guard = Phase::Finalized(world);
-    if world.rank != 0 {
-        let mut report = assemble("mpi", world.size, Vec::new(), elapsed);
-        report.extras = Extras::NotRoot { rank: world.rank };
-        return Ok(report);
-    }
-    let mut all = finished;
-    let mut ranks = vec![RankTraffic {
-        peak_resident_bytes: crate::stats::peak_resident_bytes().unwrap_or(0),
-        ..traffic
-    }];
-    for f in finals.into_iter().skip(1).flatten() {
-        all.extend(f.nodes);
-        ranks.push(f.traffic);
-    }
-    let mut report = assemble("mpi", world.size, all, elapsed);
-    report.extras = Extras::Ranks(ranks);
-    Ok(report)
+    Ok(())
 }
 
 /// A rank's part of the result, sent to rank 0 at the end.
@@ -271,6 +292,11 @@ struct RankLoop<'s, W: Workload> {
     /// Final reports by rank (rank 0 only).
     finals: Vec<Option<FinalReport<W>>>,
     traffic: RankTraffic,
+    /// Data requests go tagged [`TAG_DATA`], answered by their owner's
+    /// MPI thread ([`DataService::OnArrival`]).
+    on_arrival: bool,
+    /// What this rank's MPI thread answered for it.
+    served: Arc<std::sync::Mutex<RankTraffic>>,
     fault: Option<Fault>,
 }
 
@@ -303,6 +329,8 @@ impl<'s, W: Workload> RankLoop<'s, W> {
                 rank,
                 ..RankTraffic::default()
             },
+            on_arrival: config.data_service == DataService::OnArrival,
+            served: Arc::default(),
             fault,
         })
     }
@@ -402,9 +430,11 @@ impl<'s, W: Workload> RankLoop<'s, W> {
 
     fn on_event(&mut self, ev: Event) -> Result<(), RunError> {
         match ev {
+            // A data request the MPI thread had no handler for yet is
+            // answered between steps.
             Event::Received {
                 from,
-                tag: TAG_PACKET,
+                tag: TAG_PACKET | TAG_DATA,
                 bytes,
             } => {
                 self.traffic.messages_received += 1;
@@ -511,7 +541,14 @@ impl<'s, W: Workload> RankLoop<'s, W> {
         }
         self.traffic.messages_sent += 1;
         self.traffic.bytes_sent += bytes.len() as u64;
-        self.send(to, if for_master { TAG_MASTER } else { TAG_PACKET }, bytes)
+        let tag = if for_master {
+            TAG_MASTER
+        } else if self.on_arrival && DataServer::is_request(&packet) {
+            TAG_DATA
+        } else {
+            TAG_PACKET
+        };
+        self.send(to, tag, bytes)
     }
 
     fn send(&self, to: usize, tag: i32, bytes: Vec<u8>) -> Result<(), RunError> {
@@ -522,6 +559,7 @@ impl<'s, W: Workload> RankLoop<'s, W> {
     }
 
     fn send_final(&mut self) -> Result<(), RunError> {
+        self.merge_served();
         let report = FinalReport::<W> {
             rank: self.rank,
             nodes: std::mem::take(&mut self.finished),

@@ -28,6 +28,19 @@ pub const TAG_FINAL: i32 = 2;
 /// MPI tag of a packet for the master (on rank 0): the MPI thread hands it
 /// to the master's thread, not to the processor loop.
 pub const TAG_MASTER: i32 = 3;
+/// MPI tag of a data request where the run answers them on arrival
+/// ([`crate::DataService::OnArrival`]): the owner's MPI thread answers it
+/// with the rank's data server, or, before the rank's run has installed one,
+/// hands it to the processor loop as a packet.
+pub const TAG_DATA: i32 = 4;
+
+/// Answers a data request on the MPI thread: the sending rank and the
+/// encoded request in, the requesting rank and the encoded reply out.
+pub(crate) type DataHandler =
+    Box<dyn FnMut(usize, &[u8]) -> Result<(usize, Vec<u8>), RunError> + Send>;
+
+/// The rank's [`DataHandler`] while a run that answers on arrival is on.
+pub(crate) type DataSlot = std::sync::Arc<Mutex<Option<DataHandler>>>;
 
 /// Longest a blocked processor loop (or the master's thread) waits before
 /// checking its time limit.
@@ -107,6 +120,8 @@ pub(crate) struct Session {
     /// processor loop. Held only while the run is (an `events` whose every
     /// sender is gone tells that the MPI thread stopped).
     pub(crate) master: Option<MasterChannels>,
+    /// The data handler the MPI thread answers [`TAG_DATA`] with.
+    pub(crate) data: DataSlot,
     pub(crate) thread: Option<JoinHandle<()>>,
 }
 
@@ -152,9 +167,11 @@ pub fn init() -> Result<World, RunError> {
     let (ev_tx, ev_rx) = mpsc::channel();
     let (master_tx, master_rx) = mpsc::channel();
     let (events_tx, to_master) = (ev_tx.clone(), master_tx.clone());
+    let data = DataSlot::default();
+    let handler = data.clone();
     let thread = std::thread::Builder::new()
         .name("mpi".into())
-        .spawn(move || mpi_thread(ready_tx, cmd_rx, ev_tx, to_master))
+        .spawn(move || mpi_thread(ready_tx, cmd_rx, ev_tx, to_master, handler))
         .map_err(|e| runtime_err(format!("cannot start the MPI thread: {e}")))?;
     let world = match ready_rx.recv() {
         Ok(Ok(world)) => world,
@@ -170,6 +187,7 @@ pub fn init() -> Result<World, RunError> {
             to_master: master_tx,
             inbox: master_rx,
         }),
+        data,
         thread: Some(thread),
     });
     Ok(world)
@@ -360,6 +378,7 @@ pub(crate) fn mpi_thread(
     cmds: Receiver<Cmd>,
     events: Sender<Event>,
     master: Sender<Event>,
+    data: DataSlot,
 ) {
     let Some((universe, threading)) = mpi::initialize_with_threading(mpi::Threading::Funneled)
     else {
@@ -435,10 +454,33 @@ pub(crate) fn mpi_thread(
             };
             // The master's packets go straight to its thread: it answers
             // while processor 0 is in the middle of a step.
-            let _ = if status.tag() == TAG_MASTER {
-                master.send(ev)
-            } else {
-                events.send(ev)
+            let _ = match ev {
+                Event::Received { from, tag, bytes } if tag == TAG_DATA => {
+                    let mut handler = data.lock().unwrap_or_else(|e| e.into_inner());
+                    match handler.as_mut().map(|answer| answer(from, &bytes)) {
+                        Some(Ok((to, reply))) => {
+                            match PendingSend::start(&world, to, TAG_PACKET, reply) {
+                                Ok(p) => pending.push(p),
+                                Err(msg) if !failed => {
+                                    failed = true;
+                                    fail(msg);
+                                }
+                                Err(_) => {}
+                            }
+                            Ok(())
+                        }
+                        Some(Err(e)) if !failed => {
+                            failed = true;
+                            fail(e.to_string());
+                            Ok(())
+                        }
+                        Some(Err(_)) => Ok(()),
+                        // No run answers here yet: the processor loop will.
+                        None => events.send(Event::Received { from, tag, bytes }),
+                    }
+                }
+                ev if status.tag() == TAG_MASTER => master.send(ev),
+                ev => events.send(ev),
             };
         }
         let before = pending.len();

@@ -1,0 +1,59 @@
+//! The rank's data server on its MPI thread ([`crate::DataService::OnArrival`]).
+
+use std::sync::Arc;
+
+use super::transport::{decode_packet, encode_packet, host, runtime_err, DataHandler};
+use super::RankLoop;
+use crate::protocol::workload::Workload;
+use crate::server::DataServer;
+
+impl<W: Workload> RankLoop<'_, W> {
+    /// Where the run answers data requests on arrival: gives the MPI
+    /// thread the processor's data server (decoding each request and
+    /// encoding its reply there). Whether it did.
+    pub(super) fn install_data_handler(&mut self) -> bool {
+        let server = match self.nodes.first() {
+            Some(Some(node)) if self.on_arrival => node.server(),
+            _ => None,
+        };
+        let Some(server) = server else {
+            return false;
+        };
+        let (rank, served) = (self.rank, Arc::clone(&self.served));
+        let handler: DataHandler = Box::new(move |from, bytes| {
+            let request = decode_packet::<W>(bytes, from, rank)?;
+            if host(request.from) != from || !DataServer::is_request(&request) {
+                return Err(runtime_err(format!(
+                    "rank {rank}: rank {from} sent a message tagged as a data request that is not one from it"
+                )));
+            }
+            let reply = server
+                .serve(request)
+                .map_err(|e| runtime_err(format!("rank {rank}: {e}")))?;
+            let to = host(reply.to);
+            let out = encode_packet(&reply)?;
+            let mut t = served.lock().unwrap_or_else(|e| e.into_inner());
+            t.messages_received += 1;
+            t.bytes_received += bytes.len() as u64;
+            t.data_messages_received += 1;
+            t.data_bytes_received += bytes.len() as u64;
+            t.messages_sent += 1;
+            t.bytes_sent += out.len() as u64;
+            Ok((to, out))
+        });
+        *self.session.data.lock().unwrap_or_else(|e| e.into_inner()) = Some(handler);
+        true
+    }
+
+    /// Adds what the MPI thread answered to the rank's traffic (once).
+    pub(super) fn merge_served(&mut self) {
+        let s = std::mem::take(&mut *self.served.lock().unwrap_or_else(|e| e.into_inner()));
+        let t = &mut self.traffic;
+        t.messages_sent += s.messages_sent;
+        t.bytes_sent += s.bytes_sent;
+        t.messages_received += s.messages_received;
+        t.bytes_received += s.bytes_received;
+        t.data_messages_received += s.data_messages_received;
+        t.data_bytes_received += s.data_bytes_received;
+    }
+}
