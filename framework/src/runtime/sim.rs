@@ -12,7 +12,11 @@
 //!   packet already arriving on the receiver's link (both links are FIFO);
 //! * the first packet between two actors also waits for the link's set-up
 //!   (the Parsytec's "global message set-up");
-//! * the receiver's CPU pays a per-packet and per-byte cost to take it in.
+//! * the receiver's CPU pays a per-packet and per-byte cost to take it in;
+//! * with [`crate::DataService::OnArrival`], a data request is answered
+//!   by its owner's data server when it arrives: the owner's CPU pays the
+//!   request's receive cost and the reply's send cost then, and its
+//!   current step (or wait) ends that much later.
 //!
 //! Events are ordered by (time, sequence number), so a run is a pure function
 //! of the workload, the configuration and the model: the same inputs give the
@@ -451,9 +455,7 @@ pub fn run_sim<W: Workload>(
                     .as_ref()
                     .filter(|_| on_arrival && DataServer::is_request(&packet))
                 {
-                    // The owner's CPU takes the request in, copies the
-                    // items and sends the reply now, delaying its current
-                    // step (or its wait) by that long.
+                    // Answered now on the owner's CPU (module doc).
                     let cost_in = net.recv_overhead_ns + net.cpu_byte_ns * packet.bytes as f64;
                     let reply = server.serve(packet).map_err(|message| RunError::Workload {
                         at: Addr::from_slot(slot, procs),

@@ -7,6 +7,11 @@
 //! actors instead (see `flow.rs`). Each actor yields to the scheduler after
 //! every step, so many actors share few threads fairly, and awaits its channel
 //! only when it has nothing to do. This is the only module that names tokio.
+//!
+//! With [`crate::DataService::OnArrival`] a data request never waits in
+//! its owner's channel: the requesting actor has the owner's data server
+//! answer it at once (a one-sided read of the owner's items, which no step
+//! changes) and takes the reply in before its next step.
 
 use std::collections::HashMap;
 use std::sync::Arc;
