@@ -477,6 +477,22 @@ pub struct RankTraffic {
     pub peak_resident_bytes: u64,
 }
 
+impl RankTraffic {
+    /// Adds `other`'s message and byte counts (another thread of the same
+    /// rank: the master's, or the MPI thread's data server); the rank and
+    /// the peak memory stay.
+    pub fn add_counts(&mut self, other: &RankTraffic) {
+        self.messages_sent += other.messages_sent;
+        self.bytes_sent += other.bytes_sent;
+        self.messages_received += other.messages_received;
+        self.bytes_received += other.bytes_received;
+        self.data_messages_received += other.data_messages_received;
+        self.data_bytes_received += other.data_bytes_received;
+        self.local_packets += other.local_packets;
+        self.late_packets += other.late_packets;
+    }
+}
+
 /// This process's peak resident memory as the operating system measured
 /// it (Linux: `VmHWM` in `/proc/self/status`), in bytes; `None` elsewhere.
 pub fn peak_resident_bytes() -> Option<u64> {

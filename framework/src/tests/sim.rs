@@ -10,11 +10,11 @@ fn sim(net: Network) -> Sim {
     Sim::new(cost, net)
 }
 
-#[test]
-fn simulated_runs_match_sequential_for_all_policies_and_caches() {
-    let w = Mini::default();
+/// Runs `check` on every policy, a cache of one byte, of three items and
+/// without budget, and both network presets, for each processor count.
+fn each_config(w: &Mini, procs: &[usize], mut check: impl FnMut(Config, Network, String)) {
     let item = (24 + 8 * w.words) as u64;
-    for procs in [1, 2, 3, 5] {
+    for &procs in procs {
         for policy in Policy::ALL {
             for cache in [Some(1), Some(3 * item), None] {
                 for net in [Network::parsytec_cc(), Network::ten_gbe()] {
@@ -22,20 +22,29 @@ fn simulated_runs_match_sequential_for_all_policies_and_caches() {
                         .with_policy(policy)
                         .with_cache_bytes(cache)
                         .with_credits(2);
-                    let r = run_sim(Arc::new(w.clone()), &cfg, &sim(net))
-                        .unwrap_or_else(|e| panic!("{procs} procs, {policy}: {e}"));
-                    check_against_sequential(&w, &r);
-                    // Every actor's states cover the whole run exactly.
-                    for p in r.stats.procs.iter().chain([&r.stats.master]) {
-                        assert_eq!(p.time_ns.total(), r.stats.elapsed_ns, "{}", p.addr);
-                    }
-                    let tl = r.timeline().unwrap();
-                    let tl_total: u64 = tl.actors[0].iter().map(|s| s.total()).sum();
-                    assert_eq!(tl_total, r.stats.elapsed_ns);
+                    let what = format!("{procs} procs, {policy}, cache {cache:?}, {}", net.name);
+                    check(cfg, net, what);
                 }
             }
         }
     }
+}
+
+#[test]
+fn simulated_runs_match_sequential_for_all_policies_and_caches() {
+    let w = Mini::default();
+    each_config(&w, &[1, 2, 3, 5], |cfg, net, what| {
+        let r =
+            run_sim(Arc::new(w.clone()), &cfg, &sim(net)).unwrap_or_else(|e| panic!("{what}: {e}"));
+        check_against_sequential(&w, &r);
+        // Every actor's states cover the whole run exactly.
+        for p in r.stats.procs.iter().chain([&r.stats.master]) {
+            assert_eq!(p.time_ns.total(), r.stats.elapsed_ns, "{what}: {}", p.addr);
+        }
+        let tl = r.timeline().unwrap();
+        let tl_total: u64 = tl.actors[0].iter().map(|s| s.total()).sum();
+        assert_eq!(tl_total, r.stats.elapsed_ns, "{what}");
+    });
 }
 
 #[test]
@@ -118,50 +127,38 @@ fn presets_by_name() {
 #[test]
 fn serving_on_arrival_changes_no_result_and_covers_the_run() {
     let w = Mini::default();
-    let item = (24 + 8 * w.words) as u64;
     let (mut waited, mut waited_on_arrival) = (0u64, 0u64);
-    for procs in [2, 3, 5] {
-        for policy in Policy::ALL {
-            for cache in [Some(1), Some(3 * item), None] {
-                for net in [Network::parsytec_cc(), Network::ten_gbe()] {
-                    let cfg = Config::new(procs)
-                        .with_policy(policy)
-                        .with_cache_bytes(cache)
-                        .with_credits(2);
-                    let run = |service| {
-                        let cfg = cfg.clone().with_data_service(service);
-                        run_sim(Arc::new(w.clone()), &cfg, &sim(net.clone()))
-                            .unwrap_or_else(|e| panic!("{procs} procs, {policy}: {e}"))
-                    };
-                    let before = run(DataService::BetweenSteps);
-                    let r = run(DataService::OnArrival);
-                    check_against_sequential(&w, &r);
-                    let what = format!("{procs} procs, {policy}, cache {cache:?}");
-                    for p in r.stats.procs.iter().chain([&r.stats.master]) {
-                        assert_eq!(p.time_ns.total(), r.stats.elapsed_ns, "{what}: {}", p.addr);
-                    }
-                    let tl = r.timeline().unwrap();
-                    for (k, actor) in tl.actors.iter().enumerate() {
-                        let total: u64 = actor.iter().map(|s| s.total()).sum();
-                        assert_eq!(total, r.stats.elapsed_ns, "{what}: actor {k}'s timeline");
-                    }
-                    // Every request answered once, by its owner's server.
-                    let sent = r.stats.sum(|p| p.data_requests_sent);
-                    assert_eq!(r.stats.sum(|p| p.data_requests_served), sent, "{what}");
-                    assert_eq!(
-                        r.stats.sum(|p| p.data_items_served),
-                        r.stats.sum(|p| p.data_items_requested),
-                        "{what}"
-                    );
-                    if sent > 0 {
-                        assert!(r.stats.sum(|p| p.time_ns.serving_data) > 0, "{what}");
-                    }
-                    waited += before.stats.sum(|p| p.time_ns.waiting_data);
-                    waited_on_arrival += r.stats.sum(|p| p.time_ns.waiting_data);
-                }
-            }
+    each_config(&w, &[2, 3, 5], |cfg, net, what| {
+        let run = |service| {
+            let cfg = cfg.clone().with_data_service(service);
+            run_sim(Arc::new(w.clone()), &cfg, &sim(net.clone()))
+                .unwrap_or_else(|e| panic!("{what}: {e}"))
+        };
+        let before = run(DataService::BetweenSteps);
+        let r = run(DataService::OnArrival);
+        check_against_sequential(&w, &r);
+        for p in r.stats.procs.iter().chain([&r.stats.master]) {
+            assert_eq!(p.time_ns.total(), r.stats.elapsed_ns, "{what}: {}", p.addr);
         }
-    }
+        let tl = r.timeline().unwrap();
+        for (k, actor) in tl.actors.iter().enumerate() {
+            let total: u64 = actor.iter().map(|s| s.total()).sum();
+            assert_eq!(total, r.stats.elapsed_ns, "{what}: actor {k}'s timeline");
+        }
+        // Every request answered once, by its owner's server.
+        let sent = r.stats.sum(|p| p.data_requests_sent);
+        assert_eq!(r.stats.sum(|p| p.data_requests_served), sent, "{what}");
+        assert_eq!(
+            r.stats.sum(|p| p.data_items_served),
+            r.stats.sum(|p| p.data_items_requested),
+            "{what}"
+        );
+        if sent > 0 {
+            assert!(r.stats.sum(|p| p.time_ns.serving_data) > 0, "{what}");
+        }
+        waited += before.stats.sum(|p| p.time_ns.waiting_data);
+        waited_on_arrival += r.stats.sum(|p| p.time_ns.waiting_data);
+    });
     assert!(
         waited_on_arrival < waited,
         "waiting for data: {waited_on_arrival} ns served on arrival, {waited} ns between steps"

@@ -231,12 +231,7 @@ fn run_rank<W: Workload>(
                 (_, Ok(())) => return Err(runtime_err("rank 0: the master did not finish")),
             };
             rank_loop.finished.push((addr, acc, stats));
-            let t = &mut rank_loop.traffic;
-            t.messages_sent += traffic.messages_sent;
-            t.bytes_sent += traffic.bytes_sent;
-            t.messages_received += traffic.messages_received;
-            t.bytes_received += traffic.bytes_received;
-            t.local_packets += traffic.local_packets;
+            rank_loop.traffic.add_counts(&traffic);
         }
     }
     Ok(())

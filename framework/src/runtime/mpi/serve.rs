@@ -48,12 +48,6 @@ impl<W: Workload> RankLoop<'_, W> {
     /// Adds what the MPI thread answered to the rank's traffic (once).
     pub(super) fn merge_served(&mut self) {
         let s = std::mem::take(&mut *self.served.lock().unwrap_or_else(|e| e.into_inner()));
-        let t = &mut self.traffic;
-        t.messages_sent += s.messages_sent;
-        t.bytes_sent += s.bytes_sent;
-        t.messages_received += s.messages_received;
-        t.bytes_received += s.bytes_received;
-        t.data_messages_received += s.data_messages_received;
-        t.data_bytes_received += s.data_bytes_received;
+        self.traffic.add_counts(&s);
     }
 }
