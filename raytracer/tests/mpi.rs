@@ -260,6 +260,49 @@ fn mpirun_renders_two_bounces_as_the_sequential_renderer() {
     }
 }
 
+/// A data request tagged for the owner's MPI thread that finds no data
+/// server there (one that arrives before the rank's run has installed it;
+/// `no-server:1` keeps rank 1's off for the whole run) is answered by the
+/// processor loop between steps: the same picture, every request answered
+/// once, rank 1's processor serving in its own steps.
+#[test]
+fn a_data_request_before_the_server_is_installed_is_answered_between_steps() {
+    let d = tmpdir("noserver");
+    let (rad, vf) = cornell(&d);
+    let seq = d.join("seq.hdr");
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hybrid-rt"));
+    cmd.args(base(&rad, &vf))
+        .args(["-o", seq.to_str().unwrap()]);
+    let r = run_limited(cmd, &d, "seq");
+    assert!(r.status.success(), "sequential: {}", r.stderr);
+    let (out, json) = (d.join("mpi.hdr"), d.join("mpi.json"));
+    let mut args = base(&rad, &vf);
+    args.extend(["--runtime", "mpi", "--time-limit", "200"]);
+    args.extend(["--complete-cache", "off", "--serve-data", "on-arrival"]);
+    args.extend(["--parallel-stats", json.to_str().unwrap()]);
+    args.extend(["-o", out.to_str().unwrap()]);
+    let r = mpirun(
+        2,
+        &args,
+        &[("HYBRID_SCHED_MPI_FAULT", "no-server:1")],
+        &d,
+        "noserver",
+    );
+    assert!(r.status.success(), "{}", r.stderr);
+    assert!(
+        std::fs::read(&out).unwrap() == std::fs::read(&seq).unwrap(),
+        "the picture differs from the sequential one"
+    );
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let procs = stats["stats"]["procs"].as_array().unwrap();
+    let sum = |k: &str| procs.iter().map(|p| p[k].as_u64().unwrap()).sum::<u64>();
+    assert_eq!(sum("data_requests_served"), sum("data_requests_sent"));
+    let p1 = &procs[1];
+    assert!(p1["data_requests_served"].as_u64().unwrap() > 0, "{p1}");
+    assert!(p1["time_ns"]["serving_data"].as_u64().unwrap() > 0, "{p1}");
+}
+
 #[test]
 fn an_undecodable_message_is_a_clear_error_not_a_hang() {
     let d = tmpdir("garbage");

@@ -59,7 +59,10 @@
 //! The environment variable `HYBRID_SCHED_MPI_FAULT` makes one rank
 //! misbehave: `garbage:R` makes rank R send an undecodable message instead
 //! of its first packet, `exit:R` makes rank R exit (status 3, without
-//! finalising MPI) after its first step.
+//! finalising MPI) after its first step, `no-server:R` keeps rank R's
+//! data server off its MPI thread, so every data request to R takes the
+//! path of one that arrives before a rank has installed it (answered by
+//! the processor loop, between steps).
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -250,6 +253,7 @@ struct FinalReport<W: Workload> {
 enum Fault {
     Garbage,
     Exit,
+    NoServer,
 }
 
 impl Fault {
@@ -265,6 +269,7 @@ impl Fault {
         match kind.trim() {
             "garbage" => Some(Fault::Garbage),
             "exit" => Some(Fault::Exit),
+            "no-server" => Some(Fault::NoServer),
             _ => None,
         }
     }

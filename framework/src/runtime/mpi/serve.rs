@@ -12,6 +12,9 @@ impl<W: Workload> RankLoop<'_, W> {
     /// thread the processor's data server (decoding each request and
     /// encoding its reply there). Whether it did.
     pub(super) fn install_data_handler(&mut self) -> bool {
+        if self.fault == Some(super::Fault::NoServer) {
+            return false;
+        }
         let server = match self.nodes.first() {
             Some(Some(node)) if self.on_arrival => node.server(),
             _ => None,

@@ -114,6 +114,7 @@ fn faults_are_read_for_one_rank_only() {
     assert_eq!(Fault::parse("garbage:1", 1), Some(Fault::Garbage));
     assert_eq!(Fault::parse("garbage:1", 0), None);
     assert_eq!(Fault::parse("exit: 2", 2), Some(Fault::Exit));
+    assert_eq!(Fault::parse("no-server:0", 0), Some(Fault::NoServer));
     assert_eq!(Fault::parse("explode:0", 0), None);
     assert_eq!(Fault::parse("", 0), None);
 }
