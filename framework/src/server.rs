@@ -19,7 +19,9 @@
 //! termination detection: the server counts them, and the owner's answer
 //! to a probe includes its server's counts ([`DataServer::basic`]). Both
 //! counts only grow, and a request's receipt is counted before its reply
-//! is sent, so the counting argument of SEMANTICS.md section 4 holds.
+//! is sent, so the counting argument of SEMANTICS.md section 7 holds (the
+//! requester counts the request sent and the reply received as well, so
+//! an exchange in progress keeps the totals apart either way).
 
 use std::sync::{Arc, Mutex};
 
@@ -122,8 +124,8 @@ impl<W: Workload> DataServer<W> {
     }
 
     /// Basic messages (sent, received) the server handled for its owner:
-    /// one reply sent for each request received, the request counted
-    /// first.
+    /// one reply sent for each request received, both counted before the
+    /// reply leaves.
     pub(crate) fn basic(&self) -> (u64, u64) {
         let t = self.tally.lock().unwrap_or_else(|e| e.into_inner());
         (t.requests, t.requests)
