@@ -113,17 +113,24 @@ fn base<'a>(rad: &'a str, vf: &'a str) -> Vec<&'a str> {
     ]
 }
 
+/// The sequential renderer's picture of the scene `base` renders, with
+/// `extra` options, as written to a file in `d`.
+fn sequential_picture(d: &Path, rad: &str, vf: &str, extra: &[&str]) -> Vec<u8> {
+    let seq = d.join("seq.hdr");
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hybrid-rt"));
+    cmd.args(base(rad, vf))
+        .args(extra)
+        .args(["-o", seq.to_str().unwrap()]);
+    let r = run_limited(cmd, d, "seq");
+    assert!(r.status.success(), "sequential: {}", r.stderr);
+    std::fs::read(&seq).unwrap()
+}
+
 #[test]
 fn mpirun_renders_the_sequential_picture() {
     let d = tmpdir("same");
     let (rad, vf) = cornell(&d);
-    let seq = d.join("seq.hdr");
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hybrid-rt"));
-    cmd.args(base(&rad, &vf))
-        .args(["-o", seq.to_str().unwrap()]);
-    let r = run_limited(cmd, &d, "seq");
-    assert!(r.status.success(), "sequential: {}", r.stderr);
-    let want = std::fs::read(&seq).unwrap();
+    let want = sequential_picture(&d, &rad, &vf, &[]);
 
     for (k, (np, extra)) in [
         (1, &[][..]),
@@ -223,14 +230,7 @@ fn mpirun_renders_two_bounces_as_the_sequential_renderer() {
     let ab = [
         "-ab", "2", "-aa", ".2", "-ad", "32", "-as", "8", "-ar", "16", "-aw", "2",
     ];
-    let seq = d.join("seq.hdr");
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hybrid-rt"));
-    cmd.args(base(&rad, &vf))
-        .args(ab)
-        .args(["-o", seq.to_str().unwrap()]);
-    let r = run_limited(cmd, &d, "seq");
-    assert!(r.status.success(), "sequential: {}", r.stderr);
-    let want = std::fs::read(&seq).unwrap();
+    let want = sequential_picture(&d, &rad, &vf, &ab);
     for np in [1, 3] {
         let out = d.join(format!("mpi{np}.hdr"));
         let mut args = base(&rad, &vf);
@@ -269,12 +269,7 @@ fn mpirun_renders_two_bounces_as_the_sequential_renderer() {
 fn a_data_request_before_the_server_is_installed_is_answered_between_steps() {
     let d = tmpdir("noserver");
     let (rad, vf) = cornell(&d);
-    let seq = d.join("seq.hdr");
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hybrid-rt"));
-    cmd.args(base(&rad, &vf))
-        .args(["-o", seq.to_str().unwrap()]);
-    let r = run_limited(cmd, &d, "seq");
-    assert!(r.status.success(), "sequential: {}", r.stderr);
+    let want = sequential_picture(&d, &rad, &vf, &[]);
     let (out, json) = (d.join("mpi.hdr"), d.join("mpi.json"));
     let mut args = base(&rad, &vf);
     args.extend(["--runtime", "mpi", "--time-limit", "200"]);
@@ -290,7 +285,7 @@ fn a_data_request_before_the_server_is_installed_is_answered_between_steps() {
     );
     assert!(r.status.success(), "{}", r.stderr);
     assert!(
-        std::fs::read(&out).unwrap() == std::fs::read(&seq).unwrap(),
+        std::fs::read(&out).unwrap() == want,
         "the picture differs from the sequential one"
     );
     let stats: serde_json::Value =
