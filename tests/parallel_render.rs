@@ -8,7 +8,8 @@ use std::time::Duration;
 
 use hybrid_rt::parallel::Work;
 use hybrid_rt::parallel::{
-    render_parallel, CacheSize, Distribution, ParallelOptions, ParallelRender, RuntimeKind,
+    render_parallel, walks_worth_the_rest, CacheSize, Distribution, ParallelOptions,
+    ParallelRender, RuntimeKind,
 };
 use hybrid_rt::render::{RayCounts, RenderOptions, Renderer};
 use hybrid_rt::scene::{self, Scene, View};
@@ -236,8 +237,8 @@ fn a_fetch_limit_sends_large_fetches_data_parallel_and_changes_no_pixel() {
 /// point (data-parallel ones, and demand-driven ones whose cells are all
 /// resident), and the bundles of one point that need cells held elsewhere
 /// travel as one task: the picture and every ray count stay the same, and
-/// steps are saved. On one processor every bundle starts inline: the only
-/// demand-driven tasks are the tiles.
+/// steps are saved. On one processor, which holds the scene, tiles are
+/// traced whole: the only tasks are the tiles.
 #[test]
 fn shadow_bundles_start_in_the_step_that_shaded_their_point() {
     let c = case("studio", 32, 32, RenderOptions::default());
@@ -264,12 +265,16 @@ fn shadow_bundles_start_in_the_step_that_shaded_their_point() {
             let bundles = b.work(Work::ShadowSpawned) - b.work(Work::ShadowBundlesDp);
             assert!(dd(&b) - tiles < bundles, "{what}: one task per bundle");
             if procs == 1 {
+                // Holding the scene, it traces each tile whole: every
+                // bundle inline, no data-parallel step at all, where the
+                // paper's schedule runs each data-parallel bundle as one.
                 assert_eq!(inline, a.work(Work::ShadowSpawned), "{what}: all inline");
                 assert_eq!(dd(&a), tiles, "{what}: only tiles are tasks");
-                assert_eq!(
-                    dp(&a) + b.work(Work::ShadowBundlesDp),
-                    dp(&b),
-                    "{what}: one step saved per data-parallel bundle"
+                assert_eq!(dp(&a), 0, "{what}: a data-parallel step");
+                assert_eq!(a.work(Work::ShadowBundlesDp), 0, "{what}");
+                assert!(
+                    dp(&b) >= b.work(Work::ShadowBundlesDp),
+                    "{what}: a data-parallel bundle took no step"
                 );
             } else {
                 assert!(dd(&a) + dp(&a) < dd(&b) + dp(&b), "{what}: no step saved");
@@ -342,10 +347,11 @@ fn the_processors_own_hierarchy_changes_no_answer() {
                 assert_eq!(a.work(Work::TraceLeaves), 0, "{what}: a query walked");
                 // It casts through the renderer's hierarchy and reads the
                 // scene itself (no copies), charging each bundle as the
-                // walk does.
+                // walk does; none goes data-parallel where the tiles are
+                // traced whole.
+                assert_eq!(a.work(Work::ShadowBundlesDp), 0, "{what}");
                 for w in [
                     Work::ShadowSpawned,
-                    Work::ShadowBundlesDp,
                     Work::ShadowBundlesInline,
                     Work::ShadowBundles,
                     Work::ShadowPatches,
@@ -428,6 +434,46 @@ fn completing_the_cache_changes_no_answer() {
             b.work(Work::TraceLeaves)
         );
     }
+}
+
+/// A processor whose walks past its hierarchy have cost what holding the
+/// whole scene would (`walks_worth_the_rest`) asks for the rest whatever
+/// the completion percentage (here 100, which alone completes only a
+/// processor that asked for everything); the paper's cache (`None`) never
+/// completes. The picture and ray counts stay the sequential ones.
+#[test]
+fn walks_that_paid_for_the_scene_complete_the_cache() {
+    let c = case("studio", 160, 120, RenderOptions::default());
+    let walked = |s: &hybrid_sched::ProcStats| s.work.get(Work::TraceLeaves.name()).copied();
+    let mut popts = ParallelOptions::new(2);
+    popts.complete_cache = Some(100);
+    let a = check(&c, &popts);
+    popts.complete_cache = None;
+    let b = check(&c, &popts);
+    assert_same_rays(&a, &b, "studio");
+    let worth = walks_worth_the_rest(c.scene.object_count(), a.data_bytes);
+    let mut paid = 0;
+    for s in &a.stats.procs {
+        if walked(s).unwrap_or(0) >= worth {
+            paid += 1;
+            assert!(
+                s.cache_completed,
+                "{:?} walked {worth} leaves or more",
+                s.addr
+            );
+        }
+    }
+    assert!(
+        paid > 0,
+        "no processor walked {worth} leaves: a larger image is needed"
+    );
+    assert!(b.stats.procs.iter().all(|s| !s.cache_completed));
+    assert!(
+        a.work(Work::TraceLeaves) < b.work(Work::TraceLeaves),
+        "no walk saved ({} against {})",
+        a.work(Work::TraceLeaves),
+        b.work(Work::TraceLeaves)
+    );
 }
 
 /// Data requests answered on arrival by the owner's data server (the

@@ -104,8 +104,10 @@ pub struct Config {
     /// owner, and from then on holds every item. `None`: never (the
     /// paper's cache). At 50 the bytes fetched are at most twice what
     /// the tasks asked for: it stops paying for each task's fetches once
-    /// it has paid for half of what is held elsewhere. What changes is
-    /// only where data is, never a result (SEMANTICS.md section 6).
+    /// it has paid for half of what is held elsewhere. A workload may ask
+    /// for it sooner ([`crate::Ctx::complete_cache`]); with `None` it is
+    /// never done. What changes is only where data is, never a result
+    /// (SEMANTICS.md section 6).
     #[serde(default)]
     pub complete_cache: Option<u8>,
     /// When data requests are answered ([`DataService`]).

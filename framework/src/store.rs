@@ -419,6 +419,16 @@ impl<W: Workload> DataStore<W> {
         Ok(Admission::Waiting(requests.into_iter().collect()))
     }
 
+    /// [`DataStore::complete`] whatever has been asked for, where
+    /// completion is configured and has not happened yet (the workload
+    /// asked: [`crate::Ctx::complete_cache`]).
+    pub(crate) fn complete_now(&mut self) -> Option<Vec<(usize, Vec<W::DataId>)>> {
+        if self.complete_at.is_some() {
+            self.complete_at = Some(0);
+        }
+        self.complete()
+    }
+
     /// Completing the cache ([`crate::Config::complete_cache`]): once the
     /// bytes asked for reach the threshold, every item placed elsewhere
     /// and neither cached nor on its way, as requests (owner, ids; about

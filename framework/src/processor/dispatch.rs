@@ -36,6 +36,10 @@ impl<W: Workload> Processor<W> {
             h1 = add_charge(&mut self.pending_work, h1, kind, units);
             h2 = add_charge(&mut self.last_charges, h2, kind, units);
         }
+        if std::mem::take(&mut ctx.complete) {
+            let rest = self.store.complete_now();
+            self.request_rest(rest, true, now);
+        }
         if !ctx.has_emissions() {
             return Ok(());
         }

@@ -452,13 +452,8 @@ impl<W: Workload> Processor<W> {
                 for (owner, ids) in requests {
                     self.request_data(owner, ids, now);
                 }
-                if let Some(rest) = self.store.complete() {
-                    debug!(proc = self.id, owners = rest.len(), "completing the cache");
-                    self.stats.cache_completed = true;
-                    for (owner, ids) in rest {
-                        self.request_data(owner, ids, now);
-                    }
-                }
+                let rest = self.store.complete();
+                self.request_rest(rest, false, now);
             }
             Admission::Deferred(env, ids) => self.deferred.push_back((env, ids)),
             Admission::TooBig(env) => {
@@ -471,6 +466,29 @@ impl<W: Workload> Processor<W> {
             }
         }
         Ok(())
+    }
+
+    /// Sends the requests completing the cache, if there are any
+    /// (`asked`: the workload asked for it, [`crate::Ctx::complete_cache`]).
+    pub(super) fn request_rest(
+        &mut self,
+        rest: Option<Vec<(usize, Vec<W::DataId>)>>,
+        asked: bool,
+        now: Time,
+    ) {
+        let Some(rest) = rest else {
+            return;
+        };
+        debug!(
+            proc = self.id,
+            owners = rest.len(),
+            asked,
+            "completing the cache"
+        );
+        self.stats.cache_completed = true;
+        for (owner, ids) in rest {
+            self.request_data(owner, ids, now);
+        }
     }
 
     fn request_data(&mut self, owner: usize, ids: Vec<W::DataId>, now: Time) {

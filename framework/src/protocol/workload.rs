@@ -366,6 +366,9 @@ pub struct Ctx<W: Workload> {
     pub(crate) dd: Vec<W::DdTask>,
     pub(crate) dp: Vec<W::DpTask>,
     pub(crate) results: Vec<(Addr, W::Result)>,
+    /// The hook asked for the processor's cache to be completed
+    /// ([`Ctx::complete_cache`]).
+    pub(crate) complete: bool,
 }
 
 impl<W: Workload> Ctx<W> {
@@ -381,6 +384,7 @@ impl<W: Workload> Ctx<W> {
             dd: Vec::new(),
             dp: Vec::new(),
             results: Vec::new(),
+            complete: false,
         }
     }
 
@@ -395,6 +399,20 @@ impl<W: Workload> Ctx<W> {
         self.dd.clear();
         self.dp.clear();
         self.results.clear();
+        self.complete = false;
+    }
+
+    /// Asks for the running processor's cache to be completed now
+    /// ([`crate::Config::complete_cache`]) instead of when its tasks have
+    /// asked for the configured share: the workload judges that reaching
+    /// the data it lacks (walking past it, migrating towards it) has come
+    /// to cost more than holding it would. Honoured after the hook returns
+    /// where completion is configured (a cache without budget and no
+    /// fetch limit) and has not happened yet; ignored otherwise. Like the
+    /// threshold, it changes where data is, never a result (SEMANTICS.md
+    /// section 6).
+    pub fn complete_cache(&mut self) {
+        self.complete = true;
     }
 
     /// The processor running the hook. Informational only: results must not

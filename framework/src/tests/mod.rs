@@ -48,6 +48,9 @@ pub(crate) struct Mini {
     pub seed: u64,
     /// [`Workload::laid_out_for`].
     pub laid_out: Option<usize>,
+    /// A walk that must migrate asks for its processor's cache to be
+    /// completed ([`Ctx::complete_cache`]).
+    pub complete_on_migrate: bool,
 }
 
 impl Default for Mini {
@@ -62,6 +65,7 @@ impl Default for Mini {
             hotspot: false,
             seed: 7,
             laid_out: None,
+            complete_on_migrate: false,
         }
     }
 }
@@ -253,7 +257,12 @@ impl Workload for Mini {
                     w.acc = Self::fold(w.acc, id, item);
                     w.pos += 1;
                 }
-                None => return DpOutcome::Migrate(w),
+                None => {
+                    if self.complete_on_migrate {
+                        ctx.complete_cache();
+                    }
+                    return DpOutcome::Migrate(w);
+                }
             }
         }
         match w.finish {

@@ -382,6 +382,12 @@ pub struct GrownSlot {
 pub struct Grown {
     pub slot: std::sync::Mutex<GrownSlot>,
     pub walked: std::sync::atomic::AtomicU64,
+    /// Leaves walked since the start of the run (never reset), the number
+    /// at which holding the rest of the scene costs less than walking on
+    /// (worked out once), and whether the processor has asked for it.
+    pub walked_total: std::sync::atomic::AtomicU64,
+    pub rest_worth: std::sync::OnceLock<u64>,
+    pub asked_rest: std::sync::atomic::AtomicBool,
     /// The build over every non-empty leaf, once there is one: with a
     /// cache that never evicts it is never rebuilt, and its queries need
     /// no judgement (read without the lock).

@@ -504,7 +504,7 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub fetch_limit: String,
-    /// Beyond the paper: with an unlimited cache (and no --fetch-limit), a processor that has fetched this percentage of the scene data held elsewhere asks for the rest at once and from then on holds the whole scene (at 50 it fetches at most twice what its tasks asked for); `off`: the paper's cache, which fetches only what tasks select. The picture is the same; on the studio at 512x512 on 2 processors, with data requests answered between steps, it took the octree distribution's render from 1.12 to 0.87 s (`bench --scaling`, side by side).
+    /// Beyond the paper: with an unlimited cache (and no --fetch-limit), a processor asks for the rest of the scene data held elsewhere at once, and from then on holds the whole scene and traces its tiles as the sequential renderer does, when it has fetched this percentage of that data (at 50 it fetches at most twice what its tasks asked for) or sooner, once the octree walks past its own cells have cost what holding everything costs (a hierarchy over every object and a copy of the cell data); `off`: the paper's cache, which fetches only what tasks select. The picture is the same (the book's Parallel chapter; the times are in its Benchmarks chapter).
     #[arg(
         long,
         default_value = "50",

@@ -208,7 +208,6 @@ impl RtWorkload {
                 Request::Shadow(bundle) | Request::Scatter(bundle) if whole.is_some() => {
                     let caster = whole.as_ref().expect("matched");
                     tally.spawned += 1;
-                    tally.dp += self.shadow_goes_dp(bundle) as u64;
                     let v = self.run_bundle(caster, bundle, &mut tally.counts);
                     children.push(match r {
                         Request::Scatter(_) => Child::KnownScatter(v),
@@ -380,7 +379,7 @@ impl RtWorkload {
         );
         ctx.charge(Work::TraceLeaves, leaves);
         ctx.charge(Work::TraceObjects, tests);
-        self.note_walked(ctx.proc_id(), leaves);
+        self.note_walked(ctx, leaves);
         match partial {
             Partial::Blocked(leaf) => {
                 job.next = Some(leaf);
@@ -495,7 +494,7 @@ impl RtWorkload {
         let (leaves, tests) = visits.get();
         ctx.charge(Work::TraceLeaves, leaves);
         ctx.charge(Work::TraceObjects, tests);
-        self.note_walked(ctx.proc_id(), leaves);
+        self.note_walked(ctx, leaves);
         ctx.charge(Work::TraceLocal, caster.local_answers.get());
         if let Some(leaf) = caster.blocked() {
             if caster.replayable() {
@@ -535,8 +534,6 @@ pub(super) enum ShadowRun {
 #[derive(Default)]
 struct WholeTally {
     spawned: u64,
-    /// Of them, those the paper would make data-parallel.
-    dp: u64,
     counts: ShadowCounts,
 }
 
@@ -549,7 +546,6 @@ impl WholeTally {
         let c = &self.counts;
         for (kind, units) in [
             (Work::ShadowSpawned, self.spawned),
-            (Work::ShadowBundlesDp, self.dp),
             (Work::ShadowBundlesInline, self.spawned),
             (Work::TraceLeaves, 0),
             (Work::TraceObjects, 0),
@@ -562,10 +558,7 @@ impl WholeTally {
             (Work::ShadowUnoccluded, c.unoccluded),
             (Work::ShadowSegments, c.transparent_segments),
         ] {
-            // Only a bundle made data-parallel charges that kind.
-            if kind != Work::ShadowBundlesDp || units > 0 {
-                ctx.charge(kind, units);
-            }
+            ctx.charge(kind, units);
         }
     }
 }

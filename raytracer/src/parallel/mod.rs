@@ -39,6 +39,7 @@ use hybrid_sched::{Config, DataService, Extras, Network, Policy, RankTraffic, Ru
 use serde::Serialize;
 
 pub use distribution::Distribution;
+pub use kernel::walks_worth_the_rest;
 pub use partition::Partition;
 pub use runtime::check_hybrid;
 #[cfg(feature = "mpi")]

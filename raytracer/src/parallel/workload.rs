@@ -497,6 +497,7 @@ impl Workload for RtWorkload {
     fn execute_dd(&self, task: DdTask, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
         match task {
             DdTask::Tile(t) if self.replicated() => self.trace_tile_whole(&t, ctx),
+            DdTask::Tile(t) if self.trace_tile_held(&t, ctx) => {}
             DdTask::Tile(t) => {
                 for (key, task) in self.tile_primaries(&t, ctx.proc_id()) {
                     ctx.charge(Work::RaysSpawned, 1);

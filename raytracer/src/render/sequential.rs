@@ -491,16 +491,34 @@ impl<'s> Renderer<'s> {
     /// (infinite if it left the scene; through surfaces that only pass the
     /// ray on, as Radiance's `raytrans()` counts it).
     pub fn trace(&self, task: &RayTask, st: &mut TraceState) -> (Color, f64) {
+        self.trace_with(&self.caster(), task, st)
+    }
+
+    /// [`Renderer::trace`] through `caster`, which must answer as the
+    /// renderer's own does (a hierarchy over every object of the scene,
+    /// built from copies: the parallel renderer's processor that has come
+    /// to hold the whole scene). The same value, bit for bit.
+    pub fn trace_with<C: RayCaster>(
+        &self,
+        caster: &C,
+        task: &RayTask,
+        st: &mut TraceState,
+    ) -> (Color, f64) {
         let bucket = match task.kind {
             RayKind::Primary | RayKind::PassThrough => Bucket::Primary,
             RayKind::Reflection => Bucket::Reflection,
             RayKind::Refraction => Bucket::Refraction,
             RayKind::Ambient => Bucket::Ambient,
         };
-        Self::timed(st, bucket, |st| self.radiance_untimed(task, st))
+        Self::timed(st, bucket, |st| self.radiance_untimed(caster, task, st))
     }
 
-    fn radiance_untimed(&self, task: &RayTask, st: &mut TraceState) -> (Color, f64) {
+    fn radiance_untimed<C: RayCaster>(
+        &self,
+        caster: &C,
+        task: &RayTask,
+        st: &mut TraceState,
+    ) -> (Color, f64) {
         match task.kind {
             RayKind::Primary => st.counts.primary += 1,
             RayKind::Reflection => st.counts.reflection += 1,
@@ -508,7 +526,6 @@ impl<'s> Renderer<'s> {
             RayKind::PassThrough => st.counts.pass_through += 1,
             RayKind::Ambient => st.counts.ambient += 1,
         }
-        let caster = self.caster();
         let Some(hit) = caster.intersect(&task.ray, task.tmin, task.tmax) else {
             return (self.sky_seen(task), f64::INFINITY);
         };
@@ -526,7 +543,7 @@ impl<'s> Renderer<'s> {
             sum += shaded.constant * (av - self.options.av);
         }
         for req in shaded.ambient.iter().flatten() {
-            sum += req.coef * self.ambient_value(task, req, st);
+            sum += req.coef * self.ambient_value(caster, task, req, st);
         }
         // Radiance's `raytrans()`: a surface that only passes the ray on
         // (a mist's boundary, `void`, a clipped surface, a back face under
@@ -548,7 +565,7 @@ impl<'s> Renderer<'s> {
         while i < end {
             match st.requests[i] {
                 Request::Trace { task: child, coef } => {
-                    let (c, t) = self.trace(&child, st);
+                    let (c, t) = self.trace_with(caster, &child, st);
                     if passes_on {
                         dist = hit.t + t;
                     }
@@ -568,7 +585,7 @@ impl<'s> Renderer<'s> {
                         while let Some(Request::Shadow(bundle)) = requests[..end].get(i) {
                             sum += run_shadow_bundle(
                                 &ctx,
-                                &caster,
+                                caster,
                                 bundle,
                                 &mut st.patches,
                                 &mut st.counts.shadow,
@@ -592,7 +609,7 @@ impl<'s> Renderer<'s> {
                 while let Some(Request::Scatter(bundle)) = requests[..end].get(i) {
                     sum += run_shadow_bundle(
                         &ctx,
-                        &caster,
+                        caster,
                         bundle,
                         &mut st.patches,
                         &mut st.counts.shadow,
@@ -610,10 +627,17 @@ impl<'s> Renderer<'s> {
     /// from the irradiance cache, else a new hemisphere sampled now (and
     /// cached), else `-av` where the sample rays would be too deep or too
     /// light.
-    fn ambient_value(&self, task: &RayTask, req: &AmbientRequest, st: &mut TraceState) -> Color {
+    fn ambient_value<C: RayCaster>(
+        &self,
+        caster: &C,
+        task: &RayTask,
+        req: &AmbientRequest,
+        st: &mut TraceState,
+    ) -> Color {
         let s = &self.ambient;
         st.counts.ambient_cache.lookups += 1;
-        let mut occluded = |p: Vec3, dir: Vec3, len: f64| self.leak_occluded(req, p, dir, len);
+        let mut occluded =
+            |p: Vec3, dir: Vec3, len: f64| self.leak_occluded(caster, req, p, dir, len);
         if let Some(v) = st.ambient.lookup(
             s,
             req.point,
@@ -631,11 +655,11 @@ impl<'s> Renderer<'s> {
         };
         st.counts.ambient_cache.hemispheres += 1;
         for (div, t) in h.first_pass() {
-            let (c, d) = self.trace(&t, st);
+            let (c, d) = self.trace_with(caster, &t, st);
             h.add(div, c, d);
         }
         for (div, t) in h.second_pass(s.super_samples) {
-            let (c, d) = self.trace(&t, st);
+            let (c, d) = self.trace_with(caster, &t, st);
             h.add(div, c, d);
         }
         let (value, rec) = h.finish(s);
@@ -650,9 +674,15 @@ impl<'s> Renderer<'s> {
     /// `dir`. Nominally transparent surfaces (Radiance's `T_TRANSP` types:
     /// glass, dielectrics, `trans` and the like, mist, antimatter) are
     /// passed whatever they transmit.
-    fn leak_occluded(&self, req: &AmbientRequest, p: Vec3, dir: Vec3, len: f64) -> bool {
+    fn leak_occluded<C: RayCaster>(
+        &self,
+        caster: &C,
+        req: &AmbientRequest,
+        p: Vec3,
+        dir: Vec3,
+        len: f64,
+    ) -> bool {
         const MAX_SEGMENTS: usize = 64;
-        let caster = self.caster();
         let mut ray = Ray::new(
             offset_origin_scaled(p, req.normal, dir, req.offset_scale),
             dir,
