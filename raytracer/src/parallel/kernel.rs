@@ -177,8 +177,9 @@ const WALKED_PER_OBJECT: u64 = 10;
 /// held elsewhere. Measured on the studio at 512x512, two processors, the
 /// render holding its partial hierarchies until half the data it lacks
 /// was asked for against the same render holding every cell from its
-/// first fetch: 1.05, 1.11 and 1.14 us more executing time per leaf
-/// walked (the `trace.leaves` count) in three runs.
+/// first fetch: 1.05, 1.11 and 1.14 us more time executing and selecting
+/// (both processors) per leaf walked (the first render's `trace.leaves`)
+/// in three runs.
 const WALK_OVERHEAD_NS: f64 = 1100.0;
 
 /// A hierarchy's build per object (see [`WALKED_PER_OBJECT`]).
