@@ -200,7 +200,7 @@ const COPY_NS_PER_BYTE: f64 = 1.0;
 /// costs at most twice the better of never buying and buying at once.
 /// Whether a processor may buy is the framework's (a cache without
 /// budget, completion configured: `render --complete-cache`); the picture
-/// is the same either way. The studio (4,602 objects, 2.9 MB): about
+/// is the same either way. The studio (4,602 objects, 3.0 MB): about
 /// 9,400 leaves.
 pub fn walks_worth_the_rest(objects: usize, data_bytes: u64) -> u64 {
     let price = objects as f64 * BUILD_NS_PER_OBJECT + data_bytes as f64 * COPY_NS_PER_BYTE;
