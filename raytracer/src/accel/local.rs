@@ -366,28 +366,24 @@ impl GrownKernel {
 }
 
 /// Per processor, where the parallel renderer keeps its grown hierarchy:
-/// the latest build, the number of cached items it was built over, and
-/// the number at which the next one is due.
+/// the latest build, the number of cached items it was built over, the
+/// number at which the next one is due, and [`Grown::walked`] when it was
+/// built.
 #[derive(Debug, Default)]
 pub struct GrownSlot {
     pub kernel: Option<std::sync::Arc<GrownKernel>>,
     pub built_over: usize,
     pub next_build: usize,
+    pub walked_at_build: u64,
 }
 
 /// A processor's [`GrownSlot`] behind a lock, and the leaves its queries
-/// have walked since the last build because it does not hold them
+/// have walked since the start of the run because it does not hold them
 /// (counted without the lock: every shadow bundle adds to it).
 #[derive(Debug, Default)]
 pub struct Grown {
     pub slot: std::sync::Mutex<GrownSlot>,
     pub walked: std::sync::atomic::AtomicU64,
-    /// Leaves walked since the start of the run (never reset), the number
-    /// at which holding the rest of the scene costs less than walking on
-    /// (worked out once), and whether the processor has asked for it.
-    pub walked_total: std::sync::atomic::AtomicU64,
-    pub rest_worth: std::sync::OnceLock<u64>,
-    pub asked_rest: std::sync::atomic::AtomicBool,
     /// The build over every non-empty leaf, once there is one: with a
     /// cache that never evicts it is never rebuilt, and its queries need
     /// no judgement (read without the lock).

@@ -77,50 +77,56 @@ impl RtWorkload {
     /// sequential kernel does not count them, so a simulated replicated run
     /// prices tracing from the ray counts alone.
     pub(super) fn trace_tile_whole(&self, t: &Tile, ctx: &mut Ctx<Self>) {
-        let origin = Addr::Proc(ctx.origin());
-        let mut st = crate::render::TraceState::default();
-        if self.renderer.options().ps > 1 {
-            // Adaptive sampling: the tile with its grid cells as apron, so
-            // its pixels equal the sequential picture's.
-            let grid = self.renderer.grid(self.width, self.height);
-            let width = self.width as u32;
-            grid.fill_region(
-                t.x0 as usize..t.x1 as usize,
-                t.y0 as usize..t.y1 as usize,
-                &mut None,
-                &mut |x, y| {
-                    self.renderer
-                        .pixel(&self.view, self.width, self.height, x, y, &mut st)
-                },
-                &mut |x, y, value| {
-                    ctx.emit_result(
-                        origin,
-                        RtResult {
-                            key: NodeKey::root(y as u32 * width + x as u32),
-                            record: Record::Value(value),
-                        },
-                    )
-                },
-            );
+        if self.renderer.options().ps <= 1 {
+            let st = self.trace_primaries_whole(t, &self.renderer.caster(), ctx);
             self.charge_counts(&st, ctx);
             return;
         }
-        for y in t.y0..t.y1 {
-            for x in t.x0..t.x1 {
-                let Some(task) = self.primary(x, y) else {
-                    continue;
-                };
-                let value = self.renderer.radiance(&task, &mut st);
+        // Adaptive sampling: the tile with its grid cells as apron, so its
+        // pixels equal the sequential picture's.
+        let origin = Addr::Proc(ctx.origin());
+        let mut st = crate::render::TraceState::default();
+        let grid = self.renderer.grid(self.width, self.height);
+        let width = self.width as u32;
+        grid.fill_region(
+            t.x0 as usize..t.x1 as usize,
+            t.y0 as usize..t.y1 as usize,
+            &mut None,
+            &mut |x, y| {
+                self.renderer
+                    .pixel(&self.view, self.width, self.height, x, y, &mut st)
+            },
+            &mut |x, y, value| {
                 ctx.emit_result(
                     origin,
                     RtResult {
-                        key: NodeKey::root(y * self.width as u32 + x),
+                        key: NodeKey::root(y as u32 * width + x as u32),
                         record: Record::Value(value),
                     },
-                );
-            }
-        }
+                )
+            },
+        );
         self.charge_counts(&st, ctx);
+    }
+
+    /// Each primary ray of tile `t` traced whole through `caster` by the
+    /// sequential renderer's code ([`crate::render::Renderer::trace_with`]),
+    /// its pixel's value sent to the tile's origin; returns the tally of
+    /// what was traced.
+    pub(super) fn trace_primaries_whole<C: RayCaster>(
+        &self,
+        t: &Tile,
+        caster: &C,
+        ctx: &mut Ctx<Self>,
+    ) -> crate::render::TraceState {
+        let origin = Addr::Proc(ctx.origin());
+        let mut st = crate::render::TraceState::default();
+        for (key, task) in self.tile_primaries(t, ctx.proc_id()) {
+            let (value, _) = self.renderer.trace_with(caster, &task, &mut st);
+            let record = Record::Value(value);
+            ctx.emit_result(origin, RtResult { key, record });
+        }
+        st
     }
 
     /// Charges the rays and shadow work tallied in `st`.

@@ -27,12 +27,11 @@
 
 use std::sync::Arc;
 
-use hybrid_sched::{Addr, Ctx, DataView};
+use hybrid_sched::{Ctx, DataView};
 
 use super::caster::LocalQueries;
 use super::distribution::EMPTY;
 use super::tasks::{CellData, Tile};
-use super::tree::{Record, RtResult};
 use super::work::Work;
 use super::workload::RtWorkload;
 use crate::accel::{
@@ -332,13 +331,7 @@ impl RtWorkload {
         else {
             return false;
         };
-        let origin = Addr::Proc(ctx.origin());
-        let mut st = crate::render::TraceState::default();
-        for (key, task) in self.tile_primaries(t, ctx.proc_id()) {
-            let (value, _) = self.renderer.trace_with(&caster, &task, &mut st);
-            let record = Record::Value(value);
-            ctx.emit_result(origin, RtResult { key, record });
-        }
+        let st = self.trace_primaries_whole(t, &caster, ctx);
         self.charge_counts(&st, ctx);
         let c = &st.counts;
         let rays = c.primary + c.reflection + c.refraction + c.pass_through;
@@ -413,11 +406,11 @@ impl RtWorkload {
 
     /// Counts `leaves` walked by the running processor's queries outside
     /// its grown hierarchy (see [`WALKED_PER_OBJECT`]), and asks for the
-    /// rest of the scene ([`Ctx::complete_cache`]) once its walks have
-    /// cost what holding it would ([`RtWorkload::rest_worth`]).
+    /// rest of the scene ([`Ctx::complete_cache`]) with the walk that
+    /// takes the count past [`walks_worth_the_rest`] (once: the count
+    /// only grows).
     #[inline]
     pub(super) fn note_walked(&self, ctx: &mut Ctx<Self>, leaves: u64) {
-        use std::sync::atomic::Ordering::Relaxed;
         if leaves == 0 {
             return;
         }
@@ -425,14 +418,16 @@ impl RtWorkload {
         let Some(g) = self.grown.get(proc) else {
             return;
         };
-        g.walked.fetch_add(leaves, Relaxed);
-        let walked = g.walked_total.fetch_add(leaves, Relaxed) + leaves;
+        let before = g
+            .walked
+            .fetch_add(leaves, std::sync::atomic::Ordering::Relaxed);
+        let worth = *self.rest_worth.get_or_init(|| {
+            walks_worth_the_rest(self.renderer.scene().object_count(), self.data_bytes())
+        });
         // Only a processor with a hierarchy of its own gains by holding
         // everything: it then traces through it alone.
-        if walked >= *g.rest_worth.get_or_init(|| self.rest_worth())
-            && self.has_local_path(proc)
-            && !g.asked_rest.swap(true, Relaxed)
-        {
+        if before < worth && before + leaves >= worth && self.has_local_path(proc) {
+            let walked = before + leaves;
             tracing::debug!(
                 proc,
                 walked,
@@ -440,11 +435,6 @@ impl RtWorkload {
             );
             ctx.complete_cache();
         }
-    }
-
-    /// [`walks_worth_the_rest`] for this run's scene.
-    fn rest_worth(&self) -> u64 {
-        walks_worth_the_rest(self.renderer.scene().object_count(), self.data_bytes())
     }
 
     /// Processor `proc`'s grown hierarchy, rebuilt first if its cache has
@@ -463,7 +453,9 @@ impl RtWorkload {
         }
         let cached = data.cached_len();
         let mut slot = grown.slot.lock().unwrap_or_else(|e| e.into_inner());
-        let walked = grown.walked.load(std::sync::atomic::Ordering::Relaxed);
+        let total = grown.walked.load(std::sync::atomic::Ordering::Relaxed);
+        // Walked since the last build.
+        let walked = total - slot.walked_at_build;
         let paid = slot.kernel.as_ref().is_some_and(|k| {
             cached > slot.built_over && walked >= WALKED_PER_OBJECT * k.len().max(1) as u64
         });
@@ -490,7 +482,7 @@ impl RtWorkload {
                 let _ = grown.whole.set(Arc::clone(&g));
             }
             slot.kernel = Some(g);
-            grown.walked.store(0, std::sync::atomic::Ordering::Relaxed);
+            slot.walked_at_build = total;
         }
         slot.kernel.clone()
     }

@@ -124,6 +124,8 @@ pub struct RtWorkload {
     pub(super) kernels: Vec<std::sync::OnceLock<crate::accel::ProcessorKernel>>,
     /// Per processor, its hierarchy grown over its cache (see [`super::kernel`]).
     pub(super) grown: Vec<crate::accel::Grown>,
+    /// [`super::walks_worth_the_rest`] for this scene (worked out once).
+    pub(super) rest_worth: std::sync::OnceLock<u64>,
     /// A distributed compiled scene: the renderer holds its replicated
     /// part, and each processor reads its own cells (see
     /// [`RtWorkload::distributed`]).
@@ -260,6 +262,7 @@ impl RtWorkload {
                 .collect(),
             kernels: (0..procs.max(1)).map(|_| Default::default()).collect(),
             grown: (0..procs.max(1)).map(|_| Default::default()).collect(),
+            rest_worth: Default::default(),
             renderer,
             view,
             width,
