@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
+use hybrid_rt::parallel::tasks::screen_tiles;
 use hybrid_rt::parallel::Work;
 use hybrid_rt::parallel::{
     render_parallel, walks_worth_the_rest, CacheSize, Distribution, ParallelOptions,
@@ -243,8 +244,9 @@ fn a_fetch_limit_sends_large_fetches_data_parallel_and_changes_no_pixel() {
 fn shadow_bundles_start_in_the_step_that_shaded_their_point() {
     let c = case("studio", 32, 32, RenderOptions::default());
     let tile = 8;
-    let tiles = (c.width.div_ceil(tile) * c.height.div_ceil(tile)) as u64;
     for procs in [1, 3] {
+        // The frame's last tiles are handed out in quarters.
+        let tiles = screen_tiles(c.width, c.height, tile, 1, procs, true).len() as u64;
         for policy in Policy::ALL {
             let mut on = ParallelOptions::new(procs);
             on.policy = policy;
@@ -775,6 +777,36 @@ fn the_clip_cache_selects_enough_for_every_bundle() {
 }
 
 #[test]
+fn clipping_skips_the_subtrees_a_processor_holds_whole() {
+    // With the clip cache and a cache that never evicts, clipping does not
+    // enter subtrees whose every non-empty leaf the processor holds: fewer
+    // nodes visited than with a budget as large as the scene (which may
+    // evict, so clipping enters everything it does not own), and still no
+    // bundle or tile short of a cell. On the simulated cluster, where the
+    // walk and the selections are those of the paper's processors.
+    let c = case("studio", 64, 48, RenderOptions::default());
+    let mut p = ParallelOptions::new(8);
+    p.runtime = RuntimeKind::Sim;
+    p.complete_cache = None;
+    p.workload.clip_cache = true;
+    p.workload.distribution = Distribution::Predicted;
+    p.workload.tile = 8;
+    let mut budget = p.clone();
+    budget.cache = CacheSize::Percent(100.0);
+    let (pruned, whole) = (check(&c, &p), check(&c, &budget));
+    for r in [&pruned, &whole] {
+        assert_eq!(r.work(Work::ClipMisses), 0);
+    }
+    let nodes = |r: &ParallelRender| r.work(Work::ClipNodes);
+    assert!(
+        nodes(&pruned) * 2 < nodes(&whole),
+        "clipping visited {} nodes with an unlimited cache, {} with a budget",
+        nodes(&pruned),
+        nodes(&whole)
+    );
+}
+
+#[test]
 fn the_replicated_distribution_schedules_only_work() {
     // Every processor holds the scene: tiles are traced whole, nothing is
     // selected, fetched or migrated, and the picture is the sequential one
@@ -889,8 +921,10 @@ fn adaptive_pixel_sampling_equals_sequential_for_every_tiling_and_distribution()
                     // on each of its grid rows one grid cell more on each
                     // side (the apron whose columns decide the refinement
                     // of the tile's outer columns).
+                    // (The frame's last tiles are split, each part at
+                    // most `t` on a side.)
                     let t = tile.div_ceil(4) * 4;
-                    let tiles = c.width.div_ceil(t) * c.height.div_ceil(t);
+                    let tiles = screen_tiles(c.width, c.height, t, 4, 3, true).len();
                     let seq = c.counts.primary as usize;
                     let apron = (t / 4 + 1) * 2 * 4;
                     assert!(

@@ -250,21 +250,24 @@ pub enum ProcessorKernel {
 
 /// A set of octree nodes, a bit each.
 #[derive(Debug)]
-struct NodeSet(Vec<u64>);
+pub struct NodeSet(Vec<u64>);
 
 impl NodeSet {
-    fn new(nodes: usize) -> Self {
+    /// The empty set over `nodes` nodes.
+    pub fn new(nodes: usize) -> Self {
         NodeSet(vec![0; nodes.div_ceil(64)])
     }
 
+    /// Whether `n` is in the set.
     #[inline]
-    fn has(&self, n: NodeId) -> bool {
+    pub fn has(&self, n: NodeId) -> bool {
         self.0
             .get(n as usize / 64)
             .is_some_and(|w| w >> (n % 64) & 1 == 1)
     }
 
-    fn set(&mut self, n: NodeId) {
+    /// Puts `n` in the set (a node past the end is ignored).
+    pub fn set(&mut self, n: NodeId) {
         if let Some(w) = self.0.get_mut(n as usize / 64) {
             *w |= 1 << (n % 64);
         }

@@ -14,7 +14,7 @@ pub use cells::{
 };
 pub use clip::{ClipResult, Plane, Pyramid};
 pub use local::{
-    Grown, GrownKernel, GrownSlot, Hierarchy, HierarchyObjects, Judged, LocalKernel,
+    Grown, GrownKernel, GrownSlot, Hierarchy, HierarchyObjects, Judged, LocalKernel, NodeSet,
     ProcessorKernel,
 };
 pub use octree::{

@@ -581,6 +581,17 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub local_kernel: bool,
+    /// Hand out the frame's last tiles (two per processor) in quarters, so the processors run dry together (pictures do not change); `--tail-tiles false`: every tile of `--tile` pixels, as the paper's.
+    #[arg(
+        long = "tail-tiles",
+        value_name = "BOOL",
+        default_value_t = true,
+        num_args = 0..=1,
+        default_missing_value = "true",
+        action = clap::ArgAction::Set,
+        help_heading = "Parallel rendering"
+    )]
+    pub tail_tiles: bool,
     /// Simulated machine for --runtime sim: parsytec-cc (the paper's) or 10gbe.
     #[arg(
         long,

@@ -87,6 +87,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
             clip_cache: a.clip_cache,
             inline_local_shadows: a.inline_shadows,
             local_kernel: a.local_kernel,
+            tail_tiles: a.tail_tiles,
         },
         threads: a.threads,
         time_limit,

@@ -165,6 +165,9 @@ impl Ctx<'_> {
             // The simulated machine walks the octree (the cost model
             // prices the walk).
             local_kernel: false,
+            // Whole tiles to the end, as the paper's: `render` splits the
+            // last ones (EXPERIMENTS.md's record at the paper's size).
+            tail_tiles: false,
             ..WorkloadOptions::default()
         };
         p.network = s.network.clone();
@@ -203,6 +206,7 @@ impl Ctx<'_> {
             1,
             WorkloadOptions {
                 local_kernel: false,
+                tail_tiles: false,
                 ..WorkloadOptions::default()
             },
         );

@@ -3,14 +3,17 @@
 //! corners (or the leaves along its primary rays), a shadow bundle the
 //! pyramid around its light ([`crate::render::light::PreparedLight`]'s
 //! pyramids), clipped against the octree; with option `clip_cache` a
-//! selection per (processor, cell, light) is reused.
+//! selection per (processor, cell, light) is reused, and, where the cache
+//! never evicts, clipping skips the subtrees a processor already holds
+//! whole.
 
 use hybrid_sched::{Ctx, DataView};
 
+use super::clip_memory::{hold_whole, ClipEntry};
 use super::distribution::EMPTY;
 use super::tasks::Tile;
 use super::work::Work;
-use super::workload::{ClipEntry, RtWorkload};
+use super::workload::RtWorkload;
 use crate::accel::{NodeId, Pyramid};
 use crate::geometry::Vec3;
 use crate::render::light::LightExtent;
@@ -21,7 +24,12 @@ impl RtWorkload {
     /// Data selection for a tile: the pyramid from the eye through the
     /// tile's corners (perspective views), else the leaves along every
     /// primary ray (which are kept for the tile's execution).
-    pub(super) fn select_tile(&self, t: &Tile, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
+    pub(super) fn select_tile(
+        &self,
+        t: &Tile,
+        local: Option<&DataView<'_, Self>>,
+        ctx: &mut Ctx<Self>,
+    ) -> Vec<NodeId> {
         if self.replicated() || self.all_resident(None, ctx.proc_id()) {
             return Vec::new();
         }
@@ -39,7 +47,7 @@ impl RtWorkload {
                 .filter_map(|(x, y)| self.view.ray(x, y).map(|(r, _, _)| r.dir))
                 .collect();
             if dirs.len() == 4 {
-                return self.clip(&Pyramid::from_rays(self.view.vp, &dirs), ctx);
+                return self.clip(&Pyramid::from_rays(self.view.vp, &dirs), local, ctx);
             }
         }
         let mut leaves = Vec::new();
@@ -79,7 +87,7 @@ impl RtWorkload {
             }
         }
         match self.shadow_pyramid(b) {
-            Some(pyramid) => self.clip(&pyramid, ctx),
+            Some(pyramid) => self.clip(&pyramid, local, ctx),
             None => Vec::new(),
         }
     }
@@ -138,7 +146,7 @@ impl RtWorkload {
         let proc = ctx.proc_id();
         let key = (proc as u32, leaf, b.light);
         let shard = &self.clip_cache[proc % self.clip_cache.len()];
-        if let Some(e) = shard.lock().ok()?.get_mut(&key) {
+        if let Some(e) = shard.lock().ok()?.entries.get_mut(&key) {
             ctx.charge(Work::ClipReused, 1);
             // Only where nothing is ever evicted: a selection left empty
             // pins nothing, so with a budget a cell could leave before the
@@ -156,9 +164,9 @@ impl RtWorkload {
         let light = self.renderer.lights().get(b.light as usize)?;
         let points = light.shadow_hull_points(octree.node_bounds(leaf), b.point, b.offset_scale)?;
         let hull = Pyramid::hull(&points, b.point)?;
-        let sel = self.clip(&hull, ctx);
+        let sel = self.clip(&hull, local, ctx);
         if let Ok(mut cache) = shard.lock() {
-            cache.insert(
+            cache.entries.insert(
                 key,
                 ClipEntry {
                     leaves: sel.clone().into(),
@@ -170,14 +178,40 @@ impl RtWorkload {
     }
 
     /// The non-empty leaves meeting `pyramid` that this processor does not
-    /// hold, front to back (subtrees it holds entirely are not visited).
-    pub(super) fn clip(&self, pyramid: &Pyramid, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
+    /// hold, front to back: subtrees it owns entirely are not visited, nor,
+    /// with option `clip_cache` and a `local` view that never evicts, the
+    /// subtrees whose every non-empty leaf it holds (see
+    /// [`ClipCache`](super::clip_memory::ClipCache)).
+    pub(super) fn clip(
+        &self,
+        pyramid: &Pyramid,
+        local: Option<&DataView<'_, Self>>,
+        ctx: &mut Ctx<Self>,
+    ) -> Vec<NodeId> {
         let octree = self.renderer.octree();
-        let mut leaves = Vec::new();
-        let me = ctx.proc_id() as u32;
-        let wanted = |id: NodeId| {
+        let me = ctx.proc_id();
+        let owned = |id: NodeId| {
             let o = self.subtree_owner[id as usize];
-            !(o == me || o == EMPTY)
+            o == me as u32 || o == EMPTY
+        };
+        let view = local.filter(|l| self.opts.clip_cache && l.keeps_everything());
+        let mut guard = view.and_then(|_| self.clip_cache[me % self.clip_cache.len()].lock().ok());
+        let mut whole = guard.as_mut().map(|g| g.whole_of(me, octree.node_count()));
+        let mut leaves = Vec::new();
+        let wanted = |id: NodeId| {
+            if owned(id) {
+                return false;
+            }
+            if let (Some(whole), Some(view)) = (whole.as_deref_mut(), view) {
+                if whole.has(id) {
+                    return false;
+                }
+                if octree.is_leaf(id) && view.is_local(&id) {
+                    hold_whole(whole, octree, id, owned);
+                    return false;
+                }
+            }
+            true
         };
         let visits = octree.clip_leaves_where(pyramid, wanted, |l| {
             if !octree.leaf_objects(l).is_empty() {

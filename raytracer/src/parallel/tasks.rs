@@ -117,3 +117,121 @@ impl ByteSize for DpTask {
             }
     }
 }
+
+/// How many full tiles per processor [`screen_tiles`] splits at the end of
+/// the frame (option `tail_tiles`). On the simulated Parsytec CC (the
+/// studio at 512x381, 32 processors, the settings of EXPERIMENTS.md's
+/// record) the run took 3.2644 s of virtual time without the split, and
+/// 3.2090, 3.2074, 3.2013 and 3.2217 s splitting one to four per
+/// processor: one or two take most of the idle end away, more only adds
+/// selections.
+pub const TAIL_TILES_PER_PROC: usize = 2;
+
+/// The frame's tiles in the order the master hands them out: rows of
+/// squares of side `side` (cut at the frame's edges). With `tail` (option
+/// `tail_tiles`), the last [`TAIL_TILES_PER_PROC`] per processor are each
+/// handed out as four of side `side / 2` instead (rounded up to a multiple
+/// of `align`, the adaptive sampling grid's step where tiles must keep to
+/// it; not split when that is `side` again), so the frame ends on short
+/// tasks and the processors run dry together: the idea of guided
+/// self-scheduling (Polychronopoulos and Kuck, 1987), tasks that shrink as
+/// the work left does. Every pixel is in exactly one tile; pictures do not
+/// depend on the tiles.
+pub fn screen_tiles(
+    width: usize,
+    height: usize,
+    side: usize,
+    align: usize,
+    procs: usize,
+    tail: bool,
+) -> Vec<Tile> {
+    let squares = |x: std::ops::Range<usize>, y: std::ops::Range<usize>, s: usize| {
+        let s = s.max(1);
+        y.clone().step_by(s).flat_map(move |y0| {
+            let x = x.clone();
+            let y1 = (y0 + s).min(y.end);
+            x.clone()
+                .step_by(s)
+                .map(move |x0| Tile::new(x0..(x0 + s).min(x.end), y0..y1))
+        })
+    };
+    let full: Vec<Tile> = squares(0..width, 0..height, side).collect();
+    let half = (side / 2).max(1).div_ceil(align.max(1)) * align.max(1);
+    if !tail || half >= side {
+        return full;
+    }
+    let first_split = full
+        .len()
+        .saturating_sub(TAIL_TILES_PER_PROC * procs.max(1));
+    let mut out = Vec::with_capacity(full.len() + 3 * (full.len() - first_split));
+    for (k, t) in full.into_iter().enumerate() {
+        if k < first_split {
+            out.push(t);
+        } else {
+            let (x, y) = (t.x0 as usize..t.x1 as usize, t.y0 as usize..t.y1 as usize);
+            out.extend(squares(x, y, half));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every pixel in exactly one tile, tiles inside the frame.
+    fn check_cover(tiles: &[Tile], w: usize, h: usize) {
+        let mut seen = vec![0u8; w * h];
+        for t in tiles {
+            assert!(t.x0 < t.x1 && t.y0 < t.y1, "{t:?} is empty");
+            assert!(
+                t.x1 as usize <= w && t.y1 as usize <= h,
+                "{t:?} leaves the frame"
+            );
+            for y in t.y0..t.y1 {
+                for x in t.x0..t.x1 {
+                    seen[y as usize * w + x as usize] += 1;
+                }
+            }
+        }
+        assert!(seen.iter().all(|&n| n == 1), "a pixel in no tile or in two");
+    }
+
+    #[test]
+    fn the_last_tiles_are_split_and_every_pixel_is_in_one_tile() {
+        for (w, h, side, align, procs) in [
+            (512, 381, 16, 1, 32),
+            (37, 23, 16, 1, 2),
+            (64, 48, 16, 4, 3),
+            (10, 7, 16, 1, 8),
+            (5, 5, 1, 1, 4),
+            (100, 90, 15, 5, 1000),
+            (100, 90, 12, 6, 5),
+        ] {
+            let plain = screen_tiles(w, h, side, align, procs, false);
+            let tail = screen_tiles(w, h, side, align, procs, true);
+            check_cover(&plain, w, h);
+            check_cover(&tail, w, h);
+            let half = (side / 2).max(1).div_ceil(align) * align;
+            if half >= side {
+                assert_eq!(plain, tail);
+                continue;
+            }
+            // The same tiles first, in the same order; then only smaller ones.
+            let kept = plain.len().saturating_sub(TAIL_TILES_PER_PROC * procs);
+            assert_eq!(plain[..kept], tail[..kept], "{w}x{h} side {side}");
+            assert!(tail[kept..]
+                .iter()
+                .all(|t| t.x1 - t.x0 <= half as u32 && t.y1 - t.y0 <= half as u32));
+            // Tiles keep to the sampling grid (`side` is a multiple of `align`).
+            assert!(tail
+                .iter()
+                .all(|t| t.x0 as usize % align == 0 && t.y0 as usize % align == 0));
+        }
+        // The studio at 512x381 on 32 processors: 768 tiles, the last 64 in quarters.
+        assert_eq!(
+            screen_tiles(512, 381, 16, 1, 32, true).len(),
+            768 - 64 + 4 * 64
+        );
+    }
+}

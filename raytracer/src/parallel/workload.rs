@@ -33,7 +33,7 @@ use hybrid_sched::{Ctx, DataView, DpOutcome, Placement, Workload};
 use super::caster::Replay;
 use super::distribution::{partition_for, subtree_owners, Distribution, EMPTY};
 use super::partition::{object_bytes, Partition};
-use super::tasks::{CellData, DdTask, DpTask, RayJob, ShadowDp, Tile};
+use super::tasks::{CellData, DdTask, DpTask, RayJob, ShadowDp};
 use super::tree::{PixelTrees, RtResult};
 use super::work::Work;
 use crate::accel::{LeafObjects, NodeId, ObjectCopies, TraceCursor};
@@ -75,6 +75,10 @@ pub struct WorkloadOptions {
     /// objects, so the simulator (which prices the walk) runs without it.
     #[serde(default = "yes")]
     pub local_kernel: bool,
+    /// Beyond the paper: the frame's last tiles handed out in quarters
+    /// ([`super::tasks::screen_tiles`]). Off in runs recorded without it.
+    #[serde(default)]
+    pub tail_tiles: bool,
 }
 
 fn yes() -> bool {
@@ -90,6 +94,7 @@ impl Default for WorkloadOptions {
             clip_cache: false,
             inline_local_shadows: true,
             local_kernel: true,
+            tail_tiles: true,
         }
     }
 }
@@ -108,9 +113,9 @@ pub struct RtWorkload {
     /// Per node: the one processor owning every non-empty leaf below it,
     /// see [`super::distribution::subtree_owners`].
     pub(super) subtree_owner: Vec<u32>,
-    /// Shadow selections per (processor, cell, light) (option
-    /// `clip_cache`), one map per processor so they do not contend.
-    pub(super) clip_cache: Vec<Mutex<ClipCache>>,
+    /// Per processor (so they do not contend), its shadow selections and
+    /// the subtrees it holds whole (option `clip_cache`).
+    pub(super) clip_cache: Vec<Mutex<super::clip_memory::ClipCache>>,
     /// Primary rays a tile's selection computed (views whose tiles have no
     /// bounding pyramid), per processor, for its execution to take: each
     /// primary ray is computed once.
@@ -154,19 +159,6 @@ pub(super) struct Held {
 /// A tile's primary rays by its top-left pixel, row by row (`None`: the
 /// view has no ray through that pixel).
 pub(super) type TileRays = hybrid_sched::IdMap<(u32, u32), Vec<Option<crate::render::RayTask>>>;
-
-/// Shadow selections per (processor, cell, light).
-pub(super) type ClipCache = hybrid_sched::IdMap<(u32, NodeId, u32), ClipEntry>;
-
-/// One cached shadow selection.
-#[derive(Debug)]
-pub(super) struct ClipEntry {
-    pub(super) leaves: Arc<[NodeId]>,
-    /// Every leaf of the selection was found local, under a cache that
-    /// never evicts: bundles from this cell to this light need no
-    /// selection at all.
-    pub(super) all_local: bool,
-}
 
 impl RtWorkload {
     /// Makes every processor offer its resident copies to the leaves this
@@ -450,31 +442,22 @@ impl Workload for RtWorkload {
         cells
     }
 
-    fn root_tasks(&self, _procs: usize) -> Vec<DdTask> {
-        let mut t = self.opts.tile;
+    fn root_tasks(&self, procs: usize) -> Vec<DdTask> {
         let ps = self.renderer.options().ps as usize;
-        if ps > 1 && self.replicated() {
-            // Tiles aligned to the adaptive sampling grid: a tile then
-            // shares only its border grid rows and columns with others.
-            t = t.div_ceil(ps) * ps;
-        }
-        let mut out = Vec::new();
-        for y0 in (0..self.height).step_by(t) {
-            for x0 in (0..self.width).step_by(t) {
-                out.push(DdTask::Tile(Tile {
-                    x0: x0 as u32,
-                    y0: y0 as u32,
-                    x1: (x0 + t).min(self.width) as u32,
-                    y1: (y0 + t).min(self.height) as u32,
-                }));
-            }
-        }
-        out
+        // Tiles aligned to the adaptive sampling grid where replicated: a
+        // tile then shares only its border grid rows and columns with others.
+        let align = if ps > 1 && self.replicated() { ps } else { 1 };
+        let side = self.opts.tile.div_ceil(align) * align;
+        let tail = self.opts.tail_tiles;
+        super::tasks::screen_tiles(self.width, self.height, side, align, procs, tail)
+            .into_iter()
+            .map(DdTask::Tile)
+            .collect()
     }
 
     fn select_data(&self, task: &DdTask, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
         match task {
-            DdTask::Tile(t) => self.select_tile(t, ctx),
+            DdTask::Tile(t) => self.select_tile(t, None, ctx),
             DdTask::Shadows(jobs) => jobs
                 .iter()
                 .flat_map(|j| self.select_shadow(&j.bundle, None, ctx))
@@ -489,7 +472,7 @@ impl Workload for RtWorkload {
         ctx: &mut Ctx<Self>,
     ) -> Vec<NodeId> {
         match task {
-            DdTask::Tile(t) => self.select_tile(t, ctx),
+            DdTask::Tile(t) => self.select_tile(t, Some(local), ctx),
             DdTask::Shadows(jobs) => jobs
                 .iter()
                 .flat_map(|j| self.select_shadow(&j.bundle, Some(local), ctx))
