@@ -57,26 +57,47 @@ impl LocalKernel {
         cells: impl IntoIterator<Item = &'a LeafObjects>,
         shared: ObjectTable<'_>,
     ) -> LocalKernel {
-        let mut found: Vec<(ObjectId, Arc<HeldObject>)> = Vec::new();
+        // An object is listed by every leaf it overlaps (the studio's 4,602
+        // objects, 73,856 times): its first listing's copy is taken, found
+        // with a bit per id, and the copies sorted by id once each.
+        let mut seen: Vec<u64> = Vec::new();
+        let mut copies: Vec<(ObjectId, &Arc<HeldObject>)> = Vec::new();
         let mut instances: Vec<ObjectId> = Vec::new();
         for c in cells {
             for (j, &id) in c.ids().iter().enumerate() {
                 match c.own_shared(j) {
-                    Some(h) => found.push((id, Arc::clone(h))),
+                    Some(h) => {
+                        let (w, bit) = (id as usize / 64, 1u64 << (id % 64));
+                        if w >= seen.len() {
+                            seen.resize(w + 1, 0);
+                        }
+                        if seen[w] & bit == 0 {
+                            seen[w] |= bit;
+                            copies.push((id, h));
+                        }
+                    }
                     None => instances.push(id),
                 }
             }
         }
+        let copied = |id: ObjectId| {
+            seen.get(id as usize / 64)
+                .is_some_and(|w| w >> (id % 64) & 1 == 1)
+        };
         // An instance listed in many leaves is copied once.
         instances.sort_unstable();
         instances.dedup();
+        instances.retain(|&id| !copied(id));
+        let mut found: Vec<(ObjectId, Arc<HeldObject>)> =
+            Vec::with_capacity(copies.len() + instances.len());
+        found.extend(copies.into_iter().map(|(id, h)| (id, Arc::clone(h))));
         found.extend(
             instances
                 .into_iter()
                 .filter_map(|id| Some((id, HeldObject::new(shared.get(id)?.clone())))),
         );
-        found.sort_by_key(|f| f.0);
-        found.dedup_by_key(|f| f.0);
+        // Every id once: an unstable sort is deterministic.
+        found.sort_unstable_by_key(|f| f.0);
         let (ids, objects): (Vec<ObjectId>, Vec<Arc<HeldObject>>) = found.into_iter().unzip();
         let prims = Prims::from_ones(objects.iter().map(|h| h.prim()));
         let bvh = Bvh::build_with(&objects[..], prims);
