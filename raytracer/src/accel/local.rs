@@ -60,34 +60,27 @@ impl LocalKernel {
         // An object is listed by every leaf it overlaps (the studio's 4,602
         // objects, 73,856 times): its first listing's copy is taken, found
         // with a bit per id, and the copies sorted by id once each.
-        let mut seen: Vec<u64> = Vec::new();
+        let cells: Vec<&LeafObjects> = cells.into_iter().collect();
+        let ids_listed = cells.iter().flat_map(|c| c.ids().iter().copied());
+        let mut copied = NodeSet::new(ids_listed.max().map_or(0, |m| m as usize + 1));
         let mut copies: Vec<(ObjectId, &Arc<HeldObject>)> = Vec::new();
         let mut instances: Vec<ObjectId> = Vec::new();
-        for c in cells {
+        for c in &cells {
             for (j, &id) in c.ids().iter().enumerate() {
                 match c.own_shared(j) {
-                    Some(h) => {
-                        let (w, bit) = (id as usize / 64, 1u64 << (id % 64));
-                        if w >= seen.len() {
-                            seen.resize(w + 1, 0);
-                        }
-                        if seen[w] & bit == 0 {
-                            seen[w] |= bit;
-                            copies.push((id, h));
-                        }
+                    Some(h) if !copied.has(id) => {
+                        copied.set(id);
+                        copies.push((id, h));
                     }
+                    Some(_) => {}
                     None => instances.push(id),
                 }
             }
         }
-        let copied = |id: ObjectId| {
-            seen.get(id as usize / 64)
-                .is_some_and(|w| w >> (id % 64) & 1 == 1)
-        };
         // An instance listed in many leaves is copied once.
         instances.sort_unstable();
         instances.dedup();
-        instances.retain(|&id| !copied(id));
+        instances.retain(|&id| !copied.has(id));
         let mut found: Vec<(ObjectId, Arc<HeldObject>)> =
             Vec::with_capacity(copies.len() + instances.len());
         found.extend(copies.into_iter().map(|(id, h)| (id, Arc::clone(h))));
@@ -269,7 +262,8 @@ pub enum ProcessorKernel {
     Own(Box<LocalKernel>),
 }
 
-/// A set of octree nodes, a bit each.
+/// A set of octree nodes (or of other dense ids, such as objects'), a bit
+/// each.
 #[derive(Debug)]
 pub struct NodeSet(Vec<u64>);
 
