@@ -14,7 +14,7 @@ use crate::config::BundleConfig;
 use crate::flow::{CreditLedger, Credits, InputBuffer};
 use crate::protocol::message::{is_credit_limited, Msg, Packet, HEADER_BYTES};
 use crate::protocol::workload::Workload;
-use crate::protocol::{Addr, Class};
+use crate::protocol::{Addr, Class, Pool};
 
 struct Lane<W: Workload> {
     items: VecDeque<(Msg<W>, usize, Time)>,
@@ -55,6 +55,8 @@ pub(crate) struct Outbox<W: Workload> {
     /// Bytes of the messages waiting in lanes, and their high-water mark.
     backlog_bytes: usize,
     backlog_bytes_high_water: usize,
+    /// Bytes of the results among them.
+    result_backlog_bytes: usize,
     /// High-water mark of the work in flight here: input buffer bytes plus
     /// send backlog bytes, at the same moment.
     in_flight_high_water: usize,
@@ -86,6 +88,7 @@ impl<W: Workload> Outbox<W> {
             backlog_high_water: 0,
             backlog_bytes: 0,
             backlog_bytes_high_water: 0,
+            result_backlog_bytes: 0,
             in_flight_high_water: 0,
         }
     }
@@ -104,19 +107,19 @@ impl<W: Workload> Outbox<W> {
 
     /// A credit-limited message of `bytes` from `from` was consumed: its
     /// credit goes back with the next batch that is due.
-    pub(crate) fn consumed(&mut self, from: Addr, bytes: usize, now: Time) {
+    pub(crate) fn consumed(&mut self, from: Addr, pool: Pool, bytes: usize, now: Time) {
         self.inbuf.remove(bytes);
-        self.ledger.consumed(from.slot(self.procs), bytes);
+        self.ledger.consumed(from.slot(self.procs), pool, bytes);
         self.return_credits(false, now);
     }
 
     /// Sends the credits that are due; with `flush`, every owed one (the
     /// actor ran out of work).
     pub(crate) fn return_credits(&mut self, flush: bool, now: Time) {
-        for (slot, n, bytes) in self.ledger.take_due(flush) {
+        for (slot, pool, n, bytes) in self.ledger.take_due(flush) {
             self.push(
                 Addr::from_slot(slot, self.procs),
-                Msg::Credit(n, bytes as u64),
+                Msg::Credit(pool, n, bytes as u64),
                 now,
             );
         }
@@ -144,18 +147,23 @@ impl<W: Workload> Outbox<W> {
         self.backlog_high_water = self.backlog_high_water.max(self.backlog);
         self.backlog_bytes += bytes;
         self.backlog_bytes_high_water = self.backlog_bytes_high_water.max(self.backlog_bytes);
+        if class == Class::Result {
+            self.result_backlog_bytes += bytes;
+        }
         self.note_in_flight();
         self.pump_lane(slot, class, now, false);
     }
 
     /// Credits (and window bytes) came back from `from`; lanes towards it
     /// may move again.
-    pub(crate) fn grant(&mut self, from: Addr, credits: u32, bytes: u64, now: Time) {
+    pub(crate) fn grant(&mut self, from: Addr, pool: Pool, credits: u32, bytes: u64, now: Time) {
         let slot = from.slot(self.procs);
         let bytes = usize::try_from(bytes).unwrap_or(usize::MAX);
-        self.credits.grant(slot, credits, bytes);
+        self.credits.grant(slot, pool, credits, bytes);
         for class in Class::ALL {
-            self.pump_lane(slot, class, now, false);
+            if class.pool() == pool {
+                self.pump_lane(slot, class, now, false);
+            }
         }
     }
 
@@ -183,7 +191,8 @@ impl<W: Workload> Outbox<W> {
                 || lane.items.len() >= self.bundle.max_items
                 || lane.bytes >= self.bundle.max_bytes
                 || now.saturating_sub(oldest) >= self.max_age;
-            let credit = self.credits.available(slot) as usize;
+            let pool = class.pool();
+            let credit = self.credits.available(slot, pool) as usize;
             if !due || credit == 0 {
                 return;
             }
@@ -200,7 +209,7 @@ impl<W: Workload> Outbox<W> {
                 };
                 // The byte window: a message that does not fit waits for
                 // credit, unless it is the first with nothing outstanding.
-                if !self.credits.fits(slot, bytes - HEADER_BYTES, b) {
+                if !self.credits.fits(slot, pool, bytes - HEADER_BYTES, b) {
                     break;
                 }
                 let (msg, b, _) = lane.items.pop_front().expect("peeked");
@@ -214,7 +223,11 @@ impl<W: Workload> Outbox<W> {
             let payload = bytes - HEADER_BYTES;
             self.backlog -= items.len();
             self.backlog_bytes -= payload;
-            self.credits.consume(slot, items.len() as u32, payload);
+            if class == Class::Result {
+                self.result_backlog_bytes -= payload;
+            }
+            self.credits
+                .consume(slot, pool, items.len() as u32, payload);
             self.ready.push(Packet {
                 from: self.me,
                 to,
@@ -252,6 +265,11 @@ impl<W: Workload> Outbox<W> {
         self.backlog_bytes
     }
 
+    /// Bytes of the results waiting in lanes now.
+    pub(crate) fn result_backlog_bytes(&self) -> usize {
+        self.result_backlog_bytes
+    }
+
     /// Most bytes ever waiting in lanes.
     pub(crate) fn backlog_bytes_high_water(&self) -> usize {
         self.backlog_bytes_high_water
@@ -280,8 +298,8 @@ impl<W: Workload> Outbox<W> {
 
     /// Credits available towards `to` (for tests and diagnostics).
     #[cfg(test)]
-    pub(crate) fn credits_towards(&self, to: Addr) -> u32 {
-        self.credits.available(to.slot(self.procs))
+    pub(crate) fn credits_towards(&self, to: Addr, pool: Pool) -> u32 {
+        self.credits.available(to.slot(self.procs), pool)
     }
 }
 
@@ -293,7 +311,8 @@ mod example {
     /// Formerly the type's documentation example.
     #[test]
     fn outbox_bundles_and_credits() {
-        // Processor 0 of 2: bundles of up to 3 messages, 4 credits per receiver.
+        // Processor 0 of 2: bundles of up to 3 messages, 4 credits per
+        // receiver for results (and 4 for tasks).
         let bundle = BundleConfig {
             max_items: 3,
             ..BundleConfig::default()
@@ -317,7 +336,8 @@ mod example {
         // Each result used a credit: one is left towards processor 1, so of the
         // next bundle only one message leaves; the others wait (nothing blocks,
         // nothing is dropped).
-        assert_eq!(out.credits_towards(to), 1);
+        assert_eq!(out.credits_towards(to, Pool::Results), 1);
+        assert_eq!(out.credits_towards(to, Pool::Tasks), 4);
         for v in 3..6 {
             out.push(to, Msg::Result(Res { key: v, value: v }), 0);
         }
@@ -326,7 +346,7 @@ mod example {
 
         // The receiver consumed them and gave credits back; a flush (the sender
         // ran out of work) sends the rest without waiting for a full bundle.
-        out.grant(to, 3, 3 * 16, 0);
+        out.grant(to, Pool::Results, 3, 3 * 16, 0);
         out.pump(0, true);
         assert_eq!(out.take_ready()[0].items.len(), 2);
         assert!(out.is_empty());

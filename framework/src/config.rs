@@ -74,8 +74,9 @@ pub enum DataService {
 ///     .with_cache_bytes(Some(1 << 20))
 ///     .with_credits(16);
 /// assert_eq!(config.validate(), Ok(()));
-/// // Flow control bounds every input buffer: 8 senders with 16 credits each.
-/// assert_eq!(config.input_buffer_bound(), 128);
+/// // Flow control bounds every input buffer: 8 senders with 16 credits
+/// // each for tasks and 16 for results.
+/// assert_eq!(config.input_buffer_bound(), 256);
 ///
 /// assert_eq!(Config::new(0).validate(), Err(ConfigError::NoProcessors));
 /// assert_eq!(Config::new(2).with_credits(0).validate(), Err(ConfigError::ZeroCredits));
@@ -115,16 +116,18 @@ pub struct Config {
     pub data_service: DataService,
     /// Bundling of low-priority traffic.
     pub bundle: BundleConfig,
-    /// Flow control: how many credit-limited messages (tasks and results) one
-    /// worker may have unconsumed at one receiver. Bounds every input buffer
-    /// by `credits_per_link * procs` messages.
+    /// Flow control: how many tasks one worker may have unconsumed at one
+    /// receiver, and how many results (each has its own credits,
+    /// [`crate::Pool`]). Bounds every input buffer by
+    /// `2 * credits_per_link * procs` messages.
     pub credits_per_link: usize,
     /// Flow control in bytes: the work in flight at one actor, credit-limited
     /// messages received and not consumed (its input buffer) plus messages
     /// waiting in its outbox (its send backlog). Half of it bounds the input
     /// buffer (a byte window per sending link of half the budget over the
     /// processors), half the backlog (a processor whose backlog holds more
-    /// takes no new root task and keeps the children it spawns). See
+    /// takes no new root task and keeps the children it spawns, and runs
+    /// nothing while results wait in its backlog). See
     /// SEMANTICS.md section 5 for what is guaranteed.
     #[serde(default = "default_flight_bytes")]
     pub flight_bytes: usize,
@@ -297,16 +300,18 @@ impl Config {
 
     /// The most credit-limited messages any one actor can hold unconsumed:
     /// every worker (including, for the master, all of them) may have
-    /// `credits_per_link` outstanding towards it. Input buffer high-water marks
-    /// never exceed this (checked by the flow-control tests).
+    /// `credits_per_link` tasks and as many results outstanding towards
+    /// it. Input buffer high-water marks never exceed this (checked by the
+    /// flow-control tests).
     pub fn input_buffer_bound(&self) -> usize {
-        self.procs * self.credits_per_link
+        2 * self.procs * self.credits_per_link
     }
 
     /// The byte window of one link: a worker may have at most this many
     /// bytes of credit-limited messages unconsumed at one receiver (or a
-    /// single message of any size when it has none there). Half the
-    /// [`Config::flight_bytes`] budget shared by the `procs` senders.
+    /// single message of any size when it has none there), three quarters
+    /// for tasks and a quarter for results ([`crate::Pool::split`]). Half
+    /// the [`Config::flight_bytes`] budget shared by the `procs` senders.
     pub fn link_window_bytes(&self) -> usize {
         (self.flight_bytes / 2 / self.procs.max(1)).max(1)
     }

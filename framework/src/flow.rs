@@ -4,7 +4,12 @@
 //! (results and tasks, see `is_credit_limited`) sent to one
 //! receiver and not yet consumed there, and at most a byte window of them
 //! (`Config::link_window_bytes`; a single message of any size when it has
-//! none outstanding there). The receiver returns credits as it
+//! none outstanding there). Results have a pool of their own: as many
+//! credits again and a quarter of the window ([`Pool::split`]). Every
+//! receiver merges results whatever its state, so a sender's results
+//! always get credit in the end, however many of its tasks the receiver
+//! holds (a processor over its budget waits for that). The receiver
+//! returns credits as it
 //! consumes them (merges a result, starts a task, hands a pooled task out).
 //! A sender never blocks: messages without credit wait in its outbox, and it
 //! goes on with other work. Data requests and replies, and control messages,
@@ -14,93 +19,104 @@
 
 use serde::{Deserialize, Serialize};
 
-/// Sender side: credits available towards each destination slot, and the
-/// bytes outstanding there against the link's byte window.
+use crate::protocol::Pool;
+
+/// Sender side: credits available towards each destination slot in each
+/// pool, and the bytes outstanding there against the pool's byte window.
 #[derive(Clone, Debug)]
 pub(crate) struct Credits {
-    available: Vec<u32>,
-    outstanding: Vec<usize>,
-    window: usize,
+    available: Vec<[u32; 2]>,
+    outstanding: Vec<[usize; 2]>,
+    window: [usize; 2],
 }
 
 impl Credits {
-    /// `per_link` credits and a window of `window` bytes towards each of
-    /// `slots` destinations.
+    /// `per_link` credits in each pool and a window of `window` bytes
+    /// split between the pools ([`Pool::split`]) towards each of `slots`
+    /// destinations.
     pub(crate) fn new(slots: usize, per_link: u32, window: usize) -> Self {
         Credits {
-            available: vec![per_link; slots],
-            outstanding: vec![0; slots],
-            window,
+            available: vec![[per_link; 2]; slots],
+            outstanding: vec![[0; 2]; slots],
+            window: Pool::split(window),
         }
     }
 
-    /// Credits available towards `slot`.
-    pub(crate) fn available(&self, slot: usize) -> u32 {
-        self.available[slot]
+    /// Credits available towards `slot` in `pool`.
+    pub(crate) fn available(&self, slot: usize, pool: Pool) -> u32 {
+        self.available[slot][pool.index()]
     }
 
     /// Whether a message of `bytes` may join a packet to `slot` that holds
-    /// `packed` bytes already: it fits the byte window beside those and
-    /// what is outstanding there, or it would travel alone with nothing
+    /// `packed` bytes already: it fits the pool's byte window beside those
+    /// and what is outstanding there, or it would travel alone with nothing
     /// outstanding (a message larger than the window is never stuck).
-    pub(crate) fn fits(&self, slot: usize, packed: usize, bytes: usize) -> bool {
-        let out = self.outstanding[slot].saturating_add(packed);
-        out == 0 || out.saturating_add(bytes) <= self.window
+    pub(crate) fn fits(&self, slot: usize, pool: Pool, packed: usize, bytes: usize) -> bool {
+        let out = self.outstanding[slot][pool.index()].saturating_add(packed);
+        out == 0 || out.saturating_add(bytes) <= self.window[pool.index()]
     }
 
     /// Uses `n` credits and `bytes` of the window towards `slot`.
-    pub(crate) fn consume(&mut self, slot: usize, n: u32, bytes: usize) {
-        debug_assert!(self.available[slot] >= n, "credit underflow");
-        self.available[slot] -= n;
-        self.outstanding[slot] += bytes;
+    pub(crate) fn consume(&mut self, slot: usize, pool: Pool, n: u32, bytes: usize) {
+        let i = pool.index();
+        debug_assert!(self.available[slot][i] >= n, "credit underflow");
+        self.available[slot][i] -= n;
+        self.outstanding[slot][i] += bytes;
     }
 
     /// `n` credits and `bytes` of the window came back from `slot`.
-    pub(crate) fn grant(&mut self, slot: usize, n: u32, bytes: usize) {
-        self.available[slot] += n;
-        self.outstanding[slot] = self.outstanding[slot].saturating_sub(bytes);
+    pub(crate) fn grant(&mut self, slot: usize, pool: Pool, n: u32, bytes: usize) {
+        let i = pool.index();
+        self.available[slot][i] += n;
+        self.outstanding[slot][i] = self.outstanding[slot][i].saturating_sub(bytes);
     }
 }
 
 /// Receiver side: consumed messages whose credit has not been returned yet.
-/// Credits go back in batches (half a window at a time) to keep control
-/// traffic small, and all at once when the receiver runs out of work.
+/// Credits go back in batches (half a pool's credits or window at a time)
+/// to keep control traffic small, and all at once when the receiver runs
+/// out of work.
 ///
 /// (Example: the unit test `credit_round_trip`.)
 #[derive(Clone, Debug)]
 pub(crate) struct CreditLedger {
-    owed: Vec<(u32, usize)>,
-    batch: u32,
-    batch_bytes: usize,
+    owed: Vec<[(u32, usize); 2]>,
+    batch: [u32; 2],
+    batch_bytes: [usize; 2],
 }
 
 impl CreditLedger {
-    /// Ledger for `slots` senders with `per_link` credits and a byte window
-    /// of `window` each.
+    /// Ledger for `slots` senders with `per_link` credits in each pool and
+    /// a byte window of `window` each, split between the pools.
     pub(crate) fn new(slots: usize, per_link: u32, window: usize) -> Self {
+        let window = Pool::split(window);
         CreditLedger {
-            owed: vec![(0, 0); slots],
-            batch: per_link.div_ceil(2).max(1),
-            batch_bytes: window.div_ceil(2).max(1),
+            owed: vec![[(0, 0); 2]; slots],
+            batch: [per_link.div_ceil(2).max(1); 2],
+            batch_bytes: window.map(|w| w.div_ceil(2).max(1)),
         }
     }
 
-    /// One message of `bytes` from `slot` was consumed.
-    pub(crate) fn consumed(&mut self, slot: usize, bytes: usize) {
-        let o = &mut self.owed[slot];
+    /// One message of `bytes` of `pool` from `slot` was consumed.
+    pub(crate) fn consumed(&mut self, slot: usize, pool: Pool, bytes: usize) {
+        let o = &mut self.owed[slot][pool.index()];
         o.0 += 1;
         o.1 += bytes;
     }
 
-    /// Credits (messages, bytes) to return now: those that reached a batch
-    /// (half the credits or half the byte window), or all when `flush`.
-    pub(crate) fn take_due(&mut self, flush: bool) -> Vec<(usize, u32, usize)> {
+    /// Credits (slot, pool, messages, bytes) to return now: those that
+    /// reached a batch (half the pool's credits or byte window), or all
+    /// when `flush`.
+    pub(crate) fn take_due(&mut self, flush: bool) -> Vec<(usize, Pool, u32, usize)> {
         let mut due = Vec::new();
         for (slot, owed) in self.owed.iter_mut().enumerate() {
-            let (n, bytes) = *owed;
-            if n > 0 && (flush || n >= self.batch || bytes >= self.batch_bytes) {
-                due.push((slot, n, bytes));
-                *owed = (0, 0);
+            for pool in Pool::ALL {
+                let i = pool.index();
+                let (n, bytes) = owed[i];
+                if n > 0 && (flush || n >= self.batch[i] || bytes >= self.batch_bytes[i]) {
+                    due.push((slot, pool, n, bytes));
+                    owed[i] = (0, 0);
+                }
             }
         }
         due
@@ -109,7 +125,7 @@ impl CreditLedger {
     /// Whether any credit is owed.
     #[cfg(test)]
     pub(crate) fn any_owed(&self) -> bool {
-        self.owed.iter().any(|&(n, _)| n > 0)
+        self.owed.iter().flatten().any(|&(n, _)| n > 0)
     }
 }
 
@@ -146,47 +162,75 @@ impl InputBuffer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use Pool::{Results, Tasks};
+
+    #[test]
+    fn links_split_between_tasks_and_results() {
+        assert_eq!(Pool::split(64), [48, 16]);
+        assert_eq!(Pool::split(8), [6, 2]);
+        // Each pool has at least one credit or byte, whatever the total.
+        assert_eq!(Pool::split(1), [1, 1]);
+        assert_eq!(Pool::split(0), [1, 1]);
+        assert_eq!(Pool::split(usize::MAX)[1], usize::MAX / 4);
+    }
 
     #[test]
     fn ledger_batches_and_flushes() {
+        // 4 credits per pool (batches of 2); a window of 1000: 750 for tasks
+        // and 250 for results (batches of 375 and 125 bytes).
         let mut l = CreditLedger::new(3, 4, 1000);
-        l.consumed(1, 10);
+        l.consumed(1, Tasks, 10);
         assert!(l.take_due(false).is_empty());
-        l.consumed(1, 10);
-        assert_eq!(l.take_due(false), vec![(1, 2, 20)]);
-        l.consumed(2, 10);
+        l.consumed(1, Tasks, 10);
+        assert_eq!(l.take_due(false), vec![(1, Tasks, 2, 20)]);
+        l.consumed(2, Tasks, 10);
         assert!(l.any_owed());
-        assert_eq!(l.take_due(true), vec![(2, 1, 10)]);
+        assert_eq!(l.take_due(true), vec![(2, Tasks, 1, 10)]);
         assert!(!l.any_owed());
-        // Half the byte window is a batch too.
-        l.consumed(0, 500);
-        assert_eq!(l.take_due(false), vec![(0, 1, 500)]);
+        // Half the pool's byte window is a batch too.
+        l.consumed(0, Tasks, 375);
+        assert_eq!(l.take_due(false), vec![(0, Tasks, 1, 375)]);
+        l.consumed(0, Results, 125);
+        assert_eq!(l.take_due(false), vec![(0, Results, 1, 125)]);
+        // Results are owed apart from tasks.
+        l.consumed(0, Tasks, 10);
+        l.consumed(0, Results, 10);
+        l.consumed(0, Results, 10);
+        assert_eq!(l.take_due(false), vec![(0, Results, 2, 20)]);
+        assert_eq!(l.take_due(true), vec![(0, Tasks, 1, 10)]);
     }
 
     #[test]
     fn credits_round_trip() {
         let mut c = Credits::new(2, 3, 100);
-        c.consume(0, 3, 30);
-        assert_eq!(c.available(0), 0);
-        c.grant(0, 2, 20);
-        assert_eq!(c.available(0), 2);
-        assert_eq!(c.available(1), 3);
+        c.consume(0, Tasks, 3, 30);
+        assert_eq!(c.available(0, Tasks), 0);
+        // Tasks without credit leave the results' pool untouched.
+        assert_eq!(c.available(0, Results), 3);
+        c.grant(0, Tasks, 2, 20);
+        assert_eq!(c.available(0, Tasks), 2);
+        assert_eq!(c.available(1, Tasks), 3);
     }
 
     #[test]
     fn byte_window_admits_what_fits_or_one_message_alone() {
-        let mut c = Credits::new(1, 64, 100);
+        // A window of 133: 100 for tasks, 33 for results.
+        let mut c = Credits::new(1, 64, 133);
         // Nothing outstanding: even a message larger than the window goes.
-        assert!(c.fits(0, 0, 250));
+        assert!(c.fits(0, Tasks, 0, 250));
         // ... but only alone.
-        assert!(!c.fits(0, 250, 1));
-        assert!(c.fits(0, 60, 40));
-        c.consume(0, 1, 60);
-        assert!(c.fits(0, 0, 40));
-        assert!(!c.fits(0, 0, 41));
-        assert!(!c.fits(0, 20, 21));
-        c.grant(0, 1, 60);
-        assert!(c.fits(0, 0, 100));
+        assert!(!c.fits(0, Tasks, 250, 1));
+        assert!(c.fits(0, Tasks, 60, 40));
+        c.consume(0, Tasks, 1, 60);
+        assert!(c.fits(0, Tasks, 0, 40));
+        assert!(!c.fits(0, Tasks, 0, 41));
+        assert!(!c.fits(0, Tasks, 20, 21));
+        // The results' window is apart: a full task window leaves it open.
+        c.consume(0, Tasks, 1, 40);
+        assert!(c.fits(0, Results, 0, 33));
+        assert!(!c.fits(0, Results, 1, 33));
+        c.grant(0, Tasks, 2, 100);
+        assert!(c.fits(0, Tasks, 0, 100));
     }
 
     #[test]
@@ -208,23 +252,24 @@ mod example {
     /// Formerly the type's documentation example.
     #[test]
     fn credit_round_trip() {
-        // One sender with 4 credits towards one receiver (slot 0 on both sides).
+        // One sender with 4 credits for results (and 4 for tasks) towards
+        // one receiver (slot 0 on both sides).
         let mut sender = Credits::new(1, 4, 1 << 20);
         let mut receiver = CreditLedger::new(1, 4, 1 << 20);
-        sender.consume(0, 4, 40); // four results sent: no credit left
-        assert_eq!(sender.available(0), 0);
+        sender.consume(0, Pool::Results, 4, 40); // four results sent: no credit left
+        assert_eq!(sender.available(0, Pool::Results), 0);
 
-        // The receiver returns credits half a window (2) at a time ...
-        receiver.consumed(0, 10);
+        // The receiver returns credits half a pool's (2) at a time ...
+        receiver.consumed(0, Pool::Results, 10);
         assert!(receiver.take_due(false).is_empty());
-        receiver.consumed(0, 10);
-        for (slot, n, bytes) in receiver.take_due(false) {
-            sender.grant(slot, n, bytes);
+        receiver.consumed(0, Pool::Results, 10);
+        for (slot, pool, n, bytes) in receiver.take_due(false) {
+            sender.grant(slot, pool, n, bytes);
         }
-        assert_eq!(sender.available(0), 2);
+        assert_eq!(sender.available(0, Pool::Results), 2);
         // ... and everything it owes when it runs out of work.
-        receiver.consumed(0, 10);
-        assert_eq!(receiver.take_due(true), [(0, 1, 10)]);
+        receiver.consumed(0, Pool::Results, 10);
+        assert_eq!(receiver.take_due(true), [(0, Pool::Results, 1, 10)]);
         assert!(!receiver.any_owed());
     }
 }

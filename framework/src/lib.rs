@@ -175,7 +175,7 @@ pub use error::{ConfigError, RunError};
 pub use policy::Policy;
 pub use protocol::message::{Msg, Packet};
 pub use protocol::workload::{ByteSize, Ctx, DataView, Epoch, NoWork, WorkKind, Workload};
-pub use protocol::{Addr, Class, DpOutcome, Placement};
+pub use protocol::{Addr, Class, DpOutcome, Placement, Pool};
 pub use resident::Resident;
 pub use runtime::lockstep::{run_lockstep, Lockstep};
 pub use runtime::sequential::{run_sequential, run_sequential_observed, Sequential};

@@ -50,7 +50,7 @@ use crate::mailbox::Mailbox;
 use crate::processor::Step;
 use crate::protocol::message::{DdEnvelope, Incoming, Msg, Packet};
 use crate::protocol::workload::{Epoch, Workload};
-use crate::protocol::Addr;
+use crate::protocol::{Addr, Pool};
 use crate::stats::{ProcStats, State};
 
 struct Wave {
@@ -176,7 +176,7 @@ impl<W: Workload> Master<W> {
                 self.parked.retain(|&(w, _)| w != worker);
                 if let Some((env, sender, bytes)) = self.pool.pop_front() {
                     self.hand_out(worker, env, now);
-                    self.consume(sender, bytes, now);
+                    self.consume(sender, Pool::Tasks, bytes, now);
                 } else if let Some(task) = roots.then(|| self.next_root()).flatten() {
                     self.hand_out_root(worker, task, now);
                 } else {
@@ -211,7 +211,7 @@ impl<W: Workload> Master<W> {
                 self.stats.tasks.pooled += 1;
                 if let Some((w, _)) = self.parked.pop_front() {
                     self.hand_out(w, env, now);
-                    self.consume(from, inc.bytes, now);
+                    self.consume(from, Pool::Tasks, inc.bytes, now);
                 } else {
                     self.pool.push_back((env, from, inc.bytes));
                 }
@@ -219,7 +219,7 @@ impl<W: Workload> Master<W> {
             Msg::Result(r) => {
                 self.workload.merge(&mut self.acc, r);
                 self.stats.tasks.results_merged += 1;
-                self.consume(from, inc.bytes, now);
+                self.consume(from, Pool::Results, inc.bytes, now);
             }
             Msg::ProbeReply {
                 wave,
@@ -262,8 +262,8 @@ impl<W: Workload> Master<W> {
 
     /// A credit-limited message from `from` is consumed. Pooled tasks stay in
     /// the input buffer until handed out, so the pool is bounded by credits.
-    fn consume(&mut self, from: Addr, bytes: usize, now: Time) {
-        self.outbox.consumed(from, bytes, now);
+    fn consume(&mut self, from: Addr, pool: Pool, bytes: usize, now: Time) {
+        self.outbox.consumed(from, pool, bytes, now);
     }
 
     fn send(&mut self, to: Addr, msg: Msg<W>, now: Time) {

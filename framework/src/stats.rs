@@ -202,6 +202,10 @@ pub struct TaskCounters {
     /// sent while over budget.
     #[serde(default)]
     pub pooled_only_requests: u64,
+    /// Back-pressure: steps in which this processor left its work
+    /// unconsumed, over budget with results waiting for credit.
+    #[serde(default)]
+    pub held_for_results: u64,
     /// Results merged here.
     pub results_merged: u64,
 }

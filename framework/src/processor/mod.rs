@@ -22,8 +22,11 @@
 //! [`Config::backlog_budget_bytes`], a processor asks the master for pooled
 //! children only (no new root task), keeps the demand-driven children it
 //! spawns instead of sending them away and sends every lane with credit at
-//! once. Everything it already holds still runs, so no cycle of waiting
-//! processors can form (SEMANTICS.md, 5 and 6).
+//! once; while results are among its backlog it runs nothing until they
+//! leave (results have credits of their own, and every receiver merges
+//! them whatever its state, so the wait always ends). Otherwise everything
+//! it already holds still runs, so no cycle of waiting processors can form
+//! (SEMANTICS.md, 5 and 6).
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -215,7 +218,7 @@ impl<W: Workload> Processor<W> {
                 self.basic_received += 1;
             }
             match msg {
-                Msg::Credit(n, bytes) => self.outbox.grant(from, n, bytes, now),
+                Msg::Credit(pool, n, bytes) => self.outbox.grant(from, pool, n, bytes, now),
                 Msg::Probe(wave) => self.probe = Some(wave),
                 Msg::Terminate => {
                     debug!(proc = self.id, passive = self.is_passive(), "terminate");
@@ -276,6 +279,13 @@ impl<W: Workload> Processor<W> {
             let (_, inc) = self.mailbox.pop().expect("peeked");
             return self.handle(inc, now).map(Step::Worked);
         }
+        if self.held_for_results() {
+            // Running more work would only add results to a backlog that
+            // cannot leave yet: wait for the receivers' credits.
+            self.stats.tasks.held_for_results += 1;
+            self.on_idle(now);
+            return Ok(Step::Idle);
+        }
         if let Some(task) = self.ready.pop_front() {
             self.execute_dd(task, now)?;
             return Ok(Step::Worked(State::Executing));
@@ -315,6 +325,15 @@ impl<W: Workload> Processor<W> {
         self.outbox.backlog_bytes() > self.backlog_budget
     }
 
+    /// Back-pressure on execution: over budget with results in the
+    /// backlog. Every receiver consumes results whatever its own state, so
+    /// these lanes always drain and the hold always ends (no cycle of
+    /// waiting processors); tasks in the backlog do not hold execution,
+    /// as their receivers may themselves be held.
+    fn held_for_results(&self) -> bool {
+        self.over_budget() && self.outbox.result_backlog_bytes() > 0
+    }
+
     /// Asks the master for work: a root task too unless over budget.
     fn request_work(&mut self, now: Time) {
         let roots = !self.over_budget();
@@ -331,7 +350,8 @@ impl<W: Workload> Processor<W> {
 
     fn handle(&mut self, inc: Incoming<W>, now: Time) -> Result<State, String> {
         if inc.credited {
-            self.outbox.consumed(inc.from, inc.bytes, now);
+            let pool = inc.msg.class().pool();
+            self.outbox.consumed(inc.from, pool, inc.bytes, now);
         }
         match inc.msg {
             Msg::DataRequest(ids) => {

@@ -97,6 +97,45 @@ impl Class {
     pub fn is_urgent(self) -> bool {
         matches!(self, Class::Control | Class::Data)
     }
+
+    /// The credit pool a credit-limited message of this class draws on.
+    pub fn pool(self) -> Pool {
+        if self == Class::Result {
+            Pool::Results
+        } else {
+            Pool::Tasks
+        }
+    }
+}
+
+/// The two credit pools of a link (SEMANTICS.md, section 5). Results have
+/// their own: every receiver merges results whatever its own state, so a
+/// result always leaves a sender's backlog in the end, and a sender over
+/// its budget may wait for that without waiting on any task.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Pool {
+    /// Data-parallel and demand-driven tasks.
+    Tasks,
+    /// Results.
+    Results,
+}
+
+impl Pool {
+    /// Position in a pair indexed by pool.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Both pools.
+    pub const ALL: [Pool; 2] = [Pool::Tasks, Pool::Results];
+
+    /// Splits a link's byte window between the pools: results a quarter,
+    /// at least one byte; tasks the rest, at least one. (Credits are
+    /// counted apart: each pool has `Config::credits_per_link`.)
+    pub fn split(total: usize) -> [usize; 2] {
+        let results = (total / 4).max(1);
+        [total.saturating_sub(results).max(1), results]
+    }
 }
 
 /// Where one data item lives: the replicated ownership directory is built from

@@ -25,7 +25,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::bundle::Outbox;
 use crate::protocol::message::{DdEnvelope, Msg, Packet};
-use crate::protocol::{Addr, Class};
+use crate::protocol::{Addr, Class, Pool};
 use crate::runtime::RunReport;
 use crate::{
     run_sequential, run_threads, BundleConfig, ByteSize, Config, Ctx, DataService, DataView,

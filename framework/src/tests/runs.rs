@@ -295,6 +295,7 @@ fn work_in_flight_stays_within_the_byte_budget_under_every_policy() {
 fn back_pressure_neither_loses_work_nor_deadlocks() {
     let mut kept = 0;
     let mut pooled_only = 0;
+    let mut held = 0;
     for hotspot in [false, true] {
         let w = busy(hotspot);
         for policy in Policy::ALL {
@@ -309,6 +310,7 @@ fn back_pressure_neither_loses_work_nor_deadlocks() {
                     check_against_sequential(&w, &r);
                     kept += r.stats.sum(|p| p.tasks.kept_over_budget);
                     pooled_only += r.stats.sum(|p| p.tasks.pooled_only_requests);
+                    held += r.stats.sum(|p| p.tasks.held_for_results);
                 }
             }
             // And on real threads.
@@ -327,4 +329,8 @@ fn back_pressure_neither_loses_work_nor_deadlocks() {
         "no child was ever kept: back-pressure never acted"
     );
     assert!(pooled_only > 0, "no request for pooled work only");
+    assert!(
+        held > 0,
+        "no processor ever waited for its results to leave"
+    );
 }

@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::protocol::message::Msg;
+use crate::protocol::Pool;
 use crate::tests::Mini;
 
 fn packet() -> Packet<Mini> {
@@ -9,7 +10,10 @@ fn packet() -> Packet<Mini> {
         from: Addr::Proc(1),
         to: Addr::Master,
         class: Class::Control,
-        items: vec![Msg::WorkRequest { roots: true }, Msg::Credit(3, 120)],
+        items: vec![
+            Msg::WorkRequest { roots: true },
+            Msg::Credit(Pool::Results, 3, 120),
+        ],
         bytes: 48,
         load: 7,
     }
