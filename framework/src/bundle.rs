@@ -64,13 +64,14 @@ pub(crate) struct Outbox<W: Workload> {
 
 impl<W: Workload> Outbox<W> {
     /// Outbox of `me` in a run with `procs` workers, `credits_per_link`
-    /// credits and a byte window of `window` towards each destination.
+    /// credits per pool and byte windows of `windows` (per
+    /// [`crate::Pool`]) towards each destination.
     pub(crate) fn new(
         me: Addr,
         procs: usize,
         bundle: BundleConfig,
         credits_per_link: u32,
-        window: usize,
+        windows: [usize; 2],
     ) -> Self {
         let slots = procs + 1;
         let max_age = u64::try_from(bundle.max_age.as_nanos()).unwrap_or(u64::MAX);
@@ -80,8 +81,8 @@ impl<W: Workload> Outbox<W> {
             bundle,
             max_age,
             lanes: (0..slots).map(|_| Default::default()).collect(),
-            credits: Credits::new(slots, credits_per_link, window),
-            ledger: CreditLedger::new(slots, credits_per_link, window),
+            credits: Credits::new(slots, credits_per_link, windows),
+            ledger: CreditLedger::new(slots, credits_per_link, windows),
             inbuf: InputBuffer::default(),
             ready: Vec::new(),
             backlog: 0,
@@ -116,10 +117,10 @@ impl<W: Workload> Outbox<W> {
     /// Sends the credits that are due; with `flush`, every owed one (the
     /// actor ran out of work).
     pub(crate) fn return_credits(&mut self, flush: bool, now: Time) {
-        for (slot, pool, n, bytes) in self.ledger.take_due(flush) {
+        for (slot, owed) in self.ledger.take_due(flush) {
             self.push(
                 Addr::from_slot(slot, self.procs),
-                Msg::Credit(pool, n, bytes as u64),
+                Msg::Credit(owed.map(|(n, bytes)| (n, bytes as u64))),
                 now,
             );
         }
@@ -156,14 +157,15 @@ impl<W: Workload> Outbox<W> {
 
     /// Credits (and window bytes) came back from `from`; lanes towards it
     /// may move again.
-    pub(crate) fn grant(&mut self, from: Addr, pool: Pool, credits: u32, bytes: u64, now: Time) {
+    pub(crate) fn grant(&mut self, from: Addr, returned: [(u32, u64); 2], now: Time) {
         let slot = from.slot(self.procs);
-        let bytes = usize::try_from(bytes).unwrap_or(usize::MAX);
-        self.credits.grant(slot, pool, credits, bytes);
+        for pool in Pool::ALL {
+            let (credits, bytes) = returned[pool.index()];
+            let bytes = usize::try_from(bytes).unwrap_or(usize::MAX);
+            self.credits.grant(slot, pool, credits, bytes);
+        }
         for class in Class::ALL {
-            if class.pool() == pool {
-                self.pump_lane(slot, class, now, false);
-            }
+            self.pump_lane(slot, class, now, false);
         }
     }
 
@@ -317,7 +319,7 @@ mod example {
             max_items: 3,
             ..BundleConfig::default()
         };
-        let mut out = Outbox::<Mini>::new(Addr::Proc(0), 2, bundle, 4, 1 << 20);
+        let mut out = Outbox::<Mini>::new(Addr::Proc(0), 2, bundle, 4, [1 << 20; 2]);
         let to = Addr::Proc(1);
 
         // A data request leaves at once, alone; results wait for a bundle of three.
@@ -346,7 +348,7 @@ mod example {
 
         // The receiver consumed them and gave credits back; a flush (the sender
         // ran out of work) sends the rest without waiting for a full bundle.
-        out.grant(to, Pool::Results, 3, 3 * 16, 0);
+        out.grant(to, [(0, 0), (3, 3 * 16)], 0);
         out.pump(0, true);
         assert_eq!(out.take_ready()[0].items.len(), 2);
         assert!(out.is_empty());

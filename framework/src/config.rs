@@ -123,9 +123,10 @@ pub struct Config {
     pub credits_per_link: usize,
     /// Flow control in bytes: the work in flight at one actor, credit-limited
     /// messages received and not consumed (its input buffer) plus messages
-    /// waiting in its outbox (its send backlog). Half of it bounds the input
-    /// buffer (a byte window per sending link of half the budget over the
-    /// processors), half the backlog (a processor whose backlog holds more
+    /// waiting in its outbox (its send backlog). Five eighths of it bound the
+    /// input buffer (a byte window for tasks per sending link of half the
+    /// budget over the processors, and a quarter as much for results),
+    /// three eighths the backlog (a processor whose backlog holds more
     /// takes no new root task and keeps the children it spawns, and runs
     /// nothing while results wait in its backlog). See
     /// SEMANTICS.md section 5 for what is guaranteed.
@@ -307,20 +308,29 @@ impl Config {
         2 * self.procs * self.credits_per_link
     }
 
-    /// The byte window of one link: a worker may have at most this many
-    /// bytes of credit-limited messages unconsumed at one receiver (or a
-    /// single message of any size when it has none there), three quarters
-    /// for tasks and a quarter for results ([`crate::Pool::split`]). Half
-    /// the [`Config::flight_bytes`] budget shared by the `procs` senders.
+    /// The byte window of one link for tasks: a worker may have at most
+    /// this many bytes of tasks unconsumed at one receiver (or a single
+    /// message of any size when it has none there). Half the
+    /// [`Config::flight_bytes`] budget shared by the `procs` senders.
     pub fn link_window_bytes(&self) -> usize {
         (self.flight_bytes / 2 / self.procs.max(1)).max(1)
     }
 
+    /// The byte windows of one link, per [`crate::Pool`]: tasks'
+    /// ([`Config::link_window_bytes`]) and results', a quarter as large (at
+    /// least one byte). Together they bound an input buffer by five eighths
+    /// of [`Config::flight_bytes`].
+    pub fn link_windows(&self) -> [usize; 2] {
+        let tasks = self.link_window_bytes();
+        [tasks, (tasks / 4).max(1)]
+    }
+
     /// A processor whose send backlog holds more bytes than this takes no
-    /// new root task and keeps its spawned children: the other half of
-    /// [`Config::flight_bytes`].
+    /// new root task, keeps its spawned children and, while results wait
+    /// in its backlog, runs nothing: the three eighths of
+    /// [`Config::flight_bytes`] that the windows leave.
     pub fn backlog_budget_bytes(&self) -> usize {
-        self.flight_bytes - self.flight_bytes / 2
+        self.flight_bytes - self.flight_bytes / 2 - self.flight_bytes / 8
     }
 }
 

@@ -5,7 +5,7 @@
 //! receiver and not yet consumed there, and at most a byte window of them
 //! (`Config::link_window_bytes`; a single message of any size when it has
 //! none outstanding there). Results have a pool of their own: as many
-//! credits again and a quarter of the window ([`Pool::split`]). Every
+//! credits again and a window a quarter as large (`Config::link_windows`). Every
 //! receiver merges results whatever its state, so a sender's results
 //! always get credit in the end, however many of its tasks the receiver
 //! holds (a processor over its budget waits for that). The receiver
@@ -31,14 +31,13 @@ pub(crate) struct Credits {
 }
 
 impl Credits {
-    /// `per_link` credits in each pool and a window of `window` bytes
-    /// split between the pools ([`Pool::split`]) towards each of `slots`
-    /// destinations.
-    pub(crate) fn new(slots: usize, per_link: u32, window: usize) -> Self {
+    /// `per_link` credits in each pool and byte windows of `windows` (per
+    /// pool) towards each of `slots` destinations.
+    pub(crate) fn new(slots: usize, per_link: u32, windows: [usize; 2]) -> Self {
         Credits {
             available: vec![[per_link; 2]; slots],
             outstanding: vec![[0; 2]; slots],
-            window: Pool::split(window),
+            window: windows,
         }
     }
 
@@ -64,7 +63,7 @@ impl Credits {
         self.outstanding[slot][i] += bytes;
     }
 
-    /// `n` credits and `bytes` of the window came back from `slot`.
+    /// `n` credits and `bytes` of the pool's window came back from `slot`.
     pub(crate) fn grant(&mut self, slot: usize, pool: Pool, n: u32, bytes: usize) {
         let i = pool.index();
         self.available[slot][i] += n;
@@ -87,9 +86,9 @@ pub(crate) struct CreditLedger {
 
 impl CreditLedger {
     /// Ledger for `slots` senders with `per_link` credits in each pool and
-    /// a byte window of `window` each, split between the pools.
-    pub(crate) fn new(slots: usize, per_link: u32, window: usize) -> Self {
-        let window = Pool::split(window);
+    /// byte windows of `windows` (per pool).
+    pub(crate) fn new(slots: usize, per_link: u32, windows: [usize; 2]) -> Self {
+        let window = windows;
         CreditLedger {
             owed: vec![[(0, 0); 2]; slots],
             batch: [per_link.div_ceil(2).max(1); 2],
@@ -104,19 +103,20 @@ impl CreditLedger {
         o.1 += bytes;
     }
 
-    /// Credits (slot, pool, messages, bytes) to return now: those that
-    /// reached a batch (half the pool's credits or byte window), or all
-    /// when `flush`.
-    pub(crate) fn take_due(&mut self, flush: bool) -> Vec<(usize, Pool, u32, usize)> {
+    /// Credits to return now, per slot: (messages, bytes) in each pool,
+    /// for every slot where a pool reached a batch (half its credits or
+    /// byte window; the other pool's go with them), or every slot owed
+    /// anything when `flush`.
+    pub(crate) fn take_due(&mut self, flush: bool) -> Vec<(usize, [(u32, usize); 2])> {
         let mut due = Vec::new();
         for (slot, owed) in self.owed.iter_mut().enumerate() {
-            for pool in Pool::ALL {
-                let i = pool.index();
+            let reached = |i: usize| {
                 let (n, bytes) = owed[i];
-                if n > 0 && (flush || n >= self.batch[i] || bytes >= self.batch_bytes[i]) {
-                    due.push((slot, pool, n, bytes));
-                    owed[i] = (0, 0);
-                }
+                n > 0 && (flush || n >= self.batch[i] || bytes >= self.batch_bytes[i])
+            };
+            if reached(0) || reached(1) {
+                due.push((slot, *owed));
+                *owed = [(0, 0); 2];
             }
         }
         due
@@ -165,44 +165,35 @@ mod tests {
     use Pool::{Results, Tasks};
 
     #[test]
-    fn links_split_between_tasks_and_results() {
-        assert_eq!(Pool::split(64), [48, 16]);
-        assert_eq!(Pool::split(8), [6, 2]);
-        // Each pool has at least one credit or byte, whatever the total.
-        assert_eq!(Pool::split(1), [1, 1]);
-        assert_eq!(Pool::split(0), [1, 1]);
-        assert_eq!(Pool::split(usize::MAX)[1], usize::MAX / 4);
-    }
-
-    #[test]
     fn ledger_batches_and_flushes() {
-        // 4 credits per pool (batches of 2); a window of 1000: 750 for tasks
+        // 4 credits per pool (batches of 2); windows of 750 bytes for tasks
         // and 250 for results (batches of 375 and 125 bytes).
-        let mut l = CreditLedger::new(3, 4, 1000);
+        let mut l = CreditLedger::new(3, 4, [750, 250]);
         l.consumed(1, Tasks, 10);
         assert!(l.take_due(false).is_empty());
         l.consumed(1, Tasks, 10);
-        assert_eq!(l.take_due(false), vec![(1, Tasks, 2, 20)]);
+        assert_eq!(l.take_due(false), vec![(1, [(2, 20), (0, 0)])]);
         l.consumed(2, Tasks, 10);
         assert!(l.any_owed());
-        assert_eq!(l.take_due(true), vec![(2, Tasks, 1, 10)]);
+        assert_eq!(l.take_due(true), vec![(2, [(1, 10), (0, 0)])]);
         assert!(!l.any_owed());
         // Half the pool's byte window is a batch too.
         l.consumed(0, Tasks, 375);
-        assert_eq!(l.take_due(false), vec![(0, Tasks, 1, 375)]);
+        assert_eq!(l.take_due(false), vec![(0, [(1, 375), (0, 0)])]);
         l.consumed(0, Results, 125);
-        assert_eq!(l.take_due(false), vec![(0, Results, 1, 125)]);
-        // Results are owed apart from tasks.
+        assert_eq!(l.take_due(false), vec![(0, [(0, 0), (1, 125)])]);
+        // Results are owed apart from tasks; a batch of either returns both.
         l.consumed(0, Tasks, 10);
+        assert!(l.take_due(false).is_empty());
         l.consumed(0, Results, 10);
         l.consumed(0, Results, 10);
-        assert_eq!(l.take_due(false), vec![(0, Results, 2, 20)]);
-        assert_eq!(l.take_due(true), vec![(0, Tasks, 1, 10)]);
+        assert_eq!(l.take_due(false), vec![(0, [(1, 10), (2, 20)])]);
+        assert!(!l.any_owed());
     }
 
     #[test]
     fn credits_round_trip() {
-        let mut c = Credits::new(2, 3, 100);
+        let mut c = Credits::new(2, 3, [100, 25]);
         c.consume(0, Tasks, 3, 30);
         assert_eq!(c.available(0, Tasks), 0);
         // Tasks without credit leave the results' pool untouched.
@@ -214,8 +205,8 @@ mod tests {
 
     #[test]
     fn byte_window_admits_what_fits_or_one_message_alone() {
-        // A window of 133: 100 for tasks, 33 for results.
-        let mut c = Credits::new(1, 64, 133);
+        // Windows of 100 bytes for tasks, 33 for results.
+        let mut c = Credits::new(1, 64, [100, 33]);
         // Nothing outstanding: even a message larger than the window goes.
         assert!(c.fits(0, Tasks, 0, 250));
         // ... but only alone.
@@ -254,8 +245,8 @@ mod example {
     fn credit_round_trip() {
         // One sender with 4 credits for results (and 4 for tasks) towards
         // one receiver (slot 0 on both sides).
-        let mut sender = Credits::new(1, 4, 1 << 20);
-        let mut receiver = CreditLedger::new(1, 4, 1 << 20);
+        let mut sender = Credits::new(1, 4, [1 << 20; 2]);
+        let mut receiver = CreditLedger::new(1, 4, [1 << 20; 2]);
         sender.consume(0, Pool::Results, 4, 40); // four results sent: no credit left
         assert_eq!(sender.available(0, Pool::Results), 0);
 
@@ -263,13 +254,16 @@ mod example {
         receiver.consumed(0, Pool::Results, 10);
         assert!(receiver.take_due(false).is_empty());
         receiver.consumed(0, Pool::Results, 10);
-        for (slot, pool, n, bytes) in receiver.take_due(false) {
-            sender.grant(slot, pool, n, bytes);
+        for (slot, owed) in receiver.take_due(false) {
+            for pool in Pool::ALL {
+                let (n, bytes) = owed[pool.index()];
+                sender.grant(slot, pool, n, bytes);
+            }
         }
         assert_eq!(sender.available(0, Pool::Results), 2);
         // ... and everything it owes when it runs out of work.
         receiver.consumed(0, Pool::Results, 10);
-        assert_eq!(receiver.take_due(true), [(0, Pool::Results, 1, 10)]);
+        assert_eq!(receiver.take_due(true), [(0, [(0, 0), (1, 10)])]);
         assert!(!receiver.any_owed());
     }
 }

@@ -103,7 +103,7 @@ impl<W: Workload> Master<W> {
                 procs,
                 config.bundle.clone(),
                 credits,
-                config.link_window_bytes(),
+                config.link_windows(),
             ),
             acc: W::Accumulator::default(),
             stats: ProcStats::new(Addr::Master),

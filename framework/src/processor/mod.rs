@@ -137,7 +137,7 @@ impl<W: Workload> Processor<W> {
                 procs,
                 config.bundle.clone(),
                 credits,
-                config.link_window_bytes(),
+                config.link_windows(),
             ),
             placer: Placer::new(config.policy, id, procs),
             acc: W::Accumulator::default(),
@@ -218,7 +218,7 @@ impl<W: Workload> Processor<W> {
                 self.basic_received += 1;
             }
             match msg {
-                Msg::Credit(pool, n, bytes) => self.outbox.grant(from, pool, n, bytes, now),
+                Msg::Credit(returned) => self.outbox.grant(from, returned, now),
                 Msg::Probe(wave) => self.probe = Some(wave),
                 Msg::Terminate => {
                     debug!(proc = self.id, passive = self.is_passive(), "terminate");

@@ -6,7 +6,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::protocol::workload::{ByteSize, Workload};
-use crate::protocol::{Addr, Class, Pool};
+use crate::protocol::{Addr, Class};
 
 /// A demand-driven task in transit.
 #[derive(Serialize, Deserialize)]
@@ -58,8 +58,9 @@ pub enum Msg<W: Workload> {
         roots: bool,
     },
     /// Flow control: the receiver has consumed this many of the sender's
-    /// credit-limited items of one pool, of this many bytes.
-    Credit(Pool, u32, u64),
+    /// credit-limited items, of this many bytes, in each pool (indexed by
+    /// [`crate::Pool::index`]).
+    Credit([(u32, u64); 2]),
     /// Termination detection: report your counters for wave `n` once passive.
     Probe(u64),
     /// Answer to [`Msg::Probe`]: basic messages sent and received so far.
@@ -148,7 +149,9 @@ impl<W: Workload> fmt::Debug for Msg<W> {
             Msg::Dp(e) => write!(f, "Dp({:?})", e.task),
             Msg::Dd(e) => write!(f, "Dd({:?}, handout={})", e.task, e.handout),
             Msg::WorkRequest { roots } => write!(f, "WorkRequest {{ roots: {roots} }}"),
-            Msg::Credit(pool, n, bytes) => write!(f, "Credit({pool:?}, {n}, {bytes})"),
+            Msg::Credit([tasks, results]) => {
+                write!(f, "Credit(tasks {tasks:?}, results {results:?})")
+            }
             Msg::Probe(w) => write!(f, "Probe({w})"),
             Msg::ProbeReply {
                 wave,

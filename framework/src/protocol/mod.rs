@@ -128,14 +128,6 @@ impl Pool {
 
     /// Both pools.
     pub const ALL: [Pool; 2] = [Pool::Tasks, Pool::Results];
-
-    /// Splits a link's byte window between the pools: results a quarter,
-    /// at least one byte; tasks the rest, at least one. (Credits are
-    /// counted apart: each pool has `Config::credits_per_link`.)
-    pub fn split(total: usize) -> [usize; 2] {
-        let results = (total / 4).max(1);
-        [total.saturating_sub(results).max(1), results]
-    }
 }
 
 /// Where one data item lives: the replicated ownership directory is built from

@@ -52,7 +52,7 @@ fn outbox_bundles_by_count_and_flush_and_sends_urgent_at_once() {
         max_bytes: 1 << 20,
         max_age: std::time::Duration::from_secs(1),
     };
-    let mut out: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, bundle, 100, 1 << 20);
+    let mut out: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, bundle, 100, [1 << 20; 2]);
     out.push(Addr::Proc(1), dd(1), 0);
     out.push(Addr::Proc(1), dd(2), 0);
     assert!(!out.has_ready(), "not yet a full bundle");
@@ -78,7 +78,8 @@ fn outbox_bundles_by_count_and_flush_and_sends_urgent_at_once() {
 #[test]
 fn outbox_holds_messages_without_credit_and_never_drops() {
     // 2 credits for tasks (and 2 for results).
-    let mut out: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, BundleConfig::default(), 2, 1 << 20);
+    let mut out: Outbox<Mini> =
+        Outbox::new(Addr::Proc(0), 2, BundleConfig::default(), 2, [1 << 20; 2]);
     let b = dd(0).byte_size() as u64;
     for k in 0..5 {
         out.push(Addr::Proc(1), dd(k), 0);
@@ -91,7 +92,7 @@ fn outbox_holds_messages_without_credit_and_never_drops() {
     assert_eq!(out.credits_towards(Addr::Proc(1), Pool::Results), 2);
     out.pump(0, true);
     assert!(!out.has_ready(), "no credit, nothing sent");
-    out.grant(Addr::Proc(1), Pool::Tasks, 2, 2 * b, 0);
+    out.grant(Addr::Proc(1), [(2, 2 * b), (0, 0)], 0);
     out.pump(0, true);
     assert_eq!(
         out.take_ready()
@@ -100,7 +101,7 @@ fn outbox_holds_messages_without_credit_and_never_drops() {
             .sum::<usize>(),
         2
     );
-    out.grant(Addr::Proc(1), Pool::Tasks, 5, 2 * b, 0);
+    out.grant(Addr::Proc(1), [(5, 2 * b), (0, 0)], 0);
     out.pump(0, true);
     let last = out.take_ready();
     assert_eq!(last.iter().map(|p| p.items.len()).sum::<usize>(), 1);
@@ -116,10 +117,8 @@ fn outbox_holds_messages_without_credit_and_never_drops() {
 #[test]
 fn the_byte_window_holds_messages_and_lets_a_large_one_go_alone() {
     let b = dd(0).byte_size();
-    // Credits for 100 messages, but a window whose tasks' share
-    // (three quarters) is two and a half messages.
-    let window = 3 * b + b / 3;
-    assert_eq!(Pool::split(window)[0] / b, 2);
+    // Credits for 100 messages, but a window of two and a half messages.
+    let window = [2 * b + b / 2, 1];
     let mut out: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, BundleConfig::default(), 100, window);
     for k in 0..5 {
         out.push(Addr::Proc(1), dd(k), 0);
@@ -136,21 +135,21 @@ fn the_byte_window_holds_messages_and_lets_a_large_one_go_alone() {
     out.pump(0, true);
     assert_eq!(sent(&mut out), 0, "the window is full: nothing more goes");
     // One message's bytes come back: one more fits.
-    out.grant(Addr::Proc(1), Pool::Tasks, 1, b as u64, 0);
+    out.grant(Addr::Proc(1), [(1, b as u64), (0, 0)], 0);
     out.pump(0, true);
     assert_eq!(sent(&mut out), 1);
     assert_eq!(out.in_flight_bytes(), 2 * b, "two still in the backlog");
-    out.grant(Addr::Proc(1), Pool::Tasks, 2, 2 * b as u64, 0);
+    out.grant(Addr::Proc(1), [(2, 2 * b as u64), (0, 0)], 0);
     out.pump(0, true);
     assert_eq!(sent(&mut out), 2);
     assert_eq!(out.in_flight_bytes(), 0);
     // With nothing outstanding, a message larger than the window goes alone.
-    let mut big: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, BundleConfig::default(), 100, 1);
+    let mut big: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, BundleConfig::default(), 100, [1, 1]);
     big.push(Addr::Proc(1), dd(0), 0);
     big.push(Addr::Proc(1), dd(1), 0);
     big.pump(0, true);
     assert_eq!(sent(&mut big), 1, "alone, never stuck");
-    big.grant(Addr::Proc(1), Pool::Tasks, 1, b as u64, 0);
+    big.grant(Addr::Proc(1), [(1, b as u64), (0, 0)], 0);
     big.pump(0, true);
     assert_eq!(sent(&mut big), 1);
     assert!(big.is_empty());

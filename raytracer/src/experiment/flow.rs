@@ -87,7 +87,7 @@ pub(super) fn flow(cx: &mut Ctx) -> Result<()> {
         &format!(
             "{procs} processors at {}x{}, the largest figure of any actor (the master included) in each column; in flight is input buffer plus send backlog at one moment. \
              With credits (for tasks, and as many again for results), no processor can have more than 2 x credits x processors messages unconsumed from others; \
-             with the byte budget, half of it bounds the bytes of those (a quarter of each link's share for results) and a processor whose send backlog holds more than the other half takes no new tile, keeps the shadow tasks it spawns, and runs nothing while results wait in its backlog. \
+             with the byte budget, half of it bounds the bytes of tasks and an eighth those of results, and a processor whose send backlog holds more than the remaining three eighths takes no new tile, keeps the shadow tasks it spawns, and runs nothing while results wait in its backlog. \
              The paper (without flow control) saw the bottleneck's input buffer grow from 617 kB (unlimited cache) to 16 MB (a 600 kB cache).",
             cx.s.small.0, cx.s.small.1
         ),

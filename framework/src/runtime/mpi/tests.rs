@@ -2,7 +2,6 @@
 
 use super::*;
 use crate::protocol::message::Msg;
-use crate::protocol::Pool;
 use crate::tests::Mini;
 
 fn packet() -> Packet<Mini> {
@@ -12,7 +11,7 @@ fn packet() -> Packet<Mini> {
         class: Class::Control,
         items: vec![
             Msg::WorkRequest { roots: true },
-            Msg::Credit(Pool::Results, 3, 120),
+            Msg::Credit([(2, 64), (3, 120)]),
         ],
         bytes: 48,
         load: 7,
