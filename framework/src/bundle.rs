@@ -64,14 +64,14 @@ pub(crate) struct Outbox<W: Workload> {
 
 impl<W: Workload> Outbox<W> {
     /// Outbox of `me` in a run with `procs` workers, `credits_per_link`
-    /// credits per pool and byte windows of `windows` (per
-    /// [`crate::Pool`]) towards each destination.
+    /// credits and a byte window of `window` towards each destination
+    /// (and results' reserve beyond them).
     pub(crate) fn new(
         me: Addr,
         procs: usize,
         bundle: BundleConfig,
         credits_per_link: u32,
-        windows: [usize; 2],
+        window: usize,
     ) -> Self {
         let slots = procs + 1;
         let max_age = u64::try_from(bundle.max_age.as_nanos()).unwrap_or(u64::MAX);
@@ -81,8 +81,8 @@ impl<W: Workload> Outbox<W> {
             bundle,
             max_age,
             lanes: (0..slots).map(|_| Default::default()).collect(),
-            credits: Credits::new(slots, credits_per_link, windows),
-            ledger: CreditLedger::new(slots, credits_per_link, windows),
+            credits: Credits::new(slots, credits_per_link, window),
+            ledger: CreditLedger::new(slots, credits_per_link, window),
             inbuf: InputBuffer::default(),
             ready: Vec::new(),
             backlog: 0,
@@ -314,12 +314,12 @@ mod example {
     #[test]
     fn outbox_bundles_and_credits() {
         // Processor 0 of 2: bundles of up to 3 messages, 4 credits per
-        // receiver for results (and 4 for tasks).
+        // receiver (and one more that only results may use).
         let bundle = BundleConfig {
             max_items: 3,
             ..BundleConfig::default()
         };
-        let mut out = Outbox::<Mini>::new(Addr::Proc(0), 2, bundle, 4, [1 << 20; 2]);
+        let mut out = Outbox::<Mini>::new(Addr::Proc(0), 2, bundle, 4, 1 << 20);
         let to = Addr::Proc(1);
 
         // A data request leaves at once, alone; results wait for a bundle of three.
@@ -335,22 +335,23 @@ mod example {
             (Class::Result, 3)
         );
 
-        // Each result used a credit: one is left towards processor 1, so of the
-        // next bundle only one message leaves; the others wait (nothing blocks,
-        // nothing is dropped).
-        assert_eq!(out.credits_towards(to, Pool::Results), 1);
-        assert_eq!(out.credits_towards(to, Pool::Tasks), 4);
+        // Each result used a credit: one shared is left towards processor
+        // 1, and results' reserve, so of the next bundle two messages
+        // leave; the third waits (nothing blocks, nothing is dropped).
+        assert_eq!(out.credits_towards(to, Pool::Tasks), 1);
+        assert_eq!(out.credits_towards(to, Pool::Results), 2);
         for v in 3..6 {
             out.push(to, Msg::Result(Res { key: v, value: v }), 0);
         }
-        assert_eq!(out.take_ready()[0].items.len(), 1);
-        assert_eq!(out.backlog(), 2);
+        assert_eq!(out.take_ready()[0].items.len(), 2);
+        assert_eq!(out.backlog(), 1);
 
-        // The receiver consumed them and gave credits back; a flush (the sender
-        // ran out of work) sends the rest without waiting for a full bundle.
+        // The receiver consumed three and gave their credits back; a flush
+        // (the sender ran out of work) sends the rest without waiting for
+        // a full bundle.
         out.grant(to, [(0, 0), (3, 3 * 16)], 0);
         out.pump(0, true);
-        assert_eq!(out.take_ready()[0].items.len(), 2);
+        assert_eq!(out.take_ready()[0].items.len(), 1);
         assert!(out.is_empty());
     }
 }

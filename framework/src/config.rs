@@ -75,8 +75,8 @@ pub enum DataService {
 ///     .with_credits(16);
 /// assert_eq!(config.validate(), Ok(()));
 /// // Flow control bounds every input buffer: 8 senders with 16 credits
-/// // each for tasks and 16 for results.
-/// assert_eq!(config.input_buffer_bound(), 256);
+/// // each, and 4 more for results.
+/// assert_eq!(config.input_buffer_bound(), 160);
 ///
 /// assert_eq!(Config::new(0).validate(), Err(ConfigError::NoProcessors));
 /// assert_eq!(Config::new(2).with_credits(0).validate(), Err(ConfigError::ZeroCredits));
@@ -116,16 +116,16 @@ pub struct Config {
     pub data_service: DataService,
     /// Bundling of low-priority traffic.
     pub bundle: BundleConfig,
-    /// Flow control: how many tasks one worker may have unconsumed at one
-    /// receiver, and how many results (each has its own credits,
-    /// [`crate::Pool`]). Bounds every input buffer by
-    /// `2 * credits_per_link * procs` messages.
+    /// Flow control: how many credit-limited messages (tasks and results)
+    /// one worker may have unconsumed at one receiver; results may use a
+    /// quarter as many again beyond them ([`crate::Pool::reserve`]). Bounds
+    /// every input buffer by [`Config::input_buffer_bound`] messages.
     pub credits_per_link: usize,
     /// Flow control in bytes: the work in flight at one actor, credit-limited
     /// messages received and not consumed (its input buffer) plus messages
     /// waiting in its outbox (its send backlog). Five eighths of it bound the
-    /// input buffer (a byte window for tasks per sending link of half the
-    /// budget over the processors, and a quarter as much for results),
+    /// input buffer (a byte window per sending link of half the budget over
+    /// the processors, and results' reserve a quarter as large),
     /// three eighths the backlog (a processor whose backlog holds more
     /// takes no new root task and keeps the children it spawns, and runs
     /// nothing while results wait in its backlog). See
@@ -301,28 +301,21 @@ impl Config {
 
     /// The most credit-limited messages any one actor can hold unconsumed:
     /// every worker (including, for the master, all of them) may have
-    /// `credits_per_link` tasks and as many results outstanding towards
-    /// it. Input buffer high-water marks never exceed this (checked by the
+    /// `credits_per_link` outstanding towards it, and results' reserve.
+    /// Input buffer high-water marks never exceed this (checked by the
     /// flow-control tests).
     pub fn input_buffer_bound(&self) -> usize {
-        2 * self.procs * self.credits_per_link
+        self.procs * (self.credits_per_link + crate::Pool::reserve(self.credits_per_link))
     }
 
-    /// The byte window of one link for tasks: a worker may have at most
-    /// this many bytes of tasks unconsumed at one receiver (or a single
-    /// message of any size when it has none there). Half the
-    /// [`Config::flight_bytes`] budget shared by the `procs` senders.
+    /// The byte window of one link: a worker may have at most this many
+    /// bytes of credit-limited messages unconsumed at one receiver (or a
+    /// single message of any size when it has none there), and results a
+    /// quarter as much again beyond it ([`crate::Pool::reserve`]). Half
+    /// the [`Config::flight_bytes`] budget shared by the `procs` senders;
+    /// with results' reserve, five eighths of it bound an input buffer.
     pub fn link_window_bytes(&self) -> usize {
         (self.flight_bytes / 2 / self.procs.max(1)).max(1)
-    }
-
-    /// The byte windows of one link, per [`crate::Pool`]: tasks'
-    /// ([`Config::link_window_bytes`]) and results', a quarter as large (at
-    /// least one byte). Together they bound an input buffer by five eighths
-    /// of [`Config::flight_bytes`].
-    pub fn link_windows(&self) -> [usize; 2] {
-        let tasks = self.link_window_bytes();
-        [tasks, (tasks / 4).max(1)]
     }
 
     /// A processor whose send backlog holds more bytes than this takes no

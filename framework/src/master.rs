@@ -103,7 +103,7 @@ impl<W: Workload> Master<W> {
                 procs,
                 config.bundle.clone(),
                 credits,
-                config.link_windows(),
+                config.link_window_bytes(),
             ),
             acc: W::Accumulator::default(),
             stats: ProcStats::new(Addr::Master),

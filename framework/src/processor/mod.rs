@@ -23,8 +23,8 @@
 //! children only (no new root task), keeps the demand-driven children it
 //! spawns instead of sending them away and sends every lane with credit at
 //! once; while results are among its backlog it runs nothing until they
-//! leave (results have credits of their own, and every receiver merges
-//! them whatever its state, so the wait always ends). Otherwise everything
+//! leave (results have a reserve of credits tasks cannot use, and every
+//! receiver merges them whatever its state, so the wait always ends). Otherwise everything
 //! it already holds still runs, so no cycle of waiting processors can form
 //! (SEMANTICS.md, 5 and 6).
 
@@ -137,7 +137,7 @@ impl<W: Workload> Processor<W> {
                 procs,
                 config.bundle.clone(),
                 credits,
-                config.link_windows(),
+                config.link_window_bytes(),
             ),
             placer: Placer::new(config.policy, id, procs),
             acc: W::Accumulator::default(),

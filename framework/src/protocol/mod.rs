@@ -108,10 +108,11 @@ impl Class {
     }
 }
 
-/// The two credit pools of a link (SEMANTICS.md, section 5). Results have
-/// their own: every receiver merges results whatever its own state, so a
-/// result always leaves a sender's backlog in the end, and a sender over
-/// its budget may wait for that without waiting on any task.
+/// The two credit pools of a link (SEMANTICS.md, section 5). Both share the
+/// link's credits and byte window, and results have a reserve beyond them:
+/// every receiver merges results whatever its own state, so a result
+/// always leaves a sender's backlog in the end, and a sender over its
+/// budget may wait for that without waiting on any task.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Pool {
     /// Data-parallel and demand-driven tasks.
@@ -128,6 +129,12 @@ impl Pool {
 
     /// Both pools.
     pub const ALL: [Pool; 2] = [Pool::Tasks, Pool::Results];
+
+    /// Results' reserve beyond a link's `shared` credits or byte window: a
+    /// quarter as much again, at least one.
+    pub fn reserve(shared: usize) -> usize {
+        (shared / 4).max(1)
+    }
 }
 
 /// Where one data item lives: the replicated ownership directory is built from

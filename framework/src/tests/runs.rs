@@ -255,9 +255,10 @@ fn work_in_flight_stays_within_the_byte_budget_under_every_policy() {
             for cache in [Some(1), Some(200), None] {
                 let base = Config::new(4).with_policy(policy).with_cache_bytes(cache);
                 let cfg = base.clone().with_flight_bytes(budget);
-                // The windows of four senders and the backlog's budget
-                // share the budget out.
-                assert_eq!(cfg.link_windows(), [512, 128]);
+                // The windows of four senders, results' reserves and the
+                // backlog's budget share the budget out.
+                assert_eq!(cfg.link_window_bytes(), 512);
+                assert_eq!(Pool::reserve(512), 128);
                 assert_eq!(4 * (512 + 128) + cfg.backlog_budget_bytes(), budget);
                 let r = run_lockstep(Arc::new(w.clone()), &cfg, 3).expect("terminates");
                 check_against_sequential(&w, &r);
