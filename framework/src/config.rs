@@ -127,8 +127,9 @@ pub struct Config {
     /// input buffer (a byte window per sending link of half the budget over
     /// the processors, and results' reserve a quarter as large),
     /// three eighths the backlog (a processor whose backlog holds more
-    /// takes no new root task and keeps the children it spawns, and runs
-    /// nothing while results wait in its backlog). See
+    /// takes no new root task and keeps the children it spawns; past three
+    /// quarters in flight, with results waiting in its backlog, it runs
+    /// nothing until they leave). See
     /// SEMANTICS.md section 5 for what is guaranteed.
     #[serde(default = "default_flight_bytes")]
     pub flight_bytes: usize,
@@ -319,8 +320,7 @@ impl Config {
     }
 
     /// A processor whose send backlog holds more bytes than this takes no
-    /// new root task, keeps its spawned children and, while results wait
-    /// in its backlog, runs nothing: the three eighths of
+    /// new root task and keeps its spawned children: the three eighths of
     /// [`Config::flight_bytes`] that the windows leave.
     pub fn backlog_budget_bytes(&self) -> usize {
         self.flight_bytes - self.flight_bytes / 2 - self.flight_bytes / 8

@@ -22,8 +22,9 @@
 //! [`Config::backlog_budget_bytes`], a processor asks the master for pooled
 //! children only (no new root task), keeps the demand-driven children it
 //! spawns instead of sending them away and sends every lane with credit at
-//! once; while results are among its backlog it runs nothing until they
-//! leave (results have a reserve of credits tasks cannot use, and every
+//! once; while its work in flight (input buffer and backlog) exceeds three
+//! quarters of [`Config::flight_bytes`] with results among its backlog, it
+//! runs nothing until they leave (results have a reserve of credits tasks cannot use, and every
 //! receiver merges them whatever its state, so the wait always ends). Otherwise everything
 //! it already holds still runs, so no cycle of waiting processors can form
 //! (SEMANTICS.md, 5 and 6).
@@ -83,6 +84,10 @@ pub(crate) struct Processor<W: Workload> {
     /// allowed a root task.
     requested: Option<bool>,
     backlog_budget: usize,
+    /// Three quarters of [`Config::flight_bytes`]: with more work in flight
+    /// here and results waiting to leave, the processor runs nothing (the
+    /// last quarter is for what the step in progress emits).
+    hold_at: usize,
     probe: Option<u64>,
     terminated: bool,
     basic_sent: u64,
@@ -146,6 +151,7 @@ impl<W: Workload> Processor<W> {
             prefetch_work: config.prefetch_work,
             requested: None,
             backlog_budget: config.backlog_budget_bytes(),
+            hold_at: config.flight_bytes - config.flight_bytes / 4,
             probe: None,
             terminated: false,
             basic_sent: 0,
@@ -325,13 +331,15 @@ impl<W: Workload> Processor<W> {
         self.outbox.backlog_bytes() > self.backlog_budget
     }
 
-    /// Back-pressure on execution: over budget with results in the
-    /// backlog. Every receiver consumes results whatever its own state, so
-    /// these lanes always drain and the hold always ends (no cycle of
-    /// waiting processors); tasks in the backlog do not hold execution,
-    /// as their receivers may themselves be held.
+    /// Back-pressure on execution: the work in flight here (input buffer
+    /// and backlog) past three quarters of the budget, with results in the
+    /// backlog.
+    /// Every receiver consumes results whatever its own state, so these
+    /// lanes always drain and the hold always ends (no cycle of waiting
+    /// processors); tasks in the backlog do not hold execution, as their
+    /// receivers may themselves be held.
     fn held_for_results(&self) -> bool {
-        self.over_budget() && self.outbox.result_backlog_bytes() > 0
+        self.outbox.in_flight_bytes() > self.hold_at && self.outbox.result_backlog_bytes() > 0
     }
 
     /// Asks the master for work: a root task too unless over budget.

@@ -610,7 +610,7 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub credits: usize,
-    /// Flow control in bytes: work in flight per processor (task and result messages received and not consumed, plus those waiting to be sent). Five eighths bound the input buffer (half shared, an eighth that only results may use), three eighths the send backlog. The simulated experiments use 1 MiB.
+    /// Flow control in bytes: work in flight per processor (task and result messages received and not consumed, plus those waiting to be sent). Five eighths bound the input buffer (half shared, an eighth that only results may use), three eighths the send backlog; past three quarters in flight, a processor with results waiting to leave runs nothing until they do. The simulated experiments use 1 MiB.
     #[arg(
         long,
         default_value_t = crate::parallel::RENDER_FLIGHT_BYTES,

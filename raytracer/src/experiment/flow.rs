@@ -87,7 +87,7 @@ pub(super) fn flow(cx: &mut Ctx) -> Result<()> {
         &format!(
             "{procs} processors at {}x{}, the largest figure of any actor (the master included) in each column; in flight is input buffer plus send backlog at one moment. \
              With credits, no processor can have more than credits x processors messages unconsumed from others, and results a quarter as many again; \
-             with the byte budget, half of it bounds the bytes of those, results an eighth more, and a processor whose send backlog holds more than the remaining three eighths takes no new tile, keeps the shadow tasks it spawns, and runs nothing while results wait in its backlog. \
+             with the byte budget, half of it bounds the bytes of those, results an eighth more, and a processor whose send backlog holds more than the remaining three eighths takes no new tile and keeps the shadow tasks it spawns; past three quarters of the budget in flight, with results waiting to leave, it runs nothing until they do. \
              The paper (without flow control) saw the bottleneck's input buffer grow from 617 kB (unlimited cache) to 16 MB (a 600 kB cache).",
             cx.s.small.0, cx.s.small.1
         ),
