@@ -1,20 +1,19 @@
 //! Flow control: credits per link and input-buffer accounting.
 //!
 //! Every worker may have at most `credits_per_link` credit-limited messages
-//! (results and tasks, see `is_credit_limited`) sent to one
-//! receiver and not yet consumed there, and at most a byte window of them
+//! (results and tasks, see `is_credit_limited`) sent to one receiver and not
+//! yet consumed there, and at most a byte window of them
 //! (`Config::link_window_bytes`; a single message of any size when it has
 //! none outstanding there). Results may go beyond both into a reserve of
 //! their own, a quarter as large again ([`Pool::reserve`]), and a result
 //! goes alone when none is outstanding: every receiver merges results
 //! whatever its state, so a sender's results always get credit in the end,
-//! however many of its tasks the receiver holds (a processor over its
-//! budget waits for that). The receiver
-//! returns credits as it
-//! consumes them (merges a result, starts a task, hands a pooled task out).
-//! A sender never blocks: messages without credit wait in its outbox, and it
-//! goes on with other work. Data requests and replies, and control messages,
-//! never need credit, so a task waiting for data can always get it and the
+//! however many of its tasks the receiver holds (a processor past its
+//! budget waits for that). The receiver returns credits as it consumes
+//! them (merges a result, starts a task, hands a pooled task out). A sender
+//! never blocks: messages without credit wait in its outbox, and it goes on
+//! with other work. Data requests and replies, and control messages, never
+//! need credit, so a task waiting for data can always get it and the
 //! receiver can always make progress; consumption returns credits, so no
 //! cycle of full buffers can form (see SEMANTICS.md).
 
