@@ -22,9 +22,9 @@
 //! [`Config::backlog_budget_bytes`], a processor asks the master for pooled
 //! children only (no new root task), keeps the demand-driven children it
 //! spawns instead of sending them away and sends every lane with credit at
-//! once; while its work in flight (input buffer and backlog) exceeds three
-//! quarters of [`Config::flight_bytes`] with results among its backlog, it
-//! runs nothing until they leave (results have a reserve of credits tasks cannot use, and every
+//! once; while, besides, its work in flight (input buffer and backlog)
+//! exceeds three quarters of [`Config::flight_bytes`] with results among
+//! its backlog, it runs nothing until they leave (results have a reserve of credits tasks cannot use, and every
 //! receiver merges them whatever its state, so the wait always ends). Otherwise everything
 //! it already holds still runs, so no cycle of waiting processors can form
 //! (SEMANTICS.md, 5 and 6).
@@ -331,15 +331,17 @@ impl<W: Workload> Processor<W> {
         self.outbox.backlog_bytes() > self.backlog_budget
     }
 
-    /// Back-pressure on execution: the work in flight here (input buffer
-    /// and backlog) past three quarters of the budget, with results in the
-    /// backlog.
+    /// Back-pressure on execution: over the backlog budget, the work in
+    /// flight here (input buffer and backlog) past three quarters of the
+    /// whole budget, and results in the backlog.
     /// Every receiver consumes results whatever its own state, so these
     /// lanes always drain and the hold always ends (no cycle of waiting
     /// processors); tasks in the backlog do not hold execution, as their
     /// receivers may themselves be held.
     fn held_for_results(&self) -> bool {
-        self.outbox.in_flight_bytes() > self.hold_at && self.outbox.result_backlog_bytes() > 0
+        self.over_budget()
+            && self.outbox.in_flight_bytes() > self.hold_at
+            && self.outbox.result_backlog_bytes() > 0
     }
 
     /// Asks the master for work: a root task too unless over budget.
