@@ -48,6 +48,7 @@ use crate::stats::{ProcStats, State};
 
 mod dispatch;
 mod outputs;
+mod pressure;
 use crate::store::{Admission, DataStore, Directory, ReadyTask};
 
 /// What one [`Processor::step`] (or [`crate::master::Master::step`]) did.
@@ -324,34 +325,6 @@ impl<W: Workload> Processor<W> {
             let bytes = Msg::<W>::dd_bytes(&env.task);
             self.roots_held.0 = self.roots_held.0.saturating_sub(bytes);
         }
-    }
-
-    /// Back-pressure: the send backlog holds more than its budget.
-    fn over_budget(&self) -> bool {
-        self.outbox.backlog_bytes() > self.backlog_budget
-    }
-
-    /// Back-pressure on execution: over the backlog budget, the work in
-    /// flight here (input buffer and backlog) past three quarters of the
-    /// whole budget, and results in the backlog.
-    /// Every receiver consumes results whatever its own state, so these
-    /// lanes always drain and the hold always ends (no cycle of waiting
-    /// processors); tasks in the backlog do not hold execution, as their
-    /// receivers may themselves be held.
-    fn held_for_results(&self) -> bool {
-        self.over_budget()
-            && self.outbox.in_flight_bytes() > self.hold_at
-            && self.outbox.result_backlog_bytes() > 0
-    }
-
-    /// Asks the master for work: a root task too unless over budget.
-    fn request_work(&mut self, now: Time) {
-        let roots = !self.over_budget();
-        if !roots {
-            self.stats.tasks.pooled_only_requests += 1;
-        }
-        self.requested = Some(roots);
-        self.send(Addr::Master, Msg::WorkRequest { roots }, now);
     }
 
     fn room_for_more_waiting(&self) -> bool {
