@@ -62,9 +62,9 @@ impl HeldObject {
         // are dropped; its vertices stay, they are what travels.
         if let Shape::Polygon(p) = &mut object.shape {
             if !p.tri_verts.is_empty() {
-                p.triangles = Vec::new();
-                p.tri_verts = Vec::new();
-                p.cdf = Vec::new();
+                p.triangles = Box::default();
+                p.tri_verts = Box::default();
+                p.cdf = Box::default();
             }
         }
         Arc::new(HeldObject { object, prim })
@@ -87,10 +87,10 @@ impl HeldObject {
         let heap = o.name.capacity()
             + match &o.shape {
                 Shape::Polygon(p) => {
-                    p.vertices.capacity() * size_of::<Vec3>()
-                        + p.triangles.capacity() * size_of::<[u32; 3]>()
-                        + p.tri_verts.capacity() * size_of::<[Vec3; 3]>()
-                        + p.cdf.capacity() * size_of::<f64>()
+                    size_of_val(&*p.vertices)
+                        + size_of_val(&*p.triangles)
+                        + size_of_val(&*p.tri_verts)
+                        + size_of_val(&*p.cdf)
                 }
                 _ => 0,
             };

@@ -70,6 +70,13 @@ pub struct Object {
     pub material: MaterialId,
 }
 
+// A scene of millions of surfaces holds this struct once per surface, and
+// each processor once per copy: the instance's matrices are boxed and the
+// polygon's arrays are boxed slices so that it stays at 136 bytes (312
+// before; the MPI chapter, "Each rank's bound").
+#[cfg(target_pointer_width = "64")]
+const _: () = assert!(std::mem::size_of::<Object>() <= 136);
+
 /// Objects by index: what a hierarchy was built over (a slice of the
 /// scene's objects, or a processor's copies, which its leaves share).
 pub trait ObjectSet {
@@ -133,27 +140,31 @@ pub enum Shape {
         r_inner: f64,
         r_outer: f64,
     },
-    /// A transformed reference to shared geometry.
-    Instance(Instance),
+    /// A transformed reference to shared geometry. Boxed: its two
+    /// matrices would make every object of a scene 144 bytes larger
+    /// (instances are few, polygons many).
+    Instance(Box<Instance>),
 }
 
-/// A planar polygon with at least three vertices.
+/// A planar polygon with at least three vertices. Its arrays are boxed
+/// slices, not vectors: a polygon never grows once made, and a scene holds
+/// many (32 bytes less each).
 #[derive(Debug, Clone)]
 pub struct Polygon {
     /// Vertices in the order given in the input (defines orientation).
-    pub vertices: Vec<Vec3>,
+    pub vertices: Box<[Vec3]>,
     /// Unit normal from the vertex order (Newell's method).
     pub normal: Vec3,
     /// Triangulation as indices into `vertices`, each triangle wound like the polygon.
-    pub triangles: Vec<[u32; 3]>,
+    pub triangles: Box<[[u32; 3]]>,
     /// The triangles' vertices, flattened (what intersection reads: one
     /// contiguous array, no index indirection).
-    pub tri_verts: Vec<[Vec3; 3]>,
+    pub tri_verts: Box<[[Vec3; 3]]>,
     /// Total area (sum of the triangles' areas).
     pub area: f64,
     /// Cumulative triangle areas divided by `area` (last entry 1): picks a
     /// triangle proportionally to its area when sampling.
-    pub cdf: Vec<f64>,
+    pub cdf: Box<[f64]>,
 }
 
 /// A similarity transform (rotation, uniform scale, mirror, translation), as

@@ -116,12 +116,12 @@ impl Shape {
             .map(|t| [vs[t[0] as usize], vs[t[1] as usize], vs[t[2] as usize]])
             .collect();
         Ok(Shape::Polygon(Polygon {
-            vertices: vs,
+            vertices: vs.into_boxed_slice(),
             normal,
-            triangles,
+            triangles: triangles.into_boxed_slice(),
             tri_verts,
             area,
-            cdf,
+            cdf: cdf.into_boxed_slice(),
         }))
     }
 
@@ -222,10 +222,10 @@ impl Shape {
                 geometry.name
             ));
         }
-        Ok(Shape::Instance(Instance {
+        Ok(Shape::Instance(Box::new(Instance {
             geometry,
             transform,
-        }))
+        })))
     }
 
     /// World-space bounds (tight for polygons and spheres, conservative for
@@ -367,10 +367,10 @@ impl Shape {
     pub fn heap_bytes(&self) -> usize {
         match self {
             Shape::Polygon(p) => {
-                p.vertices.capacity() * std::mem::size_of::<Vec3>()
-                    + p.triangles.capacity() * std::mem::size_of::<[u32; 3]>()
-                    + p.tri_verts.capacity() * std::mem::size_of::<[Vec3; 3]>()
-                    + p.cdf.capacity() * std::mem::size_of::<f64>()
+                std::mem::size_of_val(&*p.vertices)
+                    + std::mem::size_of_val(&*p.triangles)
+                    + std::mem::size_of_val(&*p.tri_verts)
+                    + std::mem::size_of_val(&*p.cdf)
             }
             _ => 0,
         }
