@@ -104,7 +104,6 @@ impl RtWorkload {
     ) -> crate::Result<Vec<(NodeId, CellData)>> {
         let owned: Vec<(NodeId, u64)> = self
             .owner_table()
-            .into_iter()
             .filter(|&(_, owner, _)| owner == proc)
             .map(|(leaf, _, bytes)| (leaf, bytes))
             .collect();
@@ -180,7 +179,6 @@ impl RtWorkload {
     /// of the scene as the partition counts it).
     pub fn accounted_share(&self, proc: usize) -> u64 {
         self.owner_table()
-            .into_iter()
             .filter(|&(_, owner, _)| owner == proc)
             .map(|(_, _, bytes)| bytes)
             .sum()

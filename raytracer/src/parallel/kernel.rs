@@ -284,7 +284,6 @@ impl RtWorkload {
     /// that [reads the scene](Self::reads_the_scene)).
     pub(super) fn listed_cells(&self) -> Vec<(NodeId, CellData)> {
         self.owner_table()
-            .into_iter()
             .map(|(leaf, _, bytes)| {
                 let cell = LeafObjects::listing(self.renderer.octree().leaf_objects(leaf));
                 (leaf, CellData { leaf, bytes, cell })

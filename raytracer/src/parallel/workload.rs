@@ -327,15 +327,15 @@ impl RtWorkload {
     }
 
     /// Leaves as data items: (leaf, owner, bytes); none when replicated.
-    pub(super) fn owner_table(&self) -> Vec<(NodeId, usize, u64)> {
-        if self.replicated() {
-            return Vec::new();
-        }
+    /// An iterator, not a list: it has an entry per leaf of the whole scene
+    /// (24 bytes each), and its callers keep a processor's part of it or
+    /// turn it into the directory.
+    pub(super) fn owner_table(&self) -> impl Iterator<Item = (NodeId, usize, u64)> + '_ {
         let part = &self.partition;
-        self.cells
+        let cells: &[(NodeId, u32, u64)] = if self.replicated() { &[] } else { &self.cells };
+        cells
             .iter()
-            .map(|&(leaf, _, bytes)| (leaf, part.owner(leaf) as usize, bytes))
-            .collect()
+            .map(move |&(leaf, _, bytes)| (leaf, part.owner(leaf) as usize, bytes))
     }
 
     /// `leaf`'s objects as this processor holds them (resident or cached),
@@ -392,7 +392,6 @@ impl Workload for RtWorkload {
 
     fn placement(&self, _procs: usize) -> Vec<Placement<NodeId>> {
         self.owner_table()
-            .into_iter()
             .map(|(id, owner, bytes)| Placement { id, owner, bytes })
             .collect()
     }
@@ -424,7 +423,6 @@ impl Workload for RtWorkload {
         let mut copies = ObjectCopies::new();
         let cells = self
             .owner_table()
-            .into_iter()
             .filter(|&(_, owner, _)| owner == proc)
             .map(|(leaf, _, bytes)| {
                 let cell = LeafObjects::copy_from(
