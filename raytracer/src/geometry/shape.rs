@@ -141,7 +141,7 @@ pub enum Shape {
         r_outer: f64,
     },
     /// A transformed reference to shared geometry. Boxed: its two
-    /// matrices would make every object of a scene 144 bytes larger
+    /// matrices would make every object of a scene 152 bytes larger
     /// (instances are few, polygons many).
     Instance(Box<Instance>),
 }
