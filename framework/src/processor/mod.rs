@@ -24,9 +24,10 @@
 //! spawns instead of sending them away and sends every lane with credit at
 //! once; while, besides, its work in flight (input buffer and backlog)
 //! exceeds three quarters of [`Config::flight_bytes`] with results among
-//! its backlog, it runs nothing until they leave (results have a reserve of credits tasks cannot use, and every
-//! receiver merges them whatever its state, so the wait always ends). Otherwise everything
-//! it already holds still runs, so no cycle of waiting processors can form
+//! its backlog, it runs nothing until they leave (results have a reserve
+//! of credits tasks cannot use, and every receiver merges them whatever
+//! its state, so the wait always ends). Otherwise everything it already
+//! holds still runs, so no cycle of waiting processors can form
 //! (SEMANTICS.md, 5 and 6).
 
 use std::collections::VecDeque;

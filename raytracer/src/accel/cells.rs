@@ -84,16 +84,7 @@ impl HeldObject {
     /// Heap and inline bytes of the copy and its intersection data.
     pub fn bytes(&self) -> usize {
         let o = &self.object;
-        let heap = o.name.capacity()
-            + match &o.shape {
-                Shape::Polygon(p) => {
-                    size_of_val(&*p.vertices)
-                        + size_of_val(&*p.triangles)
-                        + size_of_val(&*p.tri_verts)
-                        + size_of_val(&*p.cdf)
-                }
-                _ => 0,
-            };
+        let heap = o.name.capacity() + o.shape.heap_bytes();
         size_of::<HeldObject>() + heap + self.prim.memory_bytes()
     }
 }
@@ -123,16 +114,7 @@ pub fn copy_bytes(o: &Object) -> usize {
 
 /// Rough memory footprint of one object (its struct plus heap data).
 pub fn object_bytes(o: &Object) -> usize {
-    let heap = match &o.shape {
-        Shape::Polygon(p) => {
-            p.vertices.len() * std::mem::size_of::<Vec3>()
-                + p.triangles.len() * 12
-                + p.tri_verts.len() * 72
-                + p.cdf.len() * 8
-        }
-        _ => 0,
-    };
-    std::mem::size_of::<Object>() + o.name.len() + heap
+    std::mem::size_of::<Object>() + o.name.len() + o.shape.heap_bytes()
 }
 
 /// One processor's copies by object id, shared by the leaves it builds.
