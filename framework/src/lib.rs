@@ -146,6 +146,7 @@ mod bundle;
 pub mod cache;
 pub mod clock;
 pub mod config;
+mod directory;
 pub mod error;
 mod flow;
 mod mailbox;

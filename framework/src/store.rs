@@ -18,87 +18,10 @@ use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
 
 use crate::cache::{ByteLru, IdMap};
+pub(crate) use crate::directory::Directory;
 use crate::protocol::message::DdEnvelope;
 use crate::protocol::workload::{ByteSize, DataView, Workload};
-use crate::protocol::Placement;
 use crate::resident::Resident;
-
-/// The replicated ownership directory: data id -> (owner, bytes), every
-/// processor's copy of the placement.
-///
-/// A sorted list searched by halving, not a hash map: it is held by every
-/// processor and has an entry per data item of the whole run (an octree
-/// leaf of the renderer's scene), so its size is part of what each
-/// processor pays for the scene whatever its share. As a hash map it took
-/// 6.5 MB on every processor for a 300,000-triangle city's 166,000 leaves
-/// (valgrind's massif); as a list, 16 bytes an entry (2.7 MB). It is read
-/// only when a task needs data held elsewhere.
-#[derive(Clone, Debug)]
-pub(crate) struct Directory<Id> {
-    /// Ascending by id: (id, owner, bytes).
-    entries: Vec<(Id, u32, u64)>,
-}
-
-impl<Id: Ord + Clone + std::fmt::Debug> Directory<Id> {
-    /// Builds the directory, rejecting duplicate ids and owners out of range.
-    pub(crate) fn build(placement: Vec<Placement<Id>>, procs: usize) -> Result<Self, String> {
-        let mut entries = Vec::with_capacity(placement.len());
-        for p in placement {
-            if p.owner >= procs {
-                return Err(format!(
-                    "data {:?} is placed on processor {} but there are only {procs}",
-                    p.id, p.owner
-                ));
-            }
-            // `procs` processors are addressed by `usize` but never more
-            // than `u32::MAX` of them run.
-            let owner = u32::try_from(p.owner)
-                .map_err(|_| format!("data {:?} is placed on processor {}", p.id, p.owner))?;
-            entries.push((p.id, owner, p.bytes));
-        }
-        entries.sort_unstable_by(|a, b| a.0.cmp(&b.0));
-        if let Some(w) = entries.windows(2).find(|w| w[0].0 == w[1].0) {
-            return Err(format!("data {:?} is placed twice", w[0].0));
-        }
-        Ok(Directory { entries })
-    }
-
-    fn entry(&self, id: &Id) -> Option<&(Id, u32, u64)> {
-        self.entries
-            .binary_search_by(|e| e.0.cmp(id))
-            .ok()
-            .map(|k| &self.entries[k])
-    }
-
-    /// Whether `id` is placed.
-    pub(crate) fn contains(&self, id: &Id) -> bool {
-        self.entry(id).is_some()
-    }
-
-    /// Owner of `id`.
-    pub(crate) fn owner(&self, id: &Id) -> Option<usize> {
-        self.entry(id).map(|e| e.1 as usize)
-    }
-
-    /// Size of `id` in bytes.
-    pub(crate) fn bytes(&self, id: &Id) -> Option<u64> {
-        self.entry(id).map(|e| e.2)
-    }
-
-    /// How many items are placed on `proc`.
-    pub(crate) fn count_on(&self, proc: usize) -> usize {
-        self.entries.iter().filter(|e| e.1 as usize == proc).count()
-    }
-
-    /// Bytes of the items placed on other processors than `proc`.
-    fn bytes_elsewhere(&self, proc: usize) -> u64 {
-        self.entries
-            .iter()
-            .filter(|e| e.1 as usize != proc)
-            .map(|e| e.2)
-            .sum()
-    }
-}
 
 /// Most accounted bytes asked for in one request when a cache completes
 /// itself ([`DataStore::complete`]): the rest of a large scene comes in
@@ -169,7 +92,7 @@ pub(crate) struct DataStore<W: Workload> {
     complete_at: Option<u64>,
     /// Bytes asked for from other processors so far.
     asked_bytes: u64,
-    dir: Directory<W::DataId>,
+    dir: Directory<W>,
     in_flight: IdMap<W::DataId, InFlight>,
     waiting: HashMap<TaskKey, WaitingTask<W>>,
     next_key: TaskKey,
@@ -184,14 +107,14 @@ impl<W: Workload> DataStore<W> {
     pub(crate) fn new(
         me: usize,
         resident: Vec<(W::DataId, W::DataItem)>,
-        dir: Directory<W::DataId>,
+        dir: Directory<W>,
         cache_bytes: Option<u64>,
         fetch_limit: Option<u64>,
         complete_cache: Option<u8>,
     ) -> Result<Self, String> {
         let mut resident_bytes = 0u64;
         for (id, item) in &resident {
-            match dir.entry(id).map(|e| (e.1 as usize, e.2)) {
+            match dir.locate(id) {
                 Some((owner, _)) if owner != me => {
                     return Err(format!(
                         "processor {me} loaded data {id:?}, which the directory places on {owner}"
@@ -215,7 +138,7 @@ impl<W: Workload> DataStore<W> {
         // The loaded list becomes the store's, not copied.
         let map = Resident::from_vec(resident)
             .map_err(|id| format!("processor {me} loaded data {id:?} twice"))?;
-        let expected = dir.count_on(me);
+        let (expected, elsewhere) = dir.count_on_and_bytes_elsewhere(me);
         if expected != map.len() {
             return Err(format!(
                 "processor {me} loaded {} items but the directory places {expected} on it",
@@ -226,7 +149,7 @@ impl<W: Workload> DataStore<W> {
         // limit says that large fetches cost more than migrating work.
         let complete_at = complete_cache
             .filter(|_| cache_bytes.is_none() && fetch_limit.is_none())
-            .map(|p| (u128::from(dir.bytes_elsewhere(me)) * u128::from(p) / 100) as u64);
+            .map(|p| (u128::from(elsewhere) * u128::from(p) / 100) as u64);
         Ok(DataStore {
             me,
             resident: Arc::new(map),
@@ -268,7 +191,7 @@ impl<W: Workload> DataStore<W> {
     }
 
     /// The directory.
-    pub(crate) fn directory(&self) -> &Directory<W::DataId> {
+    pub(crate) fn directory(&self) -> &Directory<W> {
         &self.dir
     }
 
@@ -443,7 +366,8 @@ impl<W: Workload> DataStore<W> {
         // Per owner: the requests so far, the last one's bytes.
         let mut requests: BTreeMap<usize, Chunks<W::DataId>> = BTreeMap::new();
         let mut bytes = 0u64;
-        for (id, owner, b) in &self.dir.entries {
+        let entries = self.dir.entries();
+        for (id, owner, b) in entries.iter() {
             let owner = *owner as usize;
             if owner == self.me || self.cache.contains(id) || self.in_flight.contains_key(id) {
                 continue;

@@ -116,7 +116,7 @@ impl<W: Workload> Processor<W> {
     pub(crate) fn new(id: usize, workload: Arc<W>, config: &Config) -> Result<Self, RunError> {
         let procs = config.procs;
         let placement_err = |m: String| RunError::Config(crate::ConfigError::Placement(m));
-        let dir = Directory::build(workload.placement(procs), procs).map_err(placement_err)?;
+        let dir = Directory::new(&workload, procs).map_err(placement_err)?;
         let resident = workload.load_partition(id, procs);
         let store = DataStore::new(
             id,

@@ -256,6 +256,18 @@ pub trait Workload: Send + Sync + Sized + 'static {
     /// The replicated ownership directory for a run on `procs` processors.
     fn placement(&self, procs: usize) -> Vec<Placement<Self::DataId>>;
 
+    /// Whether [`Workload::locate`] answers (then processors ask it instead
+    /// of each keeping a sorted copy of the placement, 16 bytes an item;
+    /// each placement entry is checked against it at start-up).
+    fn locates(&self) -> bool {
+        false
+    }
+
+    /// `id`'s owner and bytes as [`Workload::placement`] has them; `None` if not placed.
+    fn locate(&self, _id: &Self::DataId, _procs: usize) -> Option<(usize, u64)> {
+        None
+    }
+
     /// The resident items of processor `proc` (of `procs`).
     fn load_partition(&self, proc: usize, procs: usize) -> Vec<(Self::DataId, Self::DataItem)>;
 

@@ -51,6 +51,20 @@ pub(crate) struct Mini {
     /// A walk that must migrate asks for its processor's cache to be
     /// completed ([`Ctx::complete_cache`]).
     pub complete_on_migrate: bool,
+    /// How it answers [`Workload::locate`].
+    pub locating: Locating,
+}
+
+/// How [`Mini`] answers [`Workload::locate`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) enum Locating {
+    /// It does not: processors keep their own directory.
+    #[default]
+    No,
+    /// As its placement says.
+    Right,
+    /// Its last item on another processor than the placement's.
+    Wrong,
 }
 
 impl Default for Mini {
@@ -66,6 +80,7 @@ impl Default for Mini {
             seed: 7,
             laid_out: None,
             complete_on_migrate: false,
+            locating: Locating::No,
         }
     }
 }
@@ -200,6 +215,21 @@ impl Workload for Mini {
                 bytes: (24 + 8 * self.words) as u64,
             })
             .collect()
+    }
+    fn locates(&self) -> bool {
+        self.locating != Locating::No
+    }
+    fn locate(&self, id: &u32, procs: usize) -> Option<(usize, u64)> {
+        let owner = if self.hotspot {
+            0
+        } else {
+            *id as usize % procs
+        };
+        let owner = match self.locating {
+            Locating::Wrong if *id + 1 == self.items => (owner + 1) % procs,
+            _ => owner,
+        };
+        (*id < self.items).then_some((owner, (24 + 8 * self.words) as u64))
     }
     fn load_partition(&self, proc: usize, procs: usize) -> Vec<(u32, Item)> {
         self.placement(procs)

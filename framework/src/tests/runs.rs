@@ -28,6 +28,49 @@ fn lockstep_matches_sequential_for_all_policies_and_caches() {
     }
 }
 
+/// A workload that locates its own data (its processors keep no
+/// directory) runs exactly as one whose processors list the placement; one
+/// whose answer disagrees with its placement is refused before the run,
+/// naming the item.
+#[test]
+fn a_workload_that_locates_its_data_runs_as_one_listed() {
+    let w = Mini {
+        locating: Locating::Right,
+        ..Mini::default()
+    };
+    let item = (24 + 8 * w.words) as u64;
+    for procs in 1..=4 {
+        for policy in Policy::ALL {
+            for cache in [Some(1), Some(2 * item), None] {
+                let cfg = Config::new(procs)
+                    .with_policy(policy)
+                    .with_cache_bytes(cache)
+                    .with_complete_cache(Some(50))
+                    .with_credits(2);
+                let seed = procs as u64 * 17 + 3;
+                let asked = run_lockstep(Arc::new(w.clone()), &cfg, seed).expect("runs");
+                check_against_sequential(&w, &asked);
+                let listed = run_lockstep(Arc::new(Mini::default()), &cfg, seed).expect("runs");
+                let tasks = |r: &RunReport<Mini>| {
+                    let t: Vec<_> = r.stats.procs.iter().map(|p| p.tasks).collect();
+                    format!("{t:?}")
+                };
+                assert_eq!(tasks(&asked), tasks(&listed), "{procs} {policy} {cache:?}");
+                assert_eq!(asked.procs, listed.procs);
+            }
+        }
+    }
+    let wrong = Mini {
+        locating: Locating::Wrong,
+        ..Mini::default()
+    };
+    let e = run_lockstep(Arc::new(wrong), &Config::new(2), 1).unwrap_err();
+    assert!(
+        e.to_string().contains("data 23 is placed on processor 1"),
+        "{e}"
+    );
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
     /// Termination is never premature (every result is present and merged

@@ -50,12 +50,7 @@ impl RtWorkload {
             }
             _ => Vec::new(),
         };
-        let octree = renderer.octree();
-        let cells = source
-            .leaves()
-            .iter()
-            .map(|&(leaf, bytes)| (leaf, octree.leaf_objects(leaf).len() as u32, bytes))
-            .collect();
+        let cells = super::cell_table::CellTable::new(source.leaves().iter().copied());
         let procs = procs.max(1);
         let held = Held {
             source: Mutex::new(Some(source)),

@@ -15,6 +15,7 @@
 
 pub mod ambient;
 pub mod caster;
+pub mod cell_table;
 mod clip_memory;
 pub mod cost;
 pub mod distribution;

@@ -107,8 +107,9 @@ pub struct RtWorkload {
     pub(super) width: usize,
     pub(super) height: usize,
     pub(super) opts: WorkloadOptions,
-    /// Non-empty leaves with their data size.
-    pub(super) cells: Vec<(NodeId, u32, u64)>,
+    /// Non-empty leaves with their data size: the directory the framework
+    /// asks ([`Workload::locate`]).
+    pub(super) cells: super::cell_table::CellTable,
     pub(super) partition: Partition,
     /// Per node: the one processor owning every non-empty leaf below it,
     /// see [`super::distribution::subtree_owners`].
@@ -192,8 +193,8 @@ impl RtWorkload {
         )
     }
 
-    /// Non-empty leaves with their object count and accounted bytes.
-    fn cells_of(renderer: &Renderer<'static>) -> Vec<(NodeId, u32, u64)> {
+    /// Non-empty leaves with their accounted bytes.
+    fn cells_of(renderer: &Renderer<'static>) -> super::cell_table::CellTable {
         let octree = renderer.octree();
         let objects = &renderer.scene().objects;
         // An object listed in n leaves is stored once where they are held
@@ -205,22 +206,20 @@ impl RtWorkload {
                 listed[o as usize] += 1;
             }
         }
-        octree
-            .leaves()
-            .filter_map(|leaf| {
-                let ids = octree.leaf_objects(leaf);
-                (!ids.is_empty()).then(|| {
-                    let bytes: usize = ids
-                        .iter()
-                        .map(|&o| {
-                            let n = listed[o as usize].max(1) as usize;
-                            object_bytes(&objects[o as usize]).div_ceil(n) + 4
-                        })
-                        .sum();
-                    (leaf, ids.len() as u32, bytes as u64)
-                })
+        let cells = octree.leaves().filter_map(|leaf| {
+            let ids = octree.leaf_objects(leaf);
+            (!ids.is_empty()).then(|| {
+                let bytes: usize = ids
+                    .iter()
+                    .map(|&o| {
+                        let n = listed[o as usize].max(1) as usize;
+                        object_bytes(&objects[o as usize]).div_ceil(n) + 4
+                    })
+                    .sum();
+                (leaf, bytes as u64)
             })
-            .collect()
+        });
+        super::cell_table::CellTable::new(cells)
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -231,7 +230,7 @@ impl RtWorkload {
         height: usize,
         procs: usize,
         opts: WorkloadOptions,
-        cells: Vec<(NodeId, u32, u64)>,
+        cells: super::cell_table::CellTable,
         held: Option<Held>,
         predicted: Option<Vec<u64>>,
     ) -> Self {
@@ -311,13 +310,13 @@ impl RtWorkload {
     /// Total bytes of all cell data (about the scene's object bytes plus
     /// the leaves' object lists).
     pub fn data_bytes(&self) -> u64 {
-        self.cells.iter().map(|c| c.2).sum()
+        self.cells.total_bytes()
     }
 
     /// The largest data set one task can need: every cell (used to size a
     /// cache that is "smaller than one task's data").
     pub fn largest_cell_bytes(&self) -> u64 {
-        self.cells.iter().map(|c| c.2).max().unwrap_or(0)
+        self.cells.largest_bytes()
     }
 
     /// [`Distribution::Replicated`]: every leaf is local everywhere.
@@ -332,10 +331,15 @@ impl RtWorkload {
     /// turn it into the directory.
     pub(super) fn owner_table(&self) -> impl Iterator<Item = (NodeId, usize, u64)> + '_ {
         let part = &self.partition;
-        let cells: &[(NodeId, u32, u64)] = if self.replicated() { &[] } else { &self.cells };
-        cells
+        let n = if self.replicated() {
+            0
+        } else {
+            self.cells.len()
+        };
+        self.cells
             .iter()
-            .map(move |&(leaf, _, bytes)| (leaf, part.owner(leaf) as usize, bytes))
+            .take(n)
+            .map(move |(leaf, bytes)| (leaf, part.owner(leaf) as usize, bytes))
     }
 
     /// `leaf`'s objects as this processor holds them (resident or cached),
@@ -394,6 +398,21 @@ impl Workload for RtWorkload {
         self.owner_table()
             .map(|(id, owner, bytes)| Placement { id, owner, bytes })
             .collect()
+    }
+
+    /// The cell table and the partition are the directory: no processor
+    /// keeps one of its own.
+    fn locates(&self) -> bool {
+        true
+    }
+
+    #[inline]
+    fn locate(&self, leaf: &NodeId, _procs: usize) -> Option<(usize, u64)> {
+        if self.replicated() {
+            return None;
+        }
+        let bytes = self.cells.bytes_of(*leaf)?;
+        Some((self.partition.owner(*leaf) as usize, bytes))
     }
 
     fn load_partition(&self, proc: usize, procs: usize) -> Vec<(NodeId, CellData)> {
