@@ -77,7 +77,7 @@ impl LocalPath<'_> {
     /// Subtrees whose every non-empty leaf is resident here.
     #[inline]
     fn owned(&self, node: NodeId) -> bool {
-        let o = self.wl.subtree_owner[node as usize];
+        let o = self.wl.subtree_owner.get(node as usize);
         o == EMPTY || o == self.proc
     }
 
@@ -356,7 +356,7 @@ impl RtWorkload {
     pub(super) fn holds_everything(&self, proc: usize) -> bool {
         self.subtree_owner
             .first()
-            .is_some_and(|&o| o == EMPTY || o as usize == proc)
+            .is_some_and(|o| o == EMPTY || o as usize == proc)
             || self
                 .grown
                 .get(proc)

@@ -22,6 +22,7 @@ pub mod distribution;
 mod execute;
 mod held;
 mod kernel;
+pub mod owners;
 pub mod partition;
 pub mod predict;
 mod runtime;

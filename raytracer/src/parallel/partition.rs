@@ -29,7 +29,7 @@ pub struct Partition {
     /// Owner per node id (leaves and internal nodes alike; an internal node
     /// inside one piece has that piece's owner, one above the cut has the
     /// owner of its first leaf in depth-first order).
-    owner_of_node: Vec<u32>,
+    owner_of_node: super::owners::NodeOwners,
     /// The subtree roots the tree was cut into, depth first, with their owner.
     pieces: Vec<(NodeId, u32)>,
     /// Object references per processor (sum of its leaves' object counts).
@@ -176,7 +176,7 @@ impl Partition {
             .collect();
         Partition {
             procs,
-            owner_of_node,
+            owner_of_node: super::owners::NodeOwners::new(owner_of_node),
             pieces,
             cost,
             resident,
@@ -191,12 +191,7 @@ impl Partition {
 
     /// The processor owning `node` (for a leaf: the one storing its objects).
     pub fn owner(&self, node: NodeId) -> u32 {
-        self.owner_of_node[node as usize]
-    }
-
-    /// Owner per node id (index with a leaf id).
-    pub fn owners(&self) -> &[u32] {
-        &self.owner_of_node
+        self.owner_of_node.get(node as usize)
     }
 
     /// The subtree roots the tree was cut into, depth first, with their owners.

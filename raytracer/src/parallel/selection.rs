@@ -191,7 +191,7 @@ impl RtWorkload {
         let octree = self.renderer.octree();
         let me = ctx.proc_id();
         let owned = |id: NodeId| {
-            let o = self.subtree_owner[id as usize];
+            let o = self.subtree_owner.get(id as usize);
             o == me as u32 || o == EMPTY
         };
         let view = local.filter(|l| self.opts.clip_cache && l.keeps_everything());

@@ -113,7 +113,7 @@ pub struct RtWorkload {
     pub(super) partition: Partition,
     /// Per node: the one processor owning every non-empty leaf below it,
     /// see [`super::distribution::subtree_owners`].
-    pub(super) subtree_owner: Vec<u32>,
+    pub(super) subtree_owner: super::owners::NodeOwners,
     /// Per processor (so they do not contend), its shadow selections and
     /// the subtrees it holds whole (option `clip_cache`).
     pub(super) clip_cache: Vec<Mutex<super::clip_memory::ClipCache>>,
@@ -242,7 +242,7 @@ impl RtWorkload {
             None => Vec::new(),
         };
         let partition = partition_for(&renderer, opts.distribution, procs, &predicted);
-        let subtree_owner = subtree_owners(&renderer, &partition);
+        let subtree_owner = super::owners::NodeOwners::new(subtree_owners(&renderer, &partition));
         RtWorkload {
             subtree_owner,
             clip_cache: (0..procs.max(1))
@@ -294,7 +294,7 @@ impl RtWorkload {
                 break;
             }
         }
-        let o = self.subtree_owner[node as usize];
+        let o = self.subtree_owner.get(node as usize);
         o == EMPTY || o as usize == proc
     }
 
