@@ -49,10 +49,13 @@ fn owner_u32<Id: std::fmt::Debug>(id: &Id, owner: usize, procs: usize) -> Result
     u32::try_from(owner).map_err(|_| format!("data {id:?} is placed on processor {owner}"))
 }
 
-/// The first id listed twice in `ids` (sorted), as an error.
-fn no_duplicates<Id: Ord + std::fmt::Debug>(ids: &[Id]) -> Result<(), String> {
-    match ids.windows(2).find(|w| w[0] == w[1]) {
-        Some(w) => Err(format!("data {:?} is placed twice", w[0])),
+/// The first id listed twice in `items` (sorted by `id`), as an error.
+fn no_duplicates<T, Id: Eq + std::fmt::Debug>(
+    items: &[T],
+    id: impl Fn(&T) -> &Id,
+) -> Result<(), String> {
+    match items.windows(2).find(|w| id(&w[0]) == id(&w[1])) {
+        Some(w) => Err(format!("data {:?} is placed twice", id(&w[0]))),
         None => Ok(()),
     }
 }
@@ -82,7 +85,7 @@ impl<W: Workload> Directory<W> {
             ids.push(p.id);
         }
         ids.sort_unstable();
-        no_duplicates(&ids)?;
+        no_duplicates(&ids, |i| i)?;
         Ok(Directory::Asked {
             workload: Arc::clone(workload),
             procs,
@@ -100,9 +103,7 @@ impl<W: Workload> Directory<W> {
             entries.push((p.id, owner, p.bytes));
         }
         entries.sort_unstable_by(|a, b| a.0.cmp(&b.0));
-        if let Some(w) = entries.windows(2).find(|w| w[0].0 == w[1].0) {
-            return Err(format!("data {:?} is placed twice", w[0].0));
-        }
+        no_duplicates(&entries, |e| &e.0)?;
         Ok(Directory::Listed(entries))
     }
 
@@ -152,13 +153,22 @@ impl<W: Workload> Directory<W> {
     }
 
     /// How many items are placed on `proc`, and the bytes of those placed
-    /// elsewhere.
+    /// elsewhere (in any order: nothing sorted for it).
     pub(crate) fn count_on_and_bytes_elsewhere(&self, proc: usize) -> (usize, u64) {
-        self.entries()
-            .iter()
-            .fold((0, 0), |(n, b), e| match e.1 as usize == proc {
-                true => (n + 1, b),
-                false => (n, b + e.2),
-            })
+        let count = |(n, b): (usize, u64), (owner, bytes): (usize, u64)| match owner == proc {
+            true => (n + 1, b),
+            false => (n, b + bytes),
+        };
+        match self {
+            Directory::Listed(entries) => entries
+                .iter()
+                .map(|e| (e.1 as usize, e.2))
+                .fold((0, 0), count),
+            Directory::Asked { workload, procs } => workload
+                .placement(*procs)
+                .iter()
+                .map(|p| (p.owner, p.bytes))
+                .fold((0, 0), count),
+        }
     }
 }

@@ -67,6 +67,14 @@ pub(crate) enum Locating {
     Wrong,
 }
 
+impl Mini {
+    /// Item `id`'s owner and bytes on `procs` processors, as placed.
+    fn home(&self, id: u32, procs: usize) -> (usize, u64) {
+        let owner = if self.hotspot { 0 } else { id as usize % procs };
+        (owner, (24 + 8 * self.words) as u64)
+    }
+}
+
 impl Default for Mini {
     fn default() -> Self {
         Mini {
@@ -209,10 +217,13 @@ impl Workload for Mini {
 
     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {
         (0..self.items)
-            .map(|i| Placement {
-                id: i,
-                owner: if self.hotspot { 0 } else { i as usize % procs },
-                bytes: (24 + 8 * self.words) as u64,
+            .map(|i| {
+                let (owner, bytes) = self.home(i, procs);
+                Placement {
+                    id: i,
+                    owner,
+                    bytes,
+                }
             })
             .collect()
     }
@@ -220,16 +231,12 @@ impl Workload for Mini {
         self.locating != Locating::No
     }
     fn locate(&self, id: &u32, procs: usize) -> Option<(usize, u64)> {
-        let owner = if self.hotspot {
-            0
-        } else {
-            *id as usize % procs
-        };
+        let (owner, bytes) = self.home(*id, procs);
         let owner = match self.locating {
             Locating::Wrong if *id + 1 == self.items => (owner + 1) % procs,
             _ => owner,
         };
-        (*id < self.items).then_some((owner, (24 + 8 * self.words) as u64))
+        (*id < self.items).then_some((owner, bytes))
     }
     fn load_partition(&self, proc: usize, procs: usize) -> Vec<(u32, Item)> {
         self.placement(procs)
