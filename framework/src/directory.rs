@@ -1,16 +1,16 @@
 //! The replicated ownership directory: data id -> (owner, bytes), what
 //! every processor knows of the placement.
 //!
-//! By default each processor keeps its own sorted copy of
-//! [`Workload::placement`], searched by halving: held by every processor,
-//! an entry per data item of the whole run (an octree leaf of the
-//! renderer's scene), so its size is part of what each processor pays for
-//! the scene whatever its share. As a hash map it took 6.5 MB on every
-//! processor for a 300,000-triangle city's 166,000 leaves (valgrind's
-//! massif); as a list, 16 bytes an entry (2.7 MB). A workload that holds
-//! that index anyway ([`Workload::locates`]) is asked instead, and the
-//! processors keep nothing: in one process, N processors no longer hold N
-//! copies.
+//! By default a sorted copy of [`Workload::placement`] is searched by
+//! halving, one per process, shared by its processors: an entry per data
+//! item of the whole run (an octree leaf of the renderer's scene), so its
+//! size is part of what each rank pays for the scene whatever its share.
+//! As a hash map it took 6.5 MB on every processor for a
+//! 300,000-triangle city's 166,000 leaves (valgrind's massif); as a list,
+//! 16 bytes an entry (2.7 MB). A workload that holds that index anyway
+//! ([`Workload::locates`]) is asked instead, and the processors keep
+//! nothing. Either way the directory is built and checked once per
+//! process ([`Directory::shared`]), not once per processor.
 
 use std::borrow::Cow;
 use std::sync::Arc;
@@ -90,6 +90,14 @@ impl<W: Workload> Directory<W> {
             workload: Arc::clone(workload),
             procs,
         })
+    }
+
+    /// [`Directory::new`], built and checked once for the processors of a
+    /// process and shared by them.
+    pub(crate) fn shared(workload: &Arc<W>, procs: usize) -> Result<Arc<Self>, crate::RunError> {
+        Self::new(workload, procs)
+            .map(Arc::new)
+            .map_err(|m| crate::RunError::Config(crate::ConfigError::Placement(m)))
     }
 
     /// A sorted copy of `placement`.

@@ -151,6 +151,7 @@ pub mod error;
 mod flow;
 mod mailbox;
 mod master;
+pub mod par;
 pub mod policy;
 mod processor;
 pub mod protocol;

@@ -92,7 +92,8 @@ pub(crate) struct DataStore<W: Workload> {
     complete_at: Option<u64>,
     /// Bytes asked for from other processors so far.
     asked_bytes: u64,
-    dir: Directory<W>,
+    /// Shared by a process's processors (built and checked once).
+    dir: Arc<Directory<W>>,
     in_flight: IdMap<W::DataId, InFlight>,
     waiting: HashMap<TaskKey, WaitingTask<W>>,
     next_key: TaskKey,
@@ -107,7 +108,7 @@ impl<W: Workload> DataStore<W> {
     pub(crate) fn new(
         me: usize,
         resident: Vec<(W::DataId, W::DataItem)>,
-        dir: Directory<W>,
+        dir: Arc<Directory<W>>,
         cache_bytes: Option<u64>,
         fetch_limit: Option<u64>,
         complete_cache: Option<u8>,

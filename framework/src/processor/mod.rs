@@ -113,10 +113,21 @@ pub(crate) struct Processor<W: Workload> {
 impl<W: Workload> Processor<W> {
     /// Worker `id` of `config.procs`, loading its partition from the workload.
     /// The configuration must already be valid.
+    #[cfg(any(test, feature = "mpi"))]
     pub(crate) fn new(id: usize, workload: Arc<W>, config: &Config) -> Result<Self, RunError> {
+        let dir = Directory::shared(&workload, config.procs)?;
+        Self::with_directory(id, workload, config, dir)
+    }
+
+    /// [`Processor::new`] with the run's directory ([`Directory::shared`]).
+    pub(crate) fn with_directory(
+        id: usize,
+        workload: Arc<W>,
+        config: &Config,
+        dir: Arc<Directory<W>>,
+    ) -> Result<Self, RunError> {
         let procs = config.procs;
         let placement_err = |m: String| RunError::Config(crate::ConfigError::Placement(m));
-        let dir = Directory::new(&workload, procs).map_err(placement_err)?;
         let resident = workload.load_partition(id, procs);
         let store = DataStore::new(
             id,

@@ -257,8 +257,7 @@ pub trait Workload: Send + Sync + Sized + 'static {
     fn placement(&self, procs: usize) -> Vec<Placement<Self::DataId>>;
 
     /// Whether [`Workload::locate`] answers (then processors ask it instead
-    /// of each keeping a sorted copy of the placement, 16 bytes an item;
-    /// each placement entry is checked against it at start-up).
+    /// of a sorted copy of the placement; every entry is checked at start).
     fn locates(&self) -> bool {
         false
     }
@@ -268,7 +267,8 @@ pub trait Workload: Send + Sync + Sized + 'static {
         None
     }
 
-    /// The resident items of processor `proc` (of `procs`).
+    /// The resident items of processor `proc` (of `procs`); called for
+    /// the processors of one process side by side, on several threads.
     fn load_partition(&self, proc: usize, procs: usize) -> Vec<(Self::DataId, Self::DataItem)>;
 
     /// The root demand-driven tasks the master hands out on request (e.g. screen

@@ -10,7 +10,7 @@ use crate::{Config, Policy, Workload};
 
 const MIB: u64 = 1 << 20;
 
-fn directory() -> Directory<Mini> {
+fn directory() -> Arc<Directory<Mini>> {
     // Processor 0 holds nothing; 1 and 2 hold items of these accounted
     // sizes, one of them larger than a completion request's bound.
     let items = [(1, 1, 5), (2, 1, 5), (3, 1, 1), (4, 2, 20), (5, 2, 1)];
@@ -22,7 +22,7 @@ fn directory() -> Directory<Mini> {
             bytes: mib * MIB,
         })
         .collect();
-    Directory::build(placement, 3).unwrap()
+    Arc::new(Directory::build(placement, 3).unwrap())
 }
 
 /// Every item held elsewhere is asked for once, from its owner, in

@@ -367,29 +367,14 @@ impl Octree {
         let mut params = params.clone();
         params.max_depth = params.max_depth.min(MAX_DEPTH);
         let bounds: Vec<Aabb> = objects.iter().map(|o| o.shape.bounds()).collect();
-        let scene = bounds.iter().fold(
-            Aabb::EMPTY,
-            |a, b| if b.is_empty() { a } else { a.union(*b) },
-        );
-        let (center, half) = if scene.is_empty() {
-            (Vec3::ZERO, 0.5)
-        } else {
-            let ext = scene.extent().max_element();
-            let mag = scene.magnitude();
-            // Never a zero-size cube (a single point or an axis-aligned flat scene).
-            let side = (ext * (1.0 + params.enlarge.max(0.0)))
-                .max(mag * 1e-9)
-                .max(f64::MIN_POSITIVE * 1e20);
-            (scene.center(), side * 0.5)
-        };
-        let margin = 1e-9 * (2.0 * half + center.abs().max_element());
-        let root = Cell { center, half };
+        let root = Self::root_of(&bounds, &params);
+        let margin = 1e-9 * (2.0 * root.half + root.center.abs().max_element());
         let cands: Vec<ObjectId> = (0..objects.len() as u32)
             .filter(|&i| !bounds[i as usize].is_empty())
             .collect();
         let tree = Octree {
             root_cell: root,
-            half_at: halves_from(half),
+            half_at: halves_from(root.half),
             nodes: vec![TravNode::EMPTY_LEAF],
             parents: vec![NodeId::MAX],
             depths: vec![0],
@@ -409,6 +394,34 @@ impl Octree {
         t.finish(objects.len());
         t.prims = Prims::build(objects);
         t
+    }
+
+    /// [`Octree::root_bounds`] of the octree [`Octree::build`] would make
+    /// over `objects`, without building it.
+    pub fn root_bounds_of(objects: &[Object], params: &OctreeParams) -> Aabb {
+        let bounds: Vec<Aabb> = objects.iter().map(|o| o.shape.bounds()).collect();
+        Self::root_of(&bounds, params).bounds()
+    }
+
+    /// The root cell over objects of `bounds`: a cube around the non-empty
+    /// ones, enlarged by `params.enlarge`.
+    fn root_of(bounds: &[Aabb], params: &OctreeParams) -> Cell {
+        let scene = bounds.iter().fold(
+            Aabb::EMPTY,
+            |a, b| if b.is_empty() { a } else { a.union(*b) },
+        );
+        let (center, half) = if scene.is_empty() {
+            (Vec3::ZERO, 0.5)
+        } else {
+            let ext = scene.extent().max_element();
+            let mag = scene.magnitude();
+            // Never a zero-size cube (a single point or an axis-aligned flat scene).
+            let side = (ext * (1.0 + params.enlarge.max(0.0)))
+                .max(mag * 1e-9)
+                .max(f64::MIN_POSITIVE * 1e20);
+            (scene.center(), side * 0.5)
+        };
+        Cell { center, half }
     }
 
     /// The octree of a scene whose objects this process does not all hold,

@@ -140,7 +140,7 @@ pub(super) fn run(a: &BenchArgs) -> Result<()> {
         os.leaf_nodes,
         os.internal_nodes,
         os.object_refs,
-        built.octree_build_s
+        built.octree_build_s.unwrap_or(0.0)
     );
 
     let bs = renderer.bvh().stats();

@@ -2,7 +2,7 @@
 //! replicated part and reads its own cells (see [`crate::compiled`]).
 
 use std::collections::HashSet;
-use std::sync::Mutex;
+use std::sync::{Mutex, RwLock};
 
 use super::distribution::Distribution;
 use super::partition::object_bytes;
@@ -53,7 +53,7 @@ impl RtWorkload {
         let cells = super::cell_table::CellTable::new(source.leaves().iter().copied());
         let procs = procs.max(1);
         let held = Held {
-            source: Mutex::new(Some(source)),
+            source: RwLock::new(Some(source)),
             parts: (0..procs).map(|_| Mutex::new(None)).collect(),
             figures: (0..procs).map(|_| Mutex::new(None)).collect(),
         };
@@ -84,11 +84,22 @@ impl RtWorkload {
         Ok(())
     }
 
+    /// [`RtWorkload::read_part`] for processors `0..procs`, side by side
+    /// on up to one thread per core (each reads only its own cells): on
+    /// two cores, four processors of a 1.5M-triangle city read theirs in
+    /// 2.6-2.7 s instead of 3.9-4.2. An error is the lowest-numbered
+    /// processor's.
+    pub fn read_parts(&self, procs: usize) -> crate::Result<()> {
+        hybrid_sched::par::map_indices(procs, |p| self.read_part(p))
+            .into_iter()
+            .collect()
+    }
+
     /// Every processor of this process has read its part: the cell index
     /// (24 bytes per cell of the whole scene) is let go.
     pub fn parts_read(&self) {
         if let Some(h) = &self.held {
-            *h.source.lock().unwrap_or_else(|e| e.into_inner()) = None;
+            *h.source.write().unwrap_or_else(|e| e.into_inner()) = None;
         }
     }
 
@@ -110,7 +121,7 @@ impl RtWorkload {
                 "processor {proc} cannot read its part of the scene: {e}"
             ))
         };
-        let source = h.source.lock().unwrap_or_else(|e| e.into_inner());
+        let source = h.source.read().unwrap_or_else(|e| e.into_inner());
         let source = source
             .as_ref()
             .ok_or_else(|| failed(&"the scene's cells were read already"))?;

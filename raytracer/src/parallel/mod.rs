@@ -427,7 +427,7 @@ pub fn render_parallel_held(
     };
     match popts.runtime {
         RuntimeKind::Mpi => wl.read_part(this_rank()?)?,
-        _ => (0..popts.procs).try_for_each(|p| wl.read_part(p))?,
+        _ => wl.read_parts(popts.procs)?,
     }
     wl.parts_read();
     tracing::debug!(

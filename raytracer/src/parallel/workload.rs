@@ -146,8 +146,9 @@ type Part = Vec<(NodeId, CellData)>;
 #[derive(Debug)]
 pub(super) struct Held {
     /// Where the cells are read from, until every processor of this
-    /// process has read its part ([`RtWorkload::parts_read`]).
-    pub(super) source: Mutex<Option<crate::compiled::CellSource>>,
+    /// process has read its part ([`RtWorkload::parts_read`]); processors
+    /// read their parts at the same time.
+    pub(super) source: std::sync::RwLock<Option<crate::compiled::CellSource>>,
     /// Per processor, its cells as read before the run
     /// ([`RtWorkload::read_part`]), until its processor starts.
     pub(super) parts: Vec<Mutex<Option<Part>>>,

@@ -59,7 +59,10 @@ impl RayCounts {
 /// measures them ([`crate::render::Renderer::with_effect_times`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Timings {
-    pub octree_build_s: f64,
+    /// Building the octree; `None` where the render built none (the
+    /// sequential renderer traces through the hierarchy).
+    #[serde(default)]
+    pub octree_build_s: Option<f64>,
     /// Building the hierarchy rays are traced through.
     #[serde(default)]
     pub bvh_build_s: f64,
@@ -107,7 +110,9 @@ pub struct RenderStats {
     pub mrays_per_s: f64,
     pub effects: EffectsReport,
     pub time: Timings,
-    pub octree: OctreeStats,
+    /// The octree's; `None` where the render built none.
+    #[serde(default)]
+    pub octree: Option<OctreeStats>,
     pub scene: SceneStats,
     pub options: RenderOptions,
     /// Warnings from preparing the render (lights that cannot be sampled).
