@@ -284,7 +284,7 @@ pub struct Octree {
 
 struct Builder<'a> {
     objects: &'a [Object],
-    bounds: Vec<Aabb>,
+    bounds: &'a [Aabb],
     params: OctreeParams,
     margin: f64,
     tree: Octree,
@@ -295,6 +295,8 @@ struct Builder<'a> {
     /// regression scene). Real scenes stay far below it.
     node_budget: usize,
 }
+
+mod split;
 
 /// The node budget: generous per object, never below a few million.
 fn node_budget(objects: usize) -> usize {
@@ -364,6 +366,18 @@ impl Octree {
     /// Builds the octree over `objects` (ids are indices into `objects`).
     /// Objects with empty bounds are left out. Deterministic.
     pub fn build(objects: &[Object], params: &OctreeParams) -> Octree {
+        Self::build_with(objects, params, true, node_budget(objects.len()))
+    }
+
+    /// [`Octree::build`] with its root's subtrees built side by side where
+    /// that pays (`side_by_side`; the same tree either way) and a node
+    /// budget.
+    fn build_with(
+        objects: &[Object],
+        params: &OctreeParams,
+        side_by_side: bool,
+        node_budget: usize,
+    ) -> Octree {
         let mut params = params.clone();
         params.max_depth = params.max_depth.min(MAX_DEPTH);
         let bounds: Vec<Aabb> = objects.iter().map(|o| o.shape.bounds()).collect();
@@ -382,14 +396,21 @@ impl Octree {
             ..Default::default()
         };
         let mut b = Builder {
-            node_budget: node_budget(objects.len()),
+            node_budget,
             objects,
-            bounds,
+            bounds: &bounds,
             params,
             margin,
             tree,
         };
-        b.node(0, root, cands, 0, 0);
+        let serial = if side_by_side {
+            b.split_root(root, cands).err()
+        } else {
+            Some(cands)
+        };
+        if let Some(cands) = serial {
+            b.node(0, root, cands, 0, 0);
+        }
         let mut t = b.tree;
         t.finish(objects.len());
         t.prims = Prims::build(objects);
