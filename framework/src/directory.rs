@@ -10,7 +10,8 @@
 //! 16 bytes an entry (2.7 MB). A workload that holds that index anyway
 //! ([`Workload::locates`]) is asked instead, and the processors keep
 //! nothing. Either way the directory is built and checked once per
-//! process ([`Directory::shared`]), not once per processor.
+//! process ([`Directory::shared`]), not once per processor, and each
+//! processor's count of items and bytes is tallied in that one pass.
 
 use std::borrow::Cow;
 use std::sync::Arc;
@@ -22,7 +23,16 @@ use crate::protocol::Placement;
 pub(crate) type Entry<Id> = (Id, u32, u64);
 
 /// See the module documentation.
-pub(crate) enum Directory<W: Workload> {
+pub(crate) struct Directory<W: Workload> {
+    index: Index<W>,
+    /// Per processor: how many items it owns and their bytes.
+    tally: Vec<(usize, u64)>,
+    /// The bytes of every item.
+    total_bytes: u64,
+}
+
+/// Where the directory's answers come from.
+enum Index<W: Workload> {
     /// A sorted copy of the placement.
     Listed(Vec<Entry<W::DataId>>),
     /// The workload answers ([`Workload::locate`]).
@@ -31,11 +41,26 @@ pub(crate) enum Directory<W: Workload> {
 
 impl<W: Workload> std::fmt::Debug for Directory<W> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Directory::Listed(e) => write!(f, "Directory::Listed({} entries)", e.len()),
-            Directory::Asked { procs, .. } => write!(f, "Directory::Asked({procs} processors)"),
+        match &self.index {
+            Index::Listed(e) => write!(f, "Directory::Listed({} entries)", e.len()),
+            Index::Asked { procs, .. } => write!(f, "Directory::Asked({procs} processors)"),
         }
     }
+}
+
+/// Per processor of `procs`, the count and bytes of the items `owners`
+/// (owner, bytes) places on it, and the bytes of all (owners already
+/// checked to be in range).
+fn tally(procs: usize, owners: impl Iterator<Item = (u32, u64)>) -> (Vec<(usize, u64)>, u64) {
+    let mut t = vec![(0usize, 0u64); procs];
+    let mut total = 0u64;
+    for (owner, bytes) in owners {
+        let e = &mut t[owner as usize];
+        e.0 += 1;
+        e.1 += bytes;
+        total += bytes;
+    }
+    (t, total)
 }
 
 /// An owner as an entry stores it (never more than `u32::MAX` processors
@@ -71,8 +96,9 @@ impl<W: Workload> Directory<W> {
             return Self::build(placement, procs);
         }
         let mut ids = Vec::with_capacity(placement.len());
+        let mut owners = Vec::with_capacity(placement.len());
         for p in placement {
-            owner_u32(&p.id, p.owner, procs)?;
+            owners.push((owner_u32(&p.id, p.owner, procs)?, p.bytes));
             match workload.locate(&p.id, procs) {
                 Some(at) if at == (p.owner, p.bytes) => {}
                 got => {
@@ -86,9 +112,14 @@ impl<W: Workload> Directory<W> {
         }
         ids.sort_unstable();
         no_duplicates(&ids, |i| i)?;
-        Ok(Directory::Asked {
-            workload: Arc::clone(workload),
-            procs,
+        let (tally, total_bytes) = tally(procs, owners.into_iter());
+        Ok(Directory {
+            index: Index::Asked {
+                workload: Arc::clone(workload),
+                procs,
+            },
+            tally,
+            total_bytes,
         })
     }
 
@@ -112,18 +143,23 @@ impl<W: Workload> Directory<W> {
         }
         entries.sort_unstable_by(|a, b| a.0.cmp(&b.0));
         no_duplicates(&entries, |e| &e.0)?;
-        Ok(Directory::Listed(entries))
+        let (tally, total_bytes) = tally(procs, entries.iter().map(|e| (e.1, e.2)));
+        Ok(Directory {
+            index: Index::Listed(entries),
+            tally,
+            total_bytes,
+        })
     }
 
     /// Owner and bytes of `id`.
     #[inline]
     pub(crate) fn locate(&self, id: &W::DataId) -> Option<(usize, u64)> {
-        match self {
-            Directory::Listed(entries) => entries
+        match &self.index {
+            Index::Listed(entries) => entries
                 .binary_search_by(|e| e.0.cmp(id))
                 .ok()
                 .map(|k| (entries[k].1 as usize, entries[k].2)),
-            Directory::Asked { workload, procs } => workload.locate(id, *procs),
+            Index::Asked { workload, procs } => workload.locate(id, *procs),
         }
     }
 
@@ -145,9 +181,9 @@ impl<W: Workload> Directory<W> {
     /// Every entry, ascending by id: the list, or one made for the call
     /// from the workload's placement (a start-up or once-a-run question).
     pub(crate) fn entries(&self) -> Cow<'_, [Entry<W::DataId>]> {
-        match self {
-            Directory::Listed(entries) => Cow::Borrowed(entries),
-            Directory::Asked { workload, procs } => {
+        match &self.index {
+            Index::Listed(entries) => Cow::Borrowed(entries),
+            Index::Asked { workload, procs } => {
                 let mut entries: Vec<_> = workload
                     .placement(*procs)
                     .into_iter()
@@ -161,22 +197,9 @@ impl<W: Workload> Directory<W> {
     }
 
     /// How many items are placed on `proc`, and the bytes of those placed
-    /// elsewhere (in any order: nothing sorted for it).
+    /// elsewhere: tallied when the directory was made.
     pub(crate) fn count_on_and_bytes_elsewhere(&self, proc: usize) -> (usize, u64) {
-        let count = |(n, b): (usize, u64), (owner, bytes): (usize, u64)| match owner == proc {
-            true => (n + 1, b),
-            false => (n, b + bytes),
-        };
-        match self {
-            Directory::Listed(entries) => entries
-                .iter()
-                .map(|e| (e.1 as usize, e.2))
-                .fold((0, 0), count),
-            Directory::Asked { workload, procs } => workload
-                .placement(*procs)
-                .iter()
-                .map(|p| (p.owner, p.bytes))
-                .fold((0, 0), count),
-        }
+        let (count, bytes) = self.tally.get(proc).copied().unwrap_or((0, 0));
+        (count, self.total_bytes - bytes)
     }
 }

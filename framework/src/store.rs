@@ -14,7 +14,7 @@
 //! 3. replies fill the cache (pinned) and wake the tasks whose last missing id
 //!    arrived; after execution the task's pins are released.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use crate::cache::{ByteLru, IdMap};
@@ -95,7 +95,7 @@ pub(crate) struct DataStore<W: Workload> {
     /// Shared by a process's processors (built and checked once).
     dir: Arc<Directory<W>>,
     in_flight: IdMap<W::DataId, InFlight>,
-    waiting: HashMap<TaskKey, WaitingTask<W>>,
+    waiting: IdMap<TaskKey, WaitingTask<W>>,
     next_key: TaskKey,
     waiting_bytes: usize,
     waiting_high_water: usize,
@@ -162,7 +162,7 @@ impl<W: Workload> DataStore<W> {
             asked_bytes: 0,
             dir,
             in_flight: IdMap::default(),
-            waiting: HashMap::new(),
+            waiting: IdMap::default(),
             next_key: 0,
             waiting_bytes: 0,
             waiting_high_water: 0,
@@ -254,7 +254,8 @@ impl<W: Workload> DataStore<W> {
         env: DdEnvelope<W>,
         mut ids: Vec<W::DataId>,
     ) -> Result<Admission<W>, String> {
-        ids.sort();
+        // Stability means nothing for equal ids, which dedup drops.
+        ids.sort_unstable();
         ids.dedup();
         let mut remote = Vec::new();
         let (mut total, mut to_pin, mut new_bytes) = (0u64, 0u64, 0u64);

@@ -54,7 +54,7 @@ fn received_leaves_share_the_copies_this_process_holds() {
     let (mine, theirs): (Vec<_>, Vec<_>) = leaves.iter().partition(|&&l| l % 2 == 0);
 
     // This process's processor: its leaves share one copy per object.
-    let mut copies = ObjectCopies::new();
+    let mut copies = ObjectCopies::default();
     let resident: Vec<LeafObjects> = mine
         .iter()
         .map(|&l| LeafObjects::copy_from(tree.leaf_objects(l), &objects, &mut copies))
@@ -62,7 +62,7 @@ fn received_leaves_share_the_copies_this_process_holds() {
     share_copies_in_process(&copies);
 
     // Leaves another processor sends (its own copies, serialized).
-    let mut sender = ObjectCopies::new();
+    let mut sender = ObjectCopies::default();
     let received: Vec<LeafObjects> = theirs
         .iter()
         .map(|&l| {
@@ -101,7 +101,7 @@ fn received_leaves_share_the_copies_this_process_holds() {
     drop(received);
     drop(copies);
     let l = theirs[0];
-    let sent = LeafObjects::copy_from(tree.leaf_objects(l), &objects, &mut ObjectCopies::new());
+    let sent = LeafObjects::copy_from(tree.leaf_objects(l), &objects, &mut ObjectCopies::default());
     let again: LeafObjects = postcard::from_bytes(&postcard::to_allocvec(&sent).unwrap()).unwrap();
     for (k, &id) in again.ids().iter().enumerate() {
         // Equal to the sender's copy of the object (a copy keeps what

@@ -29,7 +29,7 @@
 //! rest (normal, triangulation) exactly as they did from the source, and
 //! rejects data no source could have made.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 use std::sync::{Arc, Mutex, Weak};
 
 use serde::de::Error as _;
@@ -118,13 +118,13 @@ pub fn object_bytes(o: &Object) -> usize {
 }
 
 /// One processor's copies by object id, shared by the leaves it builds.
-pub type ObjectCopies = HashMap<ObjectId, Arc<HeldObject>>;
+pub type ObjectCopies = FxHashMap<ObjectId, Arc<HeldObject>>;
 
 /// The copies alive in this process by object id, when
 /// [`share_copies_in_process`] turned sharing on; dead entries are swept
 /// when the table doubles.
 struct Shared {
-    live: HashMap<ObjectId, Weak<HeldObject>>,
+    live: FxHashMap<ObjectId, Weak<HeldObject>>,
     sweep_at: usize,
 }
 
@@ -138,7 +138,7 @@ static SHARED_COPIES: Mutex<Option<Shared>> = Mutex::new(None);
 pub fn share_copies_in_process(copies: &ObjectCopies) {
     let mut g = SHARED_COPIES.lock().unwrap_or_else(|e| e.into_inner());
     let t = g.get_or_insert_with(|| Shared {
-        live: HashMap::new(),
+        live: FxHashMap::default(),
         sweep_at: 1024,
     });
     for (&id, c) in copies {

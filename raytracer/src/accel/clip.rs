@@ -335,7 +335,7 @@ impl Octree {
     /// bundle ray passes through within the pyramid's limits is selected.
     pub fn clip(&self, pyramid: &Pyramid) -> ClipResult {
         let mut out = ClipResult::default();
-        let mut seen = std::collections::HashSet::new();
+        let mut seen = rustc_hash::FxHashSet::default();
         let mut leaves = Vec::new();
         out.node_visits = self.clip_leaves(pyramid, |id| leaves.push(id));
         for &id in &leaves {

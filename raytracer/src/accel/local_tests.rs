@@ -36,7 +36,7 @@ const MIXED: u32 = u32::MAX;
 
 impl Place {
     fn new(tree: &Octree, objects: &[Object], places: u32, salt: u32, me: u32) -> Place {
-        let mut copies = ObjectCopies::new();
+        let mut copies = ObjectCopies::default();
         let cells: Vec<LeafObjects> = tree
             .leaves()
             .filter(|&l| !tree.leaf_objects(l).is_empty() && home(l, places, salt) == me)
@@ -81,7 +81,7 @@ impl Place {
 /// Every leaf's objects, as copies (the walk reads them as a processor
 /// that has fetched them would).
 fn all_cells(tree: &Octree, objects: &[Object]) -> HashMap<NodeId, LeafObjects> {
-    let mut copies = ObjectCopies::new();
+    let mut copies = ObjectCopies::default();
     tree.leaves()
         .filter(|&l| !tree.leaf_objects(l).is_empty())
         .map(|l| {
@@ -283,7 +283,7 @@ fn one_processor_decides_every_query() {
 fn the_kernel_shares_the_leaves_copies() {
     let objects = random_scene(5, 400, 10.0);
     let tree = Octree::build(&objects, &OctreeParams::default());
-    let mut copies = ObjectCopies::new();
+    let mut copies = ObjectCopies::default();
     let cells: Vec<LeafObjects> = tree
         .leaves()
         .filter(|&l| !tree.leaf_objects(l).is_empty() && home(l, 2, 0) == 0)

@@ -814,7 +814,7 @@ fn resumable_traversal_equals_intersect_and_occluded_wherever_it_stops() {
         let tree = Octree::build(&objects, &params);
         // Each leaf's objects as a processor receives them: copied, sent
         // (serialized) and rebuilt.
-        let mut copies = ObjectCopies::new();
+        let mut copies = ObjectCopies::default();
         let cells: std::collections::HashMap<NodeId, LeafObjects> = tree
             .leaves()
             .map(|l| {
@@ -1000,7 +1000,7 @@ fn leaf_objects_cross_the_wire_bit_for_bit() {
     objects.push(obj(Shape::instance(geometry, t).unwrap()));
     let tree = Octree::build(&objects, &OctreeParams::default());
     let (mut copied, mut shared) = (0, 0);
-    let mut copies = ObjectCopies::new();
+    let mut copies = ObjectCopies::default();
     for leaf in tree.leaves() {
         let held = LeafObjects::copy_from(tree.leaf_objects(leaf), &objects, &mut copies);
         let bytes = postcard::to_allocvec(&held).unwrap();
@@ -1048,7 +1048,11 @@ fn damaged_leaf_data_is_an_error_not_a_panic() {
         .leaves()
         .max_by_key(|&l| tree.leaf_objects(l).len())
         .unwrap();
-    let held = LeafObjects::copy_from(tree.leaf_objects(leaf), &objects, &mut ObjectCopies::new());
+    let held = LeafObjects::copy_from(
+        tree.leaf_objects(leaf),
+        &objects,
+        &mut ObjectCopies::default(),
+    );
     let bytes = postcard::to_allocvec(&held).unwrap();
     // Every truncation and every single-byte change: an error or a leaf,
     // never a panic.

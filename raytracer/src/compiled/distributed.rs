@@ -15,7 +15,7 @@
 //! What grows with the whole scene on every processor: the octree's nodes
 //! and its leaf lists (4 bytes per listing), not the objects.
 
-use std::collections::{HashMap, HashSet};
+use rustc_hash::{FxHashMap, FxHashSet};
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
@@ -216,9 +216,9 @@ impl CellSource {
         scene: &Scene,
         octree: &Octree,
         leaves: &[NodeId],
-    ) -> Result<HashMap<ObjectId, Surface>> {
+    ) -> Result<FxHashMap<ObjectId, Surface>> {
         let mut file = std::fs::File::open(&self.path).map_err(|e| Error::io(&self.path, e))?;
-        let mut wanted: HashSet<ObjectId> = HashSet::new();
+        let mut wanted: FxHashSet<ObjectId> = FxHashSet::default();
         let mut cells: Vec<u32> = Vec::with_capacity(leaves.len());
         for &leaf in leaves {
             let cell = self
@@ -238,9 +238,11 @@ impl CellSource {
                     .filter(|&&o| scene.object(o).is_none()),
             );
         }
-        let mut found: HashMap<ObjectId, Surface> = HashMap::with_capacity(wanted.len());
-        let mut got: HashSet<ObjectId> = HashSet::with_capacity(wanted.len());
-        let mut take = |cell: CellObjects, got: &mut HashSet<ObjectId>| {
+        let mut found: FxHashMap<ObjectId, Surface> =
+            FxHashMap::with_capacity_and_hasher(wanted.len(), Default::default());
+        let mut got: FxHashSet<ObjectId> =
+            FxHashSet::with_capacity_and_hasher(wanted.len(), Default::default());
+        let mut take = |cell: CellObjects, got: &mut FxHashSet<ObjectId>| {
             for (id, s) in cell.stored {
                 if wanted.contains(&id) && got.insert(id) {
                     found.insert(id, s);
@@ -253,7 +255,7 @@ impl CellSource {
         if !self.copies && got.len() < wanted.len() {
             // Stored once, in the first leaf (node order) listing them.
             let mut more = Vec::new();
-            let mut placed: HashSet<ObjectId> = got.clone();
+            let mut placed: FxHashSet<ObjectId> = got.clone();
             for (k, &(leaf, _)) in self.leaves.iter().enumerate() {
                 let ids = octree.leaf_objects(leaf);
                 let mut needed = false;

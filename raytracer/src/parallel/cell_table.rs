@@ -2,54 +2,144 @@
 //! processor knows of each cell, held once per process. The framework asks
 //! it where a cell lives ([`hybrid_sched::Workload::locate`]: the owner
 //! from the partition, the bytes from here) instead of every processor
-//! keeping a directory of its own. Two arrays, 12 bytes a leaf: a list of
-//! (leaf, object count, bytes) and the framework's directory beside it
-//! took 32.
+//! keeping a directory of its own, at every data selection of every task.
+//!
+//! Which leaves are cells is a bitmap over the node ids with the count of
+//! cells before each 64-bit word beside it, so a leaf's place in the list
+//! of bytes is that count plus the set bits below it in its word: one
+//! lookup instead of a binary search of every leaf (which took 5 to 9% of
+//! the instructions of four processors rendering a 300,000-triangle city,
+//! `valgrind --tool=callgrind`), and 0.19 bytes a node instead of 4 bytes
+//! a cell for the ids. The bytes are kept in 4 bytes a cell where every
+//! cell's fit (a cell of 4 GiB would hold some 30 million objects), else
+//! in 8.
 
 use crate::accel::NodeId;
 
-/// See the module documentation. Ascending by leaf.
+/// See the module documentation.
 #[derive(Debug, Default)]
 pub struct CellTable {
-    leaves: Vec<NodeId>,
-    bytes: Vec<u64>,
+    /// Bit `j` of word `i`: whether leaf `64 i + j` is a cell.
+    words: Vec<u64>,
+    /// Per word, the cells in the words before it.
+    before: Vec<u32>,
+    /// Per cell, ascending by leaf: its accounted bytes.
+    bytes: Bytes,
+}
+
+/// Each cell's bytes, as narrow as they all fit.
+#[derive(Debug)]
+enum Bytes {
+    Narrow(Vec<u32>),
+    Wide(Vec<u64>),
+}
+
+impl Default for Bytes {
+    fn default() -> Self {
+        Bytes::Narrow(Vec::new())
+    }
+}
+
+impl Bytes {
+    fn new(bytes: Vec<u64>) -> Self {
+        match bytes.iter().map(|&b| u32::try_from(b)).collect() {
+            Ok(narrow) => Bytes::Narrow(narrow),
+            Err(_) => Bytes::Wide(bytes),
+        }
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            Bytes::Narrow(v) => v.len(),
+            Bytes::Wide(v) => v.len(),
+        }
+    }
+
+    #[inline]
+    fn get(&self, k: usize) -> u64 {
+        match self {
+            Bytes::Narrow(v) => u64::from(v[k]),
+            Bytes::Wide(v) => v[k],
+        }
+    }
+
+    fn iter(&self) -> impl Iterator<Item = u64> + '_ {
+        (0..self.len()).map(|k| self.get(k))
+    }
+
+    fn memory_bytes(&self) -> usize {
+        match self {
+            Bytes::Narrow(v) => v.capacity() * size_of::<u32>(),
+            Bytes::Wide(v) => v.capacity() * size_of::<u64>(),
+        }
+    }
 }
 
 impl CellTable {
     /// The table of `cells` (leaf, bytes), in any order; a leaf listed
     /// twice keeps its first entry.
     pub fn new(cells: impl IntoIterator<Item = (NodeId, u64)>) -> Self {
-        let (mut leaves, mut bytes): (Vec<NodeId>, Vec<u64>) = cells.into_iter().unzip();
-        if !leaves.is_sorted_by(|a, b| a < b) {
-            let mut pairs: Vec<(NodeId, u64)> = leaves.into_iter().zip(bytes).collect();
+        let mut pairs: Vec<(NodeId, u64)> = cells.into_iter().collect();
+        if !pairs.is_sorted_by(|a, b| a.0 < b.0) {
+            // Stable: of a leaf listed twice the first stays first.
             pairs.sort_by_key(|p| p.0);
             pairs.dedup_by_key(|p| p.0);
-            (leaves, bytes) = pairs.into_iter().unzip();
         }
-        leaves.shrink_to_fit();
-        bytes.shrink_to_fit();
-        CellTable { leaves, bytes }
+        let words_len = pairs.last().map_or(0, |p| p.0 as usize / 64 + 1);
+        let mut words = vec![0u64; words_len];
+        for &(leaf, _) in &pairs {
+            words[leaf as usize / 64] |= 1 << (leaf % 64);
+        }
+        let mut before = Vec::with_capacity(words_len);
+        let mut n = 0u32;
+        for w in &words {
+            before.push(n);
+            n += w.count_ones();
+        }
+        let bytes = Bytes::new(pairs.into_iter().map(|p| p.1).collect());
+        CellTable {
+            words,
+            before,
+            bytes,
+        }
     }
 
     /// How many cells.
     pub fn len(&self) -> usize {
-        self.leaves.len()
+        self.bytes.len()
     }
 
     /// Whether there is none.
     pub fn is_empty(&self) -> bool {
-        self.leaves.is_empty()
+        self.bytes.len() == 0
     }
 
     /// `leaf`'s accounted bytes, `None` for a leaf that is not a cell.
     #[inline]
     pub fn bytes_of(&self, leaf: NodeId) -> Option<u64> {
-        self.leaves.binary_search(&leaf).ok().map(|k| self.bytes[k])
+        let i = leaf as usize / 64;
+        let word = *self.words.get(i)?;
+        let bit = 1u64 << (leaf % 64);
+        if word & bit == 0 {
+            return None;
+        }
+        let k = self.before[i] as usize + (word & (bit - 1)).count_ones() as usize;
+        Some(self.bytes.get(k))
     }
 
     /// Every cell with its bytes, ascending by leaf.
     pub fn iter(&self) -> impl Iterator<Item = (NodeId, u64)> + '_ {
-        self.leaves.iter().copied().zip(self.bytes.iter().copied())
+        let leaves = self.words.iter().enumerate().flat_map(|(i, &w)| {
+            let mut rest = w;
+            std::iter::from_fn(move || {
+                (rest != 0).then(|| {
+                    let j = rest.trailing_zeros();
+                    rest &= rest - 1;
+                    (i * 64) as NodeId + j
+                })
+            })
+        });
+        leaves.zip(self.bytes.iter())
     }
 
     /// Bytes of all cells.
@@ -59,12 +149,14 @@ impl CellTable {
 
     /// Bytes of the largest cell (0 for none).
     pub fn largest_bytes(&self) -> u64 {
-        self.bytes.iter().copied().max().unwrap_or(0)
+        self.bytes.iter().max().unwrap_or(0)
     }
 
     /// Bytes the table occupies.
     pub fn memory_bytes(&self) -> usize {
-        self.leaves.capacity() * size_of::<NodeId>() + self.bytes.capacity() * size_of::<u64>()
+        self.words.capacity() * size_of::<u64>()
+            + self.before.capacity() * size_of::<u32>()
+            + self.bytes.memory_bytes()
     }
 }
 
@@ -81,10 +173,51 @@ mod tests {
         );
         assert_eq!(t.bytes_of(5), Some(50));
         assert_eq!(t.bytes_of(4), None);
+        assert_eq!(t.bytes_of(10_000), None);
         assert_eq!((t.len(), t.total_bytes(), t.largest_bytes()), (3, 170, 90));
         let sorted = CellTable::new([(1, 10), (2, 20)]);
         assert_eq!(sorted.bytes_of(2), Some(20));
         assert!(CellTable::new([]).is_empty());
+        assert_eq!(CellTable::new([]).bytes_of(0), None);
         assert_eq!(CellTable::default().largest_bytes(), 0);
+    }
+
+    /// Leaves at the edges of the bitmap's words (0, 63, 64, 127, ...)
+    /// and far apart, against a plain map, every id up to past the last.
+    #[test]
+    fn every_leaf_found_across_word_edges() {
+        let leaves: Vec<u32> = [0, 1, 62, 63, 64, 65, 127, 128, 191, 1000, 4095, 4096]
+            .into_iter()
+            .chain((5000..5200).step_by(3))
+            .collect();
+        let cells: Vec<(u32, u64)> = leaves
+            .iter()
+            .rev()
+            .map(|&l| (l, 7 * l as u64 + 1))
+            .collect();
+        let t = CellTable::new(cells.iter().copied());
+        let map: std::collections::BTreeMap<u32, u64> = cells.iter().copied().collect();
+        for leaf in 0..5300 {
+            assert_eq!(t.bytes_of(leaf), map.get(&leaf).copied(), "leaf {leaf}");
+        }
+        assert_eq!(
+            t.iter().collect::<Vec<_>>(),
+            map.into_iter().collect::<Vec<_>>()
+        );
+        assert_eq!(t.len(), leaves.len());
+    }
+
+    /// Bytes past 32 bits keep every cell's bytes in 64.
+    #[test]
+    fn cells_past_four_gib_are_kept_wide() {
+        let big = u64::from(u32::MAX) + 5;
+        let t = CellTable::new([(7, 3), (70, big), (700, 9)]);
+        assert_eq!(t.bytes_of(70), Some(big));
+        assert_eq!(t.bytes_of(7), Some(3));
+        assert_eq!(t.total_bytes(), big + 12);
+        assert_eq!(t.largest_bytes(), big);
+        let narrow = CellTable::new([(7, 3), (70, u64::from(u32::MAX)), (700, 9)]);
+        assert_eq!(narrow.bytes_of(70), Some(u64::from(u32::MAX)));
+        assert!(narrow.memory_bytes() < t.memory_bytes());
     }
 }

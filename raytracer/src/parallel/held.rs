@@ -1,7 +1,7 @@
 //! The processors of a distributed compiled scene: each holds the
 //! replicated part and reads its own cells (see [`crate::compiled`]).
 
-use std::collections::HashSet;
+use rustc_hash::FxHashSet;
 use std::sync::{Mutex, RwLock};
 
 use super::distribution::Distribution;
@@ -131,8 +131,8 @@ impl RtWorkload {
         // Each surface read becomes its processor's copy (moved, not
         // copied again), as the first leaf listing it is built.
         let maker = source.maker();
-        let mut copies = ObjectCopies::new();
-        let mut resident = HashSet::new();
+        let mut copies = ObjectCopies::default();
+        let mut resident = FxHashSet::default();
         // The bytes of the objects read, as the partition counts a whole
         // scene's (a copy keeps less of a polygon than the scene does).
         let mut read_bytes = 0usize;

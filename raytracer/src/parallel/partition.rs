@@ -153,7 +153,7 @@ impl Partition {
             }
         }
         let mut cost = vec![0u64; procs as usize];
-        let mut sets = vec![BTreeSet::new(); procs as usize];
+        let mut sets: Vec<Vec<ObjectId>> = vec![Vec::new(); procs as usize];
         let mut list_bytes = vec![0usize; procs as usize];
         for leaf in octree.leaves() {
             let o = owner_of_node[leaf as usize] as usize;
@@ -162,8 +162,18 @@ impl Partition {
             list_bytes[o] += std::mem::size_of_val(objs);
             sets[o].extend(objs.iter().copied());
         }
-        let resident: Vec<Vec<ObjectId>> =
-            sets.into_iter().map(|s| s.into_iter().collect()).collect();
+        // Every listing, sorted and each object once: several times as fast
+        // as a search tree of them (the 300,000-triangle city's 1.2 million
+        // listings took 160 million instructions in one).
+        let resident: Vec<Vec<ObjectId>> = sets
+            .into_iter()
+            .map(|mut s| {
+                s.sort_unstable();
+                s.dedup();
+                s.shrink_to_fit();
+                s
+            })
+            .collect();
         let resident_bytes = resident
             .iter()
             .zip(&list_bytes)

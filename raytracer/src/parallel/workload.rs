@@ -24,7 +24,7 @@
 //! bundle continues data-parallel from where it stopped, and the event is
 //! counted as `clip.misses`.
 
-use std::collections::HashSet;
+use rustc_hash::FxHashSet;
 use std::sync::{Arc, Mutex};
 
 use hybrid_sched::serde::{Deserialize, Serialize};
@@ -371,7 +371,7 @@ impl RtWorkload {
     /// The non-empty leaves among `leaves`, each once, in order.
     pub(super) fn nonempty(&self, leaves: impl IntoIterator<Item = NodeId>) -> Vec<NodeId> {
         let octree = self.renderer.octree();
-        let mut seen = HashSet::new();
+        let mut seen = FxHashSet::default();
         leaves
             .into_iter()
             .filter(|&l| !octree.leaf_objects(l).is_empty() && seen.insert(l))
@@ -440,7 +440,7 @@ impl Workload for RtWorkload {
             return cells;
         }
         // One copy of each object for all of this processor's leaves.
-        let mut copies = ObjectCopies::new();
+        let mut copies = ObjectCopies::default();
         let cells = self
             .owner_table()
             .filter(|&(_, owner, _)| owner == proc)

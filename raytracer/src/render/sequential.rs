@@ -292,17 +292,14 @@ impl<'s> Renderer<'s> {
                 let _ = octree.set((*o, 0.0));
             }
         }
+        let built = octree.get().map(|(o, s): &(Octree, f64)| (o.stats(), *s));
         tracing::debug!(
             objects = objects.len(),
-            octree_leaves = octree.get().map(|o: &(Octree, f64)| o.0.stats().leaf_nodes),
-            octree_internal = octree
-                .get()
-                .map(|o: &(Octree, f64)| o.0.stats().internal_nodes),
-            octree_depth = octree.get().map(|o: &(Octree, f64)| o.0.stats().max_depth),
-            octree_refs = octree
-                .get()
-                .map(|o: &(Octree, f64)| o.0.stats().object_refs),
-            octree_seconds = octree.get().map(|o: &(Octree, f64)| o.1),
+            octree_leaves = built.map(|(st, _)| st.leaf_nodes),
+            octree_internal = built.map(|(st, _)| st.internal_nodes),
+            octree_depth = built.map(|(st, _)| st.max_depth),
+            octree_refs = built.map(|(st, _)| st.object_refs),
+            octree_seconds = built.map(|(_, s)| s),
             bvh_nodes = bvh.get().map(|b: &(Bvh, f64)| b.0.stats().nodes),
             bvh_depth = bvh.get().map(|b: &(Bvh, f64)| b.0.stats().depth),
             bvh_seconds = bvh.get().map(|b: &(Bvh, f64)| b.1),

@@ -39,19 +39,15 @@ impl Builder<'_> {
         {
             return Err(cands);
         }
-        let subs: Vec<(Cell, Vec<ObjectId>)> = (0..8)
-            .map(|i| {
-                let c = root.child(i);
-                let sub = cands
-                    .iter()
-                    .copied()
-                    .filter(|&o| self.overlaps(o, &c))
-                    .collect();
-                (c, sub)
-            })
-            .collect();
-        // One thread a subtree: eight, whatever the cores.
-        let build = |(c, sub): &(Cell, Vec<ObjectId>)| {
+        // One thread a subtree: eight, whatever the cores. Each picks its
+        // child's objects out of the root's candidates itself.
+        let build = |i: usize| {
+            let c = root.child(i);
+            let sub: Vec<ObjectId> = cands
+                .iter()
+                .copied()
+                .filter(|&o| self.overlaps(o, &c))
+                .collect();
             let stall = u32::from(sub.len() == cands.len());
             let mut b = Builder {
                 objects: self.objects,
@@ -67,11 +63,11 @@ impl Builder<'_> {
                 },
                 node_budget: usize::MAX,
             };
-            b.node(0, *c, sub.clone(), 1, stall);
+            b.node(0, c, sub, 1, stall);
             b.tree
         };
         let parts: Vec<Octree> = std::thread::scope(|s| {
-            let handles: Vec<_> = subs.iter().map(|sub| s.spawn(|| build(sub))).collect();
+            let handles: Vec<_> = (0..8).map(|i| s.spawn(move || build(i))).collect();
             handles
                 .into_iter()
                 .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
