@@ -32,6 +32,7 @@ use std::sync::Arc;
 
 use super::cells::{HeldObject, LeafObjects};
 use super::octree::{NodeId, NodeTest, Octree};
+use super::rank::RankedSet;
 use crate::geometry::prims::Prims;
 use crate::geometry::{Bvh, Hit, Object, ObjectTable, Ray};
 use crate::scene::ObjectId;
@@ -46,6 +47,9 @@ pub struct LocalKernel {
     objects: Vec<Arc<HeldObject>>,
     /// `ids[k]`: the scene's id of `objects[k]`.
     ids: Vec<ObjectId>,
+    /// The same ids, for an id's place among them in one lookup (every
+    /// shadow bundle asks for the surface its rays leave).
+    places: RankedSet,
     bvh: Bvh,
 }
 
@@ -94,7 +98,13 @@ impl LocalKernel {
         let (ids, objects): (Vec<ObjectId>, Vec<Arc<HeldObject>>) = found.into_iter().unzip();
         let prims = Prims::from_ones(objects.iter().map(|h| h.prim()));
         let bvh = Bvh::build_with(&objects[..], prims);
-        LocalKernel { objects, ids, bvh }
+        let places = RankedSet::new(ids.iter().copied());
+        LocalKernel {
+            objects,
+            ids,
+            places,
+            bvh,
+        }
     }
 
     /// Objects in the kernel.
@@ -112,6 +122,7 @@ impl LocalKernel {
     pub fn memory_bytes(&self) -> usize {
         self.objects.capacity() * std::mem::size_of::<Arc<HeldObject>>()
             + self.ids.capacity() * std::mem::size_of::<ObjectId>()
+            + self.places.memory_bytes()
             + self.bvh.memory_bytes()
     }
 
@@ -120,7 +131,10 @@ impl LocalKernel {
         Hierarchy {
             bvh: &self.bvh,
             objects: HierarchyObjects::Copies(&self.objects),
-            ids: Some(&self.ids),
+            ids: Some(LocalIds {
+                ids: &self.ids,
+                places: &self.places,
+            }),
         }
     }
 }
@@ -142,8 +156,18 @@ pub struct Hierarchy<'a> {
     pub bvh: &'a Bvh,
     /// What the hierarchy was built over.
     pub objects: HierarchyObjects<'a>,
-    /// `ids[k]`: the scene's id of `objects[k]` (ascending); `None`: `k`.
-    pub ids: Option<&'a [ObjectId]>,
+    /// The scene's ids of the objects; `None`: an object's index is its
+    /// id.
+    pub ids: Option<LocalIds<'a>>,
+}
+
+/// The scene's ids of a [`LocalKernel`]'s objects.
+#[derive(Clone, Copy, Debug)]
+pub struct LocalIds<'a> {
+    /// `ids[k]`: the scene's id of object `k` (ascending).
+    pub ids: &'a [ObjectId],
+    /// The same ids: `places.rank(id)` is `id`'s index in `ids`.
+    pub places: &'a RankedSet,
 }
 
 impl Hierarchy<'_> {
@@ -168,8 +192,8 @@ impl Hierarchy<'_> {
             HierarchyObjects::Copies(o) => self.bvh.intersect(o, ray, tmin, tmax),
         };
         let hit = hit.map(|mut h| {
-            if let Some(ids) = self.ids {
-                h.object = ids[h.object as usize];
+            if let Some(l) = self.ids {
+                h.object = l.ids[h.object as usize];
             }
             h
         });
@@ -206,7 +230,7 @@ impl Hierarchy<'_> {
     pub fn index_of(&self, id: ObjectId) -> Option<ObjectId> {
         match self.ids {
             None => Some(id),
-            Some(ids) => ids.binary_search(&id).ok().map(|k| k as ObjectId),
+            Some(l) => l.places.rank(id).map(|k| k as ObjectId),
         }
     }
 

@@ -7,6 +7,7 @@ pub mod clip;
 pub mod embree;
 mod local;
 mod octree;
+mod rank;
 
 pub use crate::geometry::{Bvh, BvhStats, Hit};
 pub use cells::{
@@ -14,13 +15,14 @@ pub use cells::{
 };
 pub use clip::{ClipResult, Plane, Pyramid};
 pub use local::{
-    Grown, GrownKernel, GrownSlot, Hierarchy, HierarchyObjects, Judged, LocalKernel, NodeSet,
-    ProcessorKernel,
+    Grown, GrownKernel, GrownSlot, Hierarchy, HierarchyObjects, Judged, LocalIds, LocalKernel,
+    NodeSet, ProcessorKernel,
 };
 pub use octree::{
     intersect_brute_force, occluded_brute_force, LeafSpan, NodeId, NodeTest, NodeView, Octree,
     OctreeParams, OctreeStats, Partial, SkeletonNode, TraceCursor, MAX_DEPTH,
 };
+pub use rank::RankedSet;
 
 #[cfg(test)]
 mod clip_tests;

@@ -4,25 +4,21 @@
 //! from the partition, the bytes from here) instead of every processor
 //! keeping a directory of its own, at every data selection of every task.
 //!
-//! Which leaves are cells is a bitmap over the node ids with the count of
-//! cells before each 64-bit word beside it, so a leaf's place in the list
-//! of bytes is that count plus the set bits below it in its word: one
-//! lookup instead of a binary search of every leaf (which took 5 to 9% of
-//! the instructions of four processors rendering a 300,000-triangle city,
-//! `valgrind --tool=callgrind`), and 0.19 bytes a node instead of 4 bytes
-//! a cell for the ids. The bytes are kept in 4 bytes a cell where every
-//! cell's fit (a cell of 4 GiB would hold some 30 million objects), else
-//! in 8.
+//! Which leaves are cells is a [`RankedSet`] over the node ids, whose
+//! rank of a leaf is its place in the list of bytes: one lookup instead of
+//! a binary search of every leaf (which took 5 to 9% of the instructions
+//! of four processors rendering a 300,000-triangle city, `valgrind
+//! --tool=callgrind`), and 0.19 bytes a node instead of 4 bytes a cell for
+//! the ids. The bytes are kept in 4 bytes a cell where every cell's fit (a
+//! cell of 4 GiB would hold some 30 million objects), else in 8.
 
-use crate::accel::NodeId;
+use crate::accel::{NodeId, RankedSet};
 
 /// See the module documentation.
 #[derive(Debug, Default)]
 pub struct CellTable {
-    /// Bit `j` of word `i`: whether leaf `64 i + j` is a cell.
-    words: Vec<u64>,
-    /// Per word, the cells in the words before it.
-    before: Vec<u32>,
+    /// The cells' leaves.
+    leaves: RankedSet,
     /// Per cell, ascending by leaf: its accounted bytes.
     bytes: Bytes,
 }
@@ -85,23 +81,9 @@ impl CellTable {
             pairs.sort_by_key(|p| p.0);
             pairs.dedup_by_key(|p| p.0);
         }
-        let words_len = pairs.last().map_or(0, |p| p.0 as usize / 64 + 1);
-        let mut words = vec![0u64; words_len];
-        for &(leaf, _) in &pairs {
-            words[leaf as usize / 64] |= 1 << (leaf % 64);
-        }
-        let mut before = Vec::with_capacity(words_len);
-        let mut n = 0u32;
-        for w in &words {
-            before.push(n);
-            n += w.count_ones();
-        }
+        let leaves = RankedSet::new(pairs.iter().map(|p| p.0));
         let bytes = Bytes::new(pairs.into_iter().map(|p| p.1).collect());
-        CellTable {
-            words,
-            before,
-            bytes,
-        }
+        CellTable { leaves, bytes }
     }
 
     /// How many cells.
@@ -117,29 +99,12 @@ impl CellTable {
     /// `leaf`'s accounted bytes, `None` for a leaf that is not a cell.
     #[inline]
     pub fn bytes_of(&self, leaf: NodeId) -> Option<u64> {
-        let i = leaf as usize / 64;
-        let word = *self.words.get(i)?;
-        let bit = 1u64 << (leaf % 64);
-        if word & bit == 0 {
-            return None;
-        }
-        let k = self.before[i] as usize + (word & (bit - 1)).count_ones() as usize;
-        Some(self.bytes.get(k))
+        self.leaves.rank(leaf).map(|k| self.bytes.get(k))
     }
 
     /// Every cell with its bytes, ascending by leaf.
     pub fn iter(&self) -> impl Iterator<Item = (NodeId, u64)> + '_ {
-        let leaves = self.words.iter().enumerate().flat_map(|(i, &w)| {
-            let mut rest = w;
-            std::iter::from_fn(move || {
-                (rest != 0).then(|| {
-                    let j = rest.trailing_zeros();
-                    rest &= rest - 1;
-                    (i * 64) as NodeId + j
-                })
-            })
-        });
-        leaves.zip(self.bytes.iter())
+        self.leaves.iter().zip(self.bytes.iter())
     }
 
     /// Bytes of all cells.
@@ -154,9 +119,7 @@ impl CellTable {
 
     /// Bytes the table occupies.
     pub fn memory_bytes(&self) -> usize {
-        self.words.capacity() * size_of::<u64>()
-            + self.before.capacity() * size_of::<u32>()
-            + self.bytes.memory_bytes()
+        self.leaves.memory_bytes() + self.bytes.memory_bytes()
     }
 }
 
