@@ -374,14 +374,17 @@ impl Octree {
         let scale = rb.extent().max_element() + pyramid.apex.abs().max_element();
         let tol = 1e-9 * scale;
         let margin = self.margin();
+        // Each node's cell comes with it, made from its parent's as the
+        // build made it (the same bits as `node_bounds`).
         let mut stack = Vec::with_capacity(64);
-        stack.push(root);
-        while let Some(id) = stack.pop() {
+        stack.push((root, self.cell(root)));
+        while let Some((id, cell)) = stack.pop() {
             if !wanted(id) {
                 continue;
             }
             visits += 1;
-            let b = self.node_bounds(id);
+            let b = cell.bounds();
+            debug_assert_eq!(b, self.node_bounds(id), "node {id}");
             let b = Aabb::new(b.min - margin, b.max + margin);
             if pyramid.planes.iter().any(|pl| pl.excludes(&b, tol)) {
                 continue;
@@ -396,7 +399,7 @@ impl Octree {
                         | ((a.z >= c.z) as usize) << 2;
                     // Push far children first so the nearest pops first.
                     for j in (0..8).rev() {
-                        stack.push(children[j ^ mask]);
+                        stack.push((children[j ^ mask], cell.child(j ^ mask)));
                     }
                 }
             }

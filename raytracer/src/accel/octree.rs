@@ -200,18 +200,18 @@ impl TravNode {
 }
 
 #[derive(Debug, Clone, Copy, Default)]
-struct Cell {
+pub(super) struct Cell {
     center: Vec3,
     half: f64,
 }
 
 impl Cell {
-    fn bounds(&self) -> Aabb {
+    pub(super) fn bounds(&self) -> Aabb {
         Aabb::new(self.center - self.half, self.center + self.half)
     }
 
     #[inline]
-    fn child(&self, i: usize) -> Cell {
+    pub(super) fn child(&self, i: usize) -> Cell {
         let q = self.half * 0.5;
         let s = |bit: usize| if i & bit != 0 { q } else { -q };
         Cell {
@@ -581,7 +581,7 @@ impl Octree {
     }
 
     /// A node's cell, exactly as the build computed it.
-    fn cell(&self, id: NodeId) -> Cell {
+    pub(super) fn cell(&self, id: NodeId) -> Cell {
         if id == 0 {
             return self.root_cell;
         }
