@@ -96,9 +96,8 @@ impl<W: Workload> Directory<W> {
             return Self::build(placement, procs);
         }
         let mut ids = Vec::with_capacity(placement.len());
-        let mut owners = Vec::with_capacity(placement.len());
-        for p in placement {
-            owners.push((owner_u32(&p.id, p.owner, procs)?, p.bytes));
+        for p in &placement {
+            owner_u32(&p.id, p.owner, procs)?;
             match workload.locate(&p.id, procs) {
                 Some(at) if at == (p.owner, p.bytes) => {}
                 got => {
@@ -108,11 +107,13 @@ impl<W: Workload> Directory<W> {
                     ))
                 }
             }
-            ids.push(p.id);
+            ids.push(p.id.clone());
         }
         ids.sort_unstable();
         no_duplicates(&ids, |i| i)?;
-        let (tally, total_bytes) = tally(procs, owners.into_iter());
+        // Owners checked above.
+        let (tally, total_bytes) =
+            tally(procs, placement.iter().map(|p| (p.owner as u32, p.bytes)));
         Ok(Directory {
             index: Index::Asked {
                 workload: Arc::clone(workload),

@@ -310,6 +310,15 @@ impl Builder<'_> {
         self.bounds[id as usize].overlaps(&b) && self.objects[id as usize].shape.overlaps_box(&b)
     }
 
+    /// The candidates among `cands` that overlap `cell`, in their order.
+    fn candidates_in(&self, cands: &[ObjectId], cell: &Cell) -> Vec<ObjectId> {
+        cands
+            .iter()
+            .copied()
+            .filter(|&o| self.overlaps(o, cell))
+            .collect()
+    }
+
     fn node(&mut self, id: NodeId, cell: Cell, cands: Vec<ObjectId>, depth: u32, stall: u32) {
         let t = &mut self.tree;
         debug_assert_eq!(cell.half, t.half_at[depth as usize]);
@@ -347,11 +356,7 @@ impl Builder<'_> {
         }
         for i in 0..8 {
             let c = cell.child(i);
-            let sub: Vec<ObjectId> = cands
-                .iter()
-                .copied()
-                .filter(|&o| self.overlaps(o, &c))
-                .collect();
+            let sub = self.candidates_in(&cands, &c);
             let s = if sub.len() == cands.len() {
                 stall + 1
             } else {

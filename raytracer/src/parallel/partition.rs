@@ -163,7 +163,7 @@ impl Partition {
             sets[o].extend(objs.iter().copied());
         }
         // Every listing, sorted and each object once: several times as fast
-        // as a search tree of them (the 300,000-triangle city's 1.2 million
+        // as a search tree of them (the 300,000-triangle city's 581,316
         // listings took 160 million instructions in one).
         let resident: Vec<Vec<ObjectId>> = sets
             .into_iter()

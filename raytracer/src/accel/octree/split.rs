@@ -43,11 +43,7 @@ impl Builder<'_> {
         // child's objects out of the root's candidates itself.
         let build = |i: usize| {
             let c = root.child(i);
-            let sub: Vec<ObjectId> = cands
-                .iter()
-                .copied()
-                .filter(|&o| self.overlaps(o, &c))
-                .collect();
+            let sub = self.candidates_in(&cands, &c);
             let stall = u32::from(sub.len() == cands.len());
             let mut b = Builder {
                 objects: self.objects,
