@@ -386,7 +386,7 @@ impl Octree {
         let mut params = params.clone();
         params.max_depth = params.max_depth.min(MAX_DEPTH);
         let bounds: Vec<Aabb> = objects.iter().map(|o| o.shape.bounds()).collect();
-        let root = Self::root_of(&bounds, &params);
+        let root = Self::root_of(bounds.iter().copied(), &params);
         let margin = 1e-9 * (2.0 * root.half + root.center.abs().max_element());
         let cands: Vec<ObjectId> = (0..objects.len() as u32)
             .filter(|&i| !bounds[i as usize].is_empty())
@@ -425,16 +425,17 @@ impl Octree {
     /// [`Octree::root_bounds`] of the octree [`Octree::build`] would make
     /// over `objects`, without building it.
     pub fn root_bounds_of(objects: &[Object], params: &OctreeParams) -> Aabb {
-        let bounds: Vec<Aabb> = objects.iter().map(|o| o.shape.bounds()).collect();
-        Self::root_of(&bounds, params).bounds()
+        Self::root_of(objects.iter().map(|o| o.shape.bounds()), params).bounds()
     }
 
-    /// The root cell over objects of `bounds`: a cube around the non-empty
-    /// ones, enlarged by `params.enlarge`.
-    fn root_of(bounds: &[Aabb], params: &OctreeParams) -> Cell {
-        let scene = bounds.iter().fold(
+    /// The root cell over objects of `bounds` (in object order): a cube
+    /// around the non-empty ones, enlarged by `params.enlarge`. Folded as
+    /// they come: the sequential renderer asks without building the tree,
+    /// and a list of every object's box (48 bytes each) is not kept for it.
+    fn root_of(bounds: impl Iterator<Item = Aabb>, params: &OctreeParams) -> Cell {
+        let scene = bounds.fold(
             Aabb::EMPTY,
-            |a, b| if b.is_empty() { a } else { a.union(*b) },
+            |a, b| if b.is_empty() { a } else { a.union(b) },
         );
         let (center, half) = if scene.is_empty() {
             (Vec3::ZERO, 0.5)
