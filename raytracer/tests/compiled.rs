@@ -352,6 +352,45 @@ fn renders_of_a_compiled_scene_equal_renders_of_its_sources() {
             );
         }
     }
+    // With -ab a compiled scene is loaded whole (hemisphere rays do not
+    // migrate), says so, and renders the sequential picture.
+    let ambient = |scene: &Path, procs: Option<&str>, pic: &Path| {
+        let vf = dir.join("cornell.vf");
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "--view-file",
+            vf.to_str().unwrap(),
+            "-x",
+            "16",
+            "-y",
+            "16",
+            "-ab",
+            "1",
+            "-ad",
+            "32",
+            "-as",
+            "0",
+            "-aa",
+            "0.3",
+            "-o",
+            pic.to_str().unwrap(),
+        ];
+        if let Some(p) = procs {
+            args.extend(["--procs", p]);
+        }
+        let o = run(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        (stderr(&o), std::fs::read(pic).unwrap())
+    };
+    let (_, whole) = ambient(&dir.join("cornell.rad"), None, &dir.join("ab0.hdr"));
+    let (said, parallel) = ambient(&dir.join("cornell.hrtc"), Some("2"), &dir.join("ab1.hdr"));
+    assert!(
+        said.contains("hemisphere rays do not migrate") && said.contains("loaded whole"),
+        "{said}"
+    );
+    assert!(whole == parallel, "-ab 1 --procs 2 on the compiled scene");
+
     // The view stored in a compiled scene is the default view.
     let moved = dir.join("moved");
     std::fs::create_dir_all(&moved).unwrap();

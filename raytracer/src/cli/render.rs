@@ -170,6 +170,14 @@ fn render(a: &RenderArgs) -> Result<()> {
         };
         return run_held(a, options, view, popts, exposure, start);
     }
+    if let Some(p) = popts.as_ref().filter(|p| would_distribute(a, p)) {
+        eprintln!(
+            "warning: with -ab every processor traces whole ray trees over the whole scene \
+             (hemisphere rays do not migrate to the cells' owners yet): the compiled scene is \
+             loaded whole, not read processor by processor, and distribution {} does not apply",
+            p.workload.distribution
+        );
+    }
     let t0 = std::time::Instant::now();
     let scene = Arc::new(crate::compiled::load(&a.scenes)?);
     print_scene_warnings(&scene);
@@ -369,13 +377,19 @@ fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
 /// each processor its own cells (`octree`, `worst`, and `predicted` by the
 /// work predicted when the scene was compiled), without `-ab`.
 fn distributes(a: &RenderArgs, popts: &ParallelOptions, options: &RenderOptions) -> bool {
+    would_distribute(a, popts) && options.ab == 0
+}
+
+/// A compiled scene with a distribution that gives each processor its
+/// own cells: read processor by processor unless `-ab` asks for diffuse
+/// inter-reflection, which runs on the scene loaded whole.
+fn would_distribute(a: &RenderArgs, popts: &ParallelOptions) -> bool {
     use crate::parallel::Distribution;
     matches!(a.scenes.as_slice(), [one] if crate::compiled::is_compiled(one))
         && matches!(
             popts.workload.distribution,
             Distribution::Octree | Distribution::Worst | Distribution::Predicted
         )
-        && options.ab == 0
 }
 
 /// A parallel render of a compiled scene in which every processor holds
