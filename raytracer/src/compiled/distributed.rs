@@ -218,7 +218,11 @@ impl CellSource {
         leaves: &[NodeId],
     ) -> Result<FxHashMap<ObjectId, Surface>> {
         let mut file = std::fs::File::open(&self.path).map_err(|e| Error::io(&self.path, e))?;
-        let mut wanted: FxHashSet<ObjectId> = FxHashSet::default();
+        // Reserved for every listing (an upper bound): grown from empty, the
+        // set rehashed its way up.
+        let listings = leaves.iter().map(|&l| octree.leaf_objects(l).len()).sum();
+        let mut wanted: FxHashSet<ObjectId> =
+            FxHashSet::with_capacity_and_hasher(listings, Default::default());
         let mut cells: Vec<u32> = Vec::with_capacity(leaves.len());
         for &leaf in leaves {
             let cell = self
@@ -238,24 +242,23 @@ impl CellSource {
                     .filter(|&&o| scene.object(o).is_none()),
             );
         }
+        // The first stored copy of each wanted object.
         let mut found: FxHashMap<ObjectId, Surface> =
             FxHashMap::with_capacity_and_hasher(wanted.len(), Default::default());
-        let mut got: FxHashSet<ObjectId> =
-            FxHashSet::with_capacity_and_hasher(wanted.len(), Default::default());
-        let mut take = |cell: CellObjects, got: &mut FxHashSet<ObjectId>| {
+        let take = |cell: CellObjects, found: &mut FxHashMap<ObjectId, Surface>| {
             for (id, s) in cell.stored {
-                if wanted.contains(&id) && got.insert(id) {
-                    found.insert(id, s);
+                if wanted.contains(&id) {
+                    found.entry(id).or_insert(s);
                 }
             }
         };
         for &k in &cells {
-            take(self.read_cell(&mut file, k as usize)?, &mut got);
+            take(self.read_cell(&mut file, k as usize)?, &mut found);
         }
-        if !self.copies && got.len() < wanted.len() {
+        if !self.copies && found.len() < wanted.len() {
             // Stored once, in the first leaf (node order) listing them.
             let mut more = Vec::new();
-            let mut placed: FxHashSet<ObjectId> = got.clone();
+            let mut placed: FxHashSet<ObjectId> = found.keys().copied().collect();
             for (k, &(leaf, _)) in self.leaves.iter().enumerate() {
                 let ids = octree.leaf_objects(leaf);
                 let mut needed = false;
@@ -272,17 +275,17 @@ impl CellSource {
                 }
             }
             for k in more {
-                take(self.read_cell(&mut file, k)?, &mut got);
+                take(self.read_cell(&mut file, k)?, &mut found);
             }
         }
-        if got.len() < wanted.len() {
-            let missing = wanted.iter().filter(|o| !got.contains(o)).min();
+        if found.len() < wanted.len() {
+            let missing = wanted.iter().filter(|o| !found.contains_key(o)).min();
             return Err(file_error(
                 &self.path,
                 0,
                 format!(
                     "{} of the objects these cells list are stored nowhere (object {})",
-                    wanted.len() - got.len(),
+                    wanted.len() - found.len(),
                     missing.copied().unwrap_or_default()
                 ),
             ));

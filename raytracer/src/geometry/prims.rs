@@ -29,6 +29,23 @@ pub(crate) struct TriPair {
     v: [[[f64; 2]; 3]; 3],
 }
 
+impl TriPair {
+    /// The pair of one or two triangles (a lone triangle fills both
+    /// lanes), each vertex's coordinates side by side.
+    #[inline]
+    fn of(two: &[[Vec3; 3]]) -> TriPair {
+        let (t0, t1) = (two[0], *two.last().unwrap_or(&two[0]));
+        let mut v = [[[0.0; 2]; 3]; 3];
+        for (vert, out) in v.iter_mut().enumerate() {
+            let (a, b) = (t0[vert].to_array(), t1[vert].to_array());
+            for axis in 0..3 {
+                out[axis] = [a[axis], b[axis]];
+            }
+        }
+        TriPair { v }
+    }
+}
+
 /// Where an object's data lives: `pairs` pairs from `start` (a polygon),
 /// quadric number `start` (`pairs == 0`), or nowhere (`start == NONE`:
 /// test the [`Shape`]).
@@ -149,6 +166,17 @@ pub(crate) enum OnePrim {
 impl OnePrim {
     /// The data of `o`, exactly as [`Prims::build`] makes it.
     pub(crate) fn build(o: &Object) -> OnePrim {
+        // A polygon's pairs straight into their one allocation (copies are
+        // made by the hundred thousand when a processor reads its cells;
+        // the tables of a one-object `Prims` cost three allocations more).
+        if let Shape::Polygon(poly) = &o.shape {
+            if !poly.tri_verts.is_empty() {
+                return OnePrim::Pairs {
+                    pairs: poly.tri_verts.chunks(2).map(TriPair::of).collect(),
+                    normal: poly.normal,
+                };
+            }
+        }
         let p = Prims::build(std::slice::from_ref(o));
         match p.refs[0] {
             r if r.start == NONE => OnePrim::Other,
@@ -252,17 +280,7 @@ impl Prims {
                 }
                 Shape::Polygon(poly) if !poly.tri_verts.is_empty() => {
                     let start = p.pairs.len() as u32;
-                    for two in poly.tri_verts.chunks(2) {
-                        let (t0, t1) = (two[0], *two.last().unwrap_or(&two[0]));
-                        let mut v = [[[0.0; 2]; 3]; 3];
-                        for (vert, out) in v.iter_mut().enumerate() {
-                            let (a, b) = (t0[vert].to_array(), t1[vert].to_array());
-                            for axis in 0..3 {
-                                out[axis] = [a[axis], b[axis]];
-                            }
-                        }
-                        p.pairs.push(TriPair { v });
-                    }
+                    p.pairs.extend(poly.tri_verts.chunks(2).map(TriPair::of));
                     p.refs.push(PrimRef {
                         start,
                         pairs: p.pairs.len() as u32 - start,
