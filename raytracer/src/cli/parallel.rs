@@ -29,6 +29,17 @@ pub(super) fn resolve(a: &ParallelArgs) -> Result<Option<ParallelOptions>> {
     }
 }
 
+/// Whether this process speaks for the run: always, but under MPI only
+/// rank 0 (every rank would print the same warning).
+pub(super) fn speaks(p: &ParallelOptions) -> bool {
+    #[cfg(feature = "mpi")]
+    if p.runtime == RuntimeKind::Mpi {
+        return hybrid_sched::runtime::mpi::last_world().is_none_or(|w| w.rank == 0);
+    }
+    let _ = p;
+    true
+}
+
 #[cfg(feature = "mpi")]
 fn mpi_world() -> Result<(usize, usize)> {
     crate::parallel::mpi_world()

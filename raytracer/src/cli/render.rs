@@ -170,7 +170,10 @@ fn render(a: &RenderArgs) -> Result<()> {
         };
         return run_held(a, options, view, popts, exposure, start);
     }
-    if let Some(p) = popts.as_ref().filter(|p| would_distribute(a, p)) {
+    if let Some(p) = popts
+        .as_ref()
+        .filter(|p| would_distribute(a, p) && super::parallel::speaks(p))
+    {
         eprintln!(
             "warning: with -ab every processor traces whole ray trees over the whole scene \
              (hemisphere rays do not migrate to the cells' owners yet): the compiled scene is \
