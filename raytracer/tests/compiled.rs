@@ -25,6 +25,25 @@ fn run(args: &[&str]) -> Output {
         .expect("runs")
 }
 
+/// `render SCENE --view-file VF -x SIZE -y SIZE -o PIC` and `extra`.
+fn render(scene: &Path, vf: &Path, size: usize, pic: &Path, extra: &[&str]) -> Output {
+    let size = size.to_string();
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "--view-file",
+        vf.to_str().unwrap(),
+        "-x",
+        &size,
+        "-y",
+        &size,
+        "-o",
+        pic.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    run(&args)
+}
+
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -327,22 +346,8 @@ fn renders_of_a_compiled_scene_equal_renders_of_its_sources() {
             let mut pics = Vec::new();
             for (k, scene) in [&rad, &hrtc].into_iter().enumerate() {
                 let pic = dir.join(format!("{name}{k}.hdr"));
-                let mut args = vec![
-                    "render",
-                    scene.to_str().unwrap(),
-                    "--view-file",
-                    vf.to_str().unwrap(),
-                    "-x",
-                    "32",
-                    "-y",
-                    "32",
-                    "-o",
-                    pic.to_str().unwrap(),
-                ];
-                if let Some(p) = procs {
-                    args.extend(["--procs", p]);
-                }
-                let o = run(&args);
+                let procs = procs.map(|p| ["--procs", p]);
+                let o = render(scene, &vf, 32, &pic, procs.as_ref().map_or(&[][..], |p| p));
                 assert!(o.status.success(), "{name}: {}", stderr(&o));
                 pics.push(std::fs::read(&pic).unwrap());
             }
@@ -354,37 +359,15 @@ fn renders_of_a_compiled_scene_equal_renders_of_its_sources() {
     }
     // With -ab a compiled scene is loaded whole (hemisphere rays do not
     // migrate), says so, and renders the sequential picture.
-    let ambient = |scene: &Path, procs: Option<&str>, pic: &Path| {
-        let vf = dir.join("cornell.vf");
-        let mut args = vec![
-            "render",
-            scene.to_str().unwrap(),
-            "--view-file",
-            vf.to_str().unwrap(),
-            "-x",
-            "16",
-            "-y",
-            "16",
-            "-ab",
-            "1",
-            "-ad",
-            "32",
-            "-as",
-            "0",
-            "-aa",
-            "0.3",
-            "-o",
-            pic.to_str().unwrap(),
-        ];
-        if let Some(p) = procs {
-            args.extend(["--procs", p]);
-        }
-        let o = run(&args);
+    let ambient = |scene: &str, procs: &[&str], pic: &str| {
+        let ab = ["-ab", "1", "-ad", "32", "-as", "0", "-aa", "0.3"];
+        let (vf, pic) = (dir.join("cornell.vf"), dir.join(pic));
+        let o = render(&dir.join(scene), &vf, 16, &pic, &[&ab[..], procs].concat());
         assert!(o.status.success(), "{}", stderr(&o));
         (stderr(&o), std::fs::read(pic).unwrap())
     };
-    let (_, whole) = ambient(&dir.join("cornell.rad"), None, &dir.join("ab0.hdr"));
-    let (said, parallel) = ambient(&dir.join("cornell.hrtc"), Some("2"), &dir.join("ab1.hdr"));
+    let (_, whole) = ambient("cornell.rad", &[], "ab0.hdr");
+    let (said, parallel) = ambient("cornell.hrtc", &["--procs", "2"], "ab1.hdr");
     assert!(
         said.contains("hemisphere rays do not migrate") && said.contains("loaded whole"),
         "{said}"
