@@ -114,12 +114,17 @@ impl Slab {
     /// within `[tmin, tmax]` (the ray enters child `i` if `t0[i] <= t1[i]`).
     #[inline(always)]
     fn test4(&self, n: &Wide, tmin: f64, tmax: f64) -> ([f64; 4], [f64; 4]) {
+        self.test4_at(&planes(n, &self.near), tmin, tmax)
+    }
+
+    /// [`Slab::test4`] on a node's planes made by [`planes`] with this
+    /// ray's `near`.
+    #[inline(always)]
+    fn test4_at(&self, p: &Planes, tmin: f64, tmax: f64) -> ([f64; 4], [f64; 4]) {
         let mut t0 = [tmin; 4];
         let mut t1 = [tmax; 4];
-        for a in 0..3 {
+        for (a, [lo, hi]) in p.iter().enumerate() {
             let (o, inv) = (self.o[a], self.inv[a]);
-            let lo = n.b[a][self.near[a]].map(f64::from);
-            let hi = n.b[a][1 - self.near[a]].map(f64::from);
             for l in 0..4 {
                 let e = (lo[l] - o) * inv;
                 let x = (hi[l] - o) * inv;
@@ -132,6 +137,22 @@ impl Slab {
     }
 }
 
+/// A node's four children's planes in double precision (widening is
+/// exact), per axis the planes rays with `near` enter by, then those they
+/// leave by.
+type Planes = [[[f64; 4]; 2]; 3];
+
+/// [`Planes`] of `n` for rays entering by the planes `near` names.
+#[inline(always)]
+fn planes(n: &Wide, near: &[usize; 3]) -> Planes {
+    std::array::from_fn(|a| {
+        [
+            n.b[a][near[a]].map(f64::from),
+            n.b[a][1 - near[a]].map(f64::from),
+        ]
+    })
+}
+
 /// The slab test of one ray against a node's four children: the mask of
 /// children entered (bit `i` for child `i`) and their entry distances.
 /// Every implementation does [`Slab::test4`]'s IEEE operations in its
@@ -139,7 +160,25 @@ impl Slab {
 trait Enter {
     /// # Safety
     /// The implementation's instructions must be available.
-    unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]);
+    #[inline(always)]
+    unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]) {
+        Self::enter4_at(s, &Self::planes(n, &s.near), tmin, tmax)
+    }
+
+    /// A node's planes for rays entering by the planes `near` names (see
+    /// [`planes`]): a packet whose rays all enter by the same planes widens
+    /// them once per node, not once per ray.
+    type Planes;
+
+    /// # Safety
+    /// The implementation's instructions must be available.
+    unsafe fn planes(n: &Wide, near: &[usize; 3]) -> Self::Planes;
+
+    /// [`Enter::enter4`] on planes made with the ray's own `near`.
+    ///
+    /// # Safety
+    /// The implementation's instructions must be available.
+    unsafe fn enter4_at(s: &Slab, p: &Self::Planes, tmin: f64, tmax: f64) -> (u32, [f64; 4]);
 
     /// The distances of a leaf block's four triangles ([`leaf::Tri4`]),
     /// NaN where the ray misses; every implementation gives the same.
@@ -159,9 +198,16 @@ trait Enter {
 struct Portable;
 
 impl Enter for Portable {
+    type Planes = Planes;
+
     #[inline(always)]
-    unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]) {
-        let (t0, t1) = s.test4(n, tmin, tmax);
+    unsafe fn planes(n: &Wide, near: &[usize; 3]) -> Planes {
+        planes(n, near)
+    }
+
+    #[inline(always)]
+    unsafe fn enter4_at(s: &Slab, p: &Planes, tmin: f64, tmax: f64) -> (u32, [f64; 4]) {
+        let (t0, t1) = s.test4_at(p, tmin, tmax);
         let mut m = 0;
         for l in 0..4 {
             m |= ((t0[l] <= t1[l]) as u32) << l;
@@ -192,18 +238,25 @@ struct Avx2;
 
 #[cfg(target_arch = "x86_64")]
 impl Enter for Avx2 {
+    type Planes = [[std::arch::x86_64::__m256d; 2]; 3];
+
     #[inline(always)]
-    unsafe fn enter4(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]) {
+    unsafe fn planes(n: &Wide, near: &[usize; 3]) -> Self::Planes {
+        use std::arch::x86_64::*;
+        // `Wide` is aligned to 32 bytes, each `[f32; 4]` of it to 16;
+        // widening to double precision is exact.
+        let wide = |a: usize, i: usize| _mm256_cvtps_pd(_mm_load_ps(n.b[a][i].as_ptr()));
+        std::array::from_fn(|a| [wide(a, near[a]), wide(a, 1 - near[a])])
+    }
+
+    #[inline(always)]
+    unsafe fn enter4_at(s: &Slab, p: &Self::Planes, tmin: f64, tmax: f64) -> (u32, [f64; 4]) {
         use std::arch::x86_64::*;
         let mut t0 = _mm256_set1_pd(tmin);
         let mut t1 = _mm256_set1_pd(tmax);
-        for a in 0..3 {
+        for (a, &[lo, hi]) in p.iter().enumerate() {
             let o = _mm256_set1_pd(s.o[a]);
             let inv = _mm256_set1_pd(s.inv[a]);
-            // `Wide` is aligned to 32 bytes, each `[f32; 4]` of it to 16;
-            // widening to double precision is exact.
-            let lo = _mm256_cvtps_pd(_mm_load_ps(n.b[a][s.near[a]].as_ptr()));
-            let hi = _mm256_cvtps_pd(_mm_load_ps(n.b[a][1 - s.near[a]].as_ptr()));
             let e = _mm256_mul_pd(_mm256_sub_pd(lo, o), inv);
             let x = _mm256_mul_pd(_mm256_sub_pd(hi, o), inv);
             t0 = _mm256_max_pd(e, t0);

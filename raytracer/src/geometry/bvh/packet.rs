@@ -25,10 +25,12 @@
 #[cfg(target_arch = "x86_64")]
 use super::Avx2;
 use super::{leaf, Bvh, Enter, Portable, Slab, Tester, Wide, SHALLOW, STACK};
+use crate::geometry::prims::Prims;
 use crate::geometry::robust::next_up;
 use crate::geometry::shape::{Hit, Object, ObjectId, ObjectSet, ShapeHit};
 use crate::geometry::{PreparedRay, Ray};
 use smallvec::SmallVec;
+use std::cmp::Ordering;
 
 /// Most rays in one packet (an 8 x 8 tile).
 pub const PACKET: usize = 64;
@@ -52,8 +54,8 @@ pub type Segment = (Ray, f64, f64);
 
 /// The packet's ranges, for the interval test.
 struct Frustum {
-    /// Axes in the test: the packet's inverse directions on them are
-    /// finite and of one sign.
+    /// Axes in the test: the packet's origins on them are finite, and its
+    /// inverse directions finite, nonzero and of one sign.
     axes: [bool; 3],
     o_lo: [f64; 3],
     o_hi: [f64; 3],
@@ -61,12 +63,16 @@ struct Frustum {
     inv_hi: [f64; 3],
     /// Index (0 lower, 1 upper) of the plane the packet enters by.
     near: [usize; 3],
+    /// Whether every ray enters by the planes `near` names (on every axis
+    /// its inverse directions have one sign).
+    uniform: bool,
     /// The least `tmin` of the packet.
     tmin: f64,
 }
 
 impl Frustum {
-    fn new(pre: &[PreparedRay], tmin: &[f64]) -> Self {
+    #[inline(always)]
+    fn new(slabs: &[Slab], tmin: &[f64]) -> Self {
         let mut f = Frustum {
             axes: [true; 3],
             o_lo: [f64::INFINITY; 3],
@@ -74,48 +80,64 @@ impl Frustum {
             inv_lo: [f64::INFINITY; 3],
             inv_hi: [f64::NEG_INFINITY; 3],
             near: [0; 3],
-            tmin: f64::INFINITY,
+            uniform: true,
+            tmin: tmin
+                .iter()
+                .fold(f64::INFINITY, |m, &t| if t < m { t } else { m }),
         };
-        for &t in tmin {
-            if t < f.tmin {
-                f.tmin = t;
-            }
-        }
-        // One pass over the rays, all three axes (a NaN origin or an
-        // infinite inverse takes its axis out of the test).
+        // One pass over the rays, all three axes, without branches. `x *
+        // 0` is 0 for a finite `x` and NaN otherwise, so `finite` stays 0
+        // while every origin and inverse is finite.
         let mut neg = [0usize; 3];
-        for p in pre {
-            let (o, inv) = (p.ray.origin.to_array(), p.inv_dir.to_array());
+        let mut finite = [0.0f64; 3];
+        for s in slabs {
             for a in 0..3 {
-                if o[a] < f.o_lo[a] {
-                    f.o_lo[a] = o[a];
-                }
-                if o[a] > f.o_hi[a] {
-                    f.o_hi[a] = o[a];
-                }
-                if inv[a] < f.inv_lo[a] {
-                    f.inv_lo[a] = inv[a];
-                }
-                if inv[a] > f.inv_hi[a] {
-                    f.inv_hi[a] = inv[a];
-                }
-                neg[a] += inv[a].is_sign_negative() as usize;
-                f.axes[a] &= inv[a].is_finite() & o[a].is_finite();
+                let (o, inv) = (s.o[a], s.inv[a]);
+                f.o_lo[a] = if o < f.o_lo[a] { o } else { f.o_lo[a] };
+                f.o_hi[a] = if o > f.o_hi[a] { o } else { f.o_hi[a] };
+                f.inv_lo[a] = if inv < f.inv_lo[a] { inv } else { f.inv_lo[a] };
+                f.inv_hi[a] = if inv > f.inv_hi[a] { inv } else { f.inv_hi[a] };
+                finite[a] += o * 0.0 + inv * 0.0;
+                neg[a] += s.near[a];
             }
         }
-        for (a, &neg) in neg.iter().enumerate() {
-            if neg != 0 && neg != pre.len() {
-                f.axes[a] = false;
-            }
-            f.near[a] = (neg != 0) as usize;
+        for a in 0..3 {
+            let mixed = neg[a] != 0 && neg[a] != slabs.len();
+            // Of one sign and no zero among them.
+            let nonzero = f.inv_lo[a] > 0.0 || f.inv_hi[a] < 0.0;
+            f.axes[a] = !mixed && nonzero && finite[a] == 0.0;
+            f.uniform &= !mixed;
+            f.near[a] = (neg[a] != 0) as usize;
         }
         f
     }
 
     /// The lanes of `n` some ray of the packet may enter before `cut` (a
     /// bound on every ray's segment end): bit `i` for child `i`.
+    ///
+    /// Written with selects (`if a < b { a } else { b }`, what `minpd`
+    /// does) so it compiles to a few vector instructions: no product here
+    /// is NaN (the axes in the test have finite origins and finite,
+    /// nonzero inverses, and planes are finite or infinite), so the
+    /// selects are the least and greatest values.
     #[inline(always)]
     fn test4(&self, n: &Wide, cut: f64) -> u32 {
+        #[inline(always)]
+        fn min(a: f64, b: f64) -> f64 {
+            if a < b {
+                a
+            } else {
+                b
+            }
+        }
+        #[inline(always)]
+        fn max(a: f64, b: f64) -> f64 {
+            if a > b {
+                a
+            } else {
+                b
+            }
+        }
         let mut t0 = [self.tmin; 4];
         let mut t1 = [cut; 4];
         for a in 0..3 {
@@ -124,28 +146,21 @@ impl Frustum {
             }
             let lo = n.b[a][self.near[a]].map(f64::from);
             let hi = n.b[a][1 - self.near[a]].map(f64::from);
+            let (olo, ohi, ilo, ihi) = (self.o_lo[a], self.o_hi[a], self.inv_lo[a], self.inv_hi[a]);
             for l in 0..4 {
                 // The least entry and the greatest exit over the packet.
-                let (e0, e1) = (lo[l] - self.o_hi[a], lo[l] - self.o_lo[a]);
-                let e = (e0 * self.inv_lo[a])
-                    .min(e0 * self.inv_hi[a])
-                    .min(e1 * self.inv_lo[a])
-                    .min(e1 * self.inv_hi[a]);
-                let (x0, x1) = (hi[l] - self.o_hi[a], hi[l] - self.o_lo[a]);
-                let x = (x0 * self.inv_lo[a])
-                    .max(x0 * self.inv_hi[a])
-                    .max(x1 * self.inv_lo[a])
-                    .max(x1 * self.inv_hi[a]);
-                t0[l] = if e > t0[l] { e } else { t0[l] };
-                t1[l] = if x < t1[l] { x } else { t1[l] };
+                let (e0, e1) = (lo[l] - ohi, lo[l] - olo);
+                let e = min(min(e0 * ilo, e0 * ihi), min(e1 * ilo, e1 * ihi));
+                let (x0, x1) = (hi[l] - ohi, hi[l] - olo);
+                let x = max(max(x0 * ilo, x0 * ihi), max(x1 * ilo, x1 * ihi));
+                t0[l] = max(e, t0[l]);
+                t1[l] = min(x, t1[l]);
             }
         }
         let mut mask = 0;
         for l in 0..4 {
-            // A NaN (an empty lane's infinite planes) rejects nothing.
-            if t0[l].partial_cmp(&t1[l]) != Some(std::cmp::Ordering::Greater) {
-                mask |= 1 << l;
-            }
+            // A NaN bound (`tmin` or `cut`) rejects nothing.
+            mask |= ((t0[l].partial_cmp(&t1[l]) != Some(Ordering::Greater)) as u32) << l;
         }
         mask
     }
@@ -178,6 +193,54 @@ pub(super) fn consider<O: ObjectSet + ?Sized>(
             *best = Some((h.t, id, h));
             *cut = h.t;
         }
+    }
+}
+
+/// The greatest of `t` (NaNs skipped; `-inf` for none), four lanes at a
+/// time so it compiles to vector instructions.
+#[inline(always)]
+fn greatest(t: &[f64]) -> f64 {
+    let mut m = [f64::NEG_INFINITY; 4];
+    let mut chunks = t.chunks_exact(4);
+    for c in &mut chunks {
+        for l in 0..4 {
+            m[l] = if c[l] > m[l] { c[l] } else { m[l] };
+        }
+    }
+    for &x in chunks.remainder() {
+        m[0] = if x > m[0] { x } else { m[0] };
+    }
+    m.into_iter()
+        .fold(f64::NEG_INFINITY, |a, b| if b > a { b } else { a })
+}
+
+/// The packet's prepared rays and their segments' ends.
+#[inline(always)]
+fn prepare(
+    rays: &[Segment],
+    pre: &mut PerRay<PreparedRay>,
+    tmin: &mut PerRay<f64>,
+    tmax: &mut PerRay<f64>,
+) {
+    for (ray, t0, t1) in rays {
+        pre.push(PreparedRay::new(ray));
+        tmin.push(*t0);
+        tmax.push(*t1);
+    }
+}
+
+/// The rays' object tests and slab constants.
+#[inline(always)]
+fn testers<'a>(
+    prims: &'a Prims,
+    objects: &'a [Object],
+    pre: &'a [PreparedRay],
+    test: &mut PerRay<Tester<'a>>,
+    slabs: &mut PerRay<Slab>,
+) {
+    for p in pre {
+        test.push(Tester::new(prims, objects, p));
+        slabs.push(Slab::new(&p.ray, p.inv_dir));
     }
 }
 
@@ -223,22 +286,15 @@ impl Bvh {
         out: &mut [Option<Hit>],
     ) {
         let n = rays.len();
-        let pre: PerRay<PreparedRay> = rays.iter().map(|(r, ..)| PreparedRay::new(r)).collect();
-        let pre = &pre[..];
-        let test: PerRay<Tester> = pre
-            .iter()
-            .map(|p| Tester::new(&self.prims, objects, p))
-            .collect();
-        let test = &test[..];
-        let compact: PerRay<_> = test
-            .iter()
-            .map(|t| t.compact().filter(|_| !self.blocks.is_empty()))
-            .collect();
-        let compact = &compact[..];
-        let tmin: PerRay<f64> = rays.iter().map(|r| r.1).collect();
-        let tmin = &tmin[..];
-        let mut cut: PerRay<f64> = rays.iter().map(|r| r.2).collect();
-        let cut = &mut cut[..];
+        let (mut pre, mut tmin, mut cut) = (SmallVec::new(), SmallVec::new(), SmallVec::new());
+        prepare(rays, &mut pre, &mut tmin, &mut cut);
+        let (pre, tmin, cut) = (&pre[..], &tmin[..], &mut cut[..]);
+        let (mut test, mut slabs) = (SmallVec::new(), SmallVec::new());
+        testers(&self.prims, objects, pre, &mut test, &mut slabs);
+        let (test, slabs) = (&test[..], &slabs[..]);
+        // The leaves' blocks serve where the compact data was built for
+        // `objects` (for every ray or for none).
+        let blocks = !self.blocks.is_empty();
         let mut best: PerRay<Option<(f64, ObjectId, ShapeHit)>> = SmallVec::from_elem(None, n);
         let best = &mut best[..];
         // Objects without finite bounds: tested by every ray.
@@ -248,9 +304,7 @@ impl Bvh {
             }
         }
         if !self.nodes.is_empty() && n > 0 {
-            let slabs: PerRay<Slab> = pre.iter().map(|p| Slab::new(&p.ray, p.inv_dir)).collect();
-            let slabs = &slabs[..];
-            let frustum = Frustum::new(pre, tmin);
+            let frustum = Frustum::new(slabs, tmin);
             let cap = 3 * if self.depth as usize <= SHALLOW {
                 SHALLOW
             } else {
@@ -263,15 +317,15 @@ impl Bvh {
             while let Some((node, first, _)) = stack.pop() {
                 let first = first as usize;
                 let n_ = &self.nodes[node as usize];
-                let hi = cut[first..n]
-                    .iter()
-                    .copied()
-                    .fold(f64::NEG_INFINITY, f64::max);
+                let hi = greatest(&cut[first..n]);
                 let mask = frustum.test4(n_, hi);
                 if mask == 0 {
                     continue;
                 }
                 let (leaves, inner) = split(n_, mask);
+                // The node's planes widened once for the packet where every
+                // ray enters by the same ones.
+                let planes = frustum.uniform.then(|| E::planes(n_, &frustum.near));
                 // Each inner child's first ray and its entry.
                 let mut enter = [(u32::MAX, 0.0f64); 4];
                 let mut open = inner;
@@ -279,7 +333,10 @@ impl Bvh {
                     if open == 0 && leaves == 0 {
                         break;
                     }
-                    let (m, t0) = E::enter4(&slabs[r], n_, tmin[r], cut[r]);
+                    let (m, t0) = match &planes {
+                        Some(p) => E::enter4_at(&slabs[r], p, tmin[r], cut[r]),
+                        None => E::enter4(&slabs[r], n_, tmin[r], cut[r]),
+                    };
                     let mut newly = m & open;
                     open &= !m;
                     while newly != 0 {
@@ -312,7 +369,7 @@ impl Bvh {
                         }
                         let (s, count) = (n_.link[l] as usize, n_.count[l] as usize);
                         let mut ids = &self.ids[s..s + count];
-                        if let Some((prims, tr)) = compact[r] {
+                        if let Some((prims, tr)) = test[r].compact().filter(|_| blocks) {
                             let (tris, polys) = self.blocks.leaf(s);
                             leaf::nearest::<E>(tris, prims, tr, tmin[r], &mut cut[r], &mut best[r]);
                             ids = &ids[polys..];
@@ -394,25 +451,17 @@ impl Bvh {
         let n = rays.len();
         let out = &mut out[..n];
         out.fill(false);
-        let pre: PerRay<PreparedRay> = rays.iter().map(|(r, ..)| PreparedRay::new(r)).collect();
-        let pre = &pre[..];
-        let test: PerRay<Tester> = pre
-            .iter()
-            .map(|p| Tester::new(&self.prims, objects, p))
-            .collect();
-        let test = &test[..];
-        let occludes = |r: usize, id: ObjectId| {
-            Some(id) != ignore && test[r].occludes(id, rays[r].1, rays[r].2)
-        };
-        let tri_rays: PerRay<_> = test
-            .iter()
-            .map(|t| {
-                t.compact()
-                    .filter(|_| !self.blocks.is_empty())
-                    .map(|(_, tr)| tr)
-            })
-            .collect();
-        let tri_rays = &tri_rays[..];
+        let (mut pre, mut tmin, mut tmax) = (SmallVec::new(), SmallVec::new(), SmallVec::new());
+        prepare(rays, &mut pre, &mut tmin, &mut tmax);
+        let (pre, tmin, tmax) = (&pre[..], &tmin[..], &tmax[..]);
+        let (mut test, mut slabs) = (SmallVec::new(), SmallVec::new());
+        testers(&self.prims, objects, pre, &mut test, &mut slabs);
+        let (test, slabs) = (&test[..], &slabs[..]);
+        let occludes =
+            |r: usize, id: ObjectId| Some(id) != ignore && test[r].occludes(id, tmin[r], tmax[r]);
+        // The leaves' blocks serve where the compact data was built for
+        // `objects` (for every ray or for none).
+        let blocks = !self.blocks.is_empty();
         let mut open = n;
         for (r, o) in out.iter_mut().enumerate() {
             if self.unbounded.iter().any(|&id| occludes(r, id)) {
@@ -423,12 +472,8 @@ impl Bvh {
         if self.nodes.is_empty() || open == 0 {
             return;
         }
-        let slabs: PerRay<Slab> = pre.iter().map(|p| Slab::new(&p.ray, p.inv_dir)).collect();
-        let slabs = &slabs[..];
-        let tmin: PerRay<f64> = rays.iter().map(|r| r.1).collect();
-        let tmin = &tmin[..];
-        let frustum = Frustum::new(pre, tmin);
-        let hi = rays.iter().map(|r| r.2).fold(f64::NEG_INFINITY, f64::max);
+        let frustum = Frustum::new(slabs, tmin);
+        let hi = greatest(tmax);
         // Pending nodes: (node, first ray).
         let mut stack: Pending<(u32, u32)> = SmallVec::new();
         stack.push((0, 0));
@@ -439,6 +484,7 @@ impl Bvh {
                 continue;
             }
             let (leaves, inner) = split(n_, mask);
+            let planes = frustum.uniform.then(|| E::planes(n_, &frustum.near));
             let mut enter = [u32::MAX; 4];
             let mut todo = inner;
             for r in first as usize..n {
@@ -448,7 +494,10 @@ impl Bvh {
                 if out[r] {
                     continue;
                 }
-                let (m, _) = E::enter4(&slabs[r], n_, rays[r].1, rays[r].2);
+                let (m, _) = match &planes {
+                    Some(p) => E::enter4_at(&slabs[r], p, tmin[r], tmax[r]),
+                    None => E::enter4(&slabs[r], n_, tmin[r], tmax[r]),
+                };
                 let mut newly = m & todo;
                 todo &= !m;
                 while newly != 0 {
@@ -463,9 +512,9 @@ impl Bvh {
                     let (s, count) = (n_.link[l] as usize, n_.count[l] as usize);
                     let mut ids = &self.ids[s..s + count];
                     let mut hit = false;
-                    if let Some(tr) = tri_rays[r] {
+                    if let Some((_, tr)) = test[r].compact().filter(|_| blocks) {
                         let (tris, polys) = self.blocks.leaf(s);
-                        hit = leaf::any::<E>(tris, tr, rays[r].1, rays[r].2, ignore);
+                        hit = leaf::any::<E>(tris, tr, tmin[r], tmax[r], ignore);
                         ids = &ids[polys..];
                     }
                     if hit || ids.iter().any(|&id| occludes(r, id)) {
