@@ -92,6 +92,7 @@ impl Wide {
 }
 
 /// Per-ray constants of the slab test.
+#[derive(Clone, Copy)]
 struct Slab {
     o: [f64; 3],
     inv: [f64; 3],

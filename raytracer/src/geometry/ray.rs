@@ -49,7 +49,9 @@ impl PreparedRay {
         let kz = d.abs().max_position();
         let mut kx = (kz + 1) % 3;
         let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
+        // An array, not `DVec3`'s `Index` (a `match` per access).
+        let a = d.to_array();
+        if a[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
         Self {
@@ -58,9 +60,9 @@ impl PreparedRay {
             kx,
             ky,
             kz,
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
-            sz: 1.0 / d[kz],
+            sx: a[kx] / a[kz],
+            sy: a[ky] / a[kz],
+            sz: 1.0 / a[kz],
         }
     }
 }

@@ -25,12 +25,13 @@
 #[cfg(target_arch = "x86_64")]
 use super::Avx2;
 use super::{leaf, Bvh, Enter, Portable, Slab, Tester, Wide, SHALLOW, STACK};
-use crate::geometry::prims::Prims;
+use crate::geometry::prims::TriRay;
 use crate::geometry::robust::next_up;
 use crate::geometry::shape::{Hit, Object, ObjectId, ObjectSet, ShapeHit};
 use crate::geometry::{PreparedRay, Ray};
 use smallvec::SmallVec;
 use std::cmp::Ordering;
+use std::mem::MaybeUninit;
 
 /// Most rays in one packet (an 8 x 8 tile).
 pub const PACKET: usize = 64;
@@ -41,8 +42,48 @@ pub const PACKET: usize = 64;
 /// (the program's mimalloc purges freed memory at once, for its peak
 /// resident set): 5,209 `madvise` calls in one round of `hybrid-rt bench
 /// --embree` on the studio, 1,703 with these buffers, and primary rays as
-/// 8 x 8 packets 1.47 times as fast.
-type PerRay<T> = SmallVec<[T; PACKET]>;
+/// 8 x 8 packets 1.47 times as fast. A fixed array rather than a
+/// `SmallVec`, whose every push asks whether it has spilled to the heap:
+/// the shadow packets' set-up took 48M instructions in `SmallVec`'s code.
+struct PerRay<T: Copy> {
+    len: usize,
+    v: [MaybeUninit<T>; PACKET],
+}
+
+impl<T: Copy> PerRay<T> {
+    #[inline(always)]
+    fn new() -> Self {
+        PerRay {
+            len: 0,
+            v: [const { MaybeUninit::uninit() }; PACKET],
+        }
+    }
+
+    /// # Panics
+    /// If it holds [`PACKET`] values already.
+    #[inline(always)]
+    fn push(&mut self, x: T) {
+        self.v[self.len].write(x);
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn as_mut_slice(&mut self) -> &mut [T] {
+        // SAFETY: the first `len` values were written by `push`, and `T`
+        // is `Copy` (no drop to run).
+        unsafe { std::slice::from_raw_parts_mut(self.v.as_mut_ptr().cast(), self.len) }
+    }
+}
+
+impl<T: Copy> std::ops::Deref for PerRay<T> {
+    type Target = [T];
+
+    #[inline(always)]
+    fn deref(&self) -> &[T] {
+        // SAFETY: as in `as_mut_slice`.
+        unsafe { std::slice::from_raw_parts(self.v.as_ptr().cast(), self.len) }
+    }
+}
 
 /// Pending nodes of a packet's traversal: on the stack for trees up to
 /// [`SHALLOW`] levels deep (each wide level leaves at most three pending).
@@ -229,17 +270,13 @@ fn prepare(
     }
 }
 
-/// The rays' object tests and slab constants.
+/// The rays' constants for the leaves' triangle tests and for the slab
+/// tests. (Object tests by id, [`Tester`]s, are made where a leaf has
+/// objects other than its blocks' triangles: rarely.)
 #[inline(always)]
-fn testers<'a>(
-    prims: &'a Prims,
-    objects: &'a [Object],
-    pre: &'a [PreparedRay],
-    test: &mut PerRay<Tester<'a>>,
-    slabs: &mut PerRay<Slab>,
-) {
+fn constants(pre: &[PreparedRay], tri: &mut PerRay<TriRay>, slabs: &mut PerRay<Slab>) {
     for p in pre {
-        test.push(Tester::new(prims, objects, p));
+        tri.push(TriRay::new(p));
         slabs.push(Slab::new(&p.ray, p.inv_dir));
     }
 }
@@ -286,21 +323,29 @@ impl Bvh {
         out: &mut [Option<Hit>],
     ) {
         let n = rays.len();
-        let (mut pre, mut tmin, mut cut) = (SmallVec::new(), SmallVec::new(), SmallVec::new());
+        let (mut pre, mut tmin, mut cut) = (PerRay::new(), PerRay::new(), PerRay::new());
         prepare(rays, &mut pre, &mut tmin, &mut cut);
-        let (pre, tmin, cut) = (&pre[..], &tmin[..], &mut cut[..]);
-        let (mut test, mut slabs) = (SmallVec::new(), SmallVec::new());
-        testers(&self.prims, objects, pre, &mut test, &mut slabs);
-        let (test, slabs) = (&test[..], &slabs[..]);
-        // The leaves' blocks serve where the compact data was built for
-        // `objects` (for every ray or for none).
-        let blocks = !self.blocks.is_empty();
-        let mut best: PerRay<Option<(f64, ObjectId, ShapeHit)>> = SmallVec::from_elem(None, n);
-        let best = &mut best[..];
+        let (pre, tmin, cut) = (&pre[..], &tmin[..], cut.as_mut_slice());
+        let (mut tri, mut slabs) = (PerRay::new(), PerRay::new());
+        constants(pre, &mut tri, &mut slabs);
+        let (tri, slabs) = (&tri[..], &slabs[..]);
+        let tester = |r: usize| Tester::new(&self.prims, objects, &pre[r]);
+        // The leaves' blocks, where the compact data was built for
+        // `objects`.
+        let blocks =
+            (!self.blocks.is_empty() && self.prims.matches(objects)).then_some(&self.prims);
+        let mut best = PerRay::<Option<(f64, ObjectId, ShapeHit)>>::new();
+        for _ in 0..n {
+            best.push(None);
+        }
+        let best = best.as_mut_slice();
         // Objects without finite bounds: tested by every ray.
-        for &id in &self.unbounded {
+        if !self.unbounded.is_empty() {
             for r in 0..n {
-                consider(&test[r], tmin[r], id, &mut cut[r], &mut best[r]);
+                let test = tester(r);
+                for &id in &self.unbounded {
+                    consider(&test, tmin[r], id, &mut cut[r], &mut best[r]);
+                }
             }
         }
         if !self.nodes.is_empty() && n > 0 {
@@ -369,13 +414,23 @@ impl Bvh {
                         }
                         let (s, count) = (n_.link[l] as usize, n_.count[l] as usize);
                         let mut ids = &self.ids[s..s + count];
-                        if let Some((prims, tr)) = test[r].compact().filter(|_| blocks) {
+                        if let Some(prims) = blocks {
                             let (tris, polys) = self.blocks.leaf(s);
-                            leaf::nearest::<E>(tris, prims, tr, tmin[r], &mut cut[r], &mut best[r]);
+                            leaf::nearest::<E>(
+                                tris,
+                                prims,
+                                &tri[r],
+                                tmin[r],
+                                &mut cut[r],
+                                &mut best[r],
+                            );
                             ids = &ids[polys..];
                         }
-                        for &id in ids {
-                            consider(&test[r], tmin[r], id, &mut cut[r], &mut best[r]);
+                        if !ids.is_empty() {
+                            let test = tester(r);
+                            for &id in ids {
+                                consider(&test, tmin[r], id, &mut cut[r], &mut best[r]);
+                            }
                         }
                     }
                 }
@@ -451,22 +506,29 @@ impl Bvh {
         let n = rays.len();
         let out = &mut out[..n];
         out.fill(false);
-        let (mut pre, mut tmin, mut tmax) = (SmallVec::new(), SmallVec::new(), SmallVec::new());
+        let (mut pre, mut tmin, mut tmax) = (PerRay::new(), PerRay::new(), PerRay::new());
         prepare(rays, &mut pre, &mut tmin, &mut tmax);
         let (pre, tmin, tmax) = (&pre[..], &tmin[..], &tmax[..]);
-        let (mut test, mut slabs) = (SmallVec::new(), SmallVec::new());
-        testers(&self.prims, objects, pre, &mut test, &mut slabs);
-        let (test, slabs) = (&test[..], &slabs[..]);
-        let occludes =
-            |r: usize, id: ObjectId| Some(id) != ignore && test[r].occludes(id, tmin[r], tmax[r]);
-        // The leaves' blocks serve where the compact data was built for
-        // `objects` (for every ray or for none).
-        let blocks = !self.blocks.is_empty();
+        let (mut tri, mut slabs) = (PerRay::new(), PerRay::new());
+        constants(pre, &mut tri, &mut slabs);
+        let (tri, slabs) = (&tri[..], &slabs[..]);
+        // Whether one of `ids` other than `ignore` blocks ray `r`.
+        // (Called where `ids` is not empty: rarely.)
+        let occludes = |r: usize, ids: &[ObjectId]| {
+            let test = Tester::new(&self.prims, objects, &pre[r]);
+            ids.iter()
+                .any(|&id| Some(id) != ignore && test.occludes(id, tmin[r], tmax[r]))
+        };
+        // The leaves' blocks, where the compact data was built for
+        // `objects`.
+        let blocks = !self.blocks.is_empty() && self.prims.matches(objects);
         let mut open = n;
-        for (r, o) in out.iter_mut().enumerate() {
-            if self.unbounded.iter().any(|&id| occludes(r, id)) {
-                *o = true;
-                open -= 1;
+        if !self.unbounded.is_empty() {
+            for (r, o) in out.iter_mut().enumerate() {
+                if occludes(r, &self.unbounded) {
+                    *o = true;
+                    open -= 1;
+                }
             }
         }
         if self.nodes.is_empty() || open == 0 {
@@ -512,12 +574,12 @@ impl Bvh {
                     let (s, count) = (n_.link[l] as usize, n_.count[l] as usize);
                     let mut ids = &self.ids[s..s + count];
                     let mut hit = false;
-                    if let Some((_, tr)) = test[r].compact().filter(|_| blocks) {
+                    if blocks {
                         let (tris, polys) = self.blocks.leaf(s);
-                        hit = leaf::any::<E>(tris, tr, tmin[r], tmax[r], ignore);
+                        hit = leaf::any::<E>(tris, &tri[r], tmin[r], tmax[r], ignore);
                         ids = &ids[polys..];
                     }
-                    if hit || ids.iter().any(|&id| occludes(r, id)) {
+                    if hit || (!ids.is_empty() && occludes(r, ids)) {
                         out[r] = true;
                         open -= 1;
                         break;
