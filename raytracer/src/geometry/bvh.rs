@@ -405,9 +405,9 @@ impl Kid {
 }
 
 /// `a.min(b)` and `a.max(b)` without the NaN cases: one `minps`/`maxps`
-/// lane.
+/// (`minpd`/`maxpd`) lane.
 #[inline(always)]
-fn fmin(a: f32, b: f32) -> f32 {
+fn fmin<T: PartialOrd>(a: T, b: T) -> T {
     if a < b {
         a
     } else {
@@ -416,7 +416,7 @@ fn fmin(a: f32, b: f32) -> f32 {
 }
 
 #[inline(always)]
-fn fmax(a: f32, b: f32) -> f32 {
+fn fmax<T: PartialOrd>(a: T, b: T) -> T {
     if a > b {
         a
     } else {

@@ -24,7 +24,7 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::Avx2;
-use super::{leaf, Bvh, Enter, Portable, Slab, Tester, Wide, SHALLOW, STACK};
+use super::{fmax, fmin, leaf, Bvh, Enter, Portable, Slab, Tester, Wide, SHALLOW, STACK};
 use crate::geometry::prims::TriRay;
 use crate::geometry::robust::next_up;
 use crate::geometry::shape::{Hit, Object, ObjectId, ObjectSet, ShapeHit};
@@ -122,9 +122,7 @@ impl Frustum {
             inv_hi: [f64::NEG_INFINITY; 3],
             near: [0; 3],
             uniform: true,
-            tmin: tmin
-                .iter()
-                .fold(f64::INFINITY, |m, &t| if t < m { t } else { m }),
+            tmin: tmin.iter().fold(f64::INFINITY, |m, &t| fmin(t, m)),
         };
         // One pass over the rays, all three axes, without branches. `x *
         // 0` is 0 for a finite `x` and NaN otherwise, so `finite` stays 0
@@ -134,10 +132,10 @@ impl Frustum {
         for s in slabs {
             for a in 0..3 {
                 let (o, inv) = (s.o[a], s.inv[a]);
-                f.o_lo[a] = if o < f.o_lo[a] { o } else { f.o_lo[a] };
-                f.o_hi[a] = if o > f.o_hi[a] { o } else { f.o_hi[a] };
-                f.inv_lo[a] = if inv < f.inv_lo[a] { inv } else { f.inv_lo[a] };
-                f.inv_hi[a] = if inv > f.inv_hi[a] { inv } else { f.inv_hi[a] };
+                f.o_lo[a] = fmin(o, f.o_lo[a]);
+                f.o_hi[a] = fmax(o, f.o_hi[a]);
+                f.inv_lo[a] = fmin(inv, f.inv_lo[a]);
+                f.inv_hi[a] = fmax(inv, f.inv_hi[a]);
                 finite[a] += o * 0.0 + inv * 0.0;
                 neg[a] += s.near[a];
             }
@@ -163,22 +161,7 @@ impl Frustum {
     /// selects are the least and greatest values.
     #[inline(always)]
     fn test4(&self, n: &Wide, cut: f64) -> u32 {
-        #[inline(always)]
-        fn min(a: f64, b: f64) -> f64 {
-            if a < b {
-                a
-            } else {
-                b
-            }
-        }
-        #[inline(always)]
-        fn max(a: f64, b: f64) -> f64 {
-            if a > b {
-                a
-            } else {
-                b
-            }
-        }
+        let (min, max) = (fmin::<f64>, fmax::<f64>);
         let mut t0 = [self.tmin; 4];
         let mut t1 = [cut; 4];
         for a in 0..3 {
@@ -245,14 +228,13 @@ fn greatest(t: &[f64]) -> f64 {
     let mut chunks = t.chunks_exact(4);
     for c in &mut chunks {
         for l in 0..4 {
-            m[l] = if c[l] > m[l] { c[l] } else { m[l] };
+            m[l] = fmax(c[l], m[l]);
         }
     }
     for &x in chunks.remainder() {
-        m[0] = if x > m[0] { x } else { m[0] };
+        m[0] = fmax(x, m[0]);
     }
-    m.into_iter()
-        .fold(f64::NEG_INFINITY, |a, b| if b > a { b } else { a })
+    m.into_iter().fold(f64::NEG_INFINITY, |a, b| fmax(b, a))
 }
 
 /// The packet's prepared rays and their segments' ends.
