@@ -237,28 +237,24 @@ fn greatest(t: &[f64]) -> f64 {
     m.into_iter().fold(f64::NEG_INFINITY, |a, b| fmax(b, a))
 }
 
-/// The packet's prepared rays and their segments' ends.
+/// The packet's segment ends, and its rays' constants for the leaves'
+/// triangle tests and for the slab tests. The prepared rays themselves are
+/// not kept (136 bytes a ray): object tests by id, which need them, are
+/// rare (objects without bounds, and leaves' objects beside their blocks'
+/// triangles), and prepare their ray again (the same values).
 #[inline(always)]
 fn prepare(
     rays: &[Segment],
-    pre: &mut PerRay<PreparedRay>,
     tmin: &mut PerRay<f64>,
     tmax: &mut PerRay<f64>,
+    tri: &mut PerRay<TriRay>,
+    slabs: &mut PerRay<Slab>,
 ) {
     for (ray, t0, t1) in rays {
-        pre.push(PreparedRay::new(ray));
+        let p = PreparedRay::new(ray);
         tmin.push(*t0);
         tmax.push(*t1);
-    }
-}
-
-/// The rays' constants for the leaves' triangle tests and for the slab
-/// tests. (Object tests by id, [`Tester`]s, are made where a leaf has
-/// objects other than its blocks' triangles: rarely.)
-#[inline(always)]
-fn constants(pre: &[PreparedRay], tri: &mut PerRay<TriRay>, slabs: &mut PerRay<Slab>) {
-    for p in pre {
-        tri.push(TriRay::new(p));
+        tri.push(TriRay::new(&p));
         slabs.push(Slab::new(&p.ray, p.inv_dir));
     }
 }
@@ -305,13 +301,19 @@ impl Bvh {
         out: &mut [Option<Hit>],
     ) {
         let n = rays.len();
-        let (mut pre, mut tmin, mut cut) = (PerRay::new(), PerRay::new(), PerRay::new());
-        prepare(rays, &mut pre, &mut tmin, &mut cut);
-        let (pre, tmin, cut) = (&pre[..], &tmin[..], cut.as_mut_slice());
+        let (mut tmin, mut cut) = (PerRay::new(), PerRay::new());
         let (mut tri, mut slabs) = (PerRay::new(), PerRay::new());
-        constants(pre, &mut tri, &mut slabs);
+        prepare(rays, &mut tmin, &mut cut, &mut tri, &mut slabs);
+        let (tmin, cut) = (&tmin[..], cut.as_mut_slice());
         let (tri, slabs) = (&tri[..], &slabs[..]);
-        let tester = |r: usize| Tester::new(&self.prims, objects, &pre[r]);
+        // Objects `ids` for ray `r`, tested by id.
+        let by_id = |r: usize, ids: &[ObjectId], cut: &mut f64, best: &mut leaf::Best| {
+            let p = PreparedRay::new(&rays[r].0);
+            let test = Tester::new(&self.prims, objects, &p);
+            for &id in ids {
+                consider(&test, tmin[r], id, cut, best);
+            }
+        };
         // The leaves' blocks, where the compact data was built for
         // `objects`.
         let blocks =
@@ -324,10 +326,7 @@ impl Bvh {
         // Objects without finite bounds: tested by every ray.
         if !self.unbounded.is_empty() {
             for r in 0..n {
-                let test = tester(r);
-                for &id in &self.unbounded {
-                    consider(&test, tmin[r], id, &mut cut[r], &mut best[r]);
-                }
+                by_id(r, &self.unbounded, &mut cut[r], &mut best[r]);
             }
         }
         if !self.nodes.is_empty() && n > 0 {
@@ -409,10 +408,7 @@ impl Bvh {
                             ids = &ids[polys..];
                         }
                         if !ids.is_empty() {
-                            let test = tester(r);
-                            for &id in ids {
-                                consider(&test, tmin[r], id, &mut cut[r], &mut best[r]);
-                            }
+                            by_id(r, ids, &mut cut[r], &mut best[r]);
                         }
                     }
                 }
@@ -488,16 +484,16 @@ impl Bvh {
         let n = rays.len();
         let out = &mut out[..n];
         out.fill(false);
-        let (mut pre, mut tmin, mut tmax) = (PerRay::new(), PerRay::new(), PerRay::new());
-        prepare(rays, &mut pre, &mut tmin, &mut tmax);
-        let (pre, tmin, tmax) = (&pre[..], &tmin[..], &tmax[..]);
+        let (mut tmin, mut tmax) = (PerRay::new(), PerRay::new());
         let (mut tri, mut slabs) = (PerRay::new(), PerRay::new());
-        constants(pre, &mut tri, &mut slabs);
+        prepare(rays, &mut tmin, &mut tmax, &mut tri, &mut slabs);
+        let (tmin, tmax) = (&tmin[..], &tmax[..]);
         let (tri, slabs) = (&tri[..], &slabs[..]);
         // Whether one of `ids` other than `ignore` blocks ray `r`.
         // (Called where `ids` is not empty: rarely.)
         let occludes = |r: usize, ids: &[ObjectId]| {
-            let test = Tester::new(&self.prims, objects, &pre[r]);
+            let p = PreparedRay::new(&rays[r].0);
+            let test = Tester::new(&self.prims, objects, &p);
             ids.iter()
                 .any(|&id| Some(id) != ignore && test.occludes(id, tmin[r], tmax[r]))
         };
