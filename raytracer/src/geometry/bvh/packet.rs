@@ -220,8 +220,8 @@ pub(super) fn consider<O: ObjectSet + ?Sized>(
     }
 }
 
-/// The greatest of `t` (NaNs skipped; `-inf` for none), four lanes at a
-/// time so it compiles to vector instructions.
+/// The greatest of `t` (NaNs skipped; `-inf` for none), in four
+/// independent lanes rather than one chain of dependent selects.
 #[inline(always)]
 fn greatest(t: &[f64]) -> f64 {
     let mut m = [f64::NEG_INFINITY; 4];
