@@ -245,9 +245,26 @@ impl Enter for Avx2 {
     unsafe fn planes(n: &Wide, near: &[usize; 3]) -> Self::Planes {
         use std::arch::x86_64::*;
         // `Wide` is aligned to 32 bytes, each `[f32; 4]` of it to 16;
-        // widening to double precision is exact.
-        let wide = |a: usize, i: usize| _mm256_cvtps_pd(_mm_load_ps(n.b[a][i].as_ptr()));
-        std::array::from_fn(|a| [wide(a, near[a]), wide(a, 1 - near[a])])
+        // widening to double precision is exact. Spelled out, without
+        // closures or `array::from_fn`: code outside this AVX2 function
+        // (a generic of the standard library) may be left uninlined, and
+        // then calls each intrinsic as a function.
+        let b = &n.b;
+        let (x, y, z) = (near[0], near[1], near[2]);
+        [
+            [
+                _mm256_cvtps_pd(_mm_load_ps(b[0][x].as_ptr())),
+                _mm256_cvtps_pd(_mm_load_ps(b[0][1 - x].as_ptr())),
+            ],
+            [
+                _mm256_cvtps_pd(_mm_load_ps(b[1][y].as_ptr())),
+                _mm256_cvtps_pd(_mm_load_ps(b[1][1 - y].as_ptr())),
+            ],
+            [
+                _mm256_cvtps_pd(_mm_load_ps(b[2][z].as_ptr())),
+                _mm256_cvtps_pd(_mm_load_ps(b[2][1 - z].as_ptr())),
+            ],
+        ]
     }
 
     #[inline(always)]
