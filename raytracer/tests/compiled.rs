@@ -235,6 +235,38 @@ fn leaf_lists_are_encoded_as_a_vector_of_vectors() {
     assert!(postcard::from_bytes::<compiled::LeafLists>(&bytes[..bytes.len() - 1]).is_err());
 }
 
+#[test]
+fn cell_entries_read_the_64_bit_lengths_of_earlier_files() {
+    // Files before the index held its lengths in 32 bits wrote them as a
+    // `u64`: the same varint, so they read alike; a length past 32 bits is
+    // an error, not a truncated length.
+    #[derive(serde::Serialize)]
+    struct Wide {
+        offset: u64,
+        len: u64,
+        crc: u32,
+    }
+    let wide = |len| {
+        postcard::to_stdvec(&vec![Wide {
+            offset: 1 << 40,
+            len,
+            crc: 0xdead_beef,
+        }])
+        .unwrap()
+    };
+    let entries: Vec<compiled::CellEntry> = postcard::from_bytes(&wide(123_456_789)).unwrap();
+    assert_eq!(
+        entries,
+        [compiled::CellEntry {
+            offset: 1 << 40,
+            len: 123_456_789,
+            crc: 0xdead_beef
+        }]
+    );
+    assert_eq!(postcard::to_stdvec(&entries).unwrap(), wide(123_456_789));
+    assert!(postcard::from_bytes::<Vec<compiled::CellEntry>>(&wide(1 << 32)).is_err());
+}
+
 fn crc32(bytes: &[u8]) -> u32 {
     let mut c = !0u32;
     for &b in bytes {

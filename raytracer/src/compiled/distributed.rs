@@ -19,7 +19,9 @@ use rustc_hash::{FxHashMap, FxHashSet};
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
-use super::{file_error, CellEntry, CellObjects, CompiledScene, Replicated, SkeletonNode};
+use super::{
+    file_error, CellEntry, CellObjects, CompiledScene, Replicated, Skeleton, SkeletonNode,
+};
 use crate::accel::{NodeId, Octree, SkeletonNode as TreeNode};
 use crate::geometry::ObjectId;
 use crate::scene::record::{self, Surface};
@@ -94,74 +96,10 @@ impl CompiledScene {
     /// Reads what a processor holds of this scene besides its cells: the
     /// replicated part as a [`Scene::distributed`] scene, and the octree.
     pub fn held_part(self, options: &LoadOptions) -> Result<HeldPart> {
-        let rep = &self.replicated;
-        let n = rep.program.objects as usize;
-        let mut held = std::collections::BTreeMap::new();
-        for (id, s) in &rep.shared {
-            if *id as usize >= n {
-                return Err(file_error(
-                    &self.path,
-                    0,
-                    format!("shared surface {id} of {n} objects"),
-                ));
-            }
-            held.insert(*id, s.clone());
-        }
-        let mut scene =
-            record::replay_part(&rep.program, held, &rep.elsewhere, options, &self.path)?;
-        scene.hit_ratios = Some(rep.hit_ratios.clone());
-        let sk = &rep.skeleton;
-        if sk.lists.len() != sk.cells.len() {
-            return Err(file_error(
-                &self.path,
-                0,
-                format!("{} leaf lists for {} cells", sk.lists.len(), sk.cells.len()),
-            ));
-        }
-        let root = sk
-            .root
-            .map(|(c, h)| (crate::geometry::Vec3::from_array(c), h));
-        let node = |id: usize| {
-            Ok(match sk.nodes[id] {
-                SkeletonNode::Internal(first_child) => TreeNode::Internal { first_child },
-                SkeletonNode::Empty => TreeNode::Leaf(&[]),
-                SkeletonNode::Leaf(cell) => TreeNode::Leaf(
-                    sk.lists
-                        .get(cell as usize)
-                        .ok_or_else(|| format!("node {id}: no cell {cell}"))?,
-                ),
-            })
-        };
-        let octree = Octree::from_skeleton(root, n, sk.nodes.len(), node)
-            .map_err(|e| file_error(&self.path, 0, format!("octree skeleton: {e}")))?;
-        let leaves: Vec<(NodeId, u64)> = sk
-            .cells
-            .iter()
-            .take_while(|c| c.node != u32::MAX)
-            .map(|c| (c.node, c.accounted))
-            .collect();
-        if leaves.windows(2).any(|w| w[0].0 >= w[1].0)
-            || sk.cells[leaves.len()..].iter().any(|c| c.node != u32::MAX)
-        {
-            return Err(file_error(
-                &self.path,
-                0,
-                "the skeleton's cells are not in node order, the unlisted objects' last",
-            ));
-        }
-        if !rep.predicted.is_empty()
-            && (rep.predicted.len() != rep.views.len()
-                || rep.predicted.iter().any(|p| p.len() != leaves.len()))
-        {
-            return Err(file_error(
-                &self.path,
-                0,
-                "the predicted work does not match the stored views and cells",
-            ));
-        }
-        // What a processor keeps of the file is the cell index; the
-        // decoded replicated part (the skeleton's lists, now the octree's)
-        // goes before the cells are read.
+        // The decoded replicated part is let go piece by piece as the held
+        // part is made of it, so that at no moment both are whole: the
+        // cells' table goes before the octree is built, the skeleton's
+        // nodes and lists as soon as it is.
         let CompiledScene {
             path,
             copies,
@@ -170,8 +108,83 @@ impl CompiledScene {
             ..
         } = self;
         let Replicated {
-            views, predicted, ..
+            views,
+            program,
+            skeleton,
+            shared,
+            elsewhere,
+            hit_ratios,
+            predicted,
+            ..
         } = replicated;
+        let n = program.objects as usize;
+        let mut held = std::collections::BTreeMap::new();
+        for (id, s) in shared {
+            if id as usize >= n {
+                return Err(file_error(
+                    &path,
+                    0,
+                    format!("shared surface {id} of {n} objects"),
+                ));
+            }
+            held.insert(id, s);
+        }
+        let mut scene = record::replay_part(&program, held, &elsewhere, options, &path)?;
+        drop(program);
+        scene.hit_ratios = Some(hit_ratios);
+        let Skeleton {
+            root,
+            nodes,
+            cells,
+            lists,
+            ..
+        } = skeleton;
+        if lists.len() != cells.len() {
+            return Err(file_error(
+                &path,
+                0,
+                format!("{} leaf lists for {} cells", lists.len(), cells.len()),
+            ));
+        }
+        let leaves: Vec<(NodeId, u64)> = cells
+            .iter()
+            .take_while(|c| c.node != u32::MAX)
+            .map(|c| (c.node, c.accounted))
+            .collect();
+        if leaves.windows(2).any(|w| w[0].0 >= w[1].0)
+            || cells[leaves.len()..].iter().any(|c| c.node != u32::MAX)
+        {
+            return Err(file_error(
+                &path,
+                0,
+                "the skeleton's cells are not in node order, the unlisted objects' last",
+            ));
+        }
+        drop(cells);
+        if !predicted.is_empty()
+            && (predicted.len() != views.len() || predicted.iter().any(|p| p.len() != leaves.len()))
+        {
+            return Err(file_error(
+                &path,
+                0,
+                "the predicted work does not match the stored views and cells",
+            ));
+        }
+        let root = root.map(|(c, h)| (crate::geometry::Vec3::from_array(c), h));
+        let node = |id: usize| {
+            Ok(match nodes[id] {
+                SkeletonNode::Internal(first_child) => TreeNode::Internal { first_child },
+                SkeletonNode::Empty => TreeNode::Leaf(&[]),
+                SkeletonNode::Leaf(cell) => TreeNode::Leaf(
+                    lists
+                        .get(cell as usize)
+                        .ok_or_else(|| format!("node {id}: no cell {cell}"))?,
+                ),
+            })
+        };
+        let octree = Octree::from_skeleton(root, n, nodes.len(), node)
+            .map_err(|e| file_error(&path, 0, format!("octree skeleton: {e}")))?;
+        drop((nodes, lists));
         let predicted = views.into_iter().zip(predicted).collect();
         Ok(HeldPart {
             source: CellSource {
