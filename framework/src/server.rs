@@ -26,7 +26,7 @@
 use std::sync::{Arc, Mutex};
 
 use crate::protocol::message::{Msg, Packet};
-use crate::protocol::workload::Workload;
+use crate::protocol::workload::{ByteSize, Workload};
 use crate::protocol::{Addr, Class};
 use crate::resident::Resident;
 use crate::stats::{ProcStats, Traffic};
@@ -36,6 +36,9 @@ use crate::store::Items;
 #[derive(Debug, Default)]
 struct Tally {
     requests: u64,
+    /// Reply packets made: one per request, or its parts
+    /// ([`DataServer::serve_parts`]).
+    replies: u64,
     items: u64,
     /// Data class traffic: the replies sent, the requests received.
     sent: Traffic,
@@ -99,6 +102,25 @@ impl<W: Workload> DataServer<W> {
     /// Answers a data request packet ([`DataServer::is_request`]) addressed
     /// to this processor: the reply packet, counted as the owner's.
     pub(crate) fn serve(&self, request: Packet<W>) -> Result<Packet<W>, String> {
+        let mut parts = self.serve_parts(request, usize::MAX)?;
+        // Without a limit, the whole reply is one part.
+        debug_assert_eq!(parts.len(), 1);
+        parts
+            .pop()
+            .ok_or_else(|| format!("processor {}'s data server made no reply", self.me))
+    }
+
+    /// [`DataServer::serve`] in parts: reply packets whose items take at
+    /// most `part_bytes` each (their [`ByteSize`]; an item larger than
+    /// that travels alone), in the request's order; at least one. Every
+    /// part is counted as sent now, with the request's receipt, so that an
+    /// exchange in progress keeps termination detection's totals apart
+    /// until the last part has arrived, whenever the parts leave.
+    pub(crate) fn serve_parts(
+        &self,
+        request: Packet<W>,
+        part_bytes: usize,
+    ) -> Result<Vec<Packet<W>>, String> {
         let (from, bytes) = (request.from, request.bytes);
         let Some(Msg::DataRequest(ids)) = request.items.into_iter().next() else {
             return Err(format!(
@@ -108,14 +130,42 @@ impl<W: Workload> DataServer<W> {
         };
         let items = self.copies(&ids)?;
         let n = items.len() as u64;
-        let mut reply = Packet::single(Addr::Proc(self.me), from, Msg::DataReply(items));
-        reply.load = self.load.load(std::sync::atomic::Ordering::Relaxed);
+        let mut parts = vec![Vec::new()];
+        let mut size = 0usize;
+        for (id, item) in items {
+            let b = item.byte_size();
+            let last = parts
+                .last_mut()
+                .filter(|p| p.is_empty() || size.saturating_add(b) <= part_bytes);
+            match last {
+                Some(p) => {
+                    size = size.saturating_add(b);
+                    p.push((id, item));
+                }
+                None => {
+                    size = b;
+                    parts.push(vec![(id, item)]);
+                }
+            }
+        }
+        let load = self.load.load(std::sync::atomic::Ordering::Relaxed);
+        let replies: Vec<Packet<W>> = parts
+            .into_iter()
+            .map(|items| {
+                let mut reply = Packet::single(Addr::Proc(self.me), from, Msg::DataReply(items));
+                reply.load = load;
+                reply
+            })
+            .collect();
         let mut t = self.tally.lock().unwrap_or_else(|e| e.into_inner());
         record(&mut t.received, bytes);
         t.requests += 1;
         t.items += n;
-        record(&mut t.sent, reply.bytes);
-        Ok(reply)
+        for reply in &replies {
+            t.replies += 1;
+            record(&mut t.sent, reply.bytes);
+        }
+        Ok(replies)
     }
 
     /// Notes the owner's load, for the replies to carry.
@@ -124,11 +174,11 @@ impl<W: Workload> DataServer<W> {
     }
 
     /// Basic messages (sent, received) the server handled for its owner:
-    /// one reply sent for each request received, both counted before the
-    /// reply leaves.
+    /// the replies (or their parts) sent and the requests received, both
+    /// counted before a reply leaves.
     pub(crate) fn basic(&self) -> (u64, u64) {
         let t = self.tally.lock().unwrap_or_else(|e| e.into_inner());
-        (t.requests, t.requests)
+        (t.replies, t.requests)
     }
 
     /// Adds what the server did to its owner's statistics.

@@ -479,6 +479,11 @@ pub struct RankTraffic {
     /// the system does not say).
     #[serde(default)]
     pub peak_resident_bytes: u64,
+    /// The most encoded bytes the rank's process held for the wire at
+    /// once: packets encoded for another rank and not yet delivered by MPI,
+    /// and packets received and not yet decoded (its message buffers).
+    #[serde(default)]
+    pub peak_wire_bytes: u64,
 }
 
 impl RankTraffic {

@@ -103,3 +103,57 @@ fn a_workload_asks_for_completion_where_it_is_configured() {
         }
     }
 }
+
+/// A reply in parts ([`crate::server::DataServer::serve_parts`], the MPI
+/// thread's): the request's items in order, each part within the bound
+/// unless one item alone exceeds it, and every part counted as a basic
+/// message sent with the request's receipt (termination detection's
+/// totals stay apart until the last part arrives).
+#[test]
+fn a_reply_in_parts_keeps_the_order_the_bound_and_the_counts() {
+    use super::Item;
+    use crate::protocol::message::{Msg, Packet};
+    use crate::server::DataServer;
+    // Items of 24 + 8 n bytes: 3 -> 48, 7 -> 80, 1 -> 32, 20 -> 184.
+    let words = [
+        (10u32, 3usize),
+        (11, 7),
+        (12, 1),
+        (13, 20),
+        (14, 1),
+        (15, 3),
+    ];
+    let items: crate::resident::Resident<u32, Item> = words
+        .iter()
+        .map(|&(id, n)| (id, Item(vec![u64::from(id); n])))
+        .collect();
+    let server = DataServer::<Mini>::new(1, Arc::new(items));
+    let request =
+        |ids: Vec<u32>| Packet::single(Addr::Proc(0), Addr::Proc(1), Msg::<Mini>::DataRequest(ids));
+    let ids: Vec<u32> = words.iter().map(|w| w.0).collect();
+    let parts = server.serve_parts(request(ids.clone()), 130).unwrap();
+    let got: Vec<Vec<u32>> = parts
+        .iter()
+        .map(|p| match &p.items[..] {
+            [Msg::DataReply(items)] => items.iter().map(|(id, _)| *id).collect(),
+            other => panic!("not one data reply: {other:?}"),
+        })
+        .collect();
+    // 48 + 80 = 128 <= 130; 32 alone (32 + 184 > 130); 184 alone (over the
+    // bound by itself); 32 + 48 = 80.
+    assert_eq!(got, vec![vec![10, 11], vec![12], vec![13], vec![14, 15]]);
+    assert!(parts.iter().all(|p| p.to == Addr::Proc(0)));
+    assert_eq!(
+        server.basic(),
+        (4, 1),
+        "four parts sent, one request received"
+    );
+    // Unbounded: one reply with everything, as `serve` gives it.
+    let whole = server.serve(request(ids)).unwrap();
+    assert!(matches!(&whole.items[..], [Msg::DataReply(items)] if items.len() == 6));
+    assert_eq!(server.basic(), (5, 2));
+    // An empty request still gets its (empty) reply.
+    let empty = server.serve_parts(request(Vec::new()), 130).unwrap();
+    assert_eq!(empty.len(), 1);
+    assert_eq!(server.basic(), (6, 3));
+}

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use super::transport::{
     decode_packet, encode_packet, host, idle_wait, runtime_err, Cmd, Event, MasterChannels,
-    TAG_MASTER, TAG_PACKET,
+    TAG_MASTER, TAG_PACKET, WIRE,
 };
 use crate::clock::{Clock, WallClock};
 use crate::error::RunError;
@@ -98,6 +98,7 @@ pub(super) fn master_loop<W: Workload>(
             } else {
                 traffic.messages_sent += 1;
                 traffic.bytes_sent += bytes.len() as u64;
+                WIRE.hold(bytes.len());
                 cmds.send(Cmd::Send {
                     to,
                     tag: TAG_PACKET,
@@ -162,6 +163,7 @@ fn master_receives<W: Workload>(
     if from != 0 {
         traffic.messages_received += 1;
         traffic.bytes_received += bytes.len() as u64;
+        WIRE.release(bytes.len());
     }
     let packet = decode_packet::<W>(&bytes, from, 0)?;
     if host(packet.from) != from || packet.to != Addr::Master {

@@ -179,6 +179,7 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
     let mut all = finished;
     let mut ranks = vec![RankTraffic {
         peak_resident_bytes: crate::stats::peak_resident_bytes().unwrap_or(0),
+        peak_wire_bytes: transport::WIRE.peak(),
         ..traffic
     }];
     for f in finals.into_iter().skip(1).flatten() {
@@ -429,6 +430,11 @@ impl<'s, W: Workload> RankLoop<'s, W> {
     }
 
     fn on_event(&mut self, ev: Event) -> Result<(), RunError> {
+        if let Event::Received { from, bytes, .. } = &ev {
+            if *from != self.rank {
+                transport::WIRE.release(bytes.len());
+            }
+        }
         match ev {
             // A data request the MPI thread had no handler for yet is
             // answered between steps.
@@ -552,6 +558,7 @@ impl<'s, W: Workload> RankLoop<'s, W> {
     }
 
     fn send(&self, to: usize, tag: i32, bytes: Vec<u8>) -> Result<(), RunError> {
+        transport::WIRE.hold(bytes.len());
         self.session
             .cmds
             .send(Cmd::Send { to, tag, bytes })
@@ -565,6 +572,7 @@ impl<'s, W: Workload> RankLoop<'s, W> {
             nodes: std::mem::take(&mut self.finished),
             traffic: RankTraffic {
                 peak_resident_bytes: crate::stats::peak_resident_bytes().unwrap_or(0),
+                peak_wire_bytes: transport::WIRE.peak(),
                 ..self.traffic
             },
         };
