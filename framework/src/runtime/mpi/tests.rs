@@ -121,3 +121,23 @@ fn faults_are_read_for_one_rank_only() {
     assert_eq!(Fault::parse("explode:0", 0), None);
     assert_eq!(Fault::parse("", 0), None);
 }
+
+/// SEMANTICS.md states the MPI thread's bounds on data replies: they are
+/// these constants.
+#[test]
+fn the_semantics_state_the_reply_bounds_in_force() {
+    let text = include_str!("../../../SEMANTICS.md");
+    let text = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    let part = format!(
+        "replies of at most {} MiB of items each",
+        serve::REPLY_PART_BYTES >> 20
+    );
+    let sending = format!("hold less than {} MiB", transport::SENDING_BYTES >> 20);
+    assert!(text.contains(&part), "SEMANTICS.md should say: {part}");
+    assert!(
+        text.contains(&sending),
+        "SEMANTICS.md should say: {sending}"
+    );
+    assert_eq!(serve::REPLY_PART_BYTES % (1 << 20), 0);
+    assert_eq!(transport::SENDING_BYTES % (1 << 20), 0);
+}
