@@ -642,6 +642,7 @@ fn bench_scaling_prints_the_curve_and_checks_every_picture() {
         "| octree | 2 |",
         "| octree, served between steps | 2 |",
         "| octree, the paper's cache and service | 2 |",
+        "| 2 sequential renders at once (what the machine allows) | 2 |",
     ] {
         assert!(out.contains(row), "{row} missing in\n{out}");
     }

@@ -665,8 +665,9 @@ pub struct BenchArgs {
     pub octree: bool,
     /// Thread scaling instead: render with the threads runtime on each of these processor counts
     /// (e.g. 1,2,4), replicated and octree-distributed (with render's default cache, which completes
-    /// itself, and with the paper's), beside the sequential renderer; runs are interleaved and each
-    /// time is the median of --repeat runs.
+    /// itself, and with the paper's), beside the sequential renderer and, for each count N above 1,
+    /// N sequential renders at once (what the machine allows); runs are interleaved and each time is
+    /// the median of --repeat runs.
     #[arg(long, value_name = "N,N,...", value_delimiter = ',')]
     pub scaling: Vec<usize>,
     /// Runs per configuration for --scaling (the median is reported).

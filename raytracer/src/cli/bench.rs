@@ -366,6 +366,13 @@ fn scaling(a: &BenchArgs) -> Result<()> {
             configs.push((format!("{name} {n}"), Some(p)));
         }
     }
+    // What the machine allows: N sequential renders at once, each on its
+    // own thread, against one alone (the sequential row). Their speed-up is
+    // N times one render's time over the N renders' time: it includes
+    // whatever the cores share (caches, memory, clocks, a busy host), and
+    // nothing of the parallel renderer.
+    let at_once: Vec<usize> = a.scaling.iter().copied().filter(|&n| n > 1).collect();
+    let mut once_times = vec![Vec::new(); at_once.len()];
     let mut times = vec![Vec::new(); configs.len()];
     let mut reference: Option<Vec<[u64; 3]>> = None;
     let bits = |f: &crate::image::Film| -> Vec<[u64; 3]> {
@@ -399,12 +406,47 @@ fn scaling(a: &BenchArgs) -> Result<()> {
             eprintln!("  round {} {name}: {dt:.3} s", round + 1);
             times[i].push(dt);
         }
+        for (k, &n) in at_once.iter().enumerate() {
+            let t0 = Instant::now();
+            let films: Vec<Result<crate::image::Film>> = std::thread::scope(|s| {
+                let runs: Vec<_> = (0..n)
+                    .map(|_| {
+                        s.spawn(|| {
+                            Ok(Renderer::new(&scene, options.clone())?
+                                .render(&view, w, h)?
+                                .0)
+                        })
+                    })
+                    .collect();
+                runs.into_iter()
+                    .map(|r| {
+                        r.join().unwrap_or_else(|_| {
+                            Err(Error::Other("a sequential render panicked".into()))
+                        })
+                    })
+                    .collect()
+            });
+            let dt = t0.elapsed().as_secs_f64();
+            for film in films {
+                if reference.as_ref() != Some(&bits(&film?)) {
+                    return Err(Error::Other(format!(
+                        "{n} sequential renders at once: a picture differs from the sequential one"
+                    )));
+                }
+            }
+            eprintln!(
+                "  round {} {n} sequential renders at once: {dt:.3} s",
+                round + 1
+            );
+            once_times[k].push(dt);
+        }
     }
     let median = |v: &mut Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
     let med: Vec<f64> = times.iter_mut().map(median).collect();
+    let once_med: Vec<f64> = once_times.iter_mut().map(median).collect();
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     outln!(
         "{} at {w}x{h}, {} runs each (median), {cores} cores; every picture equals the sequential one bit for bit",
@@ -414,6 +456,13 @@ fn scaling(a: &BenchArgs) -> Result<()> {
     outln!("| renderer | processors | time (s) | speed-up over 1 processor | over sequential |");
     outln!("| --- | --- | --- | --- | --- |");
     outln!("| sequential | - | {:.3} | - | 1.00 |", med[0]);
+    for (&n, &t) in at_once.iter().zip(&once_med) {
+        // Throughput: n frames in t against one frame in med[0].
+        outln!(
+            "| {n} sequential renders at once (what the machine allows) | {n} | {t:.3} | {:.2} | - |",
+            n as f64 * med[0] / t
+        );
+    }
     let per = a.scaling.len();
     for (d, (dist, ..)) in groups.iter().enumerate() {
         let one = a
