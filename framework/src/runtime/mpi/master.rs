@@ -7,8 +7,9 @@ use std::time::{Duration, Instant};
 
 use super::transport::{
     decode_packet, encode_packet, host, idle_wait, runtime_err, Cmd, Event, MasterChannels,
-    TAG_MASTER, TAG_PACKET, WIRE,
+    TAG_MASTER, TAG_PACKET,
 };
+use super::wire::WIRE;
 use crate::clock::{Clock, WallClock};
 use crate::error::RunError;
 use crate::processor::Step;

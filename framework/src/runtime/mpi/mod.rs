@@ -96,6 +96,7 @@ use self::transport::{
 mod master;
 mod serve;
 mod transport;
+mod wire;
 
 /// How long a rank waits at the final barrier for the others when the time
 /// limit leaves less (or there is none).
@@ -179,7 +180,7 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
     let mut all = finished;
     let mut ranks = vec![RankTraffic {
         peak_resident_bytes: crate::stats::peak_resident_bytes().unwrap_or(0),
-        peak_wire_bytes: transport::WIRE.peak(),
+        peak_wire_bytes: wire::WIRE.peak(),
         ..traffic
     }];
     for f in finals.into_iter().skip(1).flatten() {
@@ -432,7 +433,7 @@ impl<'s, W: Workload> RankLoop<'s, W> {
     fn on_event(&mut self, ev: Event) -> Result<(), RunError> {
         if let Event::Received { from, bytes, .. } = &ev {
             if *from != self.rank {
-                transport::WIRE.release(bytes.len());
+                wire::WIRE.release(bytes.len());
             }
         }
         match ev {
@@ -558,7 +559,7 @@ impl<'s, W: Workload> RankLoop<'s, W> {
     }
 
     fn send(&self, to: usize, tag: i32, bytes: Vec<u8>) -> Result<(), RunError> {
-        transport::WIRE.hold(bytes.len());
+        wire::WIRE.hold(bytes.len());
         self.session
             .cmds
             .send(Cmd::Send { to, tag, bytes })
@@ -572,7 +573,7 @@ impl<'s, W: Workload> RankLoop<'s, W> {
             nodes: std::mem::take(&mut self.finished),
             traffic: RankTraffic {
                 peak_resident_bytes: crate::stats::peak_resident_bytes().unwrap_or(0),
-                peak_wire_bytes: transport::WIRE.peak(),
+                peak_wire_bytes: wire::WIRE.peak(),
                 ..self.traffic
             },
         };
