@@ -557,6 +557,12 @@ impl Octree {
             objects,
             ..Default::default()
         };
+        // Which subtrees list objects: a byte per node (the subtrees'
+        // reference counts, eight bytes a node, were 15 MB at the peak of
+        // loading a 1.5-million-triangle city's skeleton). Children always
+        // have larger ids than their parent, so one pass from the end
+        // marks every subtree before its parent is read.
+        let mut listing = vec![false; n];
         for id in (0..n).rev() {
             match self.nodes[id].kind() {
                 Node::Leaf { len, .. } => {
@@ -565,26 +571,18 @@ impl Octree {
                     s.max_leaf_objects = s.max_leaf_objects.max(len as usize);
                     if len == 0 {
                         s.empty_leaves += 1;
+                    } else {
+                        listing[id] = true;
                     }
                     s.max_depth = s.max_depth.max(self.depths[id] as u32);
                 }
                 Node::Internal { .. } => s.internal_nodes += 1,
             }
-        }
-        self.stats = s;
-        // Which subtrees list objects: a byte per node (the subtrees'
-        // reference counts, eight bytes a node, were 15 MB at the peak of
-        // loading a 1.5-million-triangle city's skeleton).
-        let mut listing = vec![false; n];
-        // Children always have larger ids than their parent.
-        for id in (0..n).rev() {
-            if listing[id] || matches!(self.nodes[id].kind(), Node::Leaf { len, .. } if len > 0) {
-                listing[id] = true;
-                if id > 0 {
-                    listing[self.parents[id] as usize] = true;
-                }
+            if listing[id] && id > 0 {
+                listing[self.parents[id] as usize] = true;
             }
         }
+        self.stats = s;
         for id in 0..n {
             if let Node::Internal { first_child } = self.nodes[id].kind() {
                 let mut mask = 0;

@@ -373,6 +373,11 @@ fn scaling(a: &BenchArgs) -> Result<()> {
     // nothing of the parallel renderer.
     let at_once: Vec<usize> = a.scaling.iter().copied().filter(|&n| n > 1).collect();
     let mut once_times = vec![Vec::new(); at_once.len()];
+    let sequential = || -> Result<crate::image::Film> {
+        Ok(Renderer::new(&scene, options.clone())?
+            .render(&view, w, h)?
+            .0)
+    };
     let mut times = vec![Vec::new(); configs.len()];
     let mut reference: Option<Vec<[u64; 3]>> = None;
     let bits = |f: &crate::image::Film| -> Vec<[u64; 3]> {
@@ -385,11 +390,7 @@ fn scaling(a: &BenchArgs) -> Result<()> {
         for (i, (name, popts)) in configs.iter().enumerate() {
             let t0 = Instant::now();
             let film = match popts {
-                None => {
-                    Renderer::new(&scene, options.clone())?
-                        .render(&view, w, h)?
-                        .0
-                }
+                None => sequential()?,
                 Some(p) => render_parallel(scene.clone(), options.clone(), &view, w, h, p)?.film,
             };
             let dt = t0.elapsed().as_secs_f64();
@@ -409,15 +410,7 @@ fn scaling(a: &BenchArgs) -> Result<()> {
         for (k, &n) in at_once.iter().enumerate() {
             let t0 = Instant::now();
             let films: Vec<Result<crate::image::Film>> = std::thread::scope(|s| {
-                let runs: Vec<_> = (0..n)
-                    .map(|_| {
-                        s.spawn(|| {
-                            Ok(Renderer::new(&scene, options.clone())?
-                                .render(&view, w, h)?
-                                .0)
-                        })
-                    })
-                    .collect();
+                let runs: Vec<_> = (0..n).map(|_| s.spawn(sequential)).collect();
                 runs.into_iter()
                     .map(|r| {
                         r.join().unwrap_or_else(|_| {
