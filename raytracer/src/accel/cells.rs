@@ -36,7 +36,9 @@ use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::geometry::prims::OnePrim;
-use crate::geometry::{MaterialId, Object, ObjectId, ObjectSet, Shape, Vec3};
+use crate::geometry::{
+    Aabb, MaterialId, Object, ObjectId, ObjectSet, PreparedRay, Shape, ShapeHit, Vec3,
+};
 
 /// See the module documentation.
 #[derive(Debug, Clone)]
@@ -48,44 +50,130 @@ pub struct LeafObjects {
 
 /// A copy of one plain surface with its intersection data.
 #[derive(Debug)]
-pub struct HeldObject {
-    object: Object,
-    prim: OnePrim,
+pub struct HeldObject(Held);
+
+/// How a copy is kept.
+#[derive(Debug)]
+enum Held {
+    /// A polygon with triangles: tested through its pairs alone, so it
+    /// keeps of its [`Object`] only what shading a hit and the wire read
+    /// (its name, material and vertices), 96 bytes instead of the 184 of
+    /// an object and its data (a processor holds copies by the hundred
+    /// thousand; the MPI chapter, "Each rank's bound"). `prim` is always
+    /// [`OnePrim::Pairs`].
+    Flat {
+        name: Box<str>,
+        vertices: Box<[Vec3]>,
+        prim: OnePrim,
+        material: MaterialId,
+    },
+    /// Any other surface, whole, with its data.
+    Whole(Box<(Object, OnePrim)>),
 }
 
+#[cfg(target_pointer_width = "64")]
+const _: () = assert!(std::mem::size_of::<HeldObject>() <= 96);
+
 impl HeldObject {
-    pub(crate) fn new(mut object: Object) -> Arc<HeldObject> {
+    pub(crate) fn new(object: Object) -> Arc<HeldObject> {
         let prim = OnePrim::build(&object);
         // A copy is only traced and shaded: a polygon is tested through its
         // intersection data alone (built from its triangles whenever it has
-        // any), so its triangulation, flattened triangles and area table
-        // are dropped; its vertices stay, they are what travels.
-        if let Shape::Polygon(p) = &mut object.shape {
-            if !p.tri_verts.is_empty() {
-                p.triangles = Box::default();
-                p.tri_verts = Box::default();
-                p.cdf = Box::default();
+        // any), so its triangulation, flattened triangles, area table and
+        // normal are dropped; its vertices stay, they are what travels.
+        let held = match (object.shape, prim) {
+            (Shape::Polygon(p), prim @ OnePrim::Pairs { .. }) if !p.tri_verts.is_empty() => {
+                Held::Flat {
+                    name: object.name.into_boxed_str(),
+                    vertices: p.vertices,
+                    prim,
+                    material: object.material,
+                }
             }
-        }
-        Arc::new(HeldObject { object, prim })
+            (shape, prim) => Held::Whole(Box::new((
+                Object {
+                    name: object.name,
+                    shape,
+                    material: object.material,
+                },
+                prim,
+            ))),
+        };
+        Arc::new(HeldObject(held))
     }
 
     /// The copy's intersection data.
     #[inline]
     pub(crate) fn prim(&self) -> &OnePrim {
-        &self.prim
+        match &self.0 {
+            Held::Flat { prim, .. } => prim,
+            Held::Whole(w) => &w.1,
+        }
     }
 
-    /// The copy.
-    pub fn object(&self) -> &Object {
-        &self.object
+    /// The copy's shape, where it keeps one (not a polygon kept as its
+    /// pairs).
+    #[inline]
+    pub(crate) fn shape(&self) -> Option<&Shape> {
+        match &self.0 {
+            Held::Flat { .. } => None,
+            Held::Whole(w) => Some(&w.0.shape),
+        }
+    }
+
+    /// What shades a hit on the copy ([`Object::surface_at`]).
+    #[inline]
+    pub fn surface_at(&self, inner: Option<u32>) -> (MaterialId, bool) {
+        match &self.0 {
+            Held::Flat { material, .. } => (*material, true),
+            Held::Whole(w) => w.0.surface_at(inner),
+        }
+    }
+
+    /// The copy's name (the source's).
+    pub fn name(&self) -> &str {
+        match &self.0 {
+            Held::Flat { name, .. } => name,
+            Held::Whole(w) => &w.0.name,
+        }
+    }
+
+    /// The copy's material.
+    pub fn material(&self) -> MaterialId {
+        match &self.0 {
+            Held::Flat { material, .. } => *material,
+            Held::Whole(w) => w.0.material,
+        }
+    }
+
+    /// A polygon's vertices (as the source gave them, duplicates dropped).
+    pub fn vertices(&self) -> Option<&[Vec3]> {
+        match &self.0 {
+            Held::Flat { vertices, .. } => Some(vertices),
+            Held::Whole(w) => match &w.0.shape {
+                Shape::Polygon(p) => Some(&p.vertices),
+                _ => None,
+            },
+        }
+    }
+
+    /// The copy's bounds: its shape's.
+    pub fn bounds(&self) -> Aabb {
+        match &self.0 {
+            Held::Flat { vertices, .. } => Aabb::from_points(vertices.iter().copied()),
+            Held::Whole(w) => w.0.shape.bounds(),
+        }
     }
 
     /// Heap and inline bytes of the copy and its intersection data.
     pub fn bytes(&self) -> usize {
-        let o = &self.object;
-        let heap = o.name.capacity() + o.shape.heap_bytes();
-        size_of::<HeldObject>() + heap + self.prim.memory_bytes()
+        let heap = match &self.0 {
+            Held::Flat { name, vertices, .. } => name.len() + size_of_val(&**vertices),
+            Held::Whole(w) => {
+                size_of::<(Object, OnePrim)>() + w.0.name.capacity() + w.0.shape.heap_bytes()
+            }
+        };
+        size_of::<HeldObject>() + heap + self.prim().memory_bytes()
     }
 }
 
@@ -97,8 +185,31 @@ impl ObjectSet for [Arc<HeldObject>] {
     }
 
     #[inline]
-    fn object(&self, k: usize) -> &Object {
-        &self[k].object
+    fn bounds(&self, k: usize) -> Aabb {
+        self[k].bounds()
+    }
+
+    #[inline]
+    fn surface_at(&self, k: usize, inner: Option<u32>) -> (MaterialId, bool) {
+        self[k].surface_at(inner)
+    }
+
+    #[inline]
+    fn intersect_shape(
+        &self,
+        k: usize,
+        pre: &PreparedRay,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<ShapeHit> {
+        let h = &self[k];
+        h.prim().intersect(h.shape(), pre, tmin, tmax)
+    }
+
+    #[inline]
+    fn occludes_shape(&self, k: usize, pre: &PreparedRay, tmin: f64, tmax: f64) -> bool {
+        let h = &self[k];
+        h.prim().occludes(h.shape(), pre, tmin, tmax)
     }
 }
 
@@ -325,8 +436,23 @@ struct Wire {
     objects: Vec<Option<WireObject>>,
 }
 
-fn wire_object(o: &Object) -> WireObject {
+fn wire_object(h: &HeldObject) -> WireObject {
     let a = |v: Vec3| v.to_array();
+    let o = match &h.0 {
+        Held::Flat {
+            name,
+            vertices,
+            material,
+            ..
+        } => {
+            return WireObject {
+                name: name.to_string(),
+                material: *material,
+                shape: WireShape::Polygon(vertices.iter().map(|&v| a(v)).collect()),
+            }
+        }
+        Held::Whole(w) => &w.0,
+    };
     let shape = match &o.shape {
         Shape::Polygon(p) => WireShape::Polygon(p.vertices.iter().map(|&v| a(v)).collect()),
         &Shape::Sphere {
@@ -414,7 +540,7 @@ fn object_from_wire(w: WireObject) -> Result<Object, String> {
 impl Serialize for LeafObjects {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         let objects = (0..self.ids.len())
-            .map(|k| self.own(k).map(|h| wire_object(h.object())))
+            .map(|k| self.own(k).map(wire_object))
             .collect();
         Wire {
             ids: self.ids.to_vec(),

@@ -1088,15 +1088,15 @@ impl Octree {
                         continue;
                     }
                     let bound = if best.is_some() { next_up(*cut) } else { *cut };
-                    let (h, obj) = match c.own(j) {
+                    let (h, held) = match c.own(j) {
                         Some(held) => (
-                            test.intersect_one(held.prim(), held.object(), tmin, bound),
-                            held.object(),
+                            test.intersect_one(held.prim(), held.shape(), tmin, bound),
+                            Ok(held),
                         ),
                         // An instance, tested through its shape as the
                         // octree's own data would (they hold none for it).
                         None => match shared.get(id) {
-                            Some(o) => (o.shape.intersect_prepared(&pre, tmin, bound), o),
+                            Some(o) => (o.shape.intersect_prepared(&pre, tmin, bound), Err(o)),
                             None => {
                                 debug_assert!(false, "object {id} is neither copied nor shared");
                                 continue;
@@ -1105,7 +1105,10 @@ impl Octree {
                     };
                     if let Some(h) = h {
                         if best.is_none_or(|b| h.t < b.t || (h.t == b.t && id < b.object)) {
-                            best = Some(Hit::on(obj, id, ray, h.t, &h));
+                            best = Some(match held {
+                                Ok(c) => Hit::on_surface(|i| c.surface_at(i), id, ray, h.t, &h),
+                                Err(o) => Hit::on(o, id, ray, h.t, &h),
+                            });
                             *cut = h.t;
                         }
                     }
@@ -1190,7 +1193,7 @@ impl Octree {
                     continue;
                 }
                 let hit = match c.own(j) {
-                    Some(held) => test.occludes_one(held.prim(), held.object(), tmin, tmax),
+                    Some(held) => test.occludes_one(held.prim(), held.shape(), tmin, tmax),
                     None => shared.get(id).is_some_and(|o| {
                         debug_assert!(matches!(o.shape, crate::geometry::Shape::Instance(_)));
                         o.shape.occludes_prepared(&pre, tmin, tmax)

@@ -810,7 +810,7 @@ impl Bvh {
         let mut boxes = Vec::with_capacity(objects.count());
         let mut scene = Aabb::EMPTY;
         for i in 0..objects.count() {
-            let b = objects.object(i).shape.bounds();
+            let b = objects.bounds(i);
             if b.is_empty() {
                 continue;
             }
@@ -1038,7 +1038,15 @@ impl Bvh {
                 }
             }
         }
-        best.map(|(t, id, h)| Hit::on(objects.object(id as usize), id, ray, t, &h))
+        best.map(|(t, id, h)| {
+            Hit::on_surface(
+                |inner| objects.surface_at(id as usize, inner),
+                id,
+                ray,
+                t,
+                &h,
+            )
+        })
     }
 
     /// True if any object other than `ignore` is hit with `tmin < t < tmax`.

@@ -188,6 +188,49 @@ impl OnePrim {
         }
     }
 
+    /// [`Tester::intersect_one`] for a ray prepared alone.
+    pub(crate) fn intersect(
+        &self,
+        shape: Option<&Shape>,
+        pre: &PreparedRay,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<ShapeHit> {
+        match self {
+            OnePrim::Pairs { pairs, normal } => {
+                nearest_pair_hit(&TriRay::new(pre), pairs, tmin, tmax).map(|t| ShapeHit {
+                    t,
+                    normal: *normal,
+                    inner: None,
+                    surface: None,
+                })
+            }
+            OnePrim::Quadric(q) => q.intersect(pre, tmin, tmax),
+            OnePrim::Other => {
+                debug_assert!(shape.is_some(), "a copy without data keeps its shape");
+                shape.and_then(|s| s.intersect_prepared(pre, tmin, tmax))
+            }
+        }
+    }
+
+    /// [`Tester::occludes_one`] for a ray prepared alone.
+    pub(crate) fn occludes(
+        &self,
+        shape: Option<&Shape>,
+        pre: &PreparedRay,
+        tmin: f64,
+        tmax: f64,
+    ) -> bool {
+        match self {
+            OnePrim::Pairs { pairs, .. } => any_pair_hit(&TriRay::new(pre), pairs, tmin, tmax),
+            OnePrim::Quadric(q) => q.occludes(pre, tmin, tmax),
+            OnePrim::Other => {
+                debug_assert!(shape.is_some(), "a copy without data keeps its shape");
+                shape.is_some_and(|s| s.occludes_prepared(pre, tmin, tmax))
+            }
+        }
+    }
+
     /// Heap bytes (a polygon's pairs with their reference counts).
     pub(crate) fn memory_bytes(&self) -> usize {
         match self {
@@ -448,10 +491,7 @@ impl Prims {
     ) -> Option<ShapeHit> {
         match self.quadrics.get(r.start as usize) {
             Some(q) => q.intersect(pre, tmin, tmax),
-            None => objects
-                .object(id as usize)
-                .shape
-                .intersect_prepared(pre, tmin, tmax),
+            None => objects.intersect_shape(id as usize, pre, tmin, tmax),
         }
     }
 
@@ -487,10 +527,7 @@ impl Prims {
     ) -> bool {
         match self.quadrics.get(r.start as usize) {
             Some(q) => q.occludes(pre, tmin, tmax),
-            None => objects
-                .object(id as usize)
-                .shape
-                .occludes_prepared(pre, tmin, tmax),
+            None => objects.occludes_shape(id as usize, pre, tmin, tmax),
         }
     }
 }
@@ -522,14 +559,15 @@ impl<'a, O: ObjectSet + ?Sized> Tester<'a, O> {
         self.prims.map(|p| (p, &self.tr))
     }
 
-    /// Nearest hit of a processor's copy of an object (`object`, with its
-    /// data `prim`) with `tmin < t < tmax`: what [`Prims::intersect`]
-    /// answers for it.
+    /// Nearest hit of a processor's copy of an object (its data `prim`,
+    /// its `shape` where it keeps one) with `tmin < t < tmax`: what
+    /// [`Prims::intersect`] answers for it. A copy without its shape is a
+    /// polygon kept as its pairs, which are all its test reads.
     #[inline]
     pub(crate) fn intersect_one(
         &self,
         prim: &OnePrim,
-        object: &Object,
+        shape: Option<&Shape>,
         tmin: f64,
         tmax: f64,
     ) -> Option<ShapeHit> {
@@ -543,7 +581,10 @@ impl<'a, O: ObjectSet + ?Sized> Tester<'a, O> {
                 })
             }
             OnePrim::Quadric(q) => q.intersect(self.pre, tmin, tmax),
-            OnePrim::Other => object.shape.intersect_prepared(self.pre, tmin, tmax),
+            OnePrim::Other => {
+                debug_assert!(shape.is_some(), "a copy without data keeps its shape");
+                shape.and_then(|s| s.intersect_prepared(self.pre, tmin, tmax))
+            }
         }
     }
 
@@ -553,14 +594,17 @@ impl<'a, O: ObjectSet + ?Sized> Tester<'a, O> {
     pub(crate) fn occludes_one(
         &self,
         prim: &OnePrim,
-        object: &Object,
+        shape: Option<&Shape>,
         tmin: f64,
         tmax: f64,
     ) -> bool {
         match prim {
             OnePrim::Pairs { pairs, .. } => any_pair_hit(&self.tr, pairs, tmin, tmax),
             OnePrim::Quadric(q) => q.occludes(self.pre, tmin, tmax),
-            OnePrim::Other => object.shape.occludes_prepared(self.pre, tmin, tmax),
+            OnePrim::Other => {
+                debug_assert!(shape.is_some(), "a copy without data keeps its shape");
+                shape.is_some_and(|s| s.occludes_prepared(self.pre, tmin, tmax))
+            }
         }
     }
 
@@ -571,9 +615,7 @@ impl<'a, O: ObjectSet + ?Sized> Tester<'a, O> {
             Some(p) => p.intersect(self.objects, id, self.pre, &self.tr, tmin, tmax),
             None => self
                 .objects
-                .object(id as usize)
-                .shape
-                .intersect_prepared(self.pre, tmin, tmax),
+                .intersect_shape(id as usize, self.pre, tmin, tmax),
         }
     }
 
@@ -584,9 +626,7 @@ impl<'a, O: ObjectSet + ?Sized> Tester<'a, O> {
             Some(p) => p.occludes(self.objects, id, self.pre, &self.tr, tmin, tmax),
             None => self
                 .objects
-                .object(id as usize)
-                .shape
-                .occludes_prepared(self.pre, tmin, tmax),
+                .occludes_shape(id as usize, self.pre, tmin, tmax),
         }
     }
 }

@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Aabb, Ray, Vec3};
+use super::{Aabb, PreparedRay, Ray, Vec3};
 
 /// Index into [`Scene::materials`](crate::scene::Scene::materials).
 pub type MaterialId = u32;
@@ -79,11 +79,27 @@ const _: () = assert!(std::mem::size_of::<Object>() <= 136);
 
 /// Objects by index: what a hierarchy was built over (a slice of the
 /// scene's objects, or a processor's copies, which its leaves share).
+/// What a hierarchy reads of an object: its bounds, what shades a hit on
+/// it, and its shape's own ray test (for objects without compact data).
 pub trait ObjectSet {
     /// How many.
     fn count(&self) -> usize;
-    /// Object `k < count()`.
-    fn object(&self, k: usize) -> &Object;
+    /// The bounds of object `k < count()`: its shape's.
+    fn bounds(&self, k: usize) -> Aabb;
+    /// What shades a hit on object `k` ([`Object::surface_at`]).
+    fn surface_at(&self, k: usize, inner: Option<u32>) -> (MaterialId, bool);
+    /// Nearest hit of object `k` with `tmin < t < tmax`: its shape's
+    /// [`Shape::intersect_prepared`].
+    fn intersect_shape(
+        &self,
+        k: usize,
+        pre: &PreparedRay,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<ShapeHit>;
+    /// Whether object `k` is hit with `tmin < t < tmax`: its shape's
+    /// [`Shape::occludes_prepared`].
+    fn occludes_shape(&self, k: usize, pre: &PreparedRay, tmin: f64, tmax: f64) -> bool;
 }
 
 impl ObjectSet for [Object] {
@@ -93,8 +109,29 @@ impl ObjectSet for [Object] {
     }
 
     #[inline]
-    fn object(&self, k: usize) -> &Object {
-        &self[k]
+    fn bounds(&self, k: usize) -> Aabb {
+        self[k].shape.bounds()
+    }
+
+    #[inline]
+    fn surface_at(&self, k: usize, inner: Option<u32>) -> (MaterialId, bool) {
+        self[k].surface_at(inner)
+    }
+
+    #[inline]
+    fn intersect_shape(
+        &self,
+        k: usize,
+        pre: &PreparedRay,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<ShapeHit> {
+        self[k].shape.intersect_prepared(pre, tmin, tmax)
+    }
+
+    #[inline]
+    fn occludes_shape(&self, k: usize, pre: &PreparedRay, tmin: f64, tmax: f64) -> bool {
+        self[k].shape.occludes_prepared(pre, tmin, tmax)
     }
 }
 
@@ -106,8 +143,29 @@ impl ObjectSet for Vec<Object> {
     }
 
     #[inline]
-    fn object(&self, k: usize) -> &Object {
-        self.as_slice().object(k)
+    fn bounds(&self, k: usize) -> Aabb {
+        self.as_slice().bounds(k)
+    }
+
+    #[inline]
+    fn surface_at(&self, k: usize, inner: Option<u32>) -> (MaterialId, bool) {
+        self.as_slice().surface_at(k, inner)
+    }
+
+    #[inline]
+    fn intersect_shape(
+        &self,
+        k: usize,
+        pre: &PreparedRay,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<ShapeHit> {
+        self.as_slice().intersect_shape(k, pre, tmin, tmax)
+    }
+
+    #[inline]
+    fn occludes_shape(&self, k: usize, pre: &PreparedRay, tmin: f64, tmax: f64) -> bool {
+        self.as_slice().occludes_shape(k, pre, tmin, tmax)
     }
 }
 
@@ -252,8 +310,21 @@ impl Hit {
     /// shape's normal, instance index and (for instances) innermost surface.
     #[inline]
     pub fn on(obj: &Object, id: ObjectId, ray: &Ray, t: f64, h: &ShapeHit) -> Hit {
+        Hit::on_surface(|inner| obj.surface_at(inner), id, ray, t, h)
+    }
+
+    /// [`Hit::on`] with the object's [`Object::surface_at`] given as
+    /// `surface_at` (for objects held in another form than an [`Object`]).
+    #[inline]
+    pub fn on_surface(
+        surface_at: impl FnOnce(Option<u32>) -> (MaterialId, bool),
+        id: ObjectId,
+        ray: &Ray,
+        t: f64,
+        h: &ShapeHit,
+    ) -> Hit {
         let surface = h.surface.unwrap_or_else(|| {
-            let (material, flat) = obj.surface_at(h.inner);
+            let (material, flat) = surface_at(h.inner);
             Hit::surface_word(material, flat)
         });
         Hit {
