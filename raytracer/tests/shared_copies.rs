@@ -116,7 +116,7 @@ fn received_leaves_share_the_copies_this_process_holds() {
         );
         assert_eq!(copy.bounds(), o.shape.bounds());
         if let Shape::Polygon(p) = &o.shape {
-            assert_eq!(copy.vertices(), Some(&p.vertices[..]));
+            assert_eq!(copy.vertices().as_deref(), Some(&p.vertices[..]));
         }
     }
 }

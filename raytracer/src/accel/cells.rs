@@ -35,7 +35,7 @@ use std::sync::{Arc, Mutex, Weak};
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use crate::geometry::prims::OnePrim;
+use crate::geometry::prims::{OnePrim, TriPair};
 use crate::geometry::{
     Aabb, MaterialId, Object, ObjectId, ObjectSet, PreparedRay, Shape, ShapeHit, Vec3,
 };
@@ -63,7 +63,7 @@ enum Held {
     /// [`OnePrim::Pairs`].
     Flat {
         name: Box<str>,
-        vertices: Box<[Vec3]>,
+        vertices: Vertices,
         prim: OnePrim,
         material: MaterialId,
     },
@@ -74,6 +74,65 @@ enum Held {
 #[cfg(target_pointer_width = "64")]
 const _: () = assert!(std::mem::size_of::<HeldObject>() <= 96);
 
+/// A polygon copy's vertices: where its pair of triangles holds them all
+/// (a triangle or a quadrilateral, the usual polygon of a large scene),
+/// which corner of the pair each is, 3 bits a vertex; else its own list.
+#[derive(Debug)]
+enum Vertices {
+    InPair { n: u8, corners: u16 },
+    Own(Box<[Vec3]>),
+}
+
+impl Vertices {
+    /// `vertices` as the polygon's `pairs` hold them, when they do bit
+    /// for bit, else kept.
+    fn of(vertices: Box<[Vec3]>, pairs: &[TriPair]) -> Vertices {
+        let same =
+            |a: Vec3, b: Vec3| a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits);
+        let find = |v: Vec3| (0..6).find(|&c| same(pairs[0].vertex(c / 3, c % 3), v));
+        if vertices.len() <= 4 && pairs.len() == 1 {
+            let mut corners = 0u16;
+            let all = vertices.iter().enumerate().all(|(i, &v)| match find(v) {
+                Some(c) => {
+                    corners |= (c as u16) << (3 * i);
+                    true
+                }
+                None => false,
+            });
+            if all {
+                return Vertices::InPair {
+                    n: vertices.len() as u8,
+                    corners,
+                };
+            }
+        }
+        Vertices::Own(vertices)
+    }
+
+    /// The vertices in their order (`pairs`: the polygon's).
+    fn each<'a>(&'a self, pairs: &'a [TriPair]) -> impl Iterator<Item = Vec3> + 'a {
+        let (n, own) = match self {
+            Vertices::InPair { n, .. } => (usize::from(*n), &[][..]),
+            Vertices::Own(v) => (v.len(), &v[..]),
+        };
+        (0..n).map(move |i| match self {
+            Vertices::InPair { corners, .. } => {
+                let c = usize::from(corners >> (3 * i) & 7);
+                pairs[0].vertex(c / 3, c % 3)
+            }
+            Vertices::Own(_) => own[i],
+        })
+    }
+
+    /// Heap bytes.
+    fn heap_bytes(&self) -> usize {
+        match self {
+            Vertices::InPair { .. } => 0,
+            Vertices::Own(v) => size_of_val(&**v),
+        }
+    }
+}
+
 impl HeldObject {
     pub(crate) fn new(object: Object) -> Arc<HeldObject> {
         let prim = OnePrim::build(&object);
@@ -83,9 +142,12 @@ impl HeldObject {
         // normal are dropped; its vertices stay, they are what travels.
         let held = match (object.shape, prim) {
             (Shape::Polygon(p), prim @ OnePrim::Pairs { .. }) if !p.tri_verts.is_empty() => {
+                let OnePrim::Pairs { pairs, .. } = &prim else {
+                    unreachable!("matched as pairs")
+                };
                 Held::Flat {
                     name: object.name.into_boxed_str(),
-                    vertices: p.vertices,
+                    vertices: Vertices::of(p.vertices, pairs),
                     prim,
                     material: object.material,
                 }
@@ -147,11 +209,11 @@ impl HeldObject {
     }
 
     /// A polygon's vertices (as the source gave them, duplicates dropped).
-    pub fn vertices(&self) -> Option<&[Vec3]> {
+    pub fn vertices(&self) -> Option<Vec<Vec3>> {
         match &self.0 {
-            Held::Flat { vertices, .. } => Some(vertices),
+            Held::Flat { vertices, prim, .. } => Some(vertices.each(flat_pairs(prim)).collect()),
             Held::Whole(w) => match &w.0.shape {
-                Shape::Polygon(p) => Some(&p.vertices),
+                Shape::Polygon(p) => Some(p.vertices.to_vec()),
                 _ => None,
             },
         }
@@ -160,7 +222,7 @@ impl HeldObject {
     /// The copy's bounds: its shape's.
     pub fn bounds(&self) -> Aabb {
         match &self.0 {
-            Held::Flat { vertices, .. } => Aabb::from_points(vertices.iter().copied()),
+            Held::Flat { vertices, prim, .. } => Aabb::from_points(vertices.each(flat_pairs(prim))),
             Held::Whole(w) => w.0.shape.bounds(),
         }
     }
@@ -168,12 +230,21 @@ impl HeldObject {
     /// Heap and inline bytes of the copy and its intersection data.
     pub fn bytes(&self) -> usize {
         let heap = match &self.0 {
-            Held::Flat { name, vertices, .. } => name.len() + size_of_val(&**vertices),
+            Held::Flat { name, vertices, .. } => name.len() + vertices.heap_bytes(),
             Held::Whole(w) => {
                 size_of::<(Object, OnePrim)>() + w.0.name.capacity() + w.0.shape.heap_bytes()
             }
         };
         size_of::<HeldObject>() + heap + self.prim().memory_bytes()
+    }
+}
+
+/// A flat copy's pairs (its data is always pairs).
+#[inline]
+fn flat_pairs(prim: &OnePrim) -> &[TriPair] {
+    match prim {
+        OnePrim::Pairs { pairs, .. } => pairs,
+        _ => &[],
     }
 }
 
@@ -442,13 +513,13 @@ fn wire_object(h: &HeldObject) -> WireObject {
         Held::Flat {
             name,
             vertices,
+            prim,
             material,
-            ..
         } => {
             return WireObject {
                 name: name.to_string(),
                 material: *material,
-                shape: WireShape::Polygon(vertices.iter().map(|&v| a(v)).collect()),
+                shape: WireShape::Polygon(vertices.each(flat_pairs(prim)).map(a).collect()),
             }
         }
         Held::Whole(w) => &w.0,

@@ -1117,3 +1117,125 @@ fn skeletons_that_are_not_octrees_are_errors() {
         .unwrap_err()
         .contains("not reached"));
 }
+
+/// A polygon's copy keeps its vertices in its pair of triangles where the
+/// pair holds them all (triangles and quadrilaterals), else in a list of
+/// its own (more vertices, or a vertex the triangulation left out); either
+/// way it gives back the source's vertices and bounds bit for bit, and it
+/// travels as the source does.
+#[test]
+fn a_polygon_copy_gives_back_its_vertices_from_its_pair_or_its_own_list() {
+    let v = |x: f64, y: f64, z: f64| Vec3::new(x, y, z);
+    let shapes = [
+        // (vertices, whether the pair holds them)
+        (
+            vec![v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)],
+            true,
+        ),
+        (
+            vec![
+                v(-0.0, 0.0, 1e-300),
+                v(3.0, 0.0, 0.0),
+                v(3.0, 2.0, 0.0),
+                v(0.0, 2.0, -0.0),
+            ],
+            true,
+        ),
+        // Concave: ear clipping starts elsewhere, the pair still holds all.
+        (
+            vec![
+                v(0.0, 0.0, 5.0),
+                v(4.0, 0.0, 5.0),
+                v(1.0, 1.0, 5.0),
+                v(0.0, 4.0, 5.0),
+            ],
+            true,
+        ),
+        // A vertex on an edge, and a reflex corner: their triangles still
+        // hold every vertex.
+        (
+            vec![
+                v(0.0, 0.0, 0.0),
+                v(1.0, 0.0, 0.0),
+                v(2.0, 0.0, 0.0),
+                v(0.0, 2.0, 0.0),
+            ],
+            true,
+        ),
+        (
+            vec![
+                v(0.0, 0.0, 0.0),
+                v(2.0, 0.0, 0.0),
+                v(2.0, 2.0, 0.0),
+                v(1.0, 1.0, 0.0),
+            ],
+            true,
+        ),
+        // More than two triangles: a list of its own.
+        (
+            vec![
+                v(0.0, 0.0, 0.0),
+                v(2.0, 0.0, 0.0),
+                v(3.0, 1.0, 0.0),
+                v(1.0, 3.0, 0.0),
+                v(-1.0, 1.0, 0.0),
+            ],
+            false,
+        ),
+    ];
+    for (k, (vertices, in_pair)) in shapes.into_iter().enumerate() {
+        let o = Object {
+            name: format!("p{k}"),
+            shape: Shape::polygon(vertices).unwrap(),
+            material: 3,
+        };
+        let Shape::Polygon(p) = &o.shape else {
+            unreachable!()
+        };
+        let copy = HeldObject::new(o.clone());
+        let bits = |vs: &[Vec3]| {
+            vs.iter()
+                .map(|v| v.to_array().map(f64::to_bits))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(
+            bits(&copy.vertices().unwrap()),
+            bits(&p.vertices),
+            "polygon {k}"
+        );
+        let (a, b) = (copy.bounds(), o.shape.bounds());
+        assert_eq!(
+            (
+                a.min.to_array().map(f64::to_bits),
+                a.max.to_array().map(f64::to_bits)
+            ),
+            (
+                b.min.to_array().map(f64::to_bits),
+                b.max.to_array().map(f64::to_bits)
+            ),
+            "polygon {k}"
+        );
+        assert_eq!(
+            (copy.name(), copy.material(), copy.surface_at(None)),
+            (o.name.as_str(), 3, (3, true))
+        );
+        // Its own list costs its bytes; the pair's corners cost none.
+        let own = std::mem::size_of_val(&*p.vertices);
+        let held =
+            LeafObjects::copy_from(&[0], std::slice::from_ref(&o), &mut ObjectCopies::default());
+        let sent: LeafObjects =
+            postcard::from_bytes(&postcard::to_allocvec(&held).unwrap()).unwrap();
+        assert_eq!(
+            format!("{:?}", sent.own(0).unwrap()),
+            format!("{copy:?}"),
+            "polygon {k}"
+        );
+        let pair_bytes = copy.prim().memory_bytes();
+        let base = std::mem::size_of::<HeldObject>() + o.name.len() + pair_bytes;
+        assert_eq!(
+            copy.bytes(),
+            base + if in_pair { 0 } else { own },
+            "polygon {k}"
+        );
+    }
+}

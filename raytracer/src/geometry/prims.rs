@@ -30,6 +30,14 @@ pub(crate) struct TriPair {
 }
 
 impl TriPair {
+    /// Vertex `corner` (0 to 2) of triangle `lane` (0 or 1), exactly as
+    /// it was given.
+    #[inline]
+    pub(crate) fn vertex(&self, lane: usize, corner: usize) -> Vec3 {
+        let c = &self.v[corner];
+        Vec3::new(c[0][lane], c[1][lane], c[2][lane])
+    }
+
     /// The pair of one or two triangles (a lone triangle fills both
     /// lanes), each vertex's coordinates side by side.
     #[inline]
