@@ -124,9 +124,12 @@ fn a_processor_reads_only_the_objects_of_its_cells() {
         let leaves: Vec<u32> = part.source.leaves().iter().map(|l| l.0).collect();
         let whole = c_scene(&path);
         for chunk in leaves.chunks(leaves.len().div_ceil(4)) {
-            let read = part
-                .source
-                .read_objects(&part.scene, &part.octree, chunk)
+            let mut read = std::collections::HashMap::new();
+            part.source
+                .read_objects(&part.scene, &part.octree, chunk, |id, s| {
+                    assert!(read.insert(id, s).is_none(), "object {id} read twice");
+                    Ok(())
+                })
                 .unwrap();
             let listed: std::collections::HashSet<u32> = chunk
                 .iter()

@@ -15,7 +15,7 @@
 //! What grows with the whole scene on every processor: the octree's nodes
 //! and its leaf lists (4 bytes per listing), not the objects.
 
-use rustc_hash::{FxHashMap, FxHashSet};
+use rustc_hash::FxHashSet;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
@@ -219,22 +219,28 @@ impl CellSource {
     }
 
     /// The surfaces `leaves` list that `scene` (a processor's
-    /// [`HeldPart::scene`]) does not hold, read from the file: the leaves'
-    /// own cells and, where objects are stored once, the cells storing the
-    /// objects they share with leaves stored before them. `octree` gives
-    /// the leaves' lists. Errors name the file, the cell, its byte offset
-    /// and why.
+    /// [`HeldPart::scene`]) does not hold, read from the file and handed
+    /// to `sink` one by one as their cells are read (each once, the first
+    /// stored copy): the leaves' own cells and, where objects are stored
+    /// once, the cells storing the objects they share with leaves stored
+    /// before them. `octree` gives the leaves' lists. Nothing read is kept
+    /// here: a processor turns each surface into its copy at once, so its
+    /// part is never held twice (as read and as copies). Errors name the
+    /// file, the cell, its byte offset and why; an error of `sink` ends
+    /// the reading.
     pub fn read_objects(
         &self,
         scene: &Scene,
         octree: &Octree,
         leaves: &[NodeId],
-    ) -> Result<FxHashMap<ObjectId, Surface>> {
+        mut sink: impl FnMut(ObjectId, Surface) -> Result<()>,
+    ) -> Result<()> {
         let mut file = std::fs::File::open(&self.path).map_err(|e| Error::io(&self.path, e))?;
         // Reserved for every listing (an upper bound): grown from empty, the
         // set rehashed its way up.
         let listings = leaves.iter().map(|&l| octree.leaf_objects(l).len()).sum();
-        let mut wanted: FxHashSet<ObjectId> =
+        // The wanted objects not read yet.
+        let mut left: FxHashSet<ObjectId> =
             FxHashSet::with_capacity_and_hasher(listings, Default::default());
         let mut cells: Vec<u32> = Vec::with_capacity(leaves.len());
         for &leaf in leaves {
@@ -248,7 +254,7 @@ impl CellSource {
                     ))
                 })?;
             cells.push(cell as u32);
-            wanted.extend(
+            left.extend(
                 octree
                     .leaf_objects(leaf)
                     .iter()
@@ -256,54 +262,51 @@ impl CellSource {
             );
         }
         // The first stored copy of each wanted object.
-        let mut found: FxHashMap<ObjectId, Surface> =
-            FxHashMap::with_capacity_and_hasher(wanted.len(), Default::default());
-        let take = |cell: CellObjects, found: &mut FxHashMap<ObjectId, Surface>| {
+        let mut take = |cell: CellObjects, left: &mut FxHashSet<ObjectId>| -> Result<()> {
             for (id, s) in cell.stored {
-                if wanted.contains(&id) {
-                    found.entry(id).or_insert(s);
+                if left.remove(&id) {
+                    sink(id, s)?;
                 }
             }
+            Ok(())
         };
         for &k in &cells {
-            take(self.read_cell(&mut file, k as usize)?, &mut found);
+            take(self.read_cell(&mut file, k as usize)?, &mut left)?;
         }
-        if !self.copies && found.len() < wanted.len() {
+        if !self.copies && !left.is_empty() {
             // Stored once, in the first leaf (node order) listing them.
             let mut more = Vec::new();
-            let mut placed: FxHashSet<ObjectId> = found.keys().copied().collect();
+            let mut unplaced = left.clone();
             for (k, &(leaf, _)) in self.leaves.iter().enumerate() {
                 let ids = octree.leaf_objects(leaf);
                 let mut needed = false;
-                for &o in ids {
-                    if wanted.contains(&o) && placed.insert(o) {
+                for o in ids {
+                    if unplaced.remove(o) {
                         needed = true;
                     }
                 }
                 if needed {
                     more.push(k);
                 }
-                if placed.len() == wanted.len() {
+                if unplaced.is_empty() {
                     break;
                 }
             }
             for k in more {
-                take(self.read_cell(&mut file, k)?, &mut found);
+                take(self.read_cell(&mut file, k)?, &mut left)?;
             }
         }
-        if found.len() < wanted.len() {
-            let missing = wanted.iter().filter(|o| !found.contains_key(o)).min();
+        if let Some(missing) = left.iter().min() {
             return Err(file_error(
                 &self.path,
                 0,
                 format!(
-                    "{} of the objects these cells list are stored nowhere (object {})",
-                    wanted.len() - found.len(),
-                    missing.copied().unwrap_or_default()
+                    "{} of the objects these cells list are stored nowhere (object {missing})",
+                    left.len(),
                 ),
             ));
         }
-        Ok(found)
+        Ok(())
     }
 
     fn read_cell(&self, file: &mut std::fs::File, k: usize) -> Result<CellObjects> {

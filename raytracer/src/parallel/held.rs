@@ -8,7 +8,7 @@ use super::distribution::Distribution;
 use super::partition::object_bytes;
 use super::tasks::CellData;
 use super::workload::{Held, RtWorkload, WorkloadOptions};
-use crate::accel::{LeafObjects, NodeId, ObjectCopies};
+use crate::accel::{HeldObject, LeafObjects, NodeId, ObjectCopies};
 use crate::compiled::CellSource;
 use crate::render::Renderer;
 use crate::scene::View;
@@ -125,40 +125,37 @@ impl RtWorkload {
         let source = source
             .as_ref()
             .ok_or_else(|| failed(&"the scene's cells were read already"))?;
-        let mut read = source
-            .read_objects(scene, octree, &leaves)
-            .map_err(|e| failed(&e))?;
-        // Each surface read becomes its processor's copy (moved, not
-        // copied again), as the first leaf listing it is built.
+        // Each surface read becomes its processor's copy at once (moved,
+        // not copied again): the part is never held twice.
         let maker = source.maker();
         let mut copies = ObjectCopies::default();
-        let mut resident = FxHashSet::default();
         // The bytes of the objects read, as the partition counts a whole
         // scene's (a copy keeps less of a polygon than the scene does).
         let mut read_bytes = 0usize;
+        source
+            .read_objects(scene, octree, &leaves, |id, s| {
+                let o = maker.make(id, s)?;
+                read_bytes += object_bytes(&o);
+                copies.insert(id, HeldObject::new(o));
+                Ok(())
+            })
+            .map_err(|e| failed(&e))?;
+        let mut resident = FxHashSet::default();
         let mut cells: Vec<(NodeId, CellData)> = Vec::with_capacity(owned.len());
         for (leaf, bytes) in owned {
             let ids = octree.leaf_objects(leaf);
             resident.extend(ids.iter().copied());
+            // Every object read has its copy: the rest are the objects
+            // every processor holds.
             let cell = LeafObjects::copy_made(
                 ids,
-                |id| {
-                    let s = read.remove(&id)?;
-                    Some(match maker.make(id, s) {
-                        Ok(o) => {
-                            read_bytes += object_bytes(&o);
-                            Ok(o)
-                        }
-                        Err(e) => Err(e.to_string()),
-                    })
-                },
+                |_| None::<Result<crate::scene::Object, String>>,
                 scene.table(),
                 &mut copies,
             )
             .map_err(|e: String| failed(&e))?;
             cells.push((leaf, CellData { leaf, bytes, cell }));
         }
-        drop(read);
         let lists: usize = leaves
             .iter()
             .map(|&l| std::mem::size_of_val(octree.leaf_objects(l)))
