@@ -70,10 +70,11 @@ pub struct Object {
     pub material: MaterialId,
 }
 
-// A scene of millions of surfaces holds this struct once per surface, and
-// each processor once per copy: the instance's matrices are boxed and the
-// polygon's arrays are boxed slices so that it stays at 136 bytes (312
-// before; the MPI chapter, "Each rank's bound").
+// A scene of millions of surfaces holds this struct once per surface (a
+// processor's copies of polygons are smaller still: `accel::HeldObject`):
+// the instance's matrices are boxed and the polygon's arrays are boxed
+// slices so that it stays at 136 bytes (312 before; the MPI chapter,
+// "Each rank's bound").
 #[cfg(target_pointer_width = "64")]
 const _: () = assert!(std::mem::size_of::<Object>() <= 136);
 
