@@ -139,7 +139,8 @@ impl HeldObject {
         // A copy is only traced and shaded: a polygon is tested through its
         // intersection data alone (built from its triangles whenever it has
         // any), so its triangulation, flattened triangles, area table and
-        // normal are dropped; its vertices stay, they are what travels.
+        // normal are dropped; its vertices stay, they are what travels (as
+        // the corners of its pair where that holds them all).
         let held = match (object.shape, prim) {
             (Shape::Polygon(p), prim @ OnePrim::Pairs { .. }) if !p.tri_verts.is_empty() => {
                 let OnePrim::Pairs { pairs, .. } = &prim else {
