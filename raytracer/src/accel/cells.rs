@@ -426,37 +426,30 @@ impl LeafObjects {
         }
     }
 
-    /// A leaf listing `ids` whose objects are not all held yet: the copies
-    /// in `copies` are shared, a missing copy is made from what `make`
-    /// gives for its id (an object read for this processor, moved into
-    /// its copy), else from `shared` (the objects every processor holds;
-    /// instances are not copied). An id found nowhere is an error.
-    pub fn copy_made<E>(
+    /// A leaf listing `ids` of a processor that made its copies as it read
+    /// its part: the copies in `copies` are shared, a missing one is made
+    /// from `shared` (the objects every processor holds; instances are not
+    /// copied). An id found in neither is an error.
+    pub fn copy_held(
         ids: &[ObjectId],
-        mut make: impl FnMut(ObjectId) -> Option<Result<Object, E>>,
         shared: crate::geometry::ObjectTable<'_>,
         copies: &mut ObjectCopies,
-    ) -> Result<LeafObjects, E>
-    where
-        E: From<String>,
-    {
+    ) -> Result<LeafObjects, String> {
         let mut held = Vec::with_capacity(ids.len());
         for &id in ids {
             let copy = match copies.get(&id) {
                 Some(c) => Some(c.clone()),
-                None => match make(id) {
-                    Some(o) => Some(HeldObject::new(o?)),
-                    None => {
-                        let o = shared.get(id).ok_or_else(|| {
-                            E::from(format!("object {id} is neither read nor held"))
-                        })?;
-                        is_plain(o).then(|| HeldObject::new(o.clone()))
+                None => {
+                    let o = shared
+                        .get(id)
+                        .ok_or_else(|| format!("object {id} is neither read nor held"))?;
+                    let c = is_plain(o).then(|| HeldObject::new(o.clone()));
+                    if let Some(c) = &c {
+                        copies.insert(id, c.clone());
                     }
-                },
+                    c
+                }
             };
-            if let Some(c) = &copy {
-                copies.entry(id).or_insert_with(|| c.clone());
-            }
             held.push(copy);
         }
         Ok(LeafObjects {

@@ -147,13 +147,8 @@ impl RtWorkload {
             resident.extend(ids.iter().copied());
             // Every object read has its copy: the rest are the objects
             // every processor holds.
-            let cell = LeafObjects::copy_made(
-                ids,
-                |_| None::<Result<crate::scene::Object, String>>,
-                scene.table(),
-                &mut copies,
-            )
-            .map_err(|e: String| failed(&e))?;
+            let cell =
+                LeafObjects::copy_held(ids, scene.table(), &mut copies).map_err(|e| failed(&e))?;
             cells.push((leaf, CellData { leaf, bytes, cell }));
         }
         let lists: usize = leaves
