@@ -35,7 +35,7 @@ use std::sync::{Arc, Mutex, Weak};
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use crate::geometry::prims::{OnePrim, TriPair};
+use crate::geometry::prims::{OnePrim, TriPair, TriRay};
 use crate::geometry::{
     Aabb, MaterialId, Object, ObjectId, ObjectSet, PreparedRay, Shape, ShapeHit, Vec3,
 };
@@ -275,13 +275,15 @@ impl ObjectSet for [Arc<HeldObject>] {
         tmax: f64,
     ) -> Option<ShapeHit> {
         let h = &self[k];
-        h.prim().intersect(h.shape(), pre, tmin, tmax)
+        h.prim()
+            .intersect(h.shape(), pre, &TriRay::new(pre), tmin, tmax)
     }
 
     #[inline]
     fn occludes_shape(&self, k: usize, pre: &PreparedRay, tmin: f64, tmax: f64) -> bool {
         let h = &self[k];
-        h.prim().occludes(h.shape(), pre, tmin, tmax)
+        h.prim()
+            .occludes(h.shape(), pre, &TriRay::new(pre), tmin, tmax)
     }
 }
 

@@ -196,17 +196,23 @@ impl OnePrim {
         }
     }
 
-    /// [`Tester::intersect_one`] for a ray prepared alone.
+    /// Nearest hit of a processor's copy of an object (this data, its
+    /// `shape` where it keeps one) with `tmin < t < tmax`, for a ray
+    /// prepared as `pre` and `tr`: what [`Prims::intersect`] answers for
+    /// it. A copy without its shape is a polygon kept as its pairs, which
+    /// are all its test reads.
+    #[inline]
     pub(crate) fn intersect(
         &self,
         shape: Option<&Shape>,
         pre: &PreparedRay,
+        tr: &TriRay,
         tmin: f64,
         tmax: f64,
     ) -> Option<ShapeHit> {
         match self {
             OnePrim::Pairs { pairs, normal } => {
-                nearest_pair_hit(&TriRay::new(pre), pairs, tmin, tmax).map(|t| ShapeHit {
+                nearest_pair_hit(tr, pairs, tmin, tmax).map(|t| ShapeHit {
                     t,
                     normal: *normal,
                     inner: None,
@@ -221,16 +227,19 @@ impl OnePrim {
         }
     }
 
-    /// [`Tester::occludes_one`] for a ray prepared alone.
+    /// Whether a processor's copy of an object is hit with
+    /// `tmin < t < tmax` (see [`OnePrim::intersect`]).
+    #[inline]
     pub(crate) fn occludes(
         &self,
         shape: Option<&Shape>,
         pre: &PreparedRay,
+        tr: &TriRay,
         tmin: f64,
         tmax: f64,
     ) -> bool {
         match self {
-            OnePrim::Pairs { pairs, .. } => any_pair_hit(&TriRay::new(pre), pairs, tmin, tmax),
+            OnePrim::Pairs { pairs, .. } => any_pair_hit(tr, pairs, tmin, tmax),
             OnePrim::Quadric(q) => q.occludes(pre, tmin, tmax),
             OnePrim::Other => {
                 debug_assert!(shape.is_some(), "a copy without data keeps its shape");
@@ -567,10 +576,7 @@ impl<'a, O: ObjectSet + ?Sized> Tester<'a, O> {
         self.prims.map(|p| (p, &self.tr))
     }
 
-    /// Nearest hit of a processor's copy of an object (its data `prim`,
-    /// its `shape` where it keeps one) with `tmin < t < tmax`: what
-    /// [`Prims::intersect`] answers for it. A copy without its shape is a
-    /// polygon kept as its pairs, which are all its test reads.
+    /// [`OnePrim::intersect`] for this ray.
     #[inline]
     pub(crate) fn intersect_one(
         &self,
@@ -579,25 +585,10 @@ impl<'a, O: ObjectSet + ?Sized> Tester<'a, O> {
         tmin: f64,
         tmax: f64,
     ) -> Option<ShapeHit> {
-        match prim {
-            OnePrim::Pairs { pairs, normal } => {
-                nearest_pair_hit(&self.tr, pairs, tmin, tmax).map(|t| ShapeHit {
-                    t,
-                    normal: *normal,
-                    inner: None,
-                    surface: None,
-                })
-            }
-            OnePrim::Quadric(q) => q.intersect(self.pre, tmin, tmax),
-            OnePrim::Other => {
-                debug_assert!(shape.is_some(), "a copy without data keeps its shape");
-                shape.and_then(|s| s.intersect_prepared(self.pre, tmin, tmax))
-            }
-        }
+        prim.intersect(shape, self.pre, &self.tr, tmin, tmax)
     }
 
-    /// Whether a processor's copy of an object is hit with
-    /// `tmin < t < tmax` (see [`Tester::intersect_one`]).
+    /// [`OnePrim::occludes`] for this ray.
     #[inline]
     pub(crate) fn occludes_one(
         &self,
@@ -606,14 +597,7 @@ impl<'a, O: ObjectSet + ?Sized> Tester<'a, O> {
         tmin: f64,
         tmax: f64,
     ) -> bool {
-        match prim {
-            OnePrim::Pairs { pairs, .. } => any_pair_hit(&self.tr, pairs, tmin, tmax),
-            OnePrim::Quadric(q) => q.occludes(self.pre, tmin, tmax),
-            OnePrim::Other => {
-                debug_assert!(shape.is_some(), "a copy without data keeps its shape");
-                shape.is_some_and(|s| s.occludes_prepared(self.pre, tmin, tmax))
-            }
-        }
+        prim.occludes(shape, self.pre, &self.tr, tmin, tmax)
     }
 
     /// Nearest hit of object `id` with `tmin < t < tmax`.
