@@ -23,7 +23,7 @@
 //! listed in thousands of leaves).
 //!
 //! On the wire (serde) a leaf is its ids and, for each plain surface, its
-//! name, material and defining numbers (a polygon's vertices after the
+//! name (empty for a polygon, whose copy keeps none), material and defining numbers (a polygon's vertices after the
 //! loader dropped duplicates, a sphere's centre and radius, ...); reading
 //! it rebuilds each shape with the loader's constructors, which derive the
 //! rest (normal, triangulation) exactly as they did from the source, and
@@ -57,12 +57,13 @@ pub struct HeldObject(Held);
 enum Held {
     /// A polygon with triangles: tested through its pairs alone, so it
     /// keeps of its [`Object`] only what shading a hit and the wire read
-    /// (its name, material and vertices), 96 bytes instead of the 184 of
-    /// an object and its data (a processor holds copies by the hundred
-    /// thousand; the MPI chapter, "Each rank's bound"). `prim` is always
-    /// [`OnePrim::Pairs`].
+    /// (its material and vertices), 80 bytes instead of the 184 of an
+    /// object and its data (a processor holds copies by the hundred
+    /// thousand; the MPI chapter, "Each rank's bound"). Not its name:
+    /// nothing that traces or shades a polygon reads it (a name on a
+    /// processor serves errors about the scene's sources, which are read
+    /// before any copy is made). `prim` is always [`OnePrim::Pairs`].
     Flat {
-        name: Box<str>,
         vertices: Vertices,
         prim: OnePrim,
         material: MaterialId,
@@ -72,7 +73,7 @@ enum Held {
 }
 
 #[cfg(target_pointer_width = "64")]
-const _: () = assert!(std::mem::size_of::<HeldObject>() <= 96);
+const _: () = assert!(std::mem::size_of::<HeldObject>() <= 80);
 
 /// A polygon copy's vertices: where its pair of triangles holds them all
 /// (a triangle or a quadrilateral, the usual polygon of a large scene),
@@ -147,7 +148,6 @@ impl HeldObject {
                     unreachable!("matched as pairs")
                 };
                 Held::Flat {
-                    name: object.name.into_boxed_str(),
                     vertices: Vertices::of(p.vertices, pairs),
                     prim,
                     material: object.material,
@@ -193,11 +193,12 @@ impl HeldObject {
         }
     }
 
-    /// The copy's name (the source's).
-    pub fn name(&self) -> &str {
+    /// The copy's name (the source's), `None` for a polygon's, which keeps
+    /// none.
+    pub fn name(&self) -> Option<&str> {
         match &self.0 {
-            Held::Flat { name, .. } => name,
-            Held::Whole(w) => &w.0.name,
+            Held::Flat { .. } => None,
+            Held::Whole(w) => Some(&w.0.name),
         }
     }
 
@@ -231,7 +232,7 @@ impl HeldObject {
     /// Heap and inline bytes of the copy and its intersection data.
     pub fn bytes(&self) -> usize {
         let heap = match &self.0 {
-            Held::Flat { name, vertices, .. } => name.len() + vertices.heap_bytes(),
+            Held::Flat { vertices, .. } => vertices.heap_bytes(),
             Held::Whole(w) => {
                 size_of::<(Object, OnePrim)>() + w.0.name.capacity() + w.0.shape.heap_bytes()
             }
@@ -532,13 +533,12 @@ fn wire_object(h: &HeldObject) -> WireObject {
     let a = |v: Vec3| v.to_array();
     let o = match &h.0 {
         Held::Flat {
-            name,
             vertices,
             prim,
             material,
         } => {
             return WireObject {
-                name: name.to_string(),
+                name: String::new(),
                 material: *material,
                 shape: WireShape::Polygon(vertices.each(flat_pairs(prim)).map(a).collect()),
             }
