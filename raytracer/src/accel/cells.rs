@@ -286,6 +286,14 @@ impl ObjectSet for [Arc<HeldObject>] {
         h.prim()
             .occludes(h.shape(), pre, &TriRay::new(pre), tmin, tmax)
     }
+
+    #[inline]
+    fn polygon_normal(&self, k: usize) -> Vec3 {
+        match self[k].prim() {
+            OnePrim::Pairs { normal, .. } => *normal,
+            _ => Vec3::ZERO,
+        }
+    }
 }
 
 /// Bytes a processor's copy of `o` occupies (0 for an instance, which is

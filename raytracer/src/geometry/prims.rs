@@ -267,7 +267,10 @@ pub(crate) struct Prims {
     /// `shared[id]`, the copy's own (`pairs` is empty). Empty otherwise.
     shared: Vec<Option<Arc<[TriPair]>>>,
     quadrics: Vec<Quadric>,
-    /// Polygon normals (what a hit reports), zero for other shapes.
+    /// Polygon normals (what a hit reports), zero for other shapes; empty
+    /// when made from copies, whose own normals a hit reports
+    /// ([`ObjectSet::polygon_normal`]: 24 bytes an object a processor's
+    /// hierarchy does not hold twice).
     normals: Vec<Vec3>,
 }
 
@@ -405,18 +408,17 @@ impl Prims {
             refs: Vec::with_capacity(n),
             pairs: Vec::new(),
             quadrics: Vec::new(),
-            normals: Vec::with_capacity(n),
+            normals: Vec::new(),
             shared: Vec::with_capacity(n),
         };
         for q in parts {
             match q {
-                OnePrim::Pairs { pairs, normal } => {
+                OnePrim::Pairs { pairs, .. } => {
                     p.refs.push(PrimRef {
                         start: 0,
                         pairs: pairs.len() as u32,
                     });
                     p.shared.push(Some(Arc::clone(pairs)));
-                    p.normals.push(*normal);
                 }
                 OnePrim::Quadric(q) => {
                     p.refs.push(PrimRef {
@@ -424,12 +426,10 @@ impl Prims {
                         pairs: 0,
                     });
                     p.quadrics.push(**q);
-                    p.normals.push(Vec3::ZERO);
                     p.shared.push(None);
                 }
                 OnePrim::Other => {
                     p.refs.push(PrimRef::default());
-                    p.normals.push(Vec3::ZERO);
                     p.shared.push(None);
                 }
             }
@@ -447,10 +447,21 @@ impl Prims {
         }
     }
 
-    /// The normal a hit on polygon `id` reports.
+    /// The normal a hit on polygon `id` reports (data built by
+    /// [`Prims::build`]; made from copies, see [`Prims::normal_in`]).
     #[inline(always)]
     pub(crate) fn normal(&self, id: ObjectId) -> Vec3 {
         self.normals[id as usize]
+    }
+
+    /// The normal a hit on polygon `id` of `objects` reports: this data's,
+    /// or where it was made from copies, the copy's.
+    #[inline(always)]
+    fn normal_in<O: ObjectSet + ?Sized>(&self, objects: &O, id: ObjectId) -> Vec3 {
+        match self.normals.get(id as usize) {
+            Some(&n) => n,
+            None => objects.polygon_normal(id as usize),
+        }
     }
 
     /// True if this data was built for `objects` (callers fall back to the
@@ -488,7 +499,7 @@ impl Prims {
         let pairs = self.pairs_of(id, r);
         nearest_pair_hit(tr, pairs, tmin, tmax).map(|t| ShapeHit {
             t,
-            normal: self.normals[id as usize],
+            normal: self.normal_in(objects, id),
             inner: None,
             surface: None,
         })

@@ -101,6 +101,8 @@ pub trait ObjectSet {
     /// Whether object `k` is hit with `tmin < t < tmax`: its shape's
     /// [`Shape::occludes_prepared`].
     fn occludes_shape(&self, k: usize, pre: &PreparedRay, tmin: f64, tmax: f64) -> bool;
+    /// The normal a hit on polygon `k` reports (zero for other shapes).
+    fn polygon_normal(&self, k: usize) -> Vec3;
 }
 
 impl ObjectSet for [Object] {
@@ -133,6 +135,14 @@ impl ObjectSet for [Object] {
     #[inline]
     fn occludes_shape(&self, k: usize, pre: &PreparedRay, tmin: f64, tmax: f64) -> bool {
         self[k].shape.occludes_prepared(pre, tmin, tmax)
+    }
+
+    #[inline]
+    fn polygon_normal(&self, k: usize) -> Vec3 {
+        match &self[k].shape {
+            Shape::Polygon(p) => p.normal,
+            _ => Vec3::ZERO,
+        }
     }
 }
 
@@ -167,6 +177,11 @@ impl ObjectSet for Vec<Object> {
     #[inline]
     fn occludes_shape(&self, k: usize, pre: &PreparedRay, tmin: f64, tmax: f64) -> bool {
         self.as_slice().occludes_shape(k, pre, tmin, tmax)
+    }
+
+    #[inline]
+    fn polygon_normal(&self, k: usize) -> Vec3 {
+        self.as_slice().polygon_normal(k)
     }
 }
 
