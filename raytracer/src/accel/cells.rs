@@ -23,9 +23,10 @@
 //! listed in thousands of leaves).
 //!
 //! On the wire (serde) a leaf is its ids and, for each plain surface, its
-//! name (empty for a polygon, whose copy keeps none), material and defining numbers (a polygon's vertices after the
-//! loader dropped duplicates, a sphere's centre and radius, ...); reading
-//! it rebuilds each shape with the loader's constructors, which derive the
+//! name (empty for a polygon, whose copy keeps none), material and
+//! defining numbers (a polygon's vertices after the loader dropped
+//! duplicates, a sphere's centre and radius, ...); reading it rebuilds
+//! each shape with the loader's constructors, which derive the
 //! rest (normal, triangulation) exactly as they did from the source, and
 //! rejects data no source could have made.
 
