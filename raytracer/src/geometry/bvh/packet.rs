@@ -3,13 +3,15 @@
 //!
 //! The nodes are visited once for the whole packet. At each node an
 //! interval test ([`Frustum`]) rejects the children no ray of the packet can
-//! enter, with one slab test for all of them; of the rest, a child is
-//! entered with the first ray (in packet order) whose own slab test enters
-//! it, and rays before that one are never tested below it (they did not
-//! enter, and their segment only shrinks). At a node whose children are
-//! leaves every ray still in play is tested on its own, so below the upper
-//! levels a packet costs what its rays would cost alone; above them, where
-//! a tile's rays go the same way, it costs one ray.
+//! enter, with one slab test for all of them; of the rest, each ray that
+//! may enter the node is tested on its own, in packet order, and a child is
+//! entered with the rays whose test entered it (a mask of 64 bits on the
+//! pending stack). At a node with no leaf among its children the tests stop
+//! once every child has a ray, and the rays not tested go down with every
+//! child: above, where a tile's rays go the same way, a node costs about
+//! one ray. Below, a child is visited only by the rays that enter it, so a
+//! tile whose rays part (a far, thin building's edges) costs about what its
+//! rays would cost alone, not the union of their paths.
 //!
 //! **Same answers as one ray at a time.** The interval test is
 //! conservative for the rounded arithmetic of the per-ray test: the entry
@@ -18,7 +20,8 @@
 //! is monotone), so its least and greatest values over the packet lie at
 //! the corners of the packet's ranges; an axis whose inverse directions
 //! change sign within the packet (or are infinite) is left out of the test,
-//! which only weakens it. The objects a ray meets are tested with the same
+//! which only weakens it. A ray left out of a child's mask failed its own
+//! test of that child, and its segment only shrinks. The objects a ray meets are tested with the same
 //! code ([`Tester`]), and the answer (the nearest hit, the smaller id of
 //! equal ones; any hit) does not depend on the order objects are tested in.
 
@@ -237,6 +240,16 @@ fn greatest(t: &[f64]) -> f64 {
     m.into_iter().fold(f64::NEG_INFINITY, |a, b| fmax(b, a))
 }
 
+/// The mask of a packet's `n` rays (bit `r` for ray `r`).
+#[inline(always)]
+fn all_rays(n: usize) -> u64 {
+    if n >= 64 {
+        u64::MAX
+    } else {
+        (1u64 << n) - 1
+    }
+}
+
 /// The packet's segment ends, and its rays' constants for the leaves'
 /// triangle tests and for the slab tests. The prepared rays themselves are
 /// not kept (136 bytes a ray): object tests by id, which need them, are
@@ -336,12 +349,12 @@ impl Bvh {
             } else {
                 STACK
             } + 1;
-            // Pending nodes, nearest on top: (node, first ray, entry of
-            // that ray).
-            let mut stack: Pending<(u32, u32, f64)> = SmallVec::with_capacity(cap);
-            stack.push((0, 0, 0.0));
-            while let Some((node, first, _)) = stack.pop() {
-                let first = first as usize;
+            // Pending nodes, nearest on top: (node, the rays that may enter
+            // it, the entry of the first ray that did).
+            let mut stack: Pending<(u32, u64, f64)> = SmallVec::with_capacity(cap);
+            stack.push((0, all_rays(n), 0.0));
+            while let Some((node, rays_in, _)) = stack.pop() {
+                let first = rays_in.trailing_zeros() as usize;
                 let n_ = &self.nodes[node as usize];
                 let hi = greatest(&cut[first..n]);
                 let mask = frustum.test4(n_, hi);
@@ -352,13 +365,18 @@ impl Bvh {
                 // The node's planes widened once for the packet where every
                 // ray enters by the same ones.
                 let planes = frustum.uniform.then(|| E::planes(n_, &frustum.near));
-                // Each inner child's first ray and its entry.
-                let mut enter = [(u32::MAX, 0.0f64); 4];
+                // Each inner child's first ray's entry, and the rays tested
+                // that entered it.
+                let mut enter = [0.0f64; 4];
+                let mut entered = [0u64; 4];
                 let mut open = inner;
-                for r in first..n {
+                let mut untested = rays_in;
+                while untested != 0 {
                     if open == 0 && leaves == 0 {
                         break;
                     }
+                    let r = untested.trailing_zeros() as usize;
+                    untested &= untested - 1;
                     let (m, t0) = match &planes {
                         Some(p) => E::enter4_at(&slabs[r], p, tmin[r], cut[r]),
                         None => E::enter4(&slabs[r], n_, tmin[r], cut[r]),
@@ -368,7 +386,14 @@ impl Bvh {
                     while newly != 0 {
                         let l = newly.trailing_zeros() as usize;
                         newly &= newly - 1;
-                        enter[l] = (r as u32, t0[l]);
+                        enter[l] = t0[l];
+                    }
+                    let mi = m & inner;
+                    if mi != 0 {
+                        let bit = 1u64 << r;
+                        for (l, e) in entered.iter_mut().enumerate() {
+                            *e |= if (mi >> l) & 1 != 0 { bit } else { 0 };
+                        }
                     }
                     let mut lm = m & leaves;
                     if lm == 0 {
@@ -413,13 +438,15 @@ impl Bvh {
                     }
                 }
                 // Inner children entered, farthest pushed first (ties by
-                // lane: deterministic).
+                // lane: deterministic). A child's rays: those tested that
+                // entered it and those not tested (the loop stopped once
+                // every inner child had a ray, and no child is a leaf).
                 let base = stack.len();
-                for (l, &(r, t)) in enter.iter().enumerate() {
-                    if r == u32::MAX {
+                for (l, (&t, &m)) in enter.iter().zip(&entered).enumerate() {
+                    if (inner >> l) & 1 == 0 || m == 0 {
                         continue;
                     }
-                    let e = (n_.link[l], r, t);
+                    let e = (n_.link[l], m | untested, t);
                     stack.push(e);
                     let mut j = stack.len() - 1;
                     while j > base && stack[j - 1].2 < e.2 {
@@ -500,24 +527,29 @@ impl Bvh {
         // The leaves' blocks, where the compact data was built for
         // `objects`.
         let blocks = !self.blocks.is_empty() && self.prims.matches(objects);
-        let mut open = n;
+        // Rays not yet found blocked.
+        let mut live = all_rays(n);
         if !self.unbounded.is_empty() {
             for (r, o) in out.iter_mut().enumerate() {
                 if occludes(r, &self.unbounded) {
                     *o = true;
-                    open -= 1;
+                    live &= !(1u64 << r);
                 }
             }
         }
-        if self.nodes.is_empty() || open == 0 {
+        if self.nodes.is_empty() || live == 0 {
             return;
         }
         let frustum = Frustum::new(slabs, tmin);
         let hi = greatest(tmax);
-        // Pending nodes: (node, first ray).
-        let mut stack: Pending<(u32, u32)> = SmallVec::new();
-        stack.push((0, 0));
-        while let Some((node, first)) = stack.pop() {
+        // Pending nodes: (node, the rays that may enter it).
+        let mut stack: Pending<(u32, u64)> = SmallVec::new();
+        stack.push((0, live));
+        while let Some((node, rays_in)) = stack.pop() {
+            let rays_in = rays_in & live;
+            if rays_in == 0 {
+                continue;
+            }
             let n_ = &self.nodes[node as usize];
             let mask = frustum.test4(n_, hi);
             if mask == 0 {
@@ -525,25 +557,26 @@ impl Bvh {
             }
             let (leaves, inner) = split(n_, mask);
             let planes = frustum.uniform.then(|| E::planes(n_, &frustum.near));
-            let mut enter = [u32::MAX; 4];
+            let mut entered = [0u64; 4];
             let mut todo = inner;
-            for r in first as usize..n {
+            let mut untested = rays_in;
+            while untested != 0 {
                 if todo == 0 && leaves == 0 {
                     break;
                 }
-                if out[r] {
-                    continue;
-                }
+                let r = untested.trailing_zeros() as usize;
+                untested &= untested - 1;
                 let (m, _) = match &planes {
                     Some(p) => E::enter4_at(&slabs[r], p, tmin[r], tmax[r]),
                     None => E::enter4(&slabs[r], n_, tmin[r], tmax[r]),
                 };
-                let mut newly = m & todo;
                 todo &= !m;
-                while newly != 0 {
-                    let l = newly.trailing_zeros() as usize;
-                    newly &= newly - 1;
-                    enter[l] = r as u32;
+                let mi = m & inner;
+                if mi != 0 {
+                    let bit = 1u64 << r;
+                    for (l, e) in entered.iter_mut().enumerate() {
+                        *e |= if (mi >> l) & 1 != 0 { bit } else { 0 };
+                    }
                 }
                 let mut lm = m & leaves;
                 while lm != 0 {
@@ -559,17 +592,20 @@ impl Bvh {
                     }
                     if hit || (!ids.is_empty() && occludes(r, ids)) {
                         out[r] = true;
-                        open -= 1;
+                        live &= !(1u64 << r);
                         break;
                     }
                 }
             }
-            if open == 0 {
+            if live == 0 {
                 return;
             }
-            for (l, &r) in enter.iter().enumerate() {
-                if r != u32::MAX {
-                    stack.push((n_.link[l], r));
+            // A child's rays: those tested that entered it and those not
+            // tested (the loop stopped once every inner child had a ray,
+            // and no child is a leaf).
+            for (l, &m) in entered.iter().enumerate() {
+                if (inner >> l) & 1 != 0 && m != 0 {
+                    stack.push((n_.link[l], (m | untested) & live));
                 }
             }
         }
