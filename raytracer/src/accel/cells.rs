@@ -36,7 +36,7 @@ use std::sync::{Arc, Mutex, Weak};
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use crate::geometry::prims::{OnePrim, TriPair, TriRay};
+use crate::geometry::prims::{OnePrim, PolygonPairs, TriPair, TriRay};
 use crate::geometry::{
     Aabb, MaterialId, Object, ObjectId, ObjectSet, PreparedRay, Shape, ShapeHit, Vec3,
 };
@@ -294,6 +294,11 @@ impl ObjectSet for [Arc<HeldObject>] {
             OnePrim::Pairs { normal, .. } => *normal,
             _ => Vec3::ZERO,
         }
+    }
+
+    #[inline]
+    fn polygon_pairs(&self, k: usize) -> PolygonPairs<'_> {
+        PolygonPairs(flat_pairs(self[k].prim()))
     }
 }
 

@@ -14,8 +14,6 @@
 //! length, direction and slope computed once, with the expressions the
 //! test would use); other shapes are tested through [`Shape`] as before.
 
-use std::sync::Arc;
-
 use super::robust::diff_of_products;
 use super::shape::{Object, ObjectId, ObjectSet};
 use crate::geometry::{
@@ -155,15 +153,21 @@ fn any_pair_hit(tr: &TriRay, pairs: &[TriPair], tmin: f64, tmax: f64) -> bool {
     })
 }
 
+/// A polygon's triangle pairs as an [`ObjectSet`] gives them
+/// ([`ObjectSet::polygon_pairs`]): opaque outside this crate.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct PolygonPairs<'a>(pub(crate) &'a [TriPair]);
+
 /// One object's intersection data as a processor's copy keeps it: what
 /// [`Prims::build`] makes for the object, without the per-object tables
 /// (a polygon's triangle pairs in one allocation, its normal beside them).
 #[derive(Debug, Clone)]
 pub(crate) enum OnePrim {
     Pairs {
-        /// Shared with the processor's hierarchy ([`Prims::from_ones`]),
-        /// which reads them where they are instead of keeping a copy.
-        pairs: Arc<[TriPair]>,
+        /// Read where they are by the processor's hierarchy
+        /// ([`Prims::from_ones`], [`ObjectSet::polygon_pairs`]), which keeps
+        /// no reference of its own.
+        pairs: Box<[TriPair]>,
         normal: Vec3,
     },
     Quadric(Box<Quadric>),
@@ -251,7 +255,7 @@ impl OnePrim {
     /// Heap bytes (a polygon's pairs with their reference counts).
     pub(crate) fn memory_bytes(&self) -> usize {
         match self {
-            OnePrim::Pairs { pairs, .. } => 2 * size_of::<usize>() + size_of_val(&**pairs),
+            OnePrim::Pairs { pairs, .. } => size_of_val(&**pairs),
             OnePrim::Quadric(_) => std::mem::size_of::<Quadric>(),
             OnePrim::Other => 0,
         }
@@ -264,8 +268,9 @@ pub(crate) struct Prims {
     refs: Vec<PrimRef>,
     pairs: Vec<TriPair>,
     /// Made from copies ([`Prims::from_ones`]): polygon `id`'s pairs are
-    /// `shared[id]`, the copy's own (`pairs` is empty). Empty otherwise.
-    shared: Vec<Option<Arc<[TriPair]>>>,
+    /// the copy's own, read through [`ObjectSet::polygon_pairs`] (`pairs`
+    /// is empty; 16 bytes an object a processor's hierarchy does not hold).
+    copies: bool,
     quadrics: Vec<Quadric>,
     /// Polygon normals (what a hit reports), zero for other shapes; empty
     /// when made from copies, whose own normals a hit reports
@@ -332,7 +337,7 @@ impl Prims {
             pairs: Vec::with_capacity(pairs),
             quadrics: Vec::new(),
             normals: Vec::with_capacity(objects.len()),
-            shared: Vec::new(),
+            copies: false,
         };
         for o in objects {
             let quadric = match &o.shape {
@@ -409,7 +414,7 @@ impl Prims {
             pairs: Vec::new(),
             quadrics: Vec::new(),
             normals: Vec::new(),
-            shared: Vec::with_capacity(n),
+            copies: true,
         };
         for q in parts {
             match q {
@@ -418,7 +423,6 @@ impl Prims {
                         start: 0,
                         pairs: pairs.len() as u32,
                     });
-                    p.shared.push(Some(Arc::clone(pairs)));
                 }
                 OnePrim::Quadric(q) => {
                     p.refs.push(PrimRef {
@@ -426,11 +430,9 @@ impl Prims {
                         pairs: 0,
                     });
                     p.quadrics.push(**q);
-                    p.shared.push(None);
                 }
                 OnePrim::Other => {
                     p.refs.push(PrimRef::default());
-                    p.shared.push(None);
                 }
             }
         }
@@ -438,12 +440,19 @@ impl Prims {
         p
     }
 
-    /// Polygon `id`'s pairs (`r` is its reference).
+    /// Polygon `id`'s pairs (`r` is its reference): this data's, or where
+    /// it was made from copies, the copy's.
     #[inline(always)]
-    fn pairs_of(&self, id: ObjectId, r: PrimRef) -> &[TriPair] {
-        match self.shared.get(id as usize) {
-            Some(Some(shared)) => shared,
-            _ => &self.pairs[r.start as usize..(r.start + r.pairs) as usize],
+    fn pairs_of<'a, O: ObjectSet + ?Sized>(
+        &'a self,
+        objects: &'a O,
+        id: ObjectId,
+        r: PrimRef,
+    ) -> &'a [TriPair] {
+        if self.copies {
+            objects.polygon_pairs(id as usize).0
+        } else {
+            &self.pairs[r.start as usize..(r.start + r.pairs) as usize]
         }
     }
 
@@ -471,13 +480,12 @@ impl Prims {
         self.refs.len() == objects.count()
     }
 
-    /// Heap bytes (pairs shared with copies are counted with the copies).
+    /// Heap bytes (pairs read from copies are counted with the copies).
     pub(crate) fn memory_bytes(&self) -> usize {
         self.refs.capacity() * size_of::<PrimRef>()
             + self.pairs.capacity() * size_of::<TriPair>()
             + self.quadrics.capacity() * size_of::<Quadric>()
             + self.normals.capacity() * size_of::<Vec3>()
-            + self.shared.capacity() * size_of::<Option<Arc<[TriPair]>>>()
     }
 
     /// Nearest hit of object `id` with `tmin < t < tmax`: exactly
@@ -496,7 +504,7 @@ impl Prims {
         if r.pairs == 0 {
             return self.intersect_other(objects, id, r, pre, tmin, tmax);
         }
-        let pairs = self.pairs_of(id, r);
+        let pairs = self.pairs_of(objects, id, r);
         nearest_pair_hit(tr, pairs, tmin, tmax).map(|t| ShapeHit {
             t,
             normal: self.normal_in(objects, id),
@@ -539,7 +547,7 @@ impl Prims {
         if r.pairs == 0 {
             return self.occludes_other(objects, id, r, pre, tmin, tmax);
         }
-        any_pair_hit(tr, self.pairs_of(id, r), tmin, tmax)
+        any_pair_hit(tr, self.pairs_of(objects, id, r), tmin, tmax)
     }
 
     /// [`Prims::occludes`] of a quadric or another shape (out of line).

@@ -9,6 +9,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
+use super::prims::PolygonPairs;
 use super::{Aabb, PreparedRay, Ray, Vec3};
 
 /// Index into [`Scene::materials`](crate::scene::Scene::materials).
@@ -103,6 +104,12 @@ pub trait ObjectSet {
     fn occludes_shape(&self, k: usize, pre: &PreparedRay, tmin: f64, tmax: f64) -> bool;
     /// The normal a hit on polygon `k` reports (zero for other shapes).
     fn polygon_normal(&self, k: usize) -> Vec3;
+    /// Polygon `k`'s triangle pairs where the set keeps them (a
+    /// processor's copies do, and the hierarchy built over them reads them
+    /// here instead of keeping a reference of its own); none otherwise.
+    fn polygon_pairs(&self, _k: usize) -> PolygonPairs<'_> {
+        PolygonPairs::default()
+    }
 }
 
 impl ObjectSet for [Object] {
