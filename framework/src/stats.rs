@@ -484,6 +484,11 @@ pub struct RankTraffic {
     /// and packets received and not yet decoded (its message buffers).
     #[serde(default)]
     pub peak_wire_bytes: u64,
+    /// The rank's peak resident memory once MPI had started, before the
+    /// workload's data was read (its fixed cost: the program, Open MPI and
+    /// their threads); 0 where the system does not say.
+    #[serde(default)]
+    pub started_resident_bytes: u64,
 }
 
 impl RankTraffic {

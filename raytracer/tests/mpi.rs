@@ -202,6 +202,15 @@ fn mpirun_renders_the_sequential_picture() {
         assert_eq!(ranks.len(), np);
         for (i, t) in ranks.iter().enumerate() {
             assert_eq!(t["rank"].as_u64(), Some(i as u64));
+            // The rank's fixed cost is measured once MPI has started and
+            // lies below its peak (Linux says both).
+            if cfg!(target_os = "linux") {
+                let (start, peak) = (
+                    t["started_resident_bytes"].as_u64().unwrap(),
+                    t["peak_resident_bytes"].as_u64().unwrap(),
+                );
+                assert!(0 < start && start <= peak, "{t}");
+            }
             if np == 2 {
                 // Geometry ships: with an unlimited cache every rank
                 // fetches the other's cells over MPI. (With 10% at -np 4 a

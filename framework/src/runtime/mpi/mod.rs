@@ -86,8 +86,8 @@ use crate::stats::{ProcStats, RankTraffic, State};
 
 use self::master::{master_loop, Finished, LOOP_DONE, LOOP_FAILED, LOOP_RUNNING};
 pub use self::transport::{
-    abort, decode_packet, encode_packet, init, last_world, world, World, TAG_DATA, TAG_FINAL,
-    TAG_MASTER, TAG_PACKET,
+    abort, decode_packet, encode_packet, init, last_world, started_peak_bytes, world, World,
+    TAG_DATA, TAG_FINAL, TAG_MASTER, TAG_PACKET,
 };
 use self::transport::{
     decode, finish, host, idle_wait, phase, runtime_err, Cmd, Event, MasterChannels, Phase, Session,
@@ -181,6 +181,7 @@ pub fn run_mpi<W: Workload>(workload: Arc<W>, config: &Config) -> Result<RunRepo
     let mut ranks = vec![RankTraffic {
         peak_resident_bytes: crate::stats::peak_resident_bytes().unwrap_or(0),
         peak_wire_bytes: wire::WIRE.peak(),
+        started_resident_bytes: started_peak_bytes(),
         ..traffic
     }];
     for f in finals.into_iter().skip(1).flatten() {
@@ -574,6 +575,7 @@ impl<'s, W: Workload> RankLoop<'s, W> {
             traffic: RankTraffic {
                 peak_resident_bytes: crate::stats::peak_resident_bytes().unwrap_or(0),
                 peak_wire_bytes: wire::WIRE.peak(),
+                started_resident_bytes: started_peak_bytes(),
                 ..self.traffic
             },
         };

@@ -3,6 +3,7 @@
 
 use std::collections::VecDeque;
 use std::os::raw::{c_int, c_void};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::sync::{Mutex, MutexGuard};
 use std::thread::JoinHandle;
@@ -153,6 +154,18 @@ pub(crate) enum Phase {
 
 static PHASE: Mutex<Phase> = Mutex::new(Phase::NotStarted);
 
+/// The process's peak resident memory when MPI had started (0 before, or
+/// where the system does not say).
+static STARTED_PEAK: AtomicU64 = AtomicU64::new(0);
+
+/// This process's peak resident memory, in bytes, once [`init`] had
+/// started MPI: the program, Open MPI and their threads, before a caller
+/// that initialises first reads its data (its fixed cost). 0 before
+/// [`init`] or where the system does not say.
+pub fn started_peak_bytes() -> u64 {
+    STARTED_PEAK.load(Ordering::Relaxed)
+}
+
 pub(crate) fn phase() -> MutexGuard<'static, Phase> {
     PHASE.lock().unwrap_or_else(|e| e.into_inner())
 }
@@ -190,6 +203,10 @@ pub fn init() -> Result<World, RunError> {
         Ok(Err(msg)) => return Err(runtime_err(msg)),
         Err(_) => return Err(runtime_err("the MPI thread stopped while initialising MPI")),
     };
+    STARTED_PEAK.store(
+        crate::stats::peak_resident_bytes().unwrap_or(0),
+        Ordering::Relaxed,
+    );
     *guard = Phase::Running(Session {
         world,
         cmds: cmd_tx,
