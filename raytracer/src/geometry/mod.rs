@@ -17,6 +17,7 @@ mod shape_impl;
 mod tessellate;
 mod transform;
 mod triangulate;
+mod tripair;
 
 pub use aabb::Aabb;
 pub use bvh::{Bvh, BvhStats, Segment, PACKET};

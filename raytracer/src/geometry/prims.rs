@@ -16,41 +16,11 @@
 
 use super::robust::diff_of_products;
 use super::shape::{Object, ObjectId, ObjectSet};
+pub(crate) use super::tripair::{PolygonPairs, TriPair};
 use crate::geometry::{
     intersect_cone_consts, intersect_sphere, sphere_normal, ConeConsts, PreparedRay, Shape,
     ShapeHit, Vec3,
 };
-
-/// Two triangles: `v[vertex][axis][lane]`.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct TriPair {
-    v: [[[f64; 2]; 3]; 3],
-}
-
-impl TriPair {
-    /// Vertex `corner` (0 to 2) of triangle `lane` (0 or 1), exactly as
-    /// it was given.
-    #[inline]
-    pub(crate) fn vertex(&self, lane: usize, corner: usize) -> Vec3 {
-        let c = &self.v[corner];
-        Vec3::new(c[0][lane], c[1][lane], c[2][lane])
-    }
-
-    /// The pair of one or two triangles (a lone triangle fills both
-    /// lanes), each vertex's coordinates side by side.
-    #[inline]
-    fn of(two: &[[Vec3; 3]]) -> TriPair {
-        let (t0, t1) = (two[0], *two.last().unwrap_or(&two[0]));
-        let mut v = [[[0.0; 2]; 3]; 3];
-        for (vert, out) in v.iter_mut().enumerate() {
-            let (a, b) = (t0[vert].to_array(), t1[vert].to_array());
-            for axis in 0..3 {
-                out[axis] = [a[axis], b[axis]];
-            }
-        }
-        TriPair { v }
-    }
-}
 
 /// Where an object's data lives: `pairs` pairs from `start` (a polygon),
 /// quadric number `start` (`pairs == 0`), or nowhere (`start == NONE`:
@@ -152,11 +122,6 @@ fn any_pair_hit(tr: &TriRay, pairs: &[TriPair], tmin: f64, tmax: f64) -> bool {
         (t0 > tmin && t0 < tmax) || (t1 > tmin && t1 < tmax)
     })
 }
-
-/// A polygon's triangle pairs as an [`ObjectSet`] gives them
-/// ([`ObjectSet::polygon_pairs`]): opaque outside this crate.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct PolygonPairs<'a>(pub(crate) &'a [TriPair]);
 
 /// One object's intersection data as a processor's copy keeps it: what
 /// [`Prims::build`] makes for the object, without the per-object tables

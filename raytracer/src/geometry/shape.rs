@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use super::prims::PolygonPairs;
+use super::tripair::PolygonPairs;
 use super::{Aabb, PreparedRay, Ray, Vec3};
 
 /// Index into [`Scene::materials`](crate::scene::Scene::materials).
