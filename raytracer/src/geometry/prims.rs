@@ -217,7 +217,7 @@ impl OnePrim {
         }
     }
 
-    /// Heap bytes (a polygon's pairs with their reference counts).
+    /// Heap bytes (a polygon's pairs).
     pub(crate) fn memory_bytes(&self) -> usize {
         match self {
             OnePrim::Pairs { pairs, .. } => size_of_val(&**pairs),
@@ -415,7 +415,13 @@ impl Prims {
         r: PrimRef,
     ) -> &'a [TriPair] {
         if self.copies {
-            objects.polygon_pairs(id as usize).0
+            let pairs = objects.polygon_pairs(id as usize).0;
+            debug_assert_eq!(
+                pairs.len(),
+                r.pairs as usize,
+                "a hierarchy made from copies is queried with those copies"
+            );
+            pairs
         } else {
             &self.pairs[r.start as usize..(r.start + r.pairs) as usize]
         }
