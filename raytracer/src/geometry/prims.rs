@@ -438,9 +438,10 @@ impl Prims {
     /// or where it was made from copies, the copy's.
     #[inline(always)]
     fn normal_in<O: ObjectSet + ?Sized>(&self, objects: &O, id: ObjectId) -> Vec3 {
-        match self.normals.get(id as usize) {
-            Some(&n) => n,
-            None => objects.polygon_normal(id as usize),
+        if self.copies {
+            objects.polygon_normal(id as usize)
+        } else {
+            self.normals[id as usize]
         }
     }
 

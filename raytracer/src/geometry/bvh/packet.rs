@@ -21,9 +21,10 @@
 //! the corners of the packet's ranges; an axis whose inverse directions
 //! change sign within the packet (or are infinite) is left out of the test,
 //! which only weakens it. A ray left out of a child's mask failed its own
-//! test of that child, and its segment only shrinks. The objects a ray meets are tested with the same
-//! code ([`Tester`]), and the answer (the nearest hit, the smaller id of
-//! equal ones; any hit) does not depend on the order objects are tested in.
+//! test of that child, and its segment only shrinks. The objects a ray
+//! meets are tested with the same code ([`Tester`]), and the answer (the
+//! nearest hit, the smaller id of equal ones; any hit) does not depend on
+//! the order objects are tested in.
 
 #[cfg(target_arch = "x86_64")]
 use super::Avx2;
@@ -38,6 +39,18 @@ use std::mem::MaybeUninit;
 
 /// Most rays in one packet (an 8 x 8 tile).
 pub const PACKET: usize = 64;
+
+/// Adds ray `r` to the masks of the children (`lanes`, one bit a child)
+/// its own test entered.
+#[inline(always)]
+fn mark_entered(entered: &mut [u64; 4], lanes: u32, r: usize) {
+    if lanes != 0 {
+        let bit = 1u64 << r;
+        for (l, e) in entered.iter_mut().enumerate() {
+            *e |= if (lanes >> l) & 1 != 0 { bit } else { 0 };
+        }
+    }
+}
 
 /// Per-ray state of a packet, on the stack. Packets are traced by the
 /// thousand, and heap buffers made and freed for each one made the
@@ -388,13 +401,7 @@ impl Bvh {
                         newly &= newly - 1;
                         enter[l] = t0[l];
                     }
-                    let mi = m & inner;
-                    if mi != 0 {
-                        let bit = 1u64 << r;
-                        for (l, e) in entered.iter_mut().enumerate() {
-                            *e |= if (mi >> l) & 1 != 0 { bit } else { 0 };
-                        }
-                    }
+                    mark_entered(&mut entered, m & inner, r);
                     let mut lm = m & leaves;
                     if lm == 0 {
                         continue;
@@ -571,13 +578,7 @@ impl Bvh {
                     None => E::enter4(&slabs[r], n_, tmin[r], tmax[r]),
                 };
                 todo &= !m;
-                let mi = m & inner;
-                if mi != 0 {
-                    let bit = 1u64 << r;
-                    for (l, e) in entered.iter_mut().enumerate() {
-                        *e |= if (mi >> l) & 1 != 0 { bit } else { 0 };
-                    }
-                }
+                mark_entered(&mut entered, m & inner, r);
                 let mut lm = m & leaves;
                 while lm != 0 {
                     let l = lm.trailing_zeros() as usize;
