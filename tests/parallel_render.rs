@@ -9,7 +9,7 @@ use std::time::Duration;
 use hybrid_rt::parallel::tasks::screen_tiles;
 use hybrid_rt::parallel::Work;
 use hybrid_rt::parallel::{
-    render_parallel, walks_worth_the_rest, CacheSize, Distribution, ParallelOptions,
+    render_parallel, walks_worth_the_rest, CacheSize, Distribution, FetchLimit, ParallelOptions,
     ParallelRender, RuntimeKind,
 };
 use hybrid_rt::render::{RayCounts, RenderOptions, Renderer};
@@ -222,7 +222,7 @@ fn a_fetch_limit_sends_large_fetches_data_parallel_and_changes_no_pixel() {
             CacheSize::Percent(5.0),
         ] {
             let mut p = ParallelOptions::new(procs);
-            p.fetch_limit = limit;
+            p.fetch_limit = FetchLimit::Size(limit);
             p.workload.distribution = Distribution::Octree;
             let out = check(&c, &p);
             check_bounds(&out, &format!("{p:?}"));

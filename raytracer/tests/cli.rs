@@ -366,6 +366,11 @@ fn parallel_render_writes_the_sequential_picture_and_a_report() {
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(stats["stats"]["procs"].as_array().unwrap().len(), 3);
     assert_eq!(stats["procs"].as_array().unwrap().len(), 3);
+    // `--fetch-limit auto` (the default) with a budgeted cache: the
+    // Cornell box's budget over 32 is under the floor, 64 KiB.
+    assert_eq!(stats["options"]["fetch_limit"], "Auto", "{stats}");
+    assert_eq!(stats["fetch_limit_bytes"], 64 << 10, "{stats}");
+    assert!(err.contains("fetch limit 64.0 KiB a task"), "{err}");
 }
 
 #[test]
@@ -377,6 +382,7 @@ fn bad_parallel_options_are_usage_errors() {
         ("--procs", "0", "--procs 0"),
         ("--policy", "fastest", "--policy"),
         ("--cache", "lots", "--cache"),
+        ("--fetch-limit", "lots", "--fetch-limit"),
         ("--distribution", "diagonal", "--distribution"),
         ("--runtime", "quantum", "--runtime"),
         ("--tile", "0", "--tile 0"),

@@ -496,15 +496,15 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub cache: String,
-    /// Most cell data one demand-driven task may have fetched for it: unlimited, bytes (1M, 64K) or a percentage of the scene data; a task with more to fetch traces data-parallel instead (its rays migrate to the cells' owners). The picture is the same; on a 300,000-triangle city under two MPI ranks with --cache 10%, 1M halved the render time.
+    /// Most cell data one demand-driven task may have fetched for it: auto (with a budgeted --cache, 1/32 of the budget and at least 64K; unlimited with an unlimited cache), unlimited (the paper's scheduler), bytes (1M, 64K) or a percentage of the scene data; a task with more to fetch traces data-parallel instead (its rays migrate to the cells' owners). The picture is the same; on a 1.5M-triangle city under four MPI ranks with --cache 10%, auto (1M) kept every rank's peak memory under its bound, which unlimited overshoots by 15-40 MiB.
     #[arg(
         long,
-        default_value = "unlimited",
+        default_value = "auto",
         value_name = "SIZE",
         help_heading = "Parallel rendering"
     )]
     pub fetch_limit: String,
-    /// Beyond the paper: with an unlimited cache (and no --fetch-limit), a processor asks for the rest of the scene data held elsewhere at once, and from then on holds the whole scene and traces its tiles as the sequential renderer does, when it has fetched this percentage of that data (at 50 it fetches at most twice what its tasks asked for) or sooner, once the octree walks past its own cells have cost what holding everything costs (a hierarchy over every object and a copy of the cell data); `off`: the paper's cache, which fetches only what tasks select. The picture is the same (the book's Parallel chapter; the times are in its Benchmarks chapter).
+    /// Beyond the paper: with an unlimited cache (and no fetch limit), a processor asks for the rest of the scene data held elsewhere at once, and from then on holds the whole scene and traces its tiles as the sequential renderer does, when it has fetched this percentage of that data (at 50 it fetches at most twice what its tasks asked for) or sooner, once the octree walks past its own cells have cost what holding everything costs (a hierarchy over every object and a copy of the cell data); `off`: the paper's cache, which fetches only what tasks select. The picture is the same (the book's Parallel chapter; the times are in its Benchmarks chapter).
     #[arg(
         long,
         default_value = "50",

@@ -134,6 +134,10 @@ pub fn summary(r: &ParallelRender) -> String {
             r.data_bytes as f64 / 1024.0
         ),
     };
+    let cache = match r.fetch_limit_bytes {
+        Some(b) => format!("{cache}, fetch limit {:.1} KiB a task", b as f64 / 1024.0),
+        None => cache,
+    };
     let _ = writeln!(
         s,
         "parallel render: {} processors, {} runtime, policy {}, distribution {}, tiles {}px, cache {}",

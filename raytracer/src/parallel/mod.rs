@@ -27,6 +27,7 @@ pub mod partition;
 pub mod predict;
 mod runtime;
 mod selection;
+mod sizes;
 pub mod tasks;
 pub mod tree;
 pub mod work;
@@ -48,6 +49,7 @@ pub use runtime::check_hybrid;
 #[cfg(feature = "mpi")]
 pub use runtime::mpi_world;
 pub(crate) use runtime::{run_on, this_rank};
+pub use sizes::{CacheSize, FetchLimit};
 pub use tasks::{CellData, DdTask, DpTask};
 pub use work::Work;
 pub use workload::{RtWorkload, WorkloadOptions};
@@ -94,57 +96,6 @@ impl std::str::FromStr for RuntimeKind {
     }
 }
 
-/// A per-processor cache budget.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub enum CacheSize {
-    Unlimited,
-    Bytes(u64),
-    /// Percent of the scene's total cell data.
-    Percent(f64),
-}
-
-impl std::str::FromStr for CacheSize {
-    type Err = String;
-    /// `unlimited`, a byte count with an optional `K`/`M`/`G` suffix
-    /// (powers of 1024), or a percentage like `10%`.
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        let t = s.trim();
-        let bad = || {
-            format!("cache size {s:?}: expected unlimited, a byte count like 64M, or a percentage like 10%")
-        };
-        if t.eq_ignore_ascii_case("unlimited") || t.eq_ignore_ascii_case("none") {
-            return Ok(CacheSize::Unlimited);
-        }
-        if let Some(p) = t.strip_suffix('%') {
-            let v: f64 = p.trim().parse().map_err(|_| bad())?;
-            return if v.is_finite() && v >= 0.0 {
-                Ok(CacheSize::Percent(v))
-            } else {
-                Err(bad())
-            };
-        }
-        let (num, mult) = match t.chars().last().map(|c| c.to_ascii_uppercase()) {
-            Some('K') => (&t[..t.len() - 1], 1u64 << 10),
-            Some('M') => (&t[..t.len() - 1], 1 << 20),
-            Some('G') => (&t[..t.len() - 1], 1 << 30),
-            _ => (t, 1),
-        };
-        let v: u64 = num.trim().parse().map_err(|_| bad())?;
-        v.checked_mul(mult).map(CacheSize::Bytes).ok_or_else(bad)
-    }
-}
-
-impl CacheSize {
-    /// The budget in bytes for a scene with `data_bytes` of cell data.
-    pub fn resolve(self, data_bytes: u64) -> Option<u64> {
-        match self {
-            CacheSize::Unlimited => None,
-            CacheSize::Bytes(b) => Some(b),
-            CacheSize::Percent(p) => Some((data_bytes as f64 * p / 100.0).round() as u64),
-        }
-    }
-}
-
 /// The renderer's budget of work in flight per processor
 /// ([`ParallelOptions::flight_bytes`], `--flight-bytes`): 64 MiB. The
 /// framework's default (1 MiB, [`hybrid_sched::config::DEFAULT_FLIGHT_BYTES`],
@@ -161,9 +112,9 @@ pub struct ParallelOptions {
     pub runtime: RuntimeKind,
     pub policy: Policy,
     pub cache: CacheSize,
-    /// Most data one demand-driven task may have fetched (see
-    /// [`hybrid_sched::Config::fetch_limit`]).
-    pub fetch_limit: CacheSize,
+    /// Most data one demand-driven task may have fetched; unlimited (the
+    /// paper's scheduler) unless set: `render` uses [`FetchLimit::Auto`].
+    pub fetch_limit: FetchLimit,
     /// Completing the cache after this percentage of the data held
     /// elsewhere is fetched ([`hybrid_sched::Config::complete_cache`]);
     /// `None` (the paper's cache) unless set: `render` sets 50.
@@ -210,7 +161,7 @@ impl ParallelOptions {
             runtime: RuntimeKind::Threads,
             policy: Policy::Local,
             cache: CacheSize::Unlimited,
-            fetch_limit: CacheSize::Unlimited,
+            fetch_limit: FetchLimit::Size(CacheSize::Unlimited),
             complete_cache: None,
             data_service: DataService::BetweenSteps,
             workload: WorkloadOptions::default(),
@@ -262,6 +213,9 @@ pub struct ParallelRender {
     pub options: ParallelOptions,
     /// Cache budget in bytes per processor (`None`: unlimited).
     pub cache_bytes: Option<u64>,
+    /// Most cell data one demand-driven task could have fetched for it,
+    /// in bytes (`None`: no limit).
+    pub fetch_limit_bytes: Option<u64>,
     /// Total cell data of the scene.
     pub data_bytes: u64,
     /// Heap bytes of the octree the run traced, as built
@@ -463,7 +417,7 @@ fn run_workload(
     let wl = Arc::new(wl);
     let setup_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let fetch_limit = popts.fetch_limit.resolve(data_bytes);
+    let fetch_limit = popts.fetch_limit.resolve(data_bytes, cache_bytes);
     let mut report = run_on(wl.clone(), popts, cache_bytes, fetch_limit)?;
     let (timeline, ranks) = match std::mem::take(&mut report.extras) {
         Extras::None => (None, Vec::new()),
@@ -566,6 +520,7 @@ fn run_workload(
         film,
         options: popts.clone(),
         cache_bytes,
+        fetch_limit_bytes: fetch_limit,
         data_bytes,
         octree_bytes: wl.renderer().octree().memory_bytes() as u64,
         procs,
