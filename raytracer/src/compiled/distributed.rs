@@ -19,6 +19,7 @@ use rustc_hash::FxHashSet;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
+use super::index::IndexAt;
 use super::{
     file_error, CellEntry, CellObjects, CompiledScene, Replicated, Skeleton, SkeletonNode,
 };
@@ -83,7 +84,9 @@ impl HeldPart {
 #[derive(Debug, Clone)]
 pub struct CellSource {
     path: PathBuf,
-    index: Vec<CellEntry>,
+    /// The cell index, read for the entries of the cells wanted.
+    index: IndexAt,
+    file_len: u64,
     copies: bool,
     materials: usize,
     /// Per listing leaf, in node order (so its index is its cell's, and a
@@ -104,6 +107,7 @@ impl CompiledScene {
             path,
             copies,
             index,
+            file_len,
             replicated,
             ..
         } = self;
@@ -190,6 +194,7 @@ impl CompiledScene {
             source: CellSource {
                 path,
                 index,
+                file_len,
                 copies,
                 materials: scene.materials.len(),
                 leaves,
@@ -270,9 +275,15 @@ impl CellSource {
             }
             Ok(())
         };
-        for &k in &cells {
-            take(self.read_cell(&mut file, k as usize)?, &mut left)?;
+        cells.sort_unstable();
+        cells.dedup();
+        let entries = self
+            .index
+            .entries_of(&self.path, &file, self.file_len, &cells)?;
+        for (&k, &e) in cells.iter().zip(&entries) {
+            take(self.read_cell(&mut file, k as usize, e)?, &mut left)?;
         }
+        drop(entries);
         if !self.copies && !left.is_empty() {
             // Stored once, in the first leaf (node order) listing them.
             let mut more = Vec::new();
@@ -286,14 +297,17 @@ impl CellSource {
                     }
                 }
                 if needed {
-                    more.push(k);
+                    more.push(k as u32);
                 }
                 if unplaced.is_empty() {
                     break;
                 }
             }
-            for k in more {
-                take(self.read_cell(&mut file, k)?, &mut left)?;
+            let entries = self
+                .index
+                .entries_of(&self.path, &file, self.file_len, &more)?;
+            for (&k, &e) in more.iter().zip(&entries) {
+                take(self.read_cell(&mut file, k as usize, e)?, &mut left)?;
             }
         }
         if let Some(missing) = left.iter().min() {
@@ -309,19 +323,12 @@ impl CellSource {
         Ok(())
     }
 
-    fn read_cell(&self, file: &mut std::fs::File, k: usize) -> Result<CellObjects> {
-        let e = *self.index.get(k).ok_or_else(|| {
-            file_error(
-                &self.path,
-                0,
-                format!("no cell {k} of {}", self.index.len()),
-            )
-        })?;
+    /// Cell `k`, whose entry is `e`.
+    fn read_cell(&self, file: &mut std::fs::File, k: usize, e: CellEntry) -> Result<CellObjects> {
         let mut bytes = vec![0u8; e.len as usize];
         file.seek(SeekFrom::Start(e.offset))
             .and_then(|_| file.read_exact(&mut bytes))
             .map_err(|err| Error::io(&self.path, err))?;
-        super::check_crc(&self.path, e.offset, &bytes, e.crc, &format!("cell {k}"))?;
-        super::decode(&self.path, e.offset, &bytes)
+        super::decode_cell(&self.path, k, e, &bytes)
     }
 }

@@ -30,9 +30,10 @@
 //! cell after the leaves holds the objects no leaf lists (none in practice).
 //!
 //! Reading checks the magic, the version and every checksum before it
-//! decodes anything, so a file of another version, a truncated or a
-//! damaged one is an error naming the file, the byte offset and the
-//! reason, never a panic.
+//! uses anything, so a file of another version, a truncated or a damaged
+//! one is an error naming the file, the byte offset and the reason, never
+//! a panic. (The cell index is read as a stream and its checksum known at
+//! its end; see the `index` module.)
 //!
 //! Loading ([`load_scene`]) replays the program with the stored surfaces:
 //! the scene is the one its sources make (same objects, ids, materials and
@@ -43,8 +44,11 @@
 //! with a Radiance octree that is not frozen.
 
 mod distributed;
+mod index;
 
 pub use distributed::{CellSource, HeldPart};
+use index::file_error;
+pub use index::CellEntry;
 
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
@@ -55,7 +59,7 @@ use crate::accel::{NodeView, Octree, OctreeParams};
 use crate::geometry::{Aabb, MaterialId, ObjectId};
 use crate::scene::record::{self, Program, Surface};
 use crate::scene::{HitRatios, LoadOptions, Scene, View};
-use crate::{Error, Result, SourceLoc};
+use crate::{Error, Result};
 
 /// The first bytes of a compiled scene (the line ending catches a file
 /// mangled by text-mode transfer, as PNG's signature does).
@@ -354,17 +358,6 @@ impl<'de> Deserialize<'de> for Skipped {
     }
 }
 
-/// Where a cell lies in the file. Its length is a `u32` (16 bytes an
-/// entry instead of 24, held by every processor while it reads its cells:
-/// 6 MB of a 1.5-million-triangle city); the encoding is the same varint
-/// as a `u64`'s, so files written with a 64-bit length read alike.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct CellEntry {
-    pub offset: u64,
-    pub len: u32,
-    pub crc: u32,
-}
-
 /// How objects listed by several leaves are stored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Storage {
@@ -386,13 +379,6 @@ pub struct CompileStats {
     pub index_bytes: u64,
     pub cell_bytes: u64,
     pub file_bytes: u64,
-}
-
-fn file_error(path: &Path, offset: u64, reason: impl std::fmt::Display) -> Error {
-    Error::parse(
-        SourceLoc::new(path, 0),
-        format!("compiled scene, byte {offset}: {reason}"),
-    )
 }
 
 fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>> {
@@ -784,6 +770,17 @@ fn decode<'a, T: Deserialize<'a>>(path: &Path, offset: u64, bytes: &'a [u8]) -> 
     }
 }
 
+/// Cell `cell`'s bytes (those `e` gives), checked and decoded.
+fn decode_cell<'a, T: Deserialize<'a>>(
+    path: &Path,
+    cell: usize,
+    e: CellEntry,
+    bytes: &'a [u8],
+) -> Result<T> {
+    check_crc(path, e.offset, bytes, e.crc, &format!("cell {cell}"))?;
+    decode(path, e.offset, bytes)
+}
+
 fn check_crc(path: &Path, offset: u64, bytes: &[u8], crc: u32, what: &str) -> Result<()> {
     if crc32fast::hash(bytes) == crc {
         Ok(())
@@ -814,11 +811,16 @@ pub struct CompiledScene {
     file_len: u64,
     copies: bool,
     replicated: Replicated,
-    index: Vec<CellEntry>,
+    /// Where the cell index is, checked when the file was opened; it is
+    /// read again where entries are needed (see the `index` module).
+    index: index::IndexAt,
+    /// The whole index, decoded at the first [`CompiledScene::read_cell`].
+    entries: Option<Vec<CellEntry>>,
 }
 
 impl CompiledScene {
-    /// Opens `path` and reads its header, replicated part and cell index.
+    /// Opens `path`, reads its header and replicated part and checks its
+    /// cell index (read as a stream, not kept: see the `index` module).
     pub fn open(path: &Path) -> Result<CompiledScene> {
         let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
         let file_len = file.metadata().map_err(|e| Error::io(path, e))?.len();
@@ -828,59 +830,25 @@ impl CompiledScene {
             .read_to_end(&mut head)
             .map_err(|e| Error::io(path, e))?;
         let header = Header::parse(&head, path, file_len)?;
-        let mut rest = vec![0u8; (header.replicated_len + header.index_len) as usize];
-        file.read_exact(&mut rest).map_err(|e| Error::io(path, e))?;
-        let (rep, index) = rest.split_at(header.replicated_len as usize);
-        Self::from_parts(path, file, file_len, header, rep, index)
-    }
-
-    fn from_parts(
-        path: &Path,
-        file: std::fs::File,
-        file_len: u64,
-        header: Header,
-        rep: &[u8],
-        index: &[u8],
-    ) -> Result<CompiledScene> {
+        let mut rep = vec![0u8; header.replicated_len as usize];
+        file.read_exact(&mut rep).map_err(|e| Error::io(path, e))?;
         let rep_at = HEADER_LEN as u64;
         check_crc(
             path,
             rep_at,
-            rep,
+            &rep,
             header.replicated_crc,
             "the replicated part",
         )?;
-        let index_at = header.index_offset();
-        check_crc(path, index_at, index, header.index_crc, "the cell index")?;
-        let replicated: Replicated = decode(path, rep_at, rep)?;
-        let index: Vec<CellEntry> = decode(path, index_at, index)?;
-        if index.len() != replicated.skeleton.cells.len() {
-            return Err(file_error(
-                path,
-                index_at,
-                format!(
-                    "the index has {} cells, the skeleton {}",
-                    index.len(),
-                    replicated.skeleton.cells.len()
-                ),
-            ));
+        let replicated: Replicated = decode(path, rep_at, &rep)?;
+        drop(rep);
+        let index = index::IndexAt {
+            offset: header.index_offset(),
+            len: header.index_len,
+            crc: header.index_crc,
+            cells: 0,
         }
-        for (k, e) in index.iter().enumerate() {
-            if e.offset
-                .checked_add(e.len.into())
-                .is_none_or(|end| end > file_len)
-            {
-                return Err(file_error(
-                    path,
-                    file_len,
-                    format!(
-                        "truncated: cell {k} lies at bytes {}..{}, the file has {file_len}",
-                        e.offset,
-                        e.offset.saturating_add(e.len.into())
-                    ),
-                ));
-            }
-        }
+        .check(path, &file, file_len, replicated.skeleton.cells.len())?;
         Ok(CompiledScene {
             path: path.to_path_buf(),
             file,
@@ -888,6 +856,7 @@ impl CompiledScene {
             copies: header.flags & FLAG_COPIES != 0,
             replicated,
             index,
+            entries: None,
         })
     }
 
@@ -898,7 +867,7 @@ impl CompiledScene {
 
     /// Cells (leaves, then the cell of unlisted objects).
     pub fn cell_count(&self) -> usize {
-        self.index.len()
+        self.index.cells
     }
 
     /// Whether every cell stores a copy of each object it lists.
@@ -911,27 +880,28 @@ impl CompiledScene {
         self.file_len
     }
 
-    /// Reads one cell (seeking to it: nothing else is read).
+    /// Reads one cell (seeking to it; the first call decodes the index).
     pub fn read_cell(&mut self, cell: usize) -> Result<CellObjects> {
-        let e = *self.index.get(cell).ok_or_else(|| {
-            Error::Usage(format!(
-                "{}: no cell {cell} (the scene has {})",
-                self.path.display(),
-                self.index.len()
-            ))
-        })?;
+        if self.entries.is_none() {
+            self.entries = Some(self.index.all(&self.path, &self.file, self.file_len)?);
+        }
+        let e = self
+            .entries
+            .as_ref()
+            .and_then(|entries| entries.get(cell).copied())
+            .ok_or_else(|| {
+                Error::Usage(format!(
+                    "{}: no cell {cell} (the scene has {})",
+                    self.path.display(),
+                    self.index.cells
+                ))
+            })?;
         let mut bytes = vec![0u8; e.len as usize];
         self.file
             .seek(SeekFrom::Start(e.offset))
             .and_then(|_| self.file.read_exact(&mut bytes))
             .map_err(|err| Error::io(&self.path, err))?;
-        self.decode_cell(cell, &bytes)
-    }
-
-    fn decode_cell<'a, T: Deserialize<'a>>(&self, cell: usize, bytes: &'a [u8]) -> Result<T> {
-        let e = self.index[cell];
-        check_crc(&self.path, e.offset, bytes, e.crc, &format!("cell {cell}"))?;
-        decode(&self.path, e.offset, bytes)
+        decode_cell(&self.path, cell, e, &bytes)
     }
 
     /// Reads every cell and builds the whole scene (what `render` does
@@ -952,7 +922,8 @@ impl CompiledScene {
         let mut reader = std::io::BufReader::with_capacity(1 << 20, &self.file);
         let mut at = u64::MAX;
         let mut bytes = Vec::new();
-        for (k, e) in self.index.iter().enumerate() {
+        let entries = self.index.all(&self.path, &self.file, self.file_len)?;
+        for (k, &e) in entries.iter().enumerate() {
             if e.offset != at {
                 reader
                     .seek(SeekFrom::Start(e.offset))
@@ -963,7 +934,7 @@ impl CompiledScene {
                 .read_exact(&mut bytes)
                 .map_err(|err| Error::io(&self.path, err))?;
             at = e.offset + u64::from(e.len);
-            let cell: CellStored = self.decode_cell(k, &bytes)?;
+            let cell: CellStored = decode_cell(&self.path, k, e, &bytes)?;
             for (id, s) in cell.stored {
                 let slot = surfaces.get_mut(id as usize).ok_or_else(|| {
                     file_error(

@@ -95,8 +95,8 @@ impl RtWorkload {
             .collect()
     }
 
-    /// Every processor of this process has read its part: the cell index
-    /// (24 bytes per cell of the whole scene) is let go.
+    /// Every processor of this process has read its part: the source (the
+    /// list of the whole scene's cells, 16 bytes a cell) is let go.
     pub fn parts_read(&self) {
         if let Some(h) = &self.held {
             *h.source.write().unwrap_or_else(|e| e.into_inner()) = None;
