@@ -329,8 +329,8 @@ pub struct BvhStats {
 
 /// An object's box in single precision, for the heuristic only (the nodes'
 /// boxes are the exact unions of the objects' double-precision boxes, see
-/// [`Builder::boxes`]): lanes 0 to 2 the coordinates, lane 3 of `lo` the
-/// index into `boxes` (its bits). 32 bytes, two SIMD registers.
+/// [`Builder::leaf`]): lanes 0 to 2 the coordinates, lane 3 of `lo` the
+/// object's id (its bits). 32 bytes, two SIMD registers.
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(16))]
 struct Ref {
@@ -339,9 +339,10 @@ struct Ref {
 }
 
 impl Ref {
+    /// The object's id.
     #[inline(always)]
-    fn index(&self) -> usize {
-        self.lo[3].to_bits() as usize
+    fn id(&self) -> ObjectId {
+        self.lo[3].to_bits()
     }
 
     /// Twice the box's centre (lane 3 meaningless).
@@ -447,11 +448,15 @@ fn fmax<T: PartialOrd>(a: T, b: T) -> T {
 /// nodes built directly (the binary split of the largest child repeated
 /// until there are four). Deterministic: every step is a function of the
 /// refs' order, which only the steps themselves change; no threads.
-struct Builder {
+struct Builder<'a, O: ?Sized> {
+    /// The objects, asked again for their boxes at the leaves (keeping
+    /// each object's double-precision box through the build took 56 bytes
+    /// an object beside its 32-byte [`Ref`]: 21 MB more at the peak of a
+    /// rank building its hierarchy over 375,000 copies).
+    objects: &'a O,
+    /// The margin every object's box is enlarged by.
+    pad: Vec3,
     refs: Vec<Ref>,
-    /// Each object's box (already enlarged by the margin) and id, by
-    /// [`Ref::index`].
-    boxes: Vec<(Aabb, ObjectId)>,
     nodes: Vec<Wide>,
     /// Object ids of the leaves built so far, in leaf order.
     ids: Vec<ObjectId>,
@@ -527,7 +532,7 @@ impl Bins {
     }
 }
 
-impl Builder {
+impl<O: ObjectSet + ?Sized> Builder<'_, O> {
     /// How to split `p`: the binned surface area heuristic over the three
     /// axes (objects binned by box centre, the three axes in one pass); a
     /// split by count where centres coincide or the tree would grow too
@@ -658,7 +663,7 @@ impl Builder {
         self.refs[p.start..p.end].select_nth_unstable_by(n / 2, |a, b| {
             (a.lo[widest] + a.hi[widest])
                 .total_cmp(&(b.lo[widest] + b.hi[widest]))
-                .then(a.index().cmp(&b.index()))
+                .then(a.id().cmp(&b.id()))
         });
         let mid = p.start + n / 2;
         Some((
@@ -744,8 +749,9 @@ impl Builder {
         let start = self.ids.len() as u32;
         let mut all = Aabb::EMPTY;
         for r in &self.refs[p.start..p.end] {
-            let (b, id) = self.boxes[r.index()];
-            all = all.union(b);
+            let id = r.id();
+            let b = self.objects.bounds(id as usize);
+            all = all.union(Aabb::new(b.min - self.pad, b.max + self.pad));
             self.ids.push(id);
         }
         (start, all)
@@ -807,47 +813,52 @@ impl Bvh {
     pub(crate) fn build_with<O: ObjectSet + ?Sized>(objects: &O, prims: Prims) -> Bvh {
         debug_assert!(prims.matches(objects));
         let mut unbounded = Vec::new();
-        let mut boxes = Vec::with_capacity(objects.count());
         let mut scene = Aabb::EMPTY;
+        let mut n = 0usize;
+        // An object is bounded if its box is neither empty nor infinite
+        // (the same test in both passes: `bounds` is a function).
+        let bounded = |b: &Aabb| !b.is_empty() && b.min.is_finite() && b.max.is_finite();
         for i in 0..objects.count() {
             let b = objects.bounds(i);
             if b.is_empty() {
                 continue;
             }
-            if !(b.min.is_finite() && b.max.is_finite()) {
+            if !bounded(&b) {
                 unbounded.push(i as ObjectId);
                 continue;
             }
             scene = scene.union(b);
-            boxes.push((b, i as ObjectId));
+            n += 1;
         }
         let mut bvh = Bvh {
             unbounded,
             prims,
             ..Default::default()
         };
-        if boxes.is_empty() {
+        if n == 0 {
             return bvh;
         }
         // The octree's margin: far beyond the slab test's rounding.
         let margin = 1e-9 * (scene.extent().max_element() + scene.magnitude());
         let pad = Vec3::splat(margin);
-        let refs = boxes
-            .iter_mut()
-            .enumerate()
-            .map(|(i, (b, _))| {
-                *b = Aabb::new(b.min - pad, b.max + pad);
-                let (lo, hi) = (b.min.to_array().map(to_f32), b.max.to_array().map(to_f32));
-                Ref {
-                    lo: [lo[0], lo[1], lo[2], f32::from_bits(i as u32)],
-                    hi: [hi[0], hi[1], hi[2], 0.0],
-                }
-            })
-            .collect();
-        let n = boxes.len();
+        let mut refs = Vec::with_capacity(n);
+        for i in 0..objects.count() {
+            let b = objects.bounds(i);
+            if !bounded(&b) {
+                continue;
+            }
+            let b = Aabb::new(b.min - pad, b.max + pad);
+            let (lo, hi) = (b.min.to_array().map(to_f32), b.max.to_array().map(to_f32));
+            refs.push(Ref {
+                lo: [lo[0], lo[1], lo[2], f32::from_bits(i as u32)],
+                hi: [hi[0], hi[1], hi[2], 0.0],
+            });
+        }
+        debug_assert_eq!(refs.len(), n);
         let mut b = Builder {
+            objects,
+            pad,
             refs,
-            boxes,
             nodes: Vec::with_capacity(n / 2 + 1),
             ids: Vec::with_capacity(n),
             depth: 0,
