@@ -496,7 +496,7 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub cache: String,
-    /// Most cell data one demand-driven task may have fetched for it: auto (with a budgeted --cache, 1/32 of the budget and at least 64K; unlimited with an unlimited cache), unlimited (the paper's scheduler), bytes (1M, 64K) or a percentage of the scene data; a task with more to fetch traces data-parallel instead (its rays migrate to the cells' owners). The picture is the same; on a 1.5M-triangle city under four MPI ranks with --cache 10%, auto (1M) kept every rank's peak memory under its bound, which unlimited overshoots by 15-40 MiB.
+    /// Most cell data one demand-driven task may have fetched for it: auto (with a budgeted --cache, 1/32 of the budget and at least 64K; unlimited with an unlimited cache), unlimited (the paper's scheduler), bytes (1M, 64K) or a percentage of the scene data; a task with more to fetch traces data-parallel instead (its rays migrate to the cells' owners). The picture is the same; on a 1.5M-triangle city under four MPI ranks with --cache 10%, auto (1M) kept every rank's peak memory at or under its bound, which unlimited overshot by up to 52 MiB.
     #[arg(
         long,
         default_value = "auto",

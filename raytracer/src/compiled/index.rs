@@ -206,12 +206,23 @@ impl IndexAt {
         }
         let mut out = Vec::with_capacity(cells.len());
         let mut next = cells.iter().peekable();
-        self.scan(path, file, file_len, |k, e| {
+        let n = self.scan(path, file, file_len, |k, e| {
             if next.peek().is_some_and(|&&c| c as usize == k) {
                 out.push(e);
                 next.next();
             }
         })?;
+        // A file changed since it was opened.
+        if out.len() != cells.len() {
+            return Err(file_error(
+                path,
+                self.offset,
+                format!(
+                    "the index has {n} cells, {} when the file was opened",
+                    self.cells
+                ),
+            ));
+        }
         Ok(out)
     }
 

@@ -61,19 +61,19 @@ impl CacheSize {
 /// traces data-parallel. The picture is the same whatever the limit.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub enum FetchLimit {
-    /// With a budgeted cache, [`FetchLimit::AUTO_SHARE`] of the budget and
-    /// at least [`FetchLimit::AUTO_FLOOR`]; none with an unlimited cache
-    /// (whose processors complete their cache instead). What `render`
-    /// uses: on the 1.5M-triangle city at `-np 4 --cache 10%` it keeps
-    /// every rank's peak under issue 19's bound, where the paper's
-    /// unlimited fetches overshoot by 15-40 MiB (the book's MPI chapter).
+    /// With a budgeted cache, the budget over [`FetchLimit::AUTO_SHARE`]
+    /// and at least [`FetchLimit::AUTO_FLOOR`]; none with an unlimited
+    /// cache (whose processors complete their cache instead). What
+    /// `render` uses: on the 1.5M-triangle city at `-np 4 --cache 10%` it
+    /// keeps every rank's peak at or under issue 19's bound, where the paper's
+    /// unlimited fetches overshoot by up to 52 MiB (the book's MPI chapter).
     Auto,
     /// A fixed limit (`Unlimited`: the paper's scheduler).
     Size(CacheSize),
 }
 
 impl FetchLimit {
-    /// [`FetchLimit::Auto`]'s share of the cache budget: 1/32.
+    /// [`FetchLimit::Auto`]'s share of the cache budget: one 32nd.
     pub const AUTO_SHARE: u64 = 32;
     /// [`FetchLimit::Auto`]'s least limit, 64 KiB: a small cache's budget
     /// over 32 would send nearly every task data-parallel (the studio at
