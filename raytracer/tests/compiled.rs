@@ -291,6 +291,29 @@ fn next(state: &mut u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// `good` with about one byte in `one_in` of `part` replaced at random,
+/// and the part's checksum (at header byte `crc_at`) and the header's made
+/// to match: damage only a decoder can notice.
+fn noisy(
+    good: &[u8],
+    part: std::ops::Range<usize>,
+    crc_at: usize,
+    one_in: u64,
+    rng: &mut u64,
+) -> Vec<u8> {
+    let mut bad = good.to_vec();
+    for b in bad[part.clone()].iter_mut() {
+        if next(rng) % one_in == 0 {
+            *b = next(rng) as u8;
+        }
+    }
+    let crc = crc32(&bad[part]);
+    bad[crc_at..crc_at + 4].copy_from_slice(&crc.to_le_bytes());
+    let crc = crc32(&bad[..40]);
+    bad[40..44].copy_from_slice(&crc.to_le_bytes());
+    bad
+}
+
 #[test]
 fn damaged_truncated_and_foreign_files_are_errors_naming_the_offset() {
     let dir = tmpdir("damage");
@@ -326,36 +349,18 @@ fn damaged_truncated_and_foreign_files_are_errors_naming_the_offset() {
     // Noise in the replicated part with its checksums made to match: the
     // decoder or the replay says why, without panicking.
     let rep_len = u64::from_le_bytes(good[16..24].try_into().unwrap()) as usize;
+    let rep = HEADER_LEN..HEADER_LEN + rep_len;
     for _ in 0..100 {
-        let mut bad = good.clone();
-        let rep = HEADER_LEN..HEADER_LEN + rep_len;
-        for b in bad[rep.clone()].iter_mut() {
-            if next(&mut rng) % 64 == 0 {
-                *b = next(&mut rng) as u8;
-            }
-        }
-        let crc = crc32(&bad[rep]);
-        bad[24..28].copy_from_slice(&crc.to_le_bytes());
-        let crc = crc32(&bad[..40]);
-        bad[40..44].copy_from_slice(&crc.to_le_bytes());
+        let bad = noisy(&good, rep.clone(), 24, 64, &mut rng);
         let _ = load_bytes(&dir, "noise.hrtc", &bad);
     }
     // Noise in the cell index (read as a stream) with its checksums made
     // to match: an error naming the file, or cells that decode, never a
     // panic or a read beyond the file.
     let index_len = u64::from_le_bytes(good[28..36].try_into().unwrap()) as usize;
+    let index = rep.end..rep.end + index_len;
     for round in 0..100 {
-        let mut bad = good.clone();
-        let index = HEADER_LEN + rep_len..HEADER_LEN + rep_len + index_len;
-        for b in bad[index.clone()].iter_mut() {
-            if next(&mut rng) % 16 == 0 {
-                *b = next(&mut rng) as u8;
-            }
-        }
-        let crc = crc32(&bad[index]);
-        bad[36..40].copy_from_slice(&crc.to_le_bytes());
-        let crc = crc32(&bad[..40]);
-        bad[40..44].copy_from_slice(&crc.to_le_bytes());
+        let bad = noisy(&good, index.clone(), 36, 16, &mut rng);
         if let Err(e) = load_bytes(&dir, "index.hrtc", &bad) {
             let msg = e.to_string();
             assert!(msg.contains("index.hrtc"), "round {round}: {msg}");
