@@ -387,6 +387,9 @@ pub fn render_parallel_held(
     tracing::debug!(
         peak_kib = crate::report::peak_resident_bytes().map(|b| b / 1024),
         rss_kib = crate::report::resident_bytes().map(|b| b / 1024),
+        octree_kib = wl.renderer().octree().memory_bytes() / 1024,
+        cell_table_kib = wl.cells.memory_bytes() / 1024,
+        partition_kib = wl.partition().memory_bytes() / 1024,
         "cells read"
     );
     run_workload(wl, popts, progress, t0)
@@ -456,11 +459,11 @@ fn run_workload(
             "processor finished"
         );
         let part = wl.partition();
-        let resident = part.resident(p as u32);
+        let resident = part.resident_objects().get(p).copied().unwrap_or(0);
         if let Some((resident_bytes, copy_bytes)) = wl.held_figures(p) {
             procs.push(ProcSummary {
                 resident_bytes,
-                resident_objects: resident.len(),
+                resident_objects: resident,
                 copy_bytes,
                 hierarchy_bytes: wl.hierarchy_bytes(p),
                 cost: part.cost().get(p).copied().unwrap_or(0),
@@ -483,18 +486,14 @@ fn run_workload(
             resident_objects: if replicated {
                 wl.renderer().scene().objects.len()
             } else {
-                resident.len()
+                resident
             },
             // Another MPI rank's processor of a distributed scene: measured
             // there, not here.
             copy_bytes: if replicated || elsewhere || wl.reads_the_scene(report.procs.len()) {
                 0
             } else {
-                let objects = &wl.renderer().scene().objects;
-                resident
-                    .iter()
-                    .map(|&id| crate::accel::copy_bytes(&objects[id as usize]) as u64)
-                    .sum()
+                part.copy_bytes().get(p).copied().unwrap_or(0)
             },
             hierarchy_bytes: wl.hierarchy_bytes(p),
             cost: part.cost().get(p).copied().unwrap_or(0),

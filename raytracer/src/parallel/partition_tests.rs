@@ -11,7 +11,7 @@ fn check_partition(tree: &Octree, p: &Partition, procs: u32) {
     for leaf in tree.leaves() {
         let o = p.owner(leaf);
         assert!(o < p.procs(), "leaf {leaf} owner {o}");
-        let res = p.resident(o);
+        let res = p.resident(tree, o);
         for obj in tree.leaf_objects(leaf) {
             assert!(res.binary_search(obj).is_ok(), "object {obj} not on {o}");
         }
@@ -37,15 +37,14 @@ fn check_partition(tree: &Octree, p: &Partition, procs: u32) {
     }
     // Resident objects are exactly those of owned leaves.
     for q in 0..p.procs() {
-        for &obj in p.resident(q) {
+        let res = p.resident(tree, q);
+        for &obj in &res {
             assert!(tree
                 .leaves()
                 .any(|l| p.owner(l) == q && tree.leaf_objects(l).contains(&obj)));
         }
-        assert_eq!(
-            p.resident(q).is_empty(),
-            p.resident_bytes()[q as usize] == 0
-        );
+        assert_eq!(res.len(), p.resident_objects()[q as usize]);
+        assert_eq!(res.is_empty(), p.resident_bytes()[q as usize] == 0);
     }
     // Owners are contiguous along the depth-first piece order.
     assert!(p.pieces().windows(2).all(|w| w[0].1 <= w[1].1));
@@ -66,7 +65,7 @@ fn partition_is_valid_and_balanced() {
         );
         if procs == 1 {
             assert!(tree.leaves().all(|l| p.owner(l) == 0));
-            assert_eq!(p.resident(0).len(), objects.len());
+            assert_eq!(p.resident(&tree, 0).len(), objects.len());
             assert_eq!(p.pieces().len(), 1);
         }
         // Measured: 1.05 (2), 1.18 (3), 1.05 (4), 1.07 (8), 1.32 (16).
@@ -82,7 +81,7 @@ fn worst_case_and_too_many_procs() {
     let w = Partition::worst_case(&tree, &objects, 8);
     check_partition(&tree, &w, 8);
     assert!(tree.leaves().all(|l| w.owner(l) == 0));
-    assert!((1..8).all(|q| w.resident(q).is_empty() && w.cost()[q as usize] == 0));
+    assert!((1..8).all(|q| w.resident(&tree, q).is_empty() && w.cost()[q as usize] == 0));
     assert_eq!(w.imbalance(), 8.0);
     let leaves = tree.leaves().count() as u32;
     let p = Partition::new(&tree, &objects, leaves * 2 + 3);
@@ -116,8 +115,10 @@ fn objects_spanning_owners_are_replicated() {
     let tree = Octree::build(&objects, &OctreeParams::default());
     let p = Partition::new(&tree, &objects, 4);
     check_partition(&tree, &p, 4);
-    let holders = (0..4).filter(|&q| p.resident(q).contains(&big)).count();
+    let holders = (0..4)
+        .filter(|&q| p.resident(&tree, q).contains(&big))
+        .count();
     assert!(holders >= 2, "{holders}");
-    let replicated: usize = (0..4).map(|q| p.resident(q).len()).sum();
+    let replicated: usize = (0..4).map(|q| p.resident(&tree, q).len()).sum();
     assert!(replicated > objects.len());
 }
