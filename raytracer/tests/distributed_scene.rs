@@ -121,7 +121,7 @@ fn a_processor_reads_only_the_objects_of_its_cells() {
         let (path, _) = compiled_scene(&dir, "city", storage);
         let c = CompiledScene::open(&path).unwrap();
         let part = c.held_part(&LoadOptions::default()).unwrap();
-        let leaves: Vec<u32> = part.source.leaves().iter().map(|l| l.0).collect();
+        let leaves: Vec<u32> = part.source.cells().iter().map(|l| l.0).collect();
         let whole = c_scene(&path);
         for chunk in leaves.chunks(leaves.len().div_ceil(4)) {
             let mut read = std::collections::HashMap::new();

@@ -1,6 +1,7 @@
 //! Acceleration over a scene: the octree and pyramid clipping (the
 //! bounding volume hierarchy, which instances hold, is in [`crate::geometry`]).
 
+mod cell_table;
 mod cells;
 pub mod clip;
 #[cfg(feature = "embree")]
@@ -10,6 +11,7 @@ mod octree;
 mod rank;
 
 pub use crate::geometry::{Bvh, BvhStats, Hit};
+pub use cell_table::CellTable;
 pub use cells::{
     copy_bytes, object_bytes, share_copies_in_process, HeldObject, LeafObjects, ObjectCopies,
 };

@@ -50,7 +50,7 @@ impl RtWorkload {
             }
             _ => Vec::new(),
         };
-        let cells = super::cell_table::CellTable::new(source.leaves().iter().copied());
+        let cells = source.cells().clone();
         let procs = procs.max(1);
         let held = Held {
             source: RwLock::new(Some(source)),
@@ -96,7 +96,7 @@ impl RtWorkload {
     }
 
     /// Every processor of this process has read its part: the source (the
-    /// list of the whole scene's cells, 16 bytes a cell) is let go.
+    /// file's cell index reader) is let go.
     pub fn parts_read(&self) {
         if let Some(h) = &self.held {
             *h.source.write().unwrap_or_else(|e| e.into_inner()) = None;

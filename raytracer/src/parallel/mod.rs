@@ -15,7 +15,6 @@
 
 pub mod ambient;
 pub mod caster;
-pub mod cell_table;
 mod clip_memory;
 pub mod cost;
 pub mod distribution;

@@ -36,7 +36,7 @@ use super::partition::{object_bytes, Partition};
 use super::tasks::{CellData, DdTask, DpTask, RayJob, ShadowDp};
 use super::tree::{PixelTrees, RtResult};
 use super::work::Work;
-use crate::accel::{LeafObjects, NodeId, ObjectCopies, TraceCursor};
+use crate::accel::{CellTable, LeafObjects, NodeId, ObjectCopies, TraceCursor};
 use crate::geometry::Aabb;
 use crate::render::Renderer;
 use crate::scene::View;
@@ -109,7 +109,7 @@ pub struct RtWorkload {
     pub(super) opts: WorkloadOptions,
     /// Non-empty leaves with their data size: the directory the framework
     /// asks ([`Workload::locate`]).
-    pub(super) cells: super::cell_table::CellTable,
+    pub(super) cells: Arc<CellTable>,
     pub(super) partition: Partition,
     /// Per node: the one processor owning every non-empty leaf below it,
     /// see [`super::distribution::subtree_owners`].
@@ -195,7 +195,7 @@ impl RtWorkload {
     }
 
     /// Non-empty leaves with their accounted bytes.
-    fn cells_of(renderer: &Renderer<'static>) -> super::cell_table::CellTable {
+    fn cells_of(renderer: &Renderer<'static>) -> Arc<CellTable> {
         let octree = renderer.octree();
         let objects = &renderer.scene().objects;
         // An object listed in n leaves is stored once where they are held
@@ -220,7 +220,7 @@ impl RtWorkload {
                 (leaf, bytes as u64)
             })
         });
-        super::cell_table::CellTable::new(cells)
+        Arc::new(CellTable::new(cells))
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -231,7 +231,7 @@ impl RtWorkload {
         height: usize,
         procs: usize,
         opts: WorkloadOptions,
-        cells: super::cell_table::CellTable,
+        cells: Arc<CellTable>,
         held: Option<Held>,
         predicted: Option<Vec<u64>>,
     ) -> Self {

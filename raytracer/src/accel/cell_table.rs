@@ -12,7 +12,7 @@
 //! the ids. The bytes are kept in 4 bytes a cell where every cell's fit (a
 //! cell of 4 GiB would hold some 30 million objects), else in 8.
 
-use crate::accel::{NodeId, RankedSet};
+use super::{NodeId, RankedSet};
 
 /// See the module documentation.
 #[derive(Debug, Default)]
@@ -100,6 +100,13 @@ impl CellTable {
     /// Whether there is none.
     pub fn is_empty(&self) -> bool {
         self.bytes.len() == 0
+    }
+
+    /// `leaf`'s place among the cells (ascending by leaf), `None` for a
+    /// leaf that is not a cell.
+    #[inline]
+    pub fn index_of(&self, leaf: NodeId) -> Option<usize> {
+        self.leaves.rank(leaf)
     }
 
     /// `leaf`'s accounted bytes, `None` for a leaf that is not a cell.
