@@ -28,8 +28,9 @@ impl Default for NodeOwners {
 const MARKS: u32 = 2;
 
 impl NodeOwners {
-    /// The table of `v`, narrow where every entry is below
-    /// `u16::MAX - 1` or is one of the two largest `u32`s.
+    /// The table of `v`, in the narrowest type every entry fits (`fit`:
+    /// below the type's largest value less one, or one of the two largest
+    /// `u32`s).
     pub fn new(v: Vec<u32>) -> Self {
         if let Some(t) = v.iter().map(|&o| fit::<u8>(o)).collect() {
             return NodeOwners::Tiny(t);
