@@ -29,6 +29,9 @@ pub(crate) struct Directory<W: Workload> {
     tally: Vec<(usize, u64)>,
     /// The bytes of every item.
     total_bytes: u64,
+    /// The workload, for what caches charge ([`Workload::cache_charge`]);
+    /// `None` charges the placement's bytes.
+    charges: Option<Arc<W>>,
 }
 
 /// Where the directory's answers come from.
@@ -93,7 +96,9 @@ impl<W: Workload> Directory<W> {
     pub(crate) fn new(workload: &Arc<W>, procs: usize) -> Result<Self, String> {
         let placement = workload.placement(procs);
         if !workload.locates() {
-            return Self::build(placement, procs);
+            let mut d = Self::build(placement, procs)?;
+            d.charges = Some(Arc::clone(workload));
+            return Ok(d);
         }
         let mut ids = Vec::with_capacity(placement.len());
         for p in &placement {
@@ -121,6 +126,7 @@ impl<W: Workload> Directory<W> {
             },
             tally,
             total_bytes,
+            charges: Some(Arc::clone(workload)),
         })
     }
 
@@ -149,6 +155,7 @@ impl<W: Workload> Directory<W> {
             index: Index::Listed(entries),
             tally,
             total_bytes,
+            charges: None,
         })
     }
 
@@ -177,6 +184,15 @@ impl<W: Workload> Directory<W> {
     /// Size of `id` in bytes.
     pub(crate) fn bytes(&self, id: &W::DataId) -> Option<u64> {
         self.locate(id).map(|l| l.1)
+    }
+
+    /// What a cache charges for `id`, of `bytes` in the placement
+    /// ([`Workload::cache_charge`]).
+    #[inline]
+    pub(crate) fn charge(&self, id: &W::DataId, bytes: u64) -> u64 {
+        self.charges
+            .as_ref()
+            .map_or(bytes, |w| w.cache_charge(id, bytes))
     }
 
     /// Every entry, ascending by id: the list, or one made for the call

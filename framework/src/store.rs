@@ -47,6 +47,8 @@ struct WaitingTask<W: Workload> {
 }
 
 struct InFlight {
+    /// What the cache reserved for it: its charge
+    /// ([`crate::Workload::cache_charge`]).
     bytes: u64,
     waiters: Vec<TaskKey>,
 }
@@ -258,7 +260,7 @@ impl<W: Workload> DataStore<W> {
         ids.sort_unstable();
         ids.dedup();
         let mut remote = Vec::new();
-        let (mut total, mut to_pin, mut new_bytes) = (0u64, 0u64, 0u64);
+        let (mut total, mut to_pin, mut new_bytes, mut new_charge) = (0u64, 0u64, 0u64, 0u64);
         for id in ids {
             if self.holds(&id) {
                 continue;
@@ -267,13 +269,16 @@ impl<W: Workload> DataStore<W> {
                 .dir
                 .bytes(&id)
                 .ok_or_else(|| format!("data selection named unknown data {id:?}"))?;
-            total = total.saturating_add(bytes);
+            // The cache counts charges; the fetch limit, bytes that travel.
+            let charge = self.dir.charge(&id, bytes);
+            total = total.saturating_add(charge);
             if self.cache.contains(&id) {
                 if !self.cache.is_pinned(&id) {
-                    to_pin += bytes;
+                    to_pin += charge;
                 }
             } else if !self.in_flight.contains_key(&id) {
                 new_bytes += bytes;
+                new_charge += charge;
             }
             remote.push(id);
         }
@@ -282,7 +287,7 @@ impl<W: Workload> DataStore<W> {
         if total > self.cache.budget() || self.fetch_limit.is_some_and(|l| new_bytes > l) {
             return Ok(Admission::TooBig(env));
         }
-        if !self.cache.can_pin_more(to_pin.saturating_add(new_bytes)) {
+        if !self.cache.can_pin_more(to_pin.saturating_add(new_charge)) {
             return Ok(Admission::Deferred(env, remote));
         }
         // Admitted. Pin what is cached first so that the reservation below
@@ -294,7 +299,7 @@ impl<W: Workload> DataStore<W> {
                 self.cache.record_miss();
             }
         }
-        let reserved = self.cache.reserve(new_bytes);
+        let reserved = self.cache.reserve(new_charge);
         debug_assert!(reserved, "admission checked the budget");
         let key = self.next_key;
         self.next_key += 1;
@@ -313,7 +318,7 @@ impl<W: Workload> DataStore<W> {
                     self.in_flight.insert(
                         id.clone(),
                         InFlight {
-                            bytes,
+                            bytes: self.dir.charge(id, bytes),
                             waiters: vec![key],
                         },
                     );
@@ -367,21 +372,23 @@ impl<W: Workload> DataStore<W> {
         self.complete_at = None;
         // Per owner: the requests so far, the last one's bytes.
         let mut requests: BTreeMap<usize, Chunks<W::DataId>> = BTreeMap::new();
-        let mut bytes = 0u64;
+        let (mut bytes, mut charges) = (0u64, 0u64);
         let entries = self.dir.entries();
         for (id, owner, b) in entries.iter() {
             let owner = *owner as usize;
             if owner == self.me || self.cache.contains(id) || self.in_flight.contains_key(id) {
                 continue;
             }
+            let charge = self.dir.charge(id, *b);
             self.in_flight.insert(
                 id.clone(),
                 InFlight {
-                    bytes: *b,
+                    bytes: charge,
                     waiters: Vec::new(),
                 },
             );
             bytes += b;
+            charges += charge;
             let (chunks, last) = requests.entry(owner).or_default();
             if chunks.is_empty() || *last + b > COMPLETION_REPLY_BYTES {
                 chunks.push(Vec::new());
@@ -392,7 +399,7 @@ impl<W: Workload> DataStore<W> {
         }
         self.asked_bytes += bytes;
         // Never refused: the cache has no budget.
-        let reserved = self.cache.reserve(bytes);
+        let reserved = self.cache.reserve(charges);
         debug_assert!(reserved, "completion needs a cache without a budget");
         Some(
             requests

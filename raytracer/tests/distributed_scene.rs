@@ -345,3 +345,52 @@ fn stored_hit_ratios_serve_a_dr_that_makes_the_same_light_sources() {
         .unwrap();
     assert!(out.film.pixels() == want.pixels());
 }
+
+/// A cell of a distributed scene is charged, where it is cached, what its
+/// copies take ([`hybrid_sched::Workload::cache_charge`]): its placement
+/// bytes until the processors have read their cells, then the same
+/// charge for every object of its list (the average copy read, and its
+/// places in the leaf's lists), never less than the placement's bytes,
+/// and more than them over the scene (a cached cell holds whole copies,
+/// the placement counts each object's share of the leaves listing it).
+#[test]
+fn a_cached_cell_is_charged_what_its_copies_take() {
+    use hybrid_sched::Workload;
+    let dir = tmpdir("charged");
+    let (path, view) = compiled_scene(&dir, "studio", Storage::Once);
+    let part = CompiledScene::open(&path)
+        .unwrap()
+        .held_part(&LoadOptions::default())
+        .unwrap();
+    let cells: Vec<(u32, u64)> = part.source.cells().iter().collect();
+    let r = Renderer::with_skeleton(Arc::new(part.scene), RenderOptions::default(), part.octree)
+        .unwrap();
+    let opts = hybrid_rt::parallel::WorkloadOptions::default();
+    let wl = RtWorkload::distributed(r, view, 8, 8, 2, opts, part.source, None).unwrap();
+    for &(leaf, bytes) in &cells {
+        assert_eq!(
+            wl.cache_charge(&leaf, bytes),
+            bytes,
+            "leaf {leaf}, not read"
+        );
+    }
+    wl.read_parts(2).unwrap();
+    wl.parts_read();
+    let mut per_listing = None;
+    let (mut charged, mut placed) = (0u64, 0u64);
+    for &(leaf, bytes) in &cells {
+        let c = wl.cache_charge(&leaf, bytes);
+        let listings = wl.renderer().octree().leaf_objects(leaf).len() as u64;
+        assert!(c >= bytes, "leaf {leaf}: {c} < {bytes}");
+        if c > bytes {
+            assert_eq!(c % listings, 0, "leaf {leaf}");
+            let per = *per_listing.get_or_insert(c / listings);
+            assert_eq!(c / listings, per, "leaf {leaf}");
+            assert!(per > 12, "leaf {leaf}: {per}");
+        }
+        charged += c;
+        placed += bytes;
+    }
+    assert!(per_listing.is_some(), "no cell charged its copies");
+    assert!(charged > placed, "{charged} <= {placed}");
+}

@@ -14,6 +14,7 @@
 //! [`Workload`]: workload::Workload
 
 pub mod message;
+pub mod work_kind;
 pub mod workload;
 
 use std::fmt;

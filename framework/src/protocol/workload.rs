@@ -18,6 +18,8 @@ use crate::cache::ByteLru;
 use crate::protocol::{Addr, DpOutcome, Placement};
 use crate::resident::Resident;
 
+pub use super::work_kind::{NoWork, WorkKind};
+
 /// Size of a value in bytes as the framework should account for it (memory
 /// high-water marks, cache budget, message sizes). It need not be exact, but it
 /// must be deterministic.
@@ -30,92 +32,6 @@ pub trait ByteSize {
 /// sendable between threads and (for the later MPI runtime) serialisable.
 pub trait Payload: Clone + Debug + Send + Sync + Serialize + DeserializeOwned + 'static {}
 impl<T: Clone + Debug + Send + Sync + Serialize + DeserializeOwned + 'static> Payload for T {}
-
-/// The kinds of counted work a workload charges ([`Ctx::charge`]): a small
-/// enum, usually declared with [`crate::work_kinds!`]. Statistics and the
-/// simulator's cost model name each kind by [`WorkKind::name`]; a cost
-/// model that names a kind the workload does not declare is rejected when
-/// the simulation starts, so a misspelt name cannot silently cost nothing.
-pub trait WorkKind: Copy + Eq + Ord + Hash + Debug + Send + Sync + 'static {
-    /// Every kind, in declaration order.
-    const ALL: &'static [Self];
-    /// The name used in statistics, reports and cost models (e.g.
-    /// `"trace.leaves"`).
-    fn name(self) -> &'static str;
-
-    /// The kind called `name`, if there is one.
-    fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.iter().copied().find(|k| k.name() == name)
-    }
-
-    /// The kind's position in [`WorkKind::ALL`] ([`work_kinds!`](crate::work_kinds) makes it
-    /// the discriminant): what [`Ctx::charge`] indexes by.
-    fn index(self) -> usize {
-        Self::ALL
-            .iter()
-            .position(|&k| k == self)
-            .unwrap_or(usize::MAX)
-    }
-}
-
-/// Declares an enum of work kinds and implements [`WorkKind`] for it, each
-/// variant with its name:
-///
-/// ```rust
-/// hybrid_sched::work_kinds! {
-///     /// What the workload counts.
-///     pub enum Work {
-///         /// Cells visited by data selection.
-///         Select = "select",
-///         Add = "add",
-///     }
-/// }
-/// use hybrid_sched::WorkKind;
-/// assert_eq!(Work::ALL, [Work::Select, Work::Add]);
-/// assert_eq!(Work::Add.name(), "add");
-/// assert_eq!(Work::from_name("select"), Some(Work::Select));
-/// ```
-#[macro_export]
-macro_rules! work_kinds {
-    (
-        $(#[$meta:meta])*
-        $vis:vis enum $name:ident {
-            $($(#[$vmeta:meta])* $variant:ident = $label:literal),* $(,)?
-        }
-    ) => {
-        $(#[$meta])*
-        #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-        $vis enum $name {
-            $($(#[$vmeta])* $variant),*
-        }
-
-        impl $name {
-            /// The kind's name, as statistics and cost models know it.
-            #[allow(dead_code)]
-            $vis fn name(self) -> &'static str {
-                match self {
-                    $($name::$variant => $label),*
-                }
-            }
-        }
-
-        impl $crate::WorkKind for $name {
-            const ALL: &'static [Self] = &[$($name::$variant),*];
-            fn name(self) -> &'static str {
-                $name::name(self)
-            }
-            #[inline]
-            fn index(self) -> usize {
-                self as usize
-            }
-        }
-    };
-}
-
-work_kinds! {
-    /// For workloads that charge no work: no kinds at all.
-    pub enum NoWork {}
-}
 
 /// The application. All associated types travel in messages, hence the serde
 /// bounds.
@@ -265,6 +181,19 @@ pub trait Workload: Send + Sync + Sized + 'static {
     /// `id`'s owner and bytes as [`Workload::placement`] has them; `None` if not placed.
     fn locate(&self, _id: &Self::DataId, _procs: usize) -> Option<(usize, u64)> {
         None
+    }
+
+    /// What a processor's cache charges for a copy of `id`, whose bytes in
+    /// the placement are `bytes`: by default those bytes. A workload whose
+    /// copies take more memory where they are cached than the placement
+    /// accounts for them says so here, so that the cache's budget bounds
+    /// that memory. Asked when a task's data are selected, before they are
+    /// fetched (the charge is reserved then, and kept); must not change
+    /// while the item is cached or on its way. The fetch limit
+    /// ([`crate::Config::fetch_limit`]) stays in placement bytes: it
+    /// bounds what travels.
+    fn cache_charge(&self, _id: &Self::DataId, bytes: u64) -> u64 {
+        bytes
     }
 
     /// The resident items of processor `proc` (of `procs`); called for

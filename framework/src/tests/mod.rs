@@ -53,6 +53,9 @@ pub(crate) struct Mini {
     pub complete_on_migrate: bool,
     /// How it answers [`Workload::locate`].
     pub locating: Locating,
+    /// What caches charge for an item, in times its bytes
+    /// ([`Workload::cache_charge`]).
+    pub charge: u64,
 }
 
 /// How [`Mini`] answers [`Workload::locate`].
@@ -89,6 +92,7 @@ impl Default for Mini {
             laid_out: None,
             complete_on_migrate: false,
             locating: Locating::No,
+            charge: 1,
         }
     }
 }
@@ -237,6 +241,9 @@ impl Workload for Mini {
             _ => owner,
         };
         (*id < self.items).then_some((owner, bytes))
+    }
+    fn cache_charge(&self, _id: &u32, bytes: u64) -> u64 {
+        bytes * self.charge
     }
     fn load_partition(&self, proc: usize, procs: usize) -> Vec<(u32, Item)> {
         self.placement(procs)

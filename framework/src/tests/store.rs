@@ -157,3 +157,36 @@ fn a_reply_in_parts_keeps_the_order_the_bound_and_the_counts() {
     assert_eq!(empty.len(), 1);
     assert_eq!(server.basic(), (6, 3));
 }
+
+/// What a cache charges is the workload's ([`Workload::cache_charge`]):
+/// charged eight times their bytes, items a budget holds four of by
+/// placement do not fit it at all, so no task fetches (every one that
+/// needs data from elsewhere runs as data-parallel work), while charged
+/// their bytes the same budget caches; the results are the sequential ones
+/// either way, and no cache is ever charged more than its budget.
+#[test]
+fn a_cache_charges_what_the_workload_says() {
+    let budget = 4 * 56;
+    for charge in [1u64, 8] {
+        let w = Mini {
+            items: 48,
+            roots: 20,
+            charge,
+            ..Mini::default()
+        };
+        for policy in Policy::ALL {
+            let cfg = Config::new(3)
+                .with_policy(policy)
+                .with_cache_bytes(Some(budget));
+            let r = run_lockstep(Arc::new(w.clone()), &cfg, 5).expect("terminates");
+            check_against_sequential(&w, &r);
+            let what = format!("{policy}, charged {charge} times");
+            let mut cached = 0;
+            for p in &r.stats.procs {
+                assert!(p.memory.cached_bytes <= budget, "{what}: {p:?}");
+                cached += p.memory.cached_bytes;
+            }
+            assert_eq!(cached == 0, charge == 8, "{what}: {cached} bytes cached");
+        }
+    }
+}

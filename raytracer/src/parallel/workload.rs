@@ -107,8 +107,7 @@ pub struct RtWorkload {
     pub(super) width: usize,
     pub(super) height: usize,
     pub(super) opts: WorkloadOptions,
-    /// Non-empty leaves with their data size: the directory the framework
-    /// asks ([`Workload::locate`]).
+    /// Non-empty leaves with their data size ([`Workload::locate`]).
     pub(super) cells: Arc<CellTable>,
     pub(super) partition: Partition,
     /// Per node: the one processor owning every non-empty leaf below it,
@@ -133,8 +132,7 @@ pub struct RtWorkload {
     /// [`super::walks_worth_the_rest`] for this scene (worked out once).
     pub(super) rest_worth: std::sync::OnceLock<u64>,
     /// A distributed compiled scene: the renderer holds its replicated
-    /// part, and each processor reads its own cells (see
-    /// [`RtWorkload::distributed`]).
+    /// part, each processor reads its cells ([`RtWorkload::distributed`]).
     pub(super) held: Option<Held>,
 }
 
@@ -152,10 +150,11 @@ pub(super) struct Held {
     /// Per processor, its cells as read before the run
     /// ([`RtWorkload::read_part`]), until its processor starts.
     pub(super) parts: Vec<Mutex<Option<Part>>>,
-    /// Per processor: bytes of its resident objects (as
-    /// [`super::Partition::resident_bytes`] counts them for a scene loaded whole)
-    /// and of its copies.
-    pub(super) figures: Vec<Mutex<Option<(u64, u64)>>>,
+    /// Per processor: its resident objects' bytes ([`super::Partition`]'s
+    /// count for a scene loaded whole), its copies' bytes and count.
+    pub(super) figures: Vec<Mutex<Option<(u64, u64, u64)>>>,
+    /// The average bytes of a copy read here ([`RtWorkload::held_charge`]).
+    pub(super) per_copy: std::sync::OnceLock<u64>,
 }
 
 /// A tile's primary rays by its top-left pixel, row by row (`None`: the
@@ -414,6 +413,10 @@ impl Workload for RtWorkload {
         }
         let bytes = self.cells.bytes_of(*leaf)?;
         Some((self.partition.owner(*leaf) as usize, bytes))
+    }
+
+    fn cache_charge(&self, leaf: &NodeId, bytes: u64) -> u64 {
+        self.held_charge(*leaf, bytes)
     }
 
     fn load_partition(&self, proc: usize, procs: usize) -> Vec<(NodeId, CellData)> {
