@@ -6,15 +6,16 @@
 //! ray's constants are rounded so that every computed entry distance is no
 //! later than the exact one, and every exit no earlier:
 //!
-//! - **Origins.** Lower planes are measured from the origin rounded up,
-//!   upper planes from the origin rounded down: `lo - o'` is at most `lo -
-//!   o` and `hi - o'` at least `hi - o`, which moves each entry earlier and
-//!   each exit later whatever the direction's sign.
+//! - **Origins.** Lower planes are measured from a single no smaller than
+//!   the origin, upper planes from one no greater ([`up`], [`down`]): `lo -
+//!   o'` is at most `lo - o` and `hi - o'` at least `hi - o`, which moves
+//!   each entry earlier and each exit later whatever the direction's sign.
 //! - **Inverse directions.** Entries are multiplied by the inverse shrunk
-//!   by [`SLACK`] and rounded towards zero, exits by the inverse grown by
-//!   it and rounded away from zero. The subtraction and the product each
-//!   round by at most 2^-24 of their value, so `|(lo - o') * inv'|`, before
-//!   its last rounding, is below `|lo - o'| / |dir|`, and the exit's above.
+//!   by [`SLACK`], exits by the inverse grown by it, each then rounded to
+//!   nearest (2^-24 of its value; an entry's inverse beyond the single
+//!   range becomes the largest single). With the subtraction's and the
+//!   product's roundings, 2^-24 each, `|(lo - o') * inv'|` before its last
+//!   rounding is still below `|lo - o'| / |dir|`, and the exit's above.
 //! - **The last rounding** is to nearest, which is monotone: a real entry
 //!   no later than a real exit rounds to a float no later than the exit's,
 //!   underflow and overflow included. A bound `tmin` is rounded down, a
@@ -24,9 +25,11 @@
 //! value shrinks towards zero), which matters only if `tmin` is negative:
 //! such rays, and rays whose origin or direction is beyond [`RANGE`] (where
 //! `lo - o'` could overflow) or not finite, take the double-precision test
-//! ([`super::Slab`]). Zero direction components keep their infinite
-//! inverses, and `0 * inf` is NaN, which keeps the bound (`maxps`/`minps`
-//! return their second operand), as in double precision. The nodes' planes
+//! ([`super::Slab`]). A zero direction component gives an entry inverse
+//! of the largest single (an entry at `0 * f32::MAX = 0` where the ray runs
+//! in a plane: no later than exact) and an infinite exit inverse, whose
+//! `0 * inf` is NaN and keeps the bound (`maxps`/`minps` return their
+//! second operand), as in double precision. The nodes' planes
 //! are within the range where the hierarchy uses this test ([`fits`]),
 //! unused children's are infinite: `inf - o'` is infinite and never NaN.
 //!
@@ -59,16 +62,19 @@ const SLACK: f64 = 1.0 / (1u64 << 20) as f64;
 /// subnormal single (2^-150), where a relative one falls short.
 const TINY: f64 = 1.0 / (1u128 << 120) as f64;
 
-/// A single no smaller than `x` (`|x| <= RANGE`, or infinite, or NaN):
-/// nudged up before rounding to nearest, without the branches of an exact
-/// rounding up (a ray's constants are made once a ray, and branches on its
-/// bits are mispredicted).
+/// A single no smaller than `x` (`|x| <= RANGE`, or plus infinity; minus
+/// infinity and NaN give NaN, which as a bound lets no child through, as
+/// the empty segments they make should): nudged up before rounding to
+/// nearest, without the branches of an exact rounding up (a ray's
+/// constants are made once a ray, and branches on its bits are
+/// mispredicted).
 #[inline(always)]
 pub(super) fn up(x: f64) -> f32 {
     (x + (x.abs() * SLACK + TINY)) as f32
 }
 
-/// A single no greater than `x` (see [`up`]).
+/// A single no greater than `x` (see [`up`]; minus infinity stays, plus
+/// infinity and NaN give NaN).
 #[inline(always)]
 pub(super) fn down(x: f64) -> f32 {
     (x - (x.abs() * SLACK + TINY)) as f32
@@ -91,7 +97,7 @@ pub(super) struct Slab32 {
     inv_near: [f32; 3],
     inv_far: [f32; 3],
     /// Index (0 lower, 1 upper) of the plane the ray enters by on each axis.
-    pub(super) near: [usize; 3],
+    near: [usize; 3],
 }
 
 impl Slab32 {
@@ -118,9 +124,9 @@ impl Slab32 {
                 return None;
             }
             let near = inv[a].is_sign_negative() as usize;
-            // Lower planes from above the origin, upper ones from below.
-            // Chosen by index, not by a branch on the direction's sign
-            // (mispredicted where rays go every way).
+            // Lower planes from above the origin, upper ones from below,
+            // chosen by index (a version with bit masks, which the
+            // compiler could not turn into a branch, measured the same).
             let o_planes = [up(o[a]), down(o[a])];
             s.o_near[a] = o_planes[near];
             s.o_far[a] = o_planes[1 - near];
@@ -360,6 +366,8 @@ mod tests {
             assert!(f64::from(down(x)) <= x, "{x}");
         }
         assert_eq!(up(f64::INFINITY), f32::INFINITY);
+        assert_eq!(down(f64::NEG_INFINITY), f32::NEG_INFINITY);
+        assert!(up(f64::NEG_INFINITY).is_nan() && down(f64::INFINITY).is_nan());
         assert!(up(f64::NAN).is_nan());
         assert!(fits(-1e29, 1e29) && !fits(-1e31, 0.0) && !fits(0.0, f32::INFINITY));
     }
