@@ -35,7 +35,6 @@ mod packet;
 mod single;
 
 pub use packet::{Segment, PACKET};
-use single::Slab32;
 
 use std::mem::MaybeUninit;
 
@@ -189,7 +188,7 @@ trait Enter {
     ///
     /// # Safety
     /// The implementation's instructions must be available.
-    unsafe fn enter4_32(s: &Slab32, n: &Wide, tmin: f32, tmax: f32) -> (u32, [f32; 4]);
+    unsafe fn enter4_32(s: &single::Slab32, n: &Wide, tmin: f32, tmax: f32) -> (u32, [f32; 4]);
 
     /// The distances of a leaf block's four triangles ([`leaf::Tri4`]),
     /// NaN where the ray misses; every implementation gives the same.
@@ -227,7 +226,7 @@ impl Enter for Portable {
     }
 
     #[inline(always)]
-    unsafe fn enter4_32(s: &Slab32, n: &Wide, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
+    unsafe fn enter4_32(s: &single::Slab32, n: &Wide, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
         single::enter4(s, n, tmin, tmax)
     }
 
@@ -302,7 +301,7 @@ impl Enter for Avx2 {
     }
 
     #[inline(always)]
-    unsafe fn enter4_32(s: &Slab32, n: &Wide, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
+    unsafe fn enter4_32(s: &single::Slab32, n: &Wide, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
         single::enter4_avx2(s, n, tmin, tmax)
     }
 
@@ -322,7 +321,7 @@ impl Enter for Avx2 {
 }
 
 /// A ray's slab test at the nodes: in double precision ([`Slab`], any
-/// ray) or single ([`Slab32`], rays within its range). Either is only a
+/// ray) or single ([`single::Slab32`], rays within its range). Either is only a
 /// filter that lets through every child the ray enters, so the traversals'
 /// answers do not depend on which one ran.
 trait NodeTest: Copy {
@@ -363,17 +362,17 @@ impl NodeTest for Slab {
     }
 }
 
-impl NodeTest for Slab32 {
+impl NodeTest for single::Slab32 {
     type T = f32;
 
     #[inline(always)]
     fn lower(t: f64) -> f32 {
-        Slab32::lower(t)
+        single::Slab32::lower(t)
     }
 
     #[inline(always)]
     fn upper(t: f64) -> f32 {
-        Slab32::upper(t)
+        single::Slab32::upper(t)
     }
 
     #[inline(always)]
@@ -1064,7 +1063,7 @@ impl Bvh {
         tmax: f64,
     ) -> Option<Hit> {
         let pre = PreparedRay::new(ray);
-        match Slab32::new(ray, pre.inv_dir, tmin).filter(|_| self.single) {
+        match single::Slab32::new(ray, pre.inv_dir, tmin).filter(|_| self.single) {
             Some(s) => self.intersect_impl::<N, E, _, O>(objects, &pre, s, tmin, tmax),
             None => {
                 let s = Slab::new(ray, pre.inv_dir);
@@ -1527,9 +1526,14 @@ mod tests {
 
     /// [`enter_on_every_set`] for the single-precision test.
     #[cfg(target_arch = "x86_64")]
-    fn enter_on_every_set_32(s: &Slab32, n: &Wide, tmin: f32, tmax: f32) -> Vec<(u32, [u32; 4])> {
+    fn enter_on_every_set_32(
+        s: &single::Slab32,
+        n: &Wide,
+        tmin: f32,
+        tmax: f32,
+    ) -> Vec<(u32, [u32; 4])> {
         #[target_feature(enable = "avx2")]
-        unsafe fn avx2(s: &Slab32, n: &Wide, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
+        unsafe fn avx2(s: &single::Slab32, n: &Wide, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
             Avx2::enter4_32(s, n, tmin, tmax)
         }
         let bits = |(m, t0): (u32, [f32; 4])| (m, t0.map(f32::to_bits));
@@ -1583,8 +1587,9 @@ mod tests {
                 } else {
                     8.0 * scale
                 };
-                let slab32 = Slab32::new(&ray, pre.inv_dir, tmin).expect("within the range");
-                let (t0, t1) = (Slab32::lower(tmin), Slab32::upper(tmax));
+                let slab32 =
+                    single::Slab32::new(&ray, pre.inv_dir, tmin).expect("within the range");
+                let (t0, t1) = (single::Slab32::lower(tmin), single::Slab32::upper(tmax));
                 for n in &bvh.nodes {
                     let all = enter_on_every_set(&slab, n, tmin, tmax);
                     assert!(all.iter().all(|x| *x == all[0]), "ray {i}: {all:?}");
