@@ -325,8 +325,8 @@ impl Enter for Avx2 {
 /// filter that lets through every child the ray enters, so the traversals'
 /// answers do not depend on which one ran.
 trait NodeTest: Copy {
-    /// Distances along the ray.
-    type T: Copy + PartialOrd;
+    /// Distances along the ray (widening to double precision is exact).
+    type T: Copy + PartialOrd + Into<f64>;
 
     /// A segment's start, rounded down.
     fn lower(t: f64) -> Self::T;
@@ -367,12 +367,12 @@ impl NodeTest for single::Slab32 {
 
     #[inline(always)]
     fn lower(t: f64) -> f32 {
-        single::Slab32::lower(t)
+        single::down(t)
     }
 
     #[inline(always)]
     fn upper(t: f64) -> f32 {
-        single::Slab32::upper(t)
+        single::up(t)
     }
 
     #[inline(always)]
@@ -1507,39 +1507,30 @@ mod tests {
         }
     }
 
-    /// The slab test's mask and entry distances, portable and (where the
-    /// processor has it) AVX2.
-    #[cfg(target_arch = "x86_64")]
-    fn enter_on_every_set(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> Vec<(u32, [u64; 4])> {
-        #[target_feature(enable = "avx2")]
-        unsafe fn avx2(s: &Slab, n: &Wide, tmin: f64, tmax: f64) -> (u32, [f64; 4]) {
-            Avx2::enter4(s, n, tmin, tmax)
-        }
-        let bits = |(m, t0): (u32, [f64; 4])| (m, t0.map(f64::to_bits));
-        // SAFETY: AVX2 only where the processor has it.
-        let mut out = vec![bits(unsafe { Portable::enter4(s, n, tmin, tmax) })];
-        if std::arch::is_x86_feature_detected!("avx2") {
-            out.push(bits(unsafe { avx2(s, n, tmin, tmax) }));
-        }
-        out
-    }
-
-    /// [`enter_on_every_set`] for the single-precision test.
-    #[cfg(target_arch = "x86_64")]
-    fn enter_on_every_set_32(
-        s: &single::Slab32,
+    /// A slab test's mask and entry distances (widened to double
+    /// precision, which is exact), portable and (where the processor has
+    /// it) AVX2.
+    pub(super) fn enter_on_every_set<S: NodeTest>(
+        s: &S,
         n: &Wide,
-        tmin: f32,
-        tmax: f32,
-    ) -> Vec<(u32, [u32; 4])> {
-        #[target_feature(enable = "avx2")]
-        unsafe fn avx2(s: &single::Slab32, n: &Wide, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
-            Avx2::enter4_32(s, n, tmin, tmax)
-        }
-        let bits = |(m, t0): (u32, [f32; 4])| (m, t0.map(f32::to_bits));
-        // SAFETY: AVX2 only where the processor has it.
-        let mut out = vec![bits(unsafe { Portable::enter4_32(s, n, tmin, tmax) })];
+        tmin: S::T,
+        tmax: S::T,
+    ) -> Vec<(u32, [u64; 4])> {
+        let bits = |(m, t0): (u32, [S::T; 4])| (m, t0.map(|t| t.into().to_bits()));
+        // SAFETY: portable code.
+        let mut out = vec![bits(unsafe { s.enter::<Portable>(n, tmin, tmax) })];
+        #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
+            #[target_feature(enable = "avx2")]
+            unsafe fn avx2<S: NodeTest>(
+                s: &S,
+                n: &Wide,
+                tmin: S::T,
+                tmax: S::T,
+            ) -> (u32, [S::T; 4]) {
+                s.enter::<Avx2>(n, tmin, tmax)
+            }
+            // SAFETY: the processor has AVX2.
             out.push(bits(unsafe { avx2(s, n, tmin, tmax) }));
         }
         out
@@ -1589,7 +1580,7 @@ mod tests {
                 };
                 let slab32 =
                     single::Slab32::new(&ray, pre.inv_dir, tmin).expect("within the range");
-                let (t0, t1) = (single::Slab32::lower(tmin), single::Slab32::upper(tmax));
+                let (t0, t1) = (single::down(tmin), single::up(tmax));
                 for n in &bvh.nodes {
                     let all = enter_on_every_set(&slab, n, tmin, tmax);
                     assert!(all.iter().all(|x| *x == all[0]), "ray {i}: {all:?}");
@@ -1597,7 +1588,7 @@ mod tests {
                     // a superset of the double-precision test's children
                     // (its slack, 2^-20 of each distance, is far wider than
                     // double precision's rounding).
-                    let all32 = enter_on_every_set_32(&slab32, n, t0, t1);
+                    let all32 = enter_on_every_set(&slab32, n, t0, t1);
                     assert!(all32.iter().all(|x| *x == all32[0]), "ray {i}: {all32:?}");
                     assert_eq!(all32[0].0 & all[0].0, all[0].0, "ray {i}");
                 }

@@ -140,18 +140,6 @@ impl Slab32 {
         }
         Some(s)
     }
-
-    /// `tmin` for this test: a single not above it.
-    #[inline(always)]
-    pub(super) fn lower(t: f64) -> f32 {
-        down(t)
-    }
-
-    /// `tmax` (or a traversal's cut) for this test: a single not below it.
-    #[inline(always)]
-    pub(super) fn upper(t: f64) -> f32 {
-        up(t)
-    }
 }
 
 /// The slab test of one ray against a node's four children in single
@@ -207,48 +195,33 @@ unsafe fn lanes_avx2(
     tmax: f32,
 ) -> (u32, std::arch::x86_64::__m128) {
     use std::arch::x86_64::*;
-    // Spelled out per axis, without closures (see `Avx2::planes`). `Wide`
-    // is aligned to 32 bytes, each `[f32; 4]` of it to 16.
-    let b = &n.b;
-    let (x, y, z) = (s.near[0], s.near[1], s.near[2]);
+    // A plain loop, without closures (see `Avx2::planes`). `Wide` is
+    // aligned to 32 bytes, each `[f32; 4]` of it to 16.
     let mut t0 = _mm_set1_ps(tmin);
     let mut t1 = _mm_set1_ps(tmax);
-    let e = _mm_mul_ps(
-        _mm_sub_ps(_mm_load_ps(b[0][x].as_ptr()), _mm_set1_ps(s.o_near[0])),
-        _mm_set1_ps(s.inv_near[0]),
-    );
-    let f = _mm_mul_ps(
-        _mm_sub_ps(_mm_load_ps(b[0][1 - x].as_ptr()), _mm_set1_ps(s.o_far[0])),
-        _mm_set1_ps(s.inv_far[0]),
-    );
-    t0 = _mm_max_ps(e, t0);
-    t1 = _mm_min_ps(f, t1);
-    let e = _mm_mul_ps(
-        _mm_sub_ps(_mm_load_ps(b[1][y].as_ptr()), _mm_set1_ps(s.o_near[1])),
-        _mm_set1_ps(s.inv_near[1]),
-    );
-    let f = _mm_mul_ps(
-        _mm_sub_ps(_mm_load_ps(b[1][1 - y].as_ptr()), _mm_set1_ps(s.o_far[1])),
-        _mm_set1_ps(s.inv_far[1]),
-    );
-    t0 = _mm_max_ps(e, t0);
-    t1 = _mm_min_ps(f, t1);
-    let e = _mm_mul_ps(
-        _mm_sub_ps(_mm_load_ps(b[2][z].as_ptr()), _mm_set1_ps(s.o_near[2])),
-        _mm_set1_ps(s.inv_near[2]),
-    );
-    let f = _mm_mul_ps(
-        _mm_sub_ps(_mm_load_ps(b[2][1 - z].as_ptr()), _mm_set1_ps(s.o_far[2])),
-        _mm_set1_ps(s.inv_far[2]),
-    );
-    t0 = _mm_max_ps(e, t0);
-    t1 = _mm_min_ps(f, t1);
+    for a in 0..3 {
+        let near = s.near[a];
+        let e = _mm_mul_ps(
+            _mm_sub_ps(_mm_load_ps(n.b[a][near].as_ptr()), _mm_set1_ps(s.o_near[a])),
+            _mm_set1_ps(s.inv_near[a]),
+        );
+        let x = _mm_mul_ps(
+            _mm_sub_ps(
+                _mm_load_ps(n.b[a][1 - near].as_ptr()),
+                _mm_set1_ps(s.o_far[a]),
+            ),
+            _mm_set1_ps(s.inv_far[a]),
+        );
+        t0 = _mm_max_ps(e, t0);
+        t1 = _mm_min_ps(x, t1);
+    }
     (_mm_movemask_ps(_mm_cmple_ps(t0, t1)) as u32, t0)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::bvh::tests::enter_on_every_set;
     use proptest::prelude::*;
     use proptest::test_runner::{Config, RngSeed};
 
@@ -260,22 +233,6 @@ mod tests {
             n.b[a][1][2] = hi[a];
         }
         n
-    }
-
-    /// The masks of every implementation for `s` at `n`.
-    fn masks(s: &Slab32, n: &Wide, tmin: f32, tmax: f32) -> Vec<(u32, [u32; 4])> {
-        let bits = |(m, t): (u32, [f32; 4])| (m, t.map(f32::to_bits));
-        let mut out = vec![bits(enter4(s, n, tmin, tmax))];
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            #[target_feature(enable = "avx2")]
-            unsafe fn avx2(s: &Slab32, n: &Wide, tmin: f32, tmax: f32) -> (u32, [f32; 4]) {
-                enter4_avx2(s, n, tmin, tmax)
-            }
-            // SAFETY: the processor has AVX2.
-            out.push(bits(unsafe { avx2(s, n, tmin, tmax) }));
-        }
-        out
     }
 
     /// `k * 2^e`: exact, and so are differences of such values with
@@ -325,7 +282,7 @@ mod tests {
             let (tmin, tmax) = match end { 0 => (0.0, 1.0), 1 => (1.0, f64::INFINITY), _ => (0.5, 2.0) };
             let s = Slab32::new(&ray, inv, tmin).expect("within the range");
             let n = node(lo, hi);
-            let all = masks(&s, &n, Slab32::lower(tmin), Slab32::upper(tmax));
+            let all = enter_on_every_set(&s, &n, down(tmin), up(tmax));
             prop_assert!(all.iter().all(|x| *x == all[0]), "{all:?}");
             prop_assert_eq!(all[0].0, 1 << 2, "o {:?} d {:?} box {:?} {:?}: {:?}", o, d, lo, hi, all[0]);
         }
