@@ -92,6 +92,24 @@ impl Wide {
         link: [0; 4],
         count: [0; 4],
     };
+
+    /// Byte offset in a node of axis `a`'s planes `k` (0 lower, 1 upper):
+    /// a ray's entry and exit planes are located once, not at every node
+    /// (an index there cost a shift per plane; measured under callgrind,
+    /// 3.4% of primary rays' instructions).
+    const fn plane_at(a: usize, k: usize) -> usize {
+        std::mem::offset_of!(Wide, b) + (2 * a + k) * std::mem::size_of::<[f32; 4]>()
+    }
+
+    /// The four children's planes at byte offset `at`.
+    ///
+    /// # Safety
+    /// `at` must be one [`Wide::plane_at`] made.
+    #[inline(always)]
+    unsafe fn planes_at(&self, at: usize) -> *const f32 {
+        // SAFETY: the caller's; the planes are 16-byte aligned in the node.
+        unsafe { (self as *const Wide).cast::<u8>().add(at).cast() }
+    }
 }
 
 /// Per-ray constants of the slab test.
@@ -1534,6 +1552,24 @@ mod tests {
             out.push(bits(unsafe { avx2(s, n, tmin, tmax) }));
         }
         out
+    }
+
+    /// A node's planes found by byte offset are the ones its index names.
+    #[test]
+    fn plane_offsets_name_the_planes() {
+        let mut n = Wide::UNUSED;
+        for a in 0..3 {
+            for k in 0..2 {
+                n.b[a][k] = std::array::from_fn(|l| (10 * a + 4 * k + l) as f32);
+            }
+        }
+        for a in 0..3 {
+            for k in 0..2 {
+                // SAFETY: an offset `plane_at` made; four floats there.
+                let p = unsafe { std::slice::from_raw_parts(n.planes_at(Wide::plane_at(a, k)), 4) };
+                assert_eq!(p, n.b[a][k], "axis {a}, plane {k}");
+            }
+        }
     }
 
     /// The portable slab test and the AVX2 one give the same masks and
