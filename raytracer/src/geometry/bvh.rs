@@ -30,6 +30,7 @@
 //! component gives an infinite inverse; the `0 * inf` NaN of a ray exactly
 //! on a box plane leaves that axis unconstrained).
 
+mod binning;
 mod leaf;
 mod packet;
 mod single;
@@ -428,10 +429,15 @@ pub struct BvhStats {
     pub objects: usize,
 }
 
-/// An object's box in single precision, for the heuristic only (the nodes'
-/// boxes are the exact unions of the objects' double-precision boxes, see
-/// [`Builder::leaf`]): lanes 0 to 2 the coordinates, lane 3 of `lo` the
-/// object's id (its bits). 32 bytes, two SIMD registers.
+/// An object's box enlarged by the build's margin and rounded outwards to
+/// single precision: lanes 0 to 2 the coordinates, lane 3 of `lo` the
+/// object's id (its bits). 32 bytes, two SIMD registers. The heuristic
+/// bins these boxes, and a leaf's box is their union: rounding outwards is
+/// monotone, so the union of the rounded boxes is the rounded union of the
+/// double-precision ones, the planes a node would get from the objects'
+/// own boxes (each object's box is asked for once, not again at its leaf:
+/// a third of the build's time on the studio went to reading the
+/// objects' vertices, scattered through memory, three times).
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(16))]
 struct Ref {
@@ -455,6 +461,7 @@ impl Ref {
 
 /// A box in single precision (lane 3 meaningless).
 #[derive(Debug, Clone, Copy)]
+#[repr(C, align(16))]
 struct Box4 {
     lo: [f32; 4],
     hi: [f32; 4],
@@ -549,15 +556,7 @@ fn fmax<T: PartialOrd>(a: T, b: T) -> T {
 /// nodes built directly (the binary split of the largest child repeated
 /// until there are four). Deterministic: every step is a function of the
 /// refs' order, which only the steps themselves change; no threads.
-struct Builder<'a, O: ?Sized> {
-    /// The objects, asked again for their boxes at the leaves (keeping
-    /// each object's double-precision box through the build took 56 bytes
-    /// an object beside its 32-byte [`Ref`]: without it, the rank of the
-    /// 1.5M-triangle city at `-np 4` whose peak is its hierarchy's build
-    /// peaked 5 to 10 MiB lower, the book's MPI chapter).
-    objects: &'a O,
-    /// The margin every object's box is enlarged by.
-    pad: Vec3,
+struct Builder {
     refs: Vec<Ref>,
     nodes: Vec<Wide>,
     /// Object ids of the leaves built so far, in leaf order.
@@ -634,7 +633,7 @@ impl Bins {
     }
 }
 
-impl<O: ObjectSet + ?Sized> Builder<'_, O> {
+impl Builder {
     /// How to split `p`: the binned surface area heuristic over the three
     /// axes (objects binned by box centre, the three axes in one pass); a
     /// split by count where centres coincide or the tree would grow too
@@ -663,33 +662,18 @@ impl<O: ObjectSet + ?Sized> Builder<'_, O> {
         }
         // A centre is in `[cmin, cmin + ext]`: bins `0..nb` (clamped: a
         // centre on the top edge, rounding; a NaN from an infinite scale is
-        // bin 0). The mask changes no bin (`nb <= BINS`, a power of two);
-        // it lets the compiler drop the bounds checks.
-        let top = (nb - 1) as f32;
-        // A coordinate's position along axis `k`, in `[0, top]`.
-        let pos = move |c: f32, k: usize| fmin(fmax((c - cmin[k]) * scale[k], 0.0), top);
-        // SAFETY (both): `pos` is in `[0, top]`, finite.
-        let index = |x: f32| unsafe { x.to_int_unchecked::<u32>() as usize & (BINS - 1) };
-        let bin = move |c: f32, k: usize| index(pos(c, k));
-        // The three axes' positions in one pass of four lanes (lane 3
-        // unused).
-        let bins_of = move |r: &Ref| {
-            let c = r.centre();
-            let x: [f32; 4] = std::array::from_fn(|k| pos(c[k], k));
-            [0, 1, 2].map(|k| index(x[k]))
+        // bin 0).
+        let grid = binning::Grid {
+            cmin,
+            scale,
+            top: (nb - 1) as f32,
         };
         let bins = &mut self.bins;
         for bins in bins.iter_mut() {
             bins.b[..nb].fill(Box4::EMPTY);
             bins.n[..nb].fill(0);
         }
-        for r in &self.refs[p.start..p.end] {
-            let b = bins_of(r);
-            for (a, bins) in bins.iter_mut().enumerate() {
-                bins.b[b[a]].add(&r.lo, &r.hi);
-                bins.n[b[a]] += 1;
-            }
-        }
+        binning::bin_all(&self.refs[p.start..p.end], &grid, bins);
         let parent_area = p.bounds.half_area();
         let mut best: Option<(f32, usize, usize, Box4, Box4)> = None;
         for (axis, bins) in bins.iter().enumerate() {
@@ -712,7 +696,7 @@ impl<O: ObjectSet + ?Sized> Builder<'_, O> {
         let refs = &mut self.refs[p.start..p.end];
         let (mut i, mut j) = (0, refs.len());
         let (mut lc, mut rc) = (Box4::EMPTY, Box4::EMPTY);
-        let side = move |r: &Ref| bin(r.lo[axis] + r.hi[axis], axis) < b;
+        let side = move |r: &Ref| grid.bin(r.lo[axis] + r.hi[axis], axis) < b;
         loop {
             while i < j && side(&refs[i]) {
                 lc.grow(&refs[i].centre());
@@ -851,18 +835,15 @@ impl<O: ObjectSet + ?Sized> Builder<'_, O> {
         let start = self.ids.len() as u32;
         let mut all = Aabb::EMPTY;
         for r in &self.refs[p.start..p.end] {
-            let id = r.id();
-            let b = self.objects.bounds(id as usize);
-            all = all.union(Aabb::new(b.min - self.pad, b.max + self.pad));
-            self.ids.push(id);
+            let (lo, hi) = (r.lo.map(f64::from), r.hi.map(f64::from));
+            all = all.union(Aabb::new(
+                Vec3::new(lo[0], lo[1], lo[2]),
+                Vec3::new(hi[0], hi[1], hi[2]),
+            ));
+            self.ids.push(r.id());
         }
         (start, all)
     }
-}
-
-/// `x` rounded to single precision, within the finite range.
-fn to_f32(x: f64) -> f32 {
-    (x as f32).clamp(f32::MIN, f32::MAX)
 }
 
 /// The greatest single-precision number not above `x` (a node's lower
@@ -950,7 +931,10 @@ impl Bvh {
                 continue;
             }
             let b = Aabb::new(b.min - pad, b.max + pad);
-            let (lo, hi) = (b.min.to_array().map(to_f32), b.max.to_array().map(to_f32));
+            let (lo, hi) = (
+                b.min.to_array().map(round_down),
+                b.max.to_array().map(round_up),
+            );
             refs.push(Ref {
                 lo: [lo[0], lo[1], lo[2], f32::from_bits(i as u32)],
                 hi: [hi[0], hi[1], hi[2], 0.0],
@@ -958,8 +942,6 @@ impl Bvh {
         }
         debug_assert_eq!(refs.len(), n);
         let mut b = Builder {
-            objects,
-            pad,
             refs,
             nodes: Vec::with_capacity(n / 2 + 1),
             ids: Vec::with_capacity(n),
