@@ -452,10 +452,13 @@ impl Ref {
         self.lo[3].to_bits()
     }
 
-    /// Twice the box's centre (lane 3 meaningless).
+    /// Twice the box's centre, lane 3 zero. (Not the sum of lane 3 too:
+    /// an id's bits are a subnormal number, and arithmetic on subnormals
+    /// is slow on some processors.)
     #[inline(always)]
     fn centre(&self) -> [f32; 4] {
-        std::array::from_fn(|k| self.lo[k] + self.hi[k])
+        let (lo, hi) = (&self.lo, &self.hi);
+        [lo[0] + hi[0], lo[1] + hi[1], lo[2] + hi[2], 0.0]
     }
 }
 
@@ -651,7 +654,8 @@ impl Builder {
         }
         // Fewer bins for fewer objects, as Embree's binner counts them.
         let nb = (4 + n / 20).min(n).min(BINS);
-        let cmin = p.centres.lo;
+        let mut cmin = p.centres.lo;
+        cmin[3] = 0.0;
         let mut scale = [0.0f32; 4];
         for k in 0..3 {
             scale[k] = if ext[k] > 0.0 {

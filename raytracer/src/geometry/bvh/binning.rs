@@ -69,12 +69,15 @@ unsafe fn sse2(refs: &[Ref], g: &Grid, bins: &mut [Bins; 3]) {
     let scale = _mm_loadu_ps(g.scale.as_ptr());
     let top = _mm_set1_ps(g.top);
     let zero = _mm_setzero_ps();
+    // Lanes 0 to 2: lane 3 of `lo` is the id, whose bits are a subnormal
+    // number (slow arithmetic on some processors); lane 3 of `hi` is 0.
+    let xyz = _mm_castsi128_ps(_mm_set_epi32(0, -1, -1, -1));
     let mut at = [0i32; 4];
     for r in refs {
         // `Ref` and `Box4` are aligned to 16 bytes.
         let lo = _mm_load_ps(r.lo.as_ptr());
         let hi = _mm_load_ps(r.hi.as_ptr());
-        let c = _mm_add_ps(lo, hi);
+        let c = _mm_add_ps(_mm_and_ps(lo, xyz), hi);
         let x = _mm_min_ps(
             _mm_max_ps(_mm_mul_ps(_mm_sub_ps(c, cmin), scale), zero),
             top,
