@@ -63,26 +63,12 @@ impl Blocks {
             Shape::Polygon(p) => &p.tri_verts[..],
             _ => &[],
         };
-        // The leaves in order, `(start, count)`: they tile `ids`, each
-        // starting where the one before ends, so a walk over `at` (each
-        // leaf's count at its start) finds them without sorting (the sort
-        // took 4% of the studio's build).
-        let mut at = vec![(0, 0, 0); ids.len()];
-        for n in nodes {
-            for l in 0..4 {
-                if n.count[l] > 0 {
-                    at[n.link[l] as usize].1 = n.count[l];
-                }
-            }
-        }
-        let mut leaves: Vec<(u32, u32)> = Vec::new();
-        let mut s = 0;
-        while s < ids.len() {
-            let count = at[s].1;
-            assert!(count > 0, "the leaves tile the hierarchy's ids");
-            leaves.push((s as u32, count));
-            s += count as usize;
-        }
+        let mut leaves: Vec<(u32, u32)> = nodes
+            .iter()
+            .flat_map(|n| (0..4).map(move |l| (n.link[l], n.count[l])))
+            .filter(|&(_, count)| count > 0)
+            .collect();
+        leaves.sort_unstable();
         // First each leaf's polygons put first and its triangles counted
         // (from a compact table, read in id order), and where its blocks
         // start; then the blocks, in an array of exactly their number
@@ -95,6 +81,7 @@ impl Blocks {
                 _ => 0,
             })
             .collect();
+        let mut at = vec![(0, 0, 0); ids.len()];
         let mut open = 0; // lanes filled in the open block
         let mut count = 0u32; // blocks closed
         for &(s, n_ids) in &leaves {
