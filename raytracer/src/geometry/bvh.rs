@@ -455,16 +455,22 @@ impl Ref {
     /// outwards: one step further where a flag is set.
     #[inline(always)]
     fn new(id: ObjectId, lo: [f64; 3], hi: [f64; 3]) -> Ref {
-        let (l, h) = (lo.map(to_f32), hi.map(to_f32));
+        // Loops rather than `map`s, which were not inlined.
+        let mut r = Ref {
+            lo: [0.0; 4],
+            hi: [0.0; 4],
+        };
         let mut flags = FLAGS;
         for k in 0..3 {
-            flags |= ((f64::from(l[k]) > lo[k]) as u32) << k;
-            flags |= ((f64::from(h[k]) < hi[k]) as u32) << (3 + k);
+            let (l, h) = (to_f32(lo[k]), to_f32(hi[k]));
+            flags |= ((f64::from(l) > lo[k]) as u32) << k;
+            flags |= ((f64::from(h) < hi[k]) as u32) << (3 + k);
+            r.lo[k] = l;
+            r.hi[k] = h;
         }
-        Ref {
-            lo: [l[0], l[1], l[2], f32::from_bits(id)],
-            hi: [h[0], h[1], h[2], f32::from_bits(flags)],
-        }
+        r.lo[3] = f32::from_bits(id);
+        r.hi[3] = f32::from_bits(flags);
+        r
     }
 
     /// The box rounded outwards to single precision: each coordinate
@@ -473,11 +479,20 @@ impl Ref {
     #[inline(always)]
     fn outward(&self) -> ([f32; 3], [f32; 3]) {
         let flags = self.hi[3].to_bits();
-        let step = |f: f32, k: u32, s: fn(f32) -> f32| if (flags >> k) & 1 != 0 { s(f) } else { f };
-        (
-            [0, 1, 2].map(|k| step(self.lo[k], k as u32, step_down)),
-            [0, 1, 2].map(|k| step(self.hi[k], 3 + k as u32, step_up)),
-        )
+        let (mut lo, mut hi) = ([0.0; 3], [0.0; 3]);
+        for k in 0..3 {
+            lo[k] = if (flags >> k) & 1 != 0 {
+                step_down(self.lo[k])
+            } else {
+                self.lo[k]
+            };
+            hi[k] = if (flags >> (3 + k)) & 1 != 0 {
+                step_up(self.hi[k])
+            } else {
+                self.hi[k]
+            };
+        }
+        (lo, hi)
     }
 
     /// The object's id.
@@ -873,13 +888,19 @@ impl Builder {
     fn leaf(&mut self, p: &Part, depth: u32) -> (u32, Aabb) {
         self.depth = self.depth.max(depth);
         let start = self.ids.len() as u32;
-        let mut all = Aabb::EMPTY;
+        // The union taken in single precision (exact: the corners are
+        // single-precision numbers).
+        let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
         for r in &self.refs[p.start..p.end] {
-            let (lo, hi) = r.outward();
-            let v = |x: [f32; 3]| Vec3::new(x[0].into(), x[1].into(), x[2].into());
-            all = all.union(Aabb::new(v(lo), v(hi)));
+            let (l, h) = r.outward();
+            for k in 0..3 {
+                lo[k] = fmin(lo[k], l[k]);
+                hi[k] = fmax(hi[k], h[k]);
+            }
             self.ids.push(r.id());
         }
+        let v = |x: [f32; 3]| Vec3::new(x[0].into(), x[1].into(), x[2].into());
+        let all = Aabb::new(v(lo), v(hi));
         (start, all)
     }
 }
