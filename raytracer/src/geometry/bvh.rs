@@ -12,8 +12,9 @@
 //! nearest child entered is visited first. Measured (`hybrid-rt bench
 //! --embree`, the studio as 48,684 triangles, one core): the wide nodes
 //! trace primary rays about twice as fast as binary ones, shadow rays about
-//! 1.3 times; the build takes a little under twice Embree's time (0.50 to
-//! 0.54 of its speed, 2026-11-30).
+//! 1.3 times; the build takes a little under twice Embree's time (0.53 to
+//! 0.57 of its speed, 2026-12-04, five rounds; the book's benchmark
+//! chapter).
 //!
 //! A leaf's polygons are tested four triangles at a time ([`leaf`]'s
 //! blocks, Embree's leaf layout), each lane with the pair test's
@@ -448,8 +449,8 @@ const FLAGS: u32 = 0x3f80_0000;
 
 impl Ref {
     /// Object `id`'s box `lo`..`hi` (double precision, finite). The
-    /// heuristic's box rounds to the nearest: rounded outwards, the studio's
-    /// tree gave primary rays 4% more instructions (callgrind). Flag `k`
+    /// heuristic's box rounds to the nearest, as it always has (the same
+    /// tree as before the flags). Flag `k`
     /// says that `lo[k]` was rounded up, flag `3 + k` that `hi[k]` was
     /// rounded down, so that [`Ref::outward`] finds the box rounded
     /// outwards: one step further where a flag is set.
@@ -883,8 +884,9 @@ impl Builder {
 
     /// Appends `p`'s objects to the leaf order; returns where they start
     /// and their exact box, rounded outwards ([`Ref::outward`]: without
-    /// asking the objects for their boxes again, whose vertices, scattered
-    /// through memory, took a sixth of the studio's build).
+    /// asking the objects for their boxes again; their vertices lie
+    /// scattered through memory, and the three reads of each object's box
+    /// took about a sixth of the studio's build, `perf`).
     fn leaf(&mut self, p: &Part, depth: u32) -> (u32, Aabb) {
         self.depth = self.depth.max(depth);
         let start = self.ids.len() as u32;
