@@ -194,21 +194,14 @@ fn ahead<'a>(
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        // SAFETY: a hint; any address may be given.
+        #[allow(unused_unsafe)]
+        let fetch = |p: *const i8| unsafe { _mm_prefetch::<_MM_HINT_T0>(p) };
         if let Some(&id) = ids.get(j + 16) {
-            let p: *const Object = &objects[id as usize];
-            // SAFETY: a hint; any address may be given.
-            #[allow(unused_unsafe)]
-            unsafe {
-                _mm_prefetch::<_MM_HINT_T0>(p.cast())
-            };
+            fetch((&objects[id as usize] as *const Object).cast());
         }
         if let Some(&id) = ids.get(j + 8) {
-            let p = triangles(id).as_ptr();
-            // SAFETY: as above.
-            #[allow(unused_unsafe)]
-            unsafe {
-                _mm_prefetch::<_MM_HINT_T0>(p.cast())
-            };
+            fetch(triangles(id).as_ptr().cast());
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
