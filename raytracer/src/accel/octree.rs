@@ -307,7 +307,10 @@ impl Builder<'_> {
     fn overlaps(&self, id: ObjectId, cell: &Cell) -> bool {
         let h = cell.half + self.margin;
         let b = Aabb::new(cell.center - h, cell.center + h);
-        self.bounds[id as usize].overlaps(&b) && self.objects[id as usize].shape.overlaps_box(&b)
+        self.bounds[id as usize].overlaps(&b)
+            && self.objects[id as usize]
+                .shape
+                .overlaps_box_within_bounds(&b)
     }
 
     /// The candidates among `cands` that overlap `cell`, in their order.

@@ -525,9 +525,14 @@ impl Shape {
     /// Conservative test whether the surface may intersect the box `b` (the
     /// caller enlarges `b` by its rounding margin). Used by the octree build.
     pub fn overlaps_box(&self, b: &Aabb) -> bool {
-        if !self.bounds().overlaps(b) {
-            return false;
-        }
+        self.bounds().overlaps(b) && self.overlaps_box_within_bounds(b)
+    }
+
+    /// [`Shape::overlaps_box`] where the caller has found that the shape's
+    /// bounds overlap `b` (the octree's build keeps every object's bounds:
+    /// a polygon's, a pass over its vertices, were computed again for
+    /// each of the 8 children of every cell it was a candidate in).
+    pub(crate) fn overlaps_box_within_bounds(&self, b: &Aabb) -> bool {
         let c = b.center();
         let h = b.extent() * 0.5;
         match self {
@@ -879,8 +884,60 @@ pub fn intersect_ring(
 
 /// Triangle/box overlap by the separating axis theorem (Akenine-Möller 2001).
 /// `c`, `h`: box centre and half extents.
+///
+/// The nine axes across an edge `e` and a box axis are `e × X = (0, e.z,
+/// -e.y)`, `e × Y = (-e.z, 0, e.x)` and `e × Z = (e.y, -e.x, 0)`: each
+/// projection is two products, where the general cross and dot products
+/// (`tri_box_overlap_general`) make nine and add terms that are zero. For
+/// finite coordinates every projection and radius is the general one's
+/// bit for bit but for the sign of a zero (a zero term is `±0`, and `x +
+/// ±0` is `x`; a sum of two terms does not depend on their order), which
+/// no comparison here sees, so the answer is the same. Non-finite
+/// coordinates (where `0 × ∞` is NaN) take the general test. The octree's
+/// build spent most of its time here.
 pub(crate) fn tri_box_overlap(c: Vec3, h: Vec3, v0: Vec3, v1: Vec3, v2: Vec3) -> bool {
     let (v0, v1, v2) = (v0 - c, v1 - c, v2 - c);
+    if !(v0.is_finite() && v1.is_finite() && v2.is_finite() && h.is_finite()) {
+        return tri_box_overlap_centred(h, v0, v1, v2);
+    }
+    // Box face normals.
+    let mn = v0.min(v1).min(v2);
+    let mx = v0.max(v1).max(v2);
+    if mn.cmpgt(h).any() || mx.cmplt(-h).any() {
+        return false;
+    }
+    // Triangle plane.
+    let e0 = v1 - v0;
+    let e1 = v2 - v1;
+    let e2 = v0 - v2;
+    let n = e0.cross(e1);
+    if n.dot(v0).abs() > h.dot(n.abs()) {
+        return false;
+    }
+    // Edge x axis cross products.
+    let apart =
+        |p0: f64, p1: f64, p2: f64, r: f64| p0.min(p1).min(p2) > r || p0.max(p1).max(p2) < -r;
+    for e in [e0, e1, e2] {
+        let (ax, ay, az) = (e.x.abs(), e.y.abs(), e.z.abs());
+        let x = |v: Vec3| e.z * v.y - e.y * v.z;
+        if apart(x(v0), x(v1), x(v2), h.y * az + h.z * ay) {
+            return false;
+        }
+        let y = |v: Vec3| e.x * v.z - e.z * v.x;
+        if apart(y(v0), y(v1), y(v2), h.x * az + h.z * ax) {
+            return false;
+        }
+        let z = |v: Vec3| e.y * v.x - e.x * v.y;
+        if apart(z(v0), z(v1), z(v2), h.x * ay + h.y * ax) {
+            return false;
+        }
+    }
+    true
+}
+
+/// The general form of [`tri_box_overlap`] (vertices relative to the box
+/// centre): full cross and dot products for every axis.
+fn tri_box_overlap_centred(h: Vec3, v0: Vec3, v1: Vec3, v2: Vec3) -> bool {
     // Box face normals.
     let mn = v0.min(v1).min(v2);
     let mx = v0.max(v1).max(v2);
@@ -907,4 +964,11 @@ pub(crate) fn tri_box_overlap(c: Vec3, h: Vec3, v0: Vec3, v1: Vec3, v2: Vec3) ->
         }
     }
     true
+}
+
+/// [`tri_box_overlap`] through the general axes only (its tests compare
+/// the two).
+#[cfg(test)]
+pub(crate) fn tri_box_overlap_general(c: Vec3, h: Vec3, v0: Vec3, v1: Vec3, v2: Vec3) -> bool {
+    tri_box_overlap_centred(h, v0 - c, v1 - c, v2 - c)
 }

@@ -901,3 +901,131 @@ fn tessellation_lies_on_the_surfaces() {
         }
     }
 }
+
+/// The triangle/box test's specialised axes (two products each) answer as
+/// the general cross and dot products do: random triangles and boxes at
+/// scales from 1e-30 to 1e30, and the hard cases (edges along an axis,
+/// where the zero terms the specialised form leaves out are products
+/// with zero; degenerate triangles; triangles touching a face, an edge or
+/// a corner of the box; boxes of zero extent), each also shifted far from
+/// the origin. Non-finite coordinates take the general form itself.
+#[test]
+fn specialised_triangle_box_axes_answer_as_the_general_ones() {
+    use super::shape_impl::{tri_box_overlap, tri_box_overlap_general};
+    use proptest::test_runner::{Config, RngSeed, TestRunner};
+    let same = |c: Vec3, h: Vec3, t: [Vec3; 3]| {
+        let (a, b) = (
+            tri_box_overlap(c, h, t[0], t[1], t[2]),
+            tri_box_overlap_general(c, h, t[0], t[1], t[2]),
+        );
+        assert_eq!(a, b, "box {c:?} ± {h:?}, triangle {t:?}");
+        a
+    };
+    // Hard cases around the unit box, at several scales and offsets.
+    let mut overlaps = 0;
+    let hard: Vec<[Vec3; 3]> = vec![
+        // Edges along the axes, crossing a face.
+        [
+            Vec3::new(0.5, 0.5, 0.0),
+            Vec3::new(1.5, 0.5, 0.0),
+            Vec3::new(0.5, 1.5, 0.0),
+        ],
+        // Touching the face x = 1, the edge, the corner.
+        [
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.5, 0.0),
+            Vec3::new(2.0, -0.5, 0.3),
+        ],
+        [
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(2.0, 2.0, 0.0),
+            Vec3::new(2.0, 1.0, 1.0),
+        ],
+        [
+            Vec3::new(1.0, 1.0, 1.0),
+            Vec3::new(2.0, 2.0, 2.0),
+            Vec3::new(2.0, 1.0, 3.0),
+        ],
+        // Just outside a corner, diagonal: only an edge axis separates.
+        [
+            Vec3::new(1.6, 0.0, 1.6),
+            Vec3::new(0.0, 1.6, 1.6),
+            Vec3::new(1.6, 1.6, 0.0),
+        ],
+        [
+            Vec3::new(1.4, 0.0, 1.4),
+            Vec3::new(0.0, 1.4, 1.4),
+            Vec3::new(1.4, 1.4, 0.0),
+        ],
+        // Degenerate: a segment, a point, a zero-area sliver.
+        [
+            Vec3::new(-2.0, 0.3, 0.2),
+            Vec3::new(2.0, 0.3, 0.2),
+            Vec3::new(2.0, 0.3, 0.2),
+        ],
+        [
+            Vec3::new(0.5, 0.5, 0.5),
+            Vec3::new(0.5, 0.5, 0.5),
+            Vec3::new(0.5, 0.5, 0.5),
+        ],
+        [
+            Vec3::new(-3.0, 1.0 + 1e-15, 0.0),
+            Vec3::new(3.0, 1.0 + 1e-15, 0.0),
+            Vec3::new(0.0, 1.0 + 2e-15, 0.0),
+        ],
+        // Big and containing the box.
+        [
+            Vec3::new(-100.0, -100.0, 0.1),
+            Vec3::new(100.0, -100.0, 0.1),
+            Vec3::new(0.0, 100.0, 0.1),
+        ],
+    ];
+    for scale in [1e-30, 1e-9, 1.0, 3.7, 1e9, 1e30] {
+        for offset in [0.0, 1e6, -1e12] {
+            let o = Vec3::splat(offset * scale);
+            for h in [Vec3::ONE, Vec3::new(1.0, 0.0, 2.0), Vec3::ZERO] {
+                for t in &hard {
+                    let t = t.map(|v| v * scale + o);
+                    overlaps += same(o, h * scale, t) as usize;
+                }
+            }
+        }
+    }
+    assert!(overlaps > 0);
+    // Non-finite coordinates: the general form, whatever it answers.
+    let inf = Vec3::new(f64::INFINITY, 0.0, 0.0);
+    same(Vec3::ZERO, Vec3::ONE, [inf, Vec3::ZERO, Vec3::Y]);
+    same(
+        Vec3::ZERO,
+        Vec3::splat(f64::INFINITY),
+        [Vec3::X, Vec3::ZERO, Vec3::Y],
+    );
+    same(
+        Vec3::ZERO,
+        Vec3::ONE,
+        [Vec3::splat(f64::NAN), Vec3::ZERO, Vec3::Y],
+    );
+    // Random ones: most near the box, so that every axis decides some.
+    let mut runner = TestRunner::new(Config {
+        cases: 4000,
+        rng_seed: RngSeed::Fixed(23),
+        ..Config::default()
+    });
+    let coord = -2.0f64..2.0;
+    let v = (coord.clone(), coord.clone(), coord).prop_map(|(x, y, z)| Vec3::new(x, y, z));
+    let strategy = (
+        v.clone(),
+        v.clone(),
+        v,
+        (0.0f64..1.5, 0.0f64..1.5, 0.0f64..1.5),
+        prop::sample::select(vec![1e-30, 1e-7, 1.0, 1e7, 1e30]),
+    );
+    runner
+        .run(&strategy, |(a, b, c, (hx, hy, hz), s)| {
+            let h = Vec3::new(hx, hy, hz) * s;
+            same(Vec3::ZERO, h, [a * s, b * s, c * s]);
+            same(Vec3::splat(0.25 * s), h, [a * s, b * s, c * s]);
+            Ok(())
+        })
+        .unwrap();
+}

@@ -155,6 +155,22 @@ impl LocalPath<'_> {
     }
 }
 
+/// The leaves a processor would walk over `share` pixels at the rate of
+/// its first `pixels` (`walked` so far): 0 before it has traced
+/// [`PROJECT_FROM`] of its share (a few tiles are a poor sample).
+fn projected_walks(walked: u64, pixels: u64, share: u64) -> u64 {
+    if pixels == 0 || pixels.saturating_mul(PROJECT_FROM) < share {
+        return 0;
+    }
+    let p = u128::from(walked) * u128::from(share.max(pixels)) / u128::from(pixels);
+    u64::try_from(p).unwrap_or(u64::MAX)
+}
+
+/// [`projected_walks`] projects once a processor has traced 1/64 of its
+/// share of the frame's pixels (the studio at 512x512 on two processors:
+/// about 6 of its 384 tiles).
+const PROJECT_FROM: u64 = 64;
+
 /// Cached leaves before a processor's first grown hierarchy.
 const FIRST_GROWTH: usize = 16;
 
@@ -405,11 +421,15 @@ impl RtWorkload {
 
     /// Counts `leaves` walked by the running processor's queries outside
     /// its grown hierarchy (see [`WALKED_PER_OBJECT`]), and asks for the
-    /// rest of the scene ([`Ctx::complete_cache`]) with the walk that
-    /// takes the count past [`walks_worth_the_rest`] (once: the count
-    /// only grows).
+    /// rest of the scene ([`Ctx::complete_cache`]) once the walks are worth
+    /// it ([`walks_worth_the_rest`]): when they have cost what the rest
+    /// costs (the ski-rental rule), or sooner, when the walks per pixel of
+    /// its tiles so far, over its share of the frame's pixels, come to
+    /// that cost (the rule with the run's length known: renting for the
+    /// whole run costs more than buying now). Once: the count only grows.
     #[inline]
     pub(super) fn note_walked(&self, ctx: &mut Ctx<Self>, leaves: u64) {
+        use std::sync::atomic::Ordering::Relaxed;
         if leaves == 0 {
             return;
         }
@@ -417,22 +437,42 @@ impl RtWorkload {
         let Some(g) = self.grown.get(proc) else {
             return;
         };
-        let before = g
-            .walked
-            .fetch_add(leaves, std::sync::atomic::Ordering::Relaxed);
+        let walked = g.walked.fetch_add(leaves, Relaxed) + leaves;
+        if g.asked.load(Relaxed) {
+            return;
+        }
         let worth = *self.rest_worth.get_or_init(|| {
             walks_worth_the_rest(self.renderer.scene().object_count(), self.data_bytes())
         });
+        let pixels = g.pixels.load(Relaxed);
+        let share = (self.width * self.height).div_ceil(ctx.procs().max(1)) as u64;
+        let projected = projected_walks(walked, pixels, share);
         // Only a processor with a hierarchy of its own gains by holding
         // everything: it then traces through it alone.
-        if before < worth && before + leaves >= worth && self.has_local_path(proc) {
-            let walked = before + leaves;
+        if (walked >= worth || projected >= worth)
+            && self.has_local_path(proc)
+            && !g.asked.swap(true, Relaxed)
+        {
             tracing::debug!(
                 proc,
                 walked,
-                "the walks have paid for the rest of the scene"
+                pixels,
+                projected,
+                worth,
+                "the walks pay for the rest of the scene"
             );
             ctx.complete_cache();
+        }
+    }
+
+    /// Counts the pixels of tile `t` as traced by the running processor
+    /// through its partial hierarchies (for [`Self::note_walked`]'s
+    /// projection).
+    #[inline]
+    pub(super) fn note_tile(&self, ctx: &Ctx<Self>, t: &Tile) {
+        if let Some(g) = self.grown.get(ctx.proc_id()) {
+            let px = u64::from(t.x1 - t.x0) * u64::from(t.y1 - t.y0);
+            g.pixels.fetch_add(px, std::sync::atomic::Ordering::Relaxed);
         }
     }
 
@@ -585,5 +625,26 @@ impl RayCaster for CountingCaster<'_> {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{projected_walks, PROJECT_FROM};
+
+    /// Nothing is projected from less than 1/64 of the share; from there
+    /// on, the walks at the rate so far over the whole share (never fewer
+    /// than walked, and without overflow).
+    #[test]
+    fn walks_are_projected_over_the_share_from_a_sample() {
+        let share: u64 = 97_536;
+        let sample = share.div_ceil(PROJECT_FROM);
+        assert_eq!(projected_walks(5_000, sample - 1, share), 0);
+        assert_eq!(projected_walks(5_000, 0, share), 0);
+        assert_eq!(projected_walks(3_000, 1_536, share), 3_000 * share / 1_536);
+        assert_eq!(projected_walks(3_000, share, share), 3_000);
+        // More pixels than the share (tiles taken from a slower processor).
+        assert_eq!(projected_walks(3_000, 2 * share, share), 3_000);
+        assert_eq!(projected_walks(u64::MAX, sample, share), u64::MAX);
     }
 }
