@@ -185,7 +185,14 @@ pub fn run_threads<W: Workload>(
         .build()
         .map_err(|e| RunError::Runtime(format!("cannot start tokio: {e}")))?;
     let share = threads < nodes.len();
-    rt.block_on(run_actors(nodes, config, share))
+    let report = rt.block_on(run_actors(nodes, config, share));
+    // Every actor has finished (or been aborted with the run's error):
+    // the workers are told to stop, and the run returns without waiting
+    // for their threads to exit (each hands its allocator's memory back on
+    // the way out: 1.3 to 2.3 ms of a two-processor render of the studio
+    // at 512x512 waited for it).
+    rt.shutdown_background();
+    report
 }
 
 type Finished<W> = (Addr, <W as Workload>::Accumulator, ProcStats);

@@ -91,7 +91,7 @@ impl LocalKernel {
         found.extend(
             instances
                 .into_iter()
-                .filter_map(|id| Some((id, HeldObject::new(shared.get(id)?.clone())))),
+                .filter_map(|id| Some((id, HeldObject::of(shared.get(id)?)))),
         );
         // Every id once: an unstable sort is deterministic.
         found.sort_unstable_by_key(|f| f.0);

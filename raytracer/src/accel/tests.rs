@@ -999,6 +999,18 @@ fn leaf_objects_cross_the_wire_bit_for_bit() {
     let t = Transform::identity().translate(v(5.0, 5.0, 5.0));
     objects.push(obj(Shape::instance(geometry, t).unwrap()));
     let tree = Octree::build(&objects, &OctreeParams::default());
+    // A copy made from a reference is the copy of a clone, for every kind.
+    for o in objects
+        .iter()
+        .filter(|o| !matches!(o.shape, Shape::Instance(_)))
+    {
+        assert_eq!(
+            format!("{:?}", HeldObject::of(o)),
+            format!("{:?}", HeldObject::new(o.clone())),
+            "{}",
+            o.name
+        );
+    }
     let (mut copied, mut shared) = (0, 0);
     let mut copies = ObjectCopies::default();
     for leaf in tree.leaves() {
@@ -1197,6 +1209,12 @@ fn a_polygon_copy_gives_back_its_vertices_from_its_pair_or_its_own_list() {
             unreachable!()
         };
         let copy = HeldObject::new(o.clone());
+        // Made from a reference without the clone: the same copy.
+        assert_eq!(
+            format!("{:?}", HeldObject::of(&o)),
+            format!("{copy:?}"),
+            "polygon {k}"
+        );
         let bits = |vs: &[Vec3]| {
             vs.iter()
                 .map(|v| v.to_array().map(f64::to_bits))
