@@ -55,6 +55,7 @@ impl RtWorkload {
         t: &Tile,
         proc: usize,
     ) -> impl Iterator<Item = (NodeKey, RayTask)> + '_ {
+        self.note_tile(proc, t);
         let shard = &self.tile_rays[proc % self.tile_rays.len()];
         let left = shard
             .lock()

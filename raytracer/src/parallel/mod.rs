@@ -16,6 +16,7 @@
 pub mod ambient;
 pub mod caster;
 mod clip_memory;
+mod completion;
 pub mod cost;
 pub mod distribution;
 mod execute;
@@ -41,8 +42,8 @@ use std::time::{Duration, Instant};
 use hybrid_sched::{Config, DataService, Extras, Network, Policy, RankTraffic, RunStats, Timeline};
 use serde::Serialize;
 
+pub use completion::walks_worth_the_rest;
 pub use distribution::Distribution;
-pub use kernel::walks_worth_the_rest;
 pub use partition::Partition;
 pub use runtime::check_hybrid;
 #[cfg(feature = "mpi")]

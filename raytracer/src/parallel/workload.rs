@@ -506,7 +506,6 @@ impl Workload for RtWorkload {
             DdTask::Tile(t) if self.replicated() => self.trace_tile_whole(&t, ctx),
             DdTask::Tile(t) if self.trace_tile_held(&t, ctx) => {}
             DdTask::Tile(t) => {
-                self.note_tile(ctx, &t);
                 for (key, task) in self.tile_primaries(&t, ctx.proc_id()) {
                     ctx.charge(Work::RaysSpawned, 1);
                     let job = RayJob {
