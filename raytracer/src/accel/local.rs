@@ -430,9 +430,9 @@ pub struct Grown {
     /// cache that never evicts it is never rebuilt, and its queries need
     /// no judgement (read without the lock).
     pub whole: std::sync::OnceLock<std::sync::Arc<GrownKernel>>,
-    /// Pixels of the tiles the processor has traced through its
-    /// partial hierarchies (counted as each tile starts): the sample its
-    /// walks per pixel are projected from.
+    /// Pixels of the tiles the processor has traced (counted as each
+    /// tile's primary rays are made): the sample its walks per pixel are
+    /// projected from.
     pub pixels: std::sync::atomic::AtomicU64,
     /// Whether it has asked for the rest of the scene.
     pub asked: std::sync::atomic::AtomicBool,

@@ -900,20 +900,9 @@ pub(crate) fn tri_box_overlap(c: Vec3, h: Vec3, v0: Vec3, v1: Vec3, v2: Vec3) ->
     if !(v0.is_finite() && v1.is_finite() && v2.is_finite() && h.is_finite()) {
         return tri_box_overlap_centred(h, v0, v1, v2);
     }
-    // Box face normals.
-    let mn = v0.min(v1).min(v2);
-    let mx = v0.max(v1).max(v2);
-    if mn.cmpgt(h).any() || mx.cmplt(-h).any() {
+    let Some([e0, e1, e2]) = faces_and_plane_meet(h, v0, v1, v2) else {
         return false;
-    }
-    // Triangle plane.
-    let e0 = v1 - v0;
-    let e1 = v2 - v1;
-    let e2 = v0 - v2;
-    let n = e0.cross(e1);
-    if n.dot(v0).abs() > h.dot(n.abs()) {
-        return false;
-    }
+    };
     // Edge x axis cross products.
     let apart =
         |p0: f64, p1: f64, p2: f64, r: f64| p0.min(p1).min(p2) > r || p0.max(p1).max(p2) < -r;
@@ -935,14 +924,16 @@ pub(crate) fn tri_box_overlap(c: Vec3, h: Vec3, v0: Vec3, v1: Vec3, v2: Vec3) ->
     true
 }
 
-/// The general form of [`tri_box_overlap`] (vertices relative to the box
-/// centre): full cross and dot products for every axis.
-fn tri_box_overlap_centred(h: Vec3, v0: Vec3, v1: Vec3, v2: Vec3) -> bool {
+/// The box's face axes and the triangle's plane (vertices relative to the
+/// box centre): `None` where one separates them, else the triangle's edges
+/// (`v1 - v0`, `v2 - v1`, `v0 - v2`).
+#[inline(always)]
+fn faces_and_plane_meet(h: Vec3, v0: Vec3, v1: Vec3, v2: Vec3) -> Option<[Vec3; 3]> {
     // Box face normals.
     let mn = v0.min(v1).min(v2);
     let mx = v0.max(v1).max(v2);
     if mn.cmpgt(h).any() || mx.cmplt(-h).any() {
-        return false;
+        return None;
     }
     // Triangle plane.
     let e0 = v1 - v0;
@@ -950,8 +941,17 @@ fn tri_box_overlap_centred(h: Vec3, v0: Vec3, v1: Vec3, v2: Vec3) -> bool {
     let e2 = v0 - v2;
     let n = e0.cross(e1);
     if n.dot(v0).abs() > h.dot(n.abs()) {
-        return false;
+        return None;
     }
+    Some([e0, e1, e2])
+}
+
+/// The general form of [`tri_box_overlap`] (vertices relative to the box
+/// centre): full cross and dot products for every axis.
+fn tri_box_overlap_centred(h: Vec3, v0: Vec3, v1: Vec3, v2: Vec3) -> bool {
+    let Some([e0, e1, e2]) = faces_and_plane_meet(h, v0, v1, v2) else {
+        return false;
+    };
     // Edge x axis cross products.
     for e in [e0, e1, e2] {
         for axis in [Vec3::X, Vec3::Y, Vec3::Z] {

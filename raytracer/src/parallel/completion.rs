@@ -63,7 +63,7 @@ const PROJECT_FROM: u64 = 64;
 
 impl RtWorkload {
     /// Counts `leaves` walked by the running processor's queries outside
-    /// its grown hierarchy (see [`WALKED_PER_OBJECT`]), and asks for the
+    /// its grown hierarchy (`kernel.rs`), and asks for the
     /// rest of the scene ([`Ctx::complete_cache`]) once the walks are worth
     /// it ([`walks_worth_the_rest`]): when they have cost what the rest
     /// costs (the ski-rental rule), or sooner, when the walks per pixel of
