@@ -65,6 +65,19 @@ const STACK: usize = 96;
 /// for this). Each wide level leaves at most three children pending.
 const SHALLOW: usize = 40;
 
+/// Asks the processor to fetch the cache line at `p` (a hint: any
+/// address may be given).
+#[inline(always)]
+fn prefetch(p: *const u8) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a hint, which reads nothing and faults on no address.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast())
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}
+
 /// Four children, the traversal's node: [`Node`]'s layout four lanes wide
 /// (`b[axis][0]` the lower corners, `b[axis][1]` the upper, each
 /// `[child 0, .., child 3]`). Built by collapsing the binary tree: each
@@ -1170,9 +1183,9 @@ impl Bvh {
                 if count > 0 {
                     let (s, count) = (link as usize, count as usize);
                     let mut ids = &self.ids[s..s + count];
-                    if let Some((prims, tr)) = blocks {
+                    if let Some((_, tr)) = blocks {
                         let (tris, polys) = self.blocks.leaf(s);
-                        leaf::nearest::<E>(tris, prims, tr, tmin, &mut cut, &mut best);
+                        leaf::nearest::<E>(tris, tr, tmin, &mut cut, &mut best);
                         ids = &ids[polys..];
                     }
                     for &id in ids {
@@ -1238,6 +1251,11 @@ impl Bvh {
             }
         }
         best.map(|(t, id, h)| {
+            let h = match (h, blocks) {
+                (Some(h), _) => h,
+                (None, Some((prims, _))) => leaf::hit_of_block(prims, id, t),
+                (None, None) => unreachable!("a block's hit without blocks"),
+            };
             Hit::on_surface(
                 |inner| objects.surface_at(id as usize, inner),
                 id,

@@ -434,6 +434,12 @@ impl Prims {
         self.normals[id as usize]
     }
 
+    /// Where [`Prims::normal`] reads (for a prefetch; any id may be given).
+    #[inline(always)]
+    pub(crate) fn normal_ptr(&self, id: ObjectId) -> *const u8 {
+        self.normals.as_ptr().wrapping_add(id as usize).cast()
+    }
+
     /// The normal a hit on polygon `id` of `objects` reports: this data's,
     /// or where it was made from copies, the copy's.
     #[inline(always)]

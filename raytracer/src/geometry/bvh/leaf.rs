@@ -174,6 +174,19 @@ impl Blocks {
         )
     }
 
+    /// Asks the processor to fetch the first block of the leaf at
+    /// `start` (a hint: any leaf may be named).
+    #[inline(always)]
+    pub(super) fn prefetch(&self, start: usize) {
+        let (first, blocks, _) = self.at[start];
+        if blocks > 0 {
+            let p: *const u8 = (&self.tris[first as usize] as *const Tri4).cast();
+            for line in 0..size_of::<Tri4>().div_ceil(64) {
+                super::prefetch(p.wrapping_add(64 * line));
+            }
+        }
+    }
+
     pub(super) fn memory_bytes(&self) -> usize {
         self.at.capacity() * size_of::<(u32, u32, u32)>() + self.tris.capacity() * size_of::<Tri4>()
     }
@@ -221,8 +234,23 @@ fn close(blk: &mut Tri4, k: usize) {
     }
 }
 
-/// The nearest hit so far: distance, object, what the object reported.
-pub(super) type Best = Option<(f64, ObjectId, ShapeHit)>;
+/// The nearest hit so far: distance, object, and what the object
+/// reported, `None` for a triangle of a block (its normal is the compact
+/// data's, [`hit_of_block`], looked up once the nearest is known rather
+/// than at every nearer hit: a read from a table as long as the objects,
+/// which missed the cache as often as not).
+pub(super) type Best = Option<(f64, ObjectId, Option<ShapeHit>)>;
+
+/// What a hit at `t` on a block's triangle of polygon `id` reports.
+#[inline(always)]
+pub(super) fn hit_of_block(prims: &Prims, id: ObjectId, t: f64) -> ShapeHit {
+    ShapeHit {
+        t,
+        normal: prims.normal(id),
+        inner: None,
+        surface: None,
+    }
+}
 
 /// The triangles of `blocks` for one ray, with the traversal's rule (see
 /// `consider` in the traversals): a hit with `tmin < t` no farther than
@@ -234,7 +262,6 @@ pub(super) type Best = Option<(f64, ObjectId, ShapeHit)>;
 #[inline(always)]
 pub(super) unsafe fn nearest<E: Enter>(
     blocks: &[Tri4],
-    prims: &Prims,
     tr: &TriRay,
     tmin: f64,
     cut: &mut f64,
@@ -254,16 +281,7 @@ pub(super) unsafe fn nearest<E: Enter>(
                 continue;
             }
             if best.is_none_or(|(bt, bid, _)| t < bt || (t == bt && id < bid)) {
-                *best = Some((
-                    t,
-                    id,
-                    ShapeHit {
-                        t,
-                        normal: prims.normal(id),
-                        inner: None,
-                        surface: None,
-                    },
-                ));
+                *best = Some((t, id, None));
                 *cut = t;
             }
         }

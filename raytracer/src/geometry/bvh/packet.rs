@@ -31,7 +31,7 @@ use super::Avx2;
 use super::{fmax, fmin, leaf, Bvh, Enter, Portable, Slab, Tester, Wide, SHALLOW, STACK};
 use crate::geometry::prims::TriRay;
 use crate::geometry::robust::next_up;
-use crate::geometry::shape::{Hit, Object, ObjectId, ObjectSet, ShapeHit};
+use crate::geometry::shape::{Hit, Object, ObjectId, ObjectSet};
 use crate::geometry::{PreparedRay, Ray};
 use smallvec::SmallVec;
 use std::cmp::Ordering;
@@ -225,12 +225,12 @@ pub(super) fn consider<O: ObjectSet + ?Sized>(
     tmin: f64,
     id: ObjectId,
     cut: &mut f64,
-    best: &mut Option<(f64, ObjectId, ShapeHit)>,
+    best: &mut leaf::Best,
 ) {
     let bound = if best.is_some() { next_up(*cut) } else { *cut };
     if let Some(h) = test.intersect(id, tmin, bound) {
         if best.is_none_or(|(bt, bid, _)| h.t < bt || (h.t == bt && id < bid)) {
-            *best = Some((h.t, id, h));
+            *best = Some((h.t, id, Some(h)));
             *cut = h.t;
         }
     }
@@ -344,7 +344,7 @@ impl Bvh {
         // `objects`.
         let blocks =
             (!self.blocks.is_empty() && self.prims.matches(objects)).then_some(&self.prims);
-        let mut best = PerRay::<Option<(f64, ObjectId, ShapeHit)>>::new();
+        let mut best = PerRay::<leaf::Best>::new();
         for _ in 0..n {
             best.push(None);
         }
@@ -366,15 +366,31 @@ impl Bvh {
             // it, the entry of the first ray that did).
             let mut stack: Pending<(u32, u64, f64)> = SmallVec::with_capacity(cap);
             stack.push((0, all_rays(n), 0.0));
+            // The greatest segment end of the packet, found again only
+            // after a leaf may have shortened one (segments only shrink:
+            // a bound found before is still a bound).
+            let mut hi = greatest(cut);
+            let mut shortened = false;
             while let Some((node, rays_in, _)) = stack.pop() {
-                let first = rays_in.trailing_zeros() as usize;
                 let n_ = &self.nodes[node as usize];
-                let hi = greatest(&cut[first..n]);
+                if shortened {
+                    hi = greatest(cut);
+                    shortened = false;
+                }
                 let mask = frustum.test4(n_, hi);
                 if mask == 0 {
                     continue;
                 }
                 let (leaves, inner) = split(n_, mask);
+                // The leaves' blocks fetched while the rays' tests run.
+                if blocks.is_some() {
+                    let mut lm = leaves;
+                    while lm != 0 {
+                        let l = lm.trailing_zeros() as usize;
+                        lm &= lm - 1;
+                        self.blocks.prefetch(n_.link[l] as usize);
+                    }
+                }
                 // The node's planes widened once for the packet where every
                 // ray enters by the same ones.
                 let planes = frustum.uniform.then(|| E::planes(n_, &frustum.near));
@@ -425,18 +441,12 @@ impl Bvh {
                         if t > cut[r] {
                             break;
                         }
+                        shortened = true;
                         let (s, count) = (n_.link[l] as usize, n_.count[l] as usize);
                         let mut ids = &self.ids[s..s + count];
-                        if let Some(prims) = blocks {
+                        if blocks.is_some() {
                             let (tris, polys) = self.blocks.leaf(s);
-                            leaf::nearest::<E>(
-                                tris,
-                                prims,
-                                &tri[r],
-                                tmin[r],
-                                &mut cut[r],
-                                &mut best[r],
-                            );
+                            leaf::nearest::<E>(tris, &tri[r], tmin[r], &mut cut[r], &mut best[r]);
                             ids = &ids[polys..];
                         }
                         if !ids.is_empty() {
@@ -464,8 +474,24 @@ impl Bvh {
                 }
             }
         }
+        // The objects hit and their normals, scattered through memory:
+        // all asked for first, then read.
+        for b in best.iter().flatten() {
+            let id = b.1 as usize;
+            super::prefetch((&objects[id] as *const Object).cast());
+            if let (None, Some(prims)) = (b.2, blocks) {
+                super::prefetch(prims.normal_ptr(b.1));
+            }
+        }
         for (r, o) in out[..n].iter_mut().enumerate() {
-            *o = best[r].map(|(t, id, h)| Hit::on(&objects[id as usize], id, &rays[r].0, t, &h));
+            *o = best[r].map(|(t, id, h)| {
+                let h = match (h, blocks) {
+                    (Some(h), _) => h,
+                    (None, Some(prims)) => leaf::hit_of_block(prims, id, t),
+                    (None, None) => unreachable!("a block's hit without blocks"),
+                };
+                Hit::on(&objects[id as usize], id, &rays[r].0, t, &h)
+            });
         }
     }
     /// Shadow rays as a packet of at most [`PACKET`] rays: `out[i]` is what
