@@ -579,12 +579,18 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
         }
     }
     tiles.retain(|t| !t.is_empty());
-    let packets: Vec<Vec<Segment>> = tiles
+    // The packets' rays in one array, tile after tile, as Embree's
+    // streams read theirs from one array; their hits written in place in
+    // another, and put back in pixel order after the rounds.
+    let packet_rays: Vec<Segment> = tiles.iter().flatten().map(|&i| primary[i]).collect();
+    let packets: Vec<std::ops::Range<usize>> = tiles
         .iter()
-        .map(|t| t.iter().map(|&i| primary[i]).collect())
+        .scan(0, |at, t| {
+            *at += t.len();
+            Some(*at - t.len()..*at)
+        })
         .collect();
-    let mut packet_hits: Vec<Option<crate::accel::Hit>> = vec![None; primary.len()];
-    let mut buf_hits = [None; PACKET];
+    let mut tile_hits: Vec<Option<crate::accel::Hit>> = vec![None; primary.len()];
     let primary_rtc: Vec<RtcRayHit> = primary
         .iter()
         .map(|(r, t0, t1)| RtcRayHit {
@@ -609,11 +615,9 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
         );
         t_ours.push(t0.elapsed().as_secs_f64());
         let t0 = Instant::now();
-        for (tile, rays) in tiles.iter().zip(&packets) {
-            bvh.intersect_packet(&objects, rays, &mut buf_hits);
-            for (&i, h) in tile.iter().zip(&buf_hits) {
-                packet_hits[i] = *h;
-            }
+        for range in &packets {
+            let rays = &packet_rays[range.clone()];
+            bvh.intersect_packet(&objects, rays, &mut tile_hits[range.clone()]);
         }
         t_packets.push(t0.elapsed().as_secs_f64());
         e1.copy_from_slice(&primary_rtc);
@@ -753,6 +757,10 @@ fn embree_run(a: &BenchArgs) -> Result<()> {
     let (b_o, b_e) = (median(&mut build_ours), median(&mut build_embree));
     let (po, p1, pm) = (median(&mut t_ours), median(&mut t_e1), median(&mut t_em));
     let pp = median(&mut t_packets);
+    let mut packet_hits: Vec<Option<crate::accel::Hit>> = vec![None; primary.len()];
+    for (&i, h) in tiles.iter().flatten().zip(&tile_hits) {
+        packet_hits[i] = *h;
+    }
     let packets_differ = differing(&ours, &packet_hits);
     let (so, s1t, smt) = (median(&mut ts_ours), median(&mut ts_e1), median(&mut ts_em));
     let sp = median(&mut ts_packets);

@@ -269,17 +269,16 @@ pub(super) unsafe fn nearest<E: Enter>(
 ) {
     for b in blocks {
         let t = E::tri4(tr, b);
-        // The lanes in range (the bound only shrinks as lanes are taken).
+        // The lanes in range. Of those, a lane is taken where it is nearer
+        // than the nearest so far (the smaller id of equal distances): the
+        // bound a later lane would be held to once one is taken (its
+        // distance, or the next number after it) is that comparison's.
         let bound = if best.is_some() { next_up(*cut) } else { *cut };
         let mut m = E::within(&t, tmin, bound);
         while m != 0 {
             let l = m.trailing_zeros() as usize;
             m &= m - 1;
             let (t, id) = (t[l], b.id[l]);
-            let bound = if best.is_some() { next_up(*cut) } else { *cut };
-            if t >= bound {
-                continue;
-            }
             if best.is_none_or(|(bt, bid, _)| t < bt || (t == bt && id < bid)) {
                 *best = Some((t, id, None));
                 *cut = t;

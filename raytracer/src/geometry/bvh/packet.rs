@@ -40,15 +40,30 @@ use std::mem::MaybeUninit;
 /// Most rays in one packet (an 8 x 8 tile).
 pub const PACKET: usize = 64;
 
+/// For each set of four children (bit `i` for child `i`), all ones in the
+/// lanes of the children in it.
+const LANE_MASKS: [[u64; 4]; 16] = {
+    let mut t = [[0u64; 4]; 16];
+    let mut m = 0;
+    while m < 16 {
+        let mut l = 0;
+        while l < 4 {
+            t[m][l] = if (m >> l) & 1 != 0 { u64::MAX } else { 0 };
+            l += 1;
+        }
+        m += 1;
+    }
+    t
+};
+
 /// Adds ray `r` to the masks of the children (`lanes`, one bit a child)
-/// its own test entered.
+/// its own test entered: without a branch per child (four vector
+/// operations).
 #[inline(always)]
 fn mark_entered(entered: &mut [u64; 4], lanes: u32, r: usize) {
-    if lanes != 0 {
-        let bit = 1u64 << r;
-        for (l, e) in entered.iter_mut().enumerate() {
-            *e |= if (lanes >> l) & 1 != 0 { bit } else { 0 };
-        }
+    let (bit, masks) = (1u64 << r, &LANE_MASKS[lanes as usize & 15]);
+    for (e, m) in entered.iter_mut().zip(masks) {
+        *e |= m & bit;
     }
 }
 
@@ -141,10 +156,12 @@ impl Frustum {
             tmin: tmin.iter().fold(f64::INFINITY, |m, &t| fmin(t, m)),
         };
         // One pass over the rays, all three axes, without branches. `x *
-        // 0` is 0 for a finite `x` and NaN otherwise, so `finite` stays 0
-        // while every origin and inverse is finite.
+        // 0` is a zero for a finite `x` and NaN otherwise, so `nonfinite`
+        // stays 0 (its sign bits cleared) while every origin and inverse
+        // is finite: an OR, not a sum, whose chain of dependent additions
+        // was 4.5% of a primary packet's time.
         let mut neg = [0usize; 3];
-        let mut finite = [0.0f64; 3];
+        let mut nonfinite = [0u64; 3];
         for s in slabs {
             for a in 0..3 {
                 let (o, inv) = (s.o[a], s.inv[a]);
@@ -152,15 +169,16 @@ impl Frustum {
                 f.o_hi[a] = fmax(o, f.o_hi[a]);
                 f.inv_lo[a] = fmin(inv, f.inv_lo[a]);
                 f.inv_hi[a] = fmax(inv, f.inv_hi[a]);
-                finite[a] += o * 0.0 + inv * 0.0;
+                nonfinite[a] |= (o * 0.0 + inv * 0.0).to_bits() & !(1 << 63);
                 neg[a] += s.near[a];
             }
         }
+        let finite = nonfinite.map(|x| x == 0);
         for a in 0..3 {
             let mixed = neg[a] != 0 && neg[a] != slabs.len();
             // Of one sign and no zero among them.
             let nonzero = f.inv_lo[a] > 0.0 || f.inv_hi[a] < 0.0;
-            f.axes[a] = !mixed && nonzero && finite[a] == 0.0;
+            f.axes[a] = !mixed && nonzero && finite[a];
             f.uniform &= !mixed;
             f.near[a] = (neg[a] != 0) as usize;
         }
