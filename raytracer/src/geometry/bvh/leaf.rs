@@ -368,7 +368,11 @@ pub(super) fn lanes(tr: &TriRay, b: &Tri4) -> [f64; 4] {
 }
 
 /// The four lanes at once (the pair test's SSE2 code, twice as wide);
-/// any zero edge function sends the block to [`lanes`].
+/// any zero edge function sends the block to [`lanes`]. A block whose
+/// four lanes all miss still goes on to its distances (NaN in every lane):
+/// a branch on that spared such blocks the division, but goes either way
+/// with the data; without it the 8 x 8 primary packets were no slower
+/// (0.480 of Embree's streams against 0.474, medians of four rounds).
 ///
 /// # Safety
 /// The processor must have AVX2.
@@ -425,9 +429,6 @@ pub(super) unsafe fn lanes_avx2(tr: &TriRay, b: &Tri4) -> [f64; 4] {
     // As in the pair test: a NaN edge function is no miss here and goes
     // on to a NaN distance.
     let mut miss = _mm256_and_pd(neg, pos);
-    if _mm256_movemask_pd(miss) == 0xf {
-        return [f64::NAN; 4];
-    }
     let det = _mm256_add_pd(_mm256_add_pd(u, v), w);
     miss = _mm256_or_pd(miss, _mm256_cmp_pd::<_CMP_EQ_OQ>(det, z));
     let sz = _mm256_set1_pd(tr.sz);
