@@ -28,12 +28,11 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::Avx2;
-use super::{fmax, fmin, leaf, Bvh, Enter, Portable, Slab, Tester, Wide, SHALLOW, STACK};
+use super::{fmax, fmin, leaf, Bvh, Enter, Portable, Slab, Tester, Wide, STACK};
 use crate::geometry::prims::TriRay;
 use crate::geometry::robust::next_up;
 use crate::geometry::shape::{Hit, Object, ObjectId, ObjectSet};
 use crate::geometry::{PreparedRay, Ray};
-use smallvec::SmallVec;
 use std::cmp::Ordering;
 use std::mem::MaybeUninit;
 
@@ -67,35 +66,54 @@ fn mark_entered(entered: &mut [u64; 4], lanes: u32, r: usize) {
     }
 }
 
-/// Per-ray state of a packet, on the stack. Packets are traced by the
-/// thousand, and heap buffers made and freed for each one made the
+/// Values on the stack, at most `N` of them: a packet's per-ray state
+/// ([`PerRay`]) and its pending nodes ([`Pending`]). Packets are traced by
+/// the thousand, and heap buffers made and freed for each one made the
 /// allocator hand their pages back to the system and fault them in again
 /// (the program's mimalloc purges freed memory at once, for its peak
 /// resident set): 5,209 `madvise` calls in one round of `hybrid-rt bench
 /// --embree` on the studio, 1,703 with these buffers, and primary rays as
 /// 8 x 8 packets 1.47 times as fast. A fixed array rather than a
-/// `SmallVec`, whose every push asks whether it has spilled to the heap:
-/// the shadow packets' set-up took 48M instructions in `SmallVec`'s code.
-struct PerRay<T: Copy> {
+/// `SmallVec`, whose every push asks whether it has spilled to the heap
+/// (the shadow packets' set-up took 48M instructions in `SmallVec`'s
+/// code), and which `SmallVec::with_capacity`, left out of line, returned
+/// by a copy of its 3 KiB (a `memcpy` for every primary packet). Nothing
+/// is written until pushed.
+struct Fixed<T: Copy, const N: usize> {
     len: usize,
-    v: [MaybeUninit<T>; PACKET],
+    v: [MaybeUninit<T>; N],
 }
 
-impl<T: Copy> PerRay<T> {
+/// Per-ray state of a packet.
+type PerRay<T> = Fixed<T, PACKET>;
+
+/// Pending nodes of a packet's traversal: each wide level of the tree
+/// leaves at most three (four children entered, one of them taken off
+/// next), and the hierarchy is at most [`STACK`] levels deep.
+type Pending<T> = Fixed<T, { 3 * STACK + 1 }>;
+
+impl<T: Copy, const N: usize> Fixed<T, N> {
     #[inline(always)]
     fn new() -> Self {
-        PerRay {
+        Fixed {
             len: 0,
-            v: [const { MaybeUninit::uninit() }; PACKET],
+            v: [const { MaybeUninit::uninit() }; N],
         }
     }
 
     /// # Panics
-    /// If it holds [`PACKET`] values already.
+    /// If it holds `N` values already.
     #[inline(always)]
     fn push(&mut self, x: T) {
         self.v[self.len].write(x);
         self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<T> {
+        self.len = self.len.checked_sub(1)?;
+        // SAFETY: values below the old `len` were written by `push`.
+        Some(unsafe { self.v[self.len].assume_init() })
     }
 
     #[inline(always)]
@@ -106,7 +124,7 @@ impl<T: Copy> PerRay<T> {
     }
 }
 
-impl<T: Copy> std::ops::Deref for PerRay<T> {
+impl<T: Copy, const N: usize> std::ops::Deref for Fixed<T, N> {
     type Target = [T];
 
     #[inline(always)]
@@ -116,10 +134,12 @@ impl<T: Copy> std::ops::Deref for PerRay<T> {
     }
 }
 
-/// Pending nodes of a packet's traversal: on the stack for trees up to
-/// [`SHALLOW`] levels deep (each wide level leaves at most three pending).
-type Pending<T> = SmallVec<[T; 128]>;
-const _: () = assert!(3 * SHALLOW < 128);
+impl<T: Copy, const N: usize> std::ops::DerefMut for Fixed<T, N> {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut [T] {
+        self.as_mut_slice()
+    }
+}
 
 /// A ray of a packet: the ray and its segment `(tmin, tmax)`.
 pub type Segment = (Ray, f64, f64);
@@ -375,14 +395,9 @@ impl Bvh {
         }
         if !self.nodes.is_empty() && n > 0 {
             let frustum = Frustum::new(slabs, tmin);
-            let cap = 3 * if self.depth as usize <= SHALLOW {
-                SHALLOW
-            } else {
-                STACK
-            } + 1;
             // Pending nodes, nearest on top: (node, the rays that may enter
             // it, the entry of the first ray that did).
-            let mut stack: Pending<(u32, u64, f64)> = SmallVec::with_capacity(cap);
+            let mut stack = Pending::<(u32, u64, f64)>::new();
             stack.push((0, all_rays(n), 0.0));
             // The greatest segment end of the packet, found again only
             // after a leaf may have shortened one (segments only shrink:
@@ -594,7 +609,7 @@ impl Bvh {
         let frustum = Frustum::new(slabs, tmin);
         let hi = greatest(tmax);
         // Pending nodes: (node, the rays that may enter it).
-        let mut stack: Pending<(u32, u64)> = SmallVec::new();
+        let mut stack = Pending::<(u32, u64)>::new();
         stack.push((0, live));
         while let Some((node, rays_in)) = stack.pop() {
             let rays_in = rays_in & live;
