@@ -459,6 +459,13 @@ impl Bvh {
                     // in front of the ray's cut.
                     let mut order = [(0usize, 0.0f64); 4];
                     let mut k = 0;
+                    if lm & (lm - 1) == 0 {
+                        // One leaf (the usual case): nothing to sort.
+                        let l = lm.trailing_zeros() as usize;
+                        order[0] = (l, t0[l]);
+                        k = 1;
+                        lm = 0;
+                    }
                     while lm != 0 {
                         let l = lm.trailing_zeros() as usize;
                         lm &= lm - 1;
