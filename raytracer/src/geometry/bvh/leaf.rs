@@ -237,8 +237,9 @@ fn close(blk: &mut Tri4, k: usize) {
 /// The nearest hit so far: distance, object, and what the object
 /// reported, `None` for a triangle of a block (its normal is the compact
 /// data's, [`hit_of_block`], looked up once the nearest is known rather
-/// than at every nearer hit: a read from a table as long as the objects,
-/// which missed the cache as often as not).
+/// than at every nearer hit: a read at a random place in a table as long
+/// as the objects, where the packets' clock samples showed 3.7% of their
+/// time).
 pub(super) type Best = Option<(f64, ObjectId, Option<ShapeHit>)>;
 
 /// What a hit at `t` on a block's triangle of polygon `id` reports.
