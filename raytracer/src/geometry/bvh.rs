@@ -1251,11 +1251,7 @@ impl Bvh {
             }
         }
         best.map(|(t, id, h)| {
-            let h = match (h, blocks) {
-                (Some(h), _) => h,
-                (None, Some((prims, _))) => leaf::hit_of_block(prims, id, t),
-                (None, None) => unreachable!("a block's hit without blocks"),
-            };
+            let h = leaf::reported(h, blocks.map(|(prims, _)| prims), id, t);
             Hit::on_surface(
                 |inner| objects.surface_at(id as usize, inner),
                 id,

@@ -204,21 +204,12 @@ fn ahead<'a>(
     j: usize,
     triangles: &impl Fn(ObjectId) -> &'a [[crate::geometry::Vec3; 3]],
 ) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        // SAFETY: a hint; any address may be given.
-        #[allow(unused_unsafe)]
-        let fetch = |p: *const i8| unsafe { _mm_prefetch::<_MM_HINT_T0>(p) };
-        if let Some(&id) = ids.get(j + 16) {
-            fetch((&objects[id as usize] as *const Object).cast());
-        }
-        if let Some(&id) = ids.get(j + 8) {
-            fetch(triangles(id).as_ptr().cast());
-        }
+    if let Some(&id) = ids.get(j + 16) {
+        super::prefetch((&objects[id as usize] as *const Object).cast());
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (objects, ids, j, triangles);
+    if let Some(&id) = ids.get(j + 8) {
+        super::prefetch(triangles(id).as_ptr().cast());
+    }
 }
 
 /// The last filled lane again in `blk`'s lanes from `k` on (a repeated
@@ -236,20 +227,32 @@ fn close(blk: &mut Tri4, k: usize) {
 
 /// The nearest hit so far: distance, object, and what the object
 /// reported, `None` for a triangle of a block (its normal is the compact
-/// data's, [`hit_of_block`], looked up once the nearest is known rather
+/// data's, [`reported`], looked up once the nearest is known rather
 /// than at every nearer hit: a read at a random place in a table as long
 /// as the objects, where the packets' clock samples showed 3.7% of their
 /// time).
 pub(super) type Best = Option<(f64, ObjectId, Option<ShapeHit>)>;
 
-/// What a hit at `t` on a block's triangle of polygon `id` reports.
+/// What the nearest hit's object reported: `h` where it was tested by id,
+/// or for a triangle of a block (`h` is `None`) the hit at `t` with the
+/// normal of polygon `id` in `prims`, the compact data the blocks were
+/// tested with.
 #[inline(always)]
-pub(super) fn hit_of_block(prims: &Prims, id: ObjectId, t: f64) -> ShapeHit {
-    ShapeHit {
-        t,
-        normal: prims.normal(id),
-        inner: None,
-        surface: None,
+pub(super) fn reported(
+    h: Option<ShapeHit>,
+    prims: Option<&Prims>,
+    id: ObjectId,
+    t: f64,
+) -> ShapeHit {
+    match (h, prims) {
+        (Some(h), _) => h,
+        (None, Some(prims)) => ShapeHit {
+            t,
+            normal: prims.normal(id),
+            inner: None,
+            surface: None,
+        },
+        (None, None) => unreachable!("a block's hit without blocks"),
     }
 }
 

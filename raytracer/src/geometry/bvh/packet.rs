@@ -525,11 +525,7 @@ impl Bvh {
         }
         for (r, o) in out[..n].iter_mut().enumerate() {
             *o = best[r].map(|(t, id, h)| {
-                let h = match (h, blocks) {
-                    (Some(h), _) => h,
-                    (None, Some(prims)) => leaf::hit_of_block(prims, id, t),
-                    (None, None) => unreachable!("a block's hit without blocks"),
-                };
+                let h = leaf::reported(h, blocks, id, t);
                 Hit::on(&objects[id as usize], id, &rays[r].0, t, &h)
             });
         }
