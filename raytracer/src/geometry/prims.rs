@@ -160,7 +160,7 @@ impl OnePrim {
             PrimRef { start, pairs: 0 } => OnePrim::Quadric(Box::new(p.quadrics[start as usize])),
             _ => OnePrim::Pairs {
                 pairs: p.pairs.into(),
-                normal: p.normals[0],
+                normal: p.normals[0].normal,
             },
         }
     }
@@ -237,11 +237,34 @@ pub(crate) struct Prims {
     /// is empty; 16 bytes an object a processor's hierarchy does not hold).
     copies: bool,
     quadrics: Vec<Quadric>,
-    /// Polygon normals (what a hit reports), zero for other shapes; empty
-    /// when made from copies, whose own normals a hit reports
-    /// ([`ObjectSet::polygon_normal`]: 24 bytes an object a processor's
-    /// hierarchy does not hold twice).
-    normals: Vec<Vec3>,
+    /// What a hit on a polygon reports of it (its normal and surface
+    /// word), zero for other shapes; empty when made from copies, whose
+    /// own normals a hit reports ([`ObjectSet::polygon_normal`]: bytes a
+    /// processor's hierarchy does not hold twice).
+    normals: Vec<PolygonHit>,
+}
+
+/// What a hit on a polygon reports of it besides its distance: its normal
+/// and its surface word ([`crate::geometry::Hit::surface`]). One 32-byte
+/// entry, read once a traversal knows a ray's nearest hit: with the
+/// surface word here, a hit on a triangle of a leaf's blocks reads no
+/// `Object` (136 bytes, scattered through memory, where the word would
+/// cost a second cache miss per hit).
+#[derive(Debug, Clone, Copy, Default)]
+#[repr(align(32))]
+pub(crate) struct PolygonHit {
+    pub(crate) normal: Vec3,
+    pub(crate) surface: u32,
+}
+
+impl PolygonHit {
+    fn of(o: &Object, normal: Vec3) -> PolygonHit {
+        let (material, flat) = o.surface_at(None);
+        PolygonHit {
+            normal,
+            surface: crate::geometry::Hit::surface_word(material, flat),
+        }
+    }
 }
 
 /// The per-ray constants of the watertight test, with the origin permuted
@@ -308,7 +331,7 @@ impl Prims {
             let quadric = match &o.shape {
                 Shape::Polygon(poly) if !polygons => {
                     p.refs.push(PrimRef::default());
-                    p.normals.push(poly.normal);
+                    p.normals.push(PolygonHit::of(o, poly.normal));
                     continue;
                 }
                 Shape::Polygon(poly) if !poly.tri_verts.is_empty() => {
@@ -318,7 +341,7 @@ impl Prims {
                         start,
                         pairs: p.pairs.len() as u32 - start,
                     });
-                    p.normals.push(poly.normal);
+                    p.normals.push(PolygonHit::of(o, poly.normal));
                     continue;
                 }
                 &Shape::Sphere {
@@ -354,7 +377,7 @@ impl Prims {
                 }
                 None => PrimRef::default(),
             });
-            p.normals.push(Vec3::ZERO);
+            p.normals.push(PolygonHit::default());
         }
         p
     }
@@ -427,16 +450,17 @@ impl Prims {
         }
     }
 
-    /// The normal a hit on polygon `id` reports (data built by
+    /// What a hit on polygon `id` reports of it (data built by
     /// [`Prims::build`]; made from copies, see [`Prims::normal_in`]).
     #[inline(always)]
-    pub(crate) fn normal(&self, id: ObjectId) -> Vec3 {
+    pub(crate) fn polygon_hit(&self, id: ObjectId) -> PolygonHit {
         self.normals[id as usize]
     }
 
-    /// Where [`Prims::normal`] reads (for a prefetch; any id may be given).
+    /// Where [`Prims::polygon_hit`] reads (for a prefetch; any id may be
+    /// given).
     #[inline(always)]
-    pub(crate) fn normal_ptr(&self, id: ObjectId) -> *const u8 {
+    pub(crate) fn polygon_hit_ptr(&self, id: ObjectId) -> *const u8 {
         self.normals.as_ptr().wrapping_add(id as usize).cast()
     }
 
@@ -447,7 +471,7 @@ impl Prims {
         if self.copies {
             objects.polygon_normal(id as usize)
         } else {
-            self.normals[id as usize]
+            self.normals[id as usize].normal
         }
     }
 
@@ -463,7 +487,7 @@ impl Prims {
         self.refs.capacity() * size_of::<PrimRef>()
             + self.pairs.capacity() * size_of::<TriPair>()
             + self.quadrics.capacity() * size_of::<Quadric>()
-            + self.normals.capacity() * size_of::<Vec3>()
+            + self.normals.capacity() * size_of::<PolygonHit>()
     }
 
     /// Nearest hit of object `id` with `tmin < t < tmax`: exactly

@@ -226,17 +226,17 @@ fn close(blk: &mut Tri4, k: usize) {
 }
 
 /// The nearest hit so far: distance, object, and what the object
-/// reported, `None` for a triangle of a block (its normal is the compact
-/// data's, [`reported`], looked up once the nearest is known rather
-/// than at every nearer hit: a read at a random place in a table as long
-/// as the objects, where the packets' clock samples showed 3.7% of their
-/// time).
+/// reported, `None` for a triangle of a block (its normal and surface word
+/// are the compact data's, [`reported`], looked up once the nearest is
+/// known rather than at every nearer hit: a read at a random place in a
+/// table as long as the objects, where the packets' clock samples showed
+/// 3.7% of their time).
 pub(super) type Best = Option<(f64, ObjectId, Option<ShapeHit>)>;
 
 /// What the nearest hit's object reported: `h` where it was tested by id,
 /// or for a triangle of a block (`h` is `None`) the hit at `t` with the
-/// normal of polygon `id` in `prims`, the compact data the blocks were
-/// tested with.
+/// normal and surface word of polygon `id` in `prims`, the compact data
+/// the blocks were tested with (so the hit reads no `Object`).
 #[inline(always)]
 pub(super) fn reported(
     h: Option<ShapeHit>,
@@ -246,12 +246,15 @@ pub(super) fn reported(
 ) -> ShapeHit {
     match (h, prims) {
         (Some(h), _) => h,
-        (None, Some(prims)) => ShapeHit {
-            t,
-            normal: prims.normal(id),
-            inner: None,
-            surface: None,
-        },
+        (None, Some(prims)) => {
+            let p = prims.polygon_hit(id);
+            ShapeHit {
+                t,
+                normal: p.normal,
+                inner: None,
+                surface: Some(p.surface),
+            }
+        }
         (None, None) => unreachable!("a block's hit without blocks"),
     }
 }

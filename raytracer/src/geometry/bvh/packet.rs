@@ -514,13 +514,13 @@ impl Bvh {
                 }
             }
         }
-        // The objects hit and their normals, scattered through memory:
+        // What the hits read, scattered through memory (a block's
+        // triangle's normal and surface word, another object's own data):
         // all asked for first, then read.
         for b in best.iter().flatten() {
-            let id = b.1 as usize;
-            super::prefetch((&objects[id] as *const Object).cast());
-            if let (None, Some(prims)) = (b.2, blocks) {
-                super::prefetch(prims.normal_ptr(b.1));
+            match (b.2, blocks) {
+                (None, Some(prims)) => super::prefetch(prims.polygon_hit_ptr(b.1)),
+                _ => super::prefetch((&objects[b.1 as usize] as *const Object).cast()),
             }
         }
         for (r, o) in out[..n].iter_mut().enumerate() {
