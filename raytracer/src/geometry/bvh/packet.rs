@@ -13,6 +13,16 @@
 //! tile whose rays part (a far, thin building's edges) costs about what its
 //! rays would cost alone, not the union of their paths.
 //!
+//! A leaf child is tested once every ray's test of the node is done, leaf
+//! by leaf, with all the rays that entered it (a nearest-hit packet takes
+//! its leaves in the order the first ray to enter each entered them, and a
+//! ray skips a leaf that starts beyond its nearest hit so far). Testing
+//! each ray's leaves as its node test found them, nearest first, took the
+//! 8 x 8 primary packets 0.500 of Embree's streams against 0.547 this way
+//! (medians of three rounds alternating), shadow packets 1.36 of
+//! `rtcOccluded1` against 1.49: one leaf's rays in a tight loop rather than
+//! a branch on every ray's lanes, the leaf's blocks kept in the cache.
+//!
 //! **Same answers as one ray at a time.** The interval test is
 //! conservative for the rounded arithmetic of the per-ray test: the entry
 //! distance of a ray, `(plane - origin) * inverse`, rounded twice, is
@@ -399,6 +409,9 @@ impl Bvh {
             // it, the entry of the first ray that did).
             let mut stack = Pending::<(u32, u64, f64)>::new();
             stack.push((0, all_rays(n), 0.0));
+            // Each ray's entries into the current node's children (read
+            // only for the rays that entered a leaf there).
+            let mut entries = [[0.0f64; 4]; PACKET];
             // The greatest segment end of the packet, found again only
             // after a leaf may have shortened one (segments only shrink:
             // a bound found before is still a bound).
@@ -431,6 +444,7 @@ impl Bvh {
                 // that entered it.
                 let mut enter = [0.0f64; 4];
                 let mut entered = [0u64; 4];
+                let mut in_leaf = [0u64; 4];
                 let mut open = inner;
                 let mut untested = rays_in;
                 while untested != 0 {
@@ -451,46 +465,51 @@ impl Bvh {
                         enter[l] = t0[l];
                     }
                     mark_entered(&mut entered, m & inner, r);
-                    let mut lm = m & leaves;
-                    if lm == 0 {
-                        continue;
-                    }
-                    // This ray's leaves, nearest first, each while still
-                    // in front of the ray's cut.
+                    mark_entered(&mut in_leaf, m & leaves, r);
+                    entries[r] = t0;
+                }
+                // The leaves entered, each with all its rays at once (in
+                // the order the first ray to enter each entered them),
+                // each ray while the leaf is still in front of its cut.
+                if leaves != 0 {
                     let mut order = [(0usize, 0.0f64); 4];
                     let mut k = 0;
-                    if lm & (lm - 1) == 0 {
-                        // One leaf (the usual case): nothing to sort.
-                        let l = lm.trailing_zeros() as usize;
-                        order[0] = (l, t0[l]);
-                        k = 1;
-                        lm = 0;
-                    }
+                    let mut lm = leaves;
                     while lm != 0 {
                         let l = lm.trailing_zeros() as usize;
                         lm &= lm - 1;
+                        if in_leaf[l] == 0 {
+                            continue;
+                        }
+                        let t = entries[in_leaf[l].trailing_zeros() as usize][l];
                         let mut j = k;
-                        while j > 0 && order[j - 1].1 > t0[l] {
+                        while j > 0 && order[j - 1].1 > t {
                             order[j] = order[j - 1];
                             j -= 1;
                         }
-                        order[j] = (l, t0[l]);
+                        order[j] = (l, t);
                         k += 1;
                     }
-                    for &(l, t) in &order[..k] {
-                        if t > cut[r] {
-                            break;
-                        }
+                    for &(l, _) in &order[..k] {
                         shortened = true;
                         let (s, count) = (n_.link[l] as usize, n_.count[l] as usize);
-                        let mut ids = &self.ids[s..s + count];
-                        if blocks.is_some() {
-                            let (tris, polys) = self.blocks.leaf(s);
+                        let ids = &self.ids[s..s + count];
+                        let (tris, polys) = match blocks {
+                            Some(_) => self.blocks.leaf(s),
+                            None => (&[][..], 0),
+                        };
+                        let ids = &ids[polys..];
+                        let mut rm = in_leaf[l];
+                        while rm != 0 {
+                            let r = rm.trailing_zeros() as usize;
+                            rm &= rm - 1;
+                            if entries[r][l] > cut[r] {
+                                continue;
+                            }
                             leaf::nearest::<E>(tris, &tri[r], tmin[r], &mut cut[r], &mut best[r]);
-                            ids = &ids[polys..];
-                        }
-                        if !ids.is_empty() {
-                            by_id(r, ids, &mut cut[r], &mut best[r]);
+                            if !ids.is_empty() {
+                                by_id(r, ids, &mut cut[r], &mut best[r]);
+                            }
                         }
                     }
                 }
@@ -627,6 +646,7 @@ impl Bvh {
             let (leaves, inner) = split(n_, mask);
             let planes = frustum.uniform.then(|| E::planes(n_, &frustum.near));
             let mut entered = [0u64; 4];
+            let mut in_leaf = [0u64; 4];
             let mut todo = inner;
             let mut untested = rays_in;
             while untested != 0 {
@@ -641,22 +661,30 @@ impl Bvh {
                 };
                 todo &= !m;
                 mark_entered(&mut entered, m & inner, r);
-                let mut lm = m & leaves;
-                while lm != 0 {
-                    let l = lm.trailing_zeros() as usize;
-                    lm &= lm - 1;
-                    let (s, count) = (n_.link[l] as usize, n_.count[l] as usize);
-                    let mut ids = &self.ids[s..s + count];
-                    let mut hit = false;
-                    if blocks {
-                        let (tris, polys) = self.blocks.leaf(s);
-                        hit = leaf::any::<E>(tris, &tri[r], tmin[r], tmax[r], ignore);
-                        ids = &ids[polys..];
-                    }
-                    if hit || (!ids.is_empty() && occludes(r, ids)) {
+                mark_entered(&mut in_leaf, m & leaves, r);
+            }
+            // The leaves entered, each with all its rays still live.
+            let mut lm = leaves;
+            while lm != 0 {
+                let l = lm.trailing_zeros() as usize;
+                lm &= lm - 1;
+                let (s, count) = (n_.link[l] as usize, n_.count[l] as usize);
+                let ids = &self.ids[s..s + count];
+                let (tris, polys) = if blocks {
+                    self.blocks.leaf(s)
+                } else {
+                    (&[][..], 0)
+                };
+                let ids = &ids[polys..];
+                let mut rm = in_leaf[l] & live;
+                while rm != 0 {
+                    let r = rm.trailing_zeros() as usize;
+                    rm &= rm - 1;
+                    if leaf::any::<E>(tris, &tri[r], tmin[r], tmax[r], ignore)
+                        || (!ids.is_empty() && occludes(r, ids))
+                    {
                         out[r] = true;
                         live &= !(1u64 << r);
-                        break;
                     }
                 }
             }
