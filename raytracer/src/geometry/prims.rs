@@ -160,7 +160,7 @@ impl OnePrim {
             PrimRef { start, pairs: 0 } => OnePrim::Quadric(Box::new(p.quadrics[start as usize])),
             _ => OnePrim::Pairs {
                 pairs: p.pairs.into(),
-                normal: p.normals[0].normal,
+                normal: p.polygon_hits[0].normal,
             },
         }
     }
@@ -241,7 +241,7 @@ pub(crate) struct Prims {
     /// word), zero for other shapes; empty when made from copies, whose
     /// own normals a hit reports ([`ObjectSet::polygon_normal`]: bytes a
     /// processor's hierarchy does not hold twice).
-    normals: Vec<PolygonHit>,
+    polygon_hits: Vec<PolygonHit>,
 }
 
 /// What a hit on a polygon reports of it besides its distance: its normal
@@ -300,8 +300,8 @@ impl Prims {
 
     /// [`Prims::build`] for a hierarchy that keeps its polygons' triangles
     /// itself (in its leaves' blocks): polygons are tested through their
-    /// shapes (the same answers) where asked for by id, and keep their
-    /// normals.
+    /// shapes (the same answers) where asked for by id, and keep what a
+    /// hit reports of them ([`PolygonHit`]).
     pub(crate) fn build_without_polygons(objects: &[Object]) -> Prims {
         Self::build_inner(objects, false)
     }
@@ -324,14 +324,14 @@ impl Prims {
             refs: Vec::with_capacity(objects.len()),
             pairs: Vec::with_capacity(pairs),
             quadrics: Vec::new(),
-            normals: Vec::with_capacity(objects.len()),
+            polygon_hits: Vec::with_capacity(objects.len()),
             copies: false,
         };
         for o in objects {
             let quadric = match &o.shape {
                 Shape::Polygon(poly) if !polygons => {
                     p.refs.push(PrimRef::default());
-                    p.normals.push(PolygonHit::of(o, poly.normal));
+                    p.polygon_hits.push(PolygonHit::of(o, poly.normal));
                     continue;
                 }
                 Shape::Polygon(poly) if !poly.tri_verts.is_empty() => {
@@ -341,7 +341,7 @@ impl Prims {
                         start,
                         pairs: p.pairs.len() as u32 - start,
                     });
-                    p.normals.push(PolygonHit::of(o, poly.normal));
+                    p.polygon_hits.push(PolygonHit::of(o, poly.normal));
                     continue;
                 }
                 &Shape::Sphere {
@@ -377,7 +377,7 @@ impl Prims {
                 }
                 None => PrimRef::default(),
             });
-            p.normals.push(PolygonHit::default());
+            p.polygon_hits.push(PolygonHit::default());
         }
         p
     }
@@ -401,7 +401,7 @@ impl Prims {
             refs: Vec::with_capacity(n),
             pairs: Vec::new(),
             quadrics: Vec::new(),
-            normals: Vec::new(),
+            polygon_hits: Vec::new(),
             copies: true,
         };
         for q in parts {
@@ -454,14 +454,14 @@ impl Prims {
     /// [`Prims::build`]; made from copies, see [`Prims::normal_in`]).
     #[inline(always)]
     pub(crate) fn polygon_hit(&self, id: ObjectId) -> PolygonHit {
-        self.normals[id as usize]
+        self.polygon_hits[id as usize]
     }
 
     /// Where [`Prims::polygon_hit`] reads (for a prefetch; any id may be
     /// given).
     #[inline(always)]
     pub(crate) fn polygon_hit_ptr(&self, id: ObjectId) -> *const u8 {
-        self.normals.as_ptr().wrapping_add(id as usize).cast()
+        self.polygon_hits.as_ptr().wrapping_add(id as usize).cast()
     }
 
     /// The normal a hit on polygon `id` of `objects` reports: this data's,
@@ -471,7 +471,7 @@ impl Prims {
         if self.copies {
             objects.polygon_normal(id as usize)
         } else {
-            self.normals[id as usize].normal
+            self.polygon_hits[id as usize].normal
         }
     }
 
@@ -487,7 +487,7 @@ impl Prims {
         self.refs.capacity() * size_of::<PrimRef>()
             + self.pairs.capacity() * size_of::<TriPair>()
             + self.quadrics.capacity() * size_of::<Quadric>()
-            + self.normals.capacity() * size_of::<PolygonHit>()
+            + self.polygon_hits.capacity() * size_of::<PolygonHit>()
     }
 
     /// Nearest hit of object `id` with `tmin < t < tmax`: exactly
