@@ -255,10 +255,10 @@ pub(crate) struct Prims {
 /// and its surface word ([`crate::geometry::Hit::surface`]). One 32-byte
 /// entry, read once a traversal knows a ray's nearest hit: with the
 /// surface word here, a hit on a triangle of a leaf's blocks reads no
-/// `Object` (136 bytes, scattered through memory, where the word would
-/// cost a second cache miss per hit: a table of the words beside the
-/// normals' took the primary packets 0.552 of Embree's streams against
-/// 0.567 this way, medians of four rounds alternating).
+/// `Object` (136 bytes, scattered through memory). The words in a table
+/// of their own beside the normals cost a second cache miss per hit: the
+/// primary packets ran at 0.552 of Embree's streams that way against
+/// 0.567 this way (medians of four rounds alternating).
 #[derive(Debug, Clone, Copy, Default)]
 #[repr(align(32))]
 pub(crate) struct PolygonHit {

@@ -441,7 +441,7 @@ impl Bvh {
                 // ray enters by the same ones.
                 let planes = frustum.uniform.then(|| E::planes(n_, &frustum.near));
                 // Each inner child's first ray's entry, and the rays tested
-                // that entered it.
+                // that entered it; the rays that entered each leaf.
                 let mut enter = [0.0f64; 4];
                 let mut entered = [0u64; 4];
                 let mut in_leaf = [0u64; 4];
