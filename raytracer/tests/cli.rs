@@ -373,6 +373,48 @@ fn parallel_render_writes_the_sequential_picture_and_a_report() {
     assert!(err.contains("fetch limit 64.0 KiB a task"), "{err}");
 }
 
+/// Soft shadows (`-ds 0.05 -dt 0`: every patch of an area light tested, a
+/// bundle's rays traced ahead as packets by the sequential renderer's
+/// hierarchy) give the picture processors give tracing one ray at a time
+/// through the octree, byte for byte.
+#[test]
+fn soft_shadows_traced_as_packets_equal_one_ray_at_a_time() {
+    let d = tmpdir("packets");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenes");
+    let (rad, vf) = (root.join("studio.rad"), root.join("studio.vf"));
+    let (seq, par) = (d.join("seq.hdr"), d.join("par.hdr"));
+    let base = [
+        "render",
+        rad.to_str().unwrap(),
+        "-vf",
+        vf.to_str().unwrap(),
+        "-x",
+        "48",
+        "-y",
+        "48",
+        "-ds",
+        "0.05",
+        "-dt",
+        "0",
+    ];
+    let o = run(&[&base[..], &["-o", seq.to_str().unwrap()]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&[
+        &base[..],
+        &[
+            "--procs",
+            "2",
+            "--distribution",
+            "octree",
+            "-o",
+            par.to_str().unwrap(),
+        ],
+    ]
+    .concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&seq).unwrap(), std::fs::read(&par).unwrap());
+}
+
 #[test]
 fn bad_parallel_options_are_usage_errors() {
     let d = tmpdir("parallel-bad");

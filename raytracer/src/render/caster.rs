@@ -6,7 +6,7 @@
 //! implement [`RayCaster`] too.
 
 use crate::accel::{intersect_brute_force, occluded_brute_force, Bvh, Hit, Octree};
-use crate::geometry::Ray;
+use crate::geometry::{Ray, Segment};
 use crate::scene::{Object, ObjectId};
 
 /// Ray queries against scene geometry.
@@ -15,6 +15,19 @@ pub trait RayCaster {
     fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit>;
     /// True if an object other than `ignore` is hit with `tmin < t < tmax`.
     fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> bool;
+    /// Whether [`RayCaster::occluded_packet`] traces its rays together
+    /// (faster than one at a time for coherent rays); where it does not,
+    /// callers trace them one at a time as they need them.
+    fn traces_packets(&self) -> bool {
+        false
+    }
+    /// `out[i]`: [`RayCaster::occluded`] of `rays[i]` with `ignore`, for
+    /// at most [`crate::geometry::PACKET`] rays.
+    fn occluded_packet(&self, rays: &[Segment], ignore: Option<ObjectId>, out: &mut [bool]) {
+        for ((ray, tmin, tmax), o) in rays.iter().zip(out) {
+            *o = self.occluded(ray, *tmin, *tmax, ignore);
+        }
+    }
 }
 
 /// Casts rays through an octree built over `objects`.
@@ -52,6 +65,14 @@ impl RayCaster for BvhCaster<'_> {
     #[inline]
     fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> bool {
         self.bvh.occluded(self.objects, ray, tmin, tmax, ignore)
+    }
+
+    fn traces_packets(&self) -> bool {
+        true
+    }
+
+    fn occluded_packet(&self, rays: &[Segment], ignore: Option<ObjectId>, out: &mut [bool]) {
+        self.bvh.occluded_packet(self.objects, rays, ignore, out)
     }
 }
 

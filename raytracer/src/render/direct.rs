@@ -43,13 +43,16 @@ use super::material::{
 use super::medium::{self, Medium};
 use super::rng::Rng;
 use crate::geometry::FTINY;
-use crate::geometry::{offset_origin_scaled, Ray, Vec3};
+use crate::geometry::{offset_origin_scaled, Ray, Segment, Vec3, PACKET};
 use crate::image::brightness;
 use crate::scene::{Color, Material, ObjectId};
 
 /// Most surfaces a shadow ray passes through (glass, void) before it is
 /// considered blocked.
 const MAX_SHADOW_SEGMENTS: u32 = 32;
+
+/// Fewest rays of a bundle traced together as a packet.
+const MIN_PACKET: usize = 8;
 
 /// Ray counts of direct lighting.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -161,20 +164,41 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
     // What every shadow ray of the bundle aims at and starts in.
     let aim = ShadowAim::of(light);
     let medium = bundle_medium(ctx, b);
+    // The patches tested whatever their rays meet, where the caster traces
+    // packets and the rays take the any-hit query alone: traced together
+    // ahead of the loop, [`PACKET`] at a time, their answers used in order.
+    let sure = if caster.traces_packets() && one_query(ctx, &aim, medium) {
+        match surely_tested(scratch, nshadcheck, thresh, b.reference) {
+            k if k >= MIN_PACKET => k,
+            _ => 0,
+        }
+    } else {
+        0
+    };
+    let mut packet = PacketAnswers::default();
+    let pending = |sn: usize| {
+        if sn + nshadcheck >= n {
+            scratch[sn].tail
+        } else {
+            scratch[sn].tail - scratch[sn + nshadcheck].tail
+        }
+    };
     let mut acc = Color::ZERO;
     let mut nhits = 0u64;
     let mut sn = 0;
     while sn < n {
-        let pending = if sn + nshadcheck >= n {
-            scratch[sn].tail
-        } else {
-            scratch[sn].tail - scratch[sn + nshadcheck].tail
-        };
-        if pending < thresh * (b.reference + brightness(acc)) {
+        if pending(sn) < thresh * (b.reference + brightness(acc)) {
             break;
         }
         let c = scratch[sn];
-        let t = shadow_transmission_aimed(
+        let known = (sn < sure).then(|| {
+            if sn >= packet.start + packet.len {
+                packet.trace(caster, b, &aim, &scratch[sn..sure]);
+                packet.start = sn;
+            }
+            packet.blocked[sn - packet.start]
+        });
+        let t = shadow_transmission_known(
             ctx,
             caster,
             b.point,
@@ -186,6 +210,7 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
             b.clip,
             medium,
             counts,
+            known,
         );
         counts.tested += 1;
         if intens(t) > FTINY {
@@ -286,27 +311,146 @@ pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
     medium: Option<(Color, Medium)>,
     counts: &mut ShadowCounts,
 ) -> Color {
+    shadow_transmission_known(
+        ctx,
+        caster,
+        p,
+        n,
+        offset_scale,
+        dir,
+        dist,
+        aim,
+        clip,
+        medium,
+        counts,
+        None,
+    )
+}
+
+/// The shadow ray [`shadow_transmission_aimed`] traces first: from `p`
+/// (offset along `n`) in `dir`, ending just short of the sample point at
+/// `dist` so a surface coplanar with the source (a ceiling around a
+/// luminaire) does not shadow it.
+#[inline]
+fn shadow_segment(p: Vec3, n: Vec3, offset_scale: f64, dir: Vec3, dist: f64) -> (Ray, f64) {
     let origin = offset_origin_scaled(p, n, dir, offset_scale);
-    // Stop just short of the sample point so a surface coplanar with the
-    // source (a ceiling around a luminaire) does not shadow it.
     let tmax = if dist.is_finite() {
         dist * (1.0 - 1e-9)
     } else {
         f64::INFINITY
     };
-    let mut ray = Ray { origin, dir };
-    // In a medium the light is attenuated up to where the ray meets the
-    // source: for a source sampled inside (a sphere), the loop finds that.
+    (Ray { origin, dir }, tmax)
+}
+
+/// Whether a shadow ray towards `aim` starting in `medium` takes the
+/// any-hit query alone (and the segment loop only where that query finds
+/// it blocked and shadows are transparent): nothing but the source on
+/// the way.
+#[inline]
+fn one_query(ctx: &ShadeContext, aim: &ShadowAim, medium: Option<(Color, Medium)>) -> bool {
     // A ray inside a mist that names sources (scattering towards them, or
     // lighting a surface in it) nearly always leaves it on the way: the
     // any-hit query would stop at its boundary, so the loop starts at once.
     let in_named_mist =
         ctx.effects.transparent_shadows.enabled && medium.is_some_and(|(_, m)| m.scatter != 0);
-    if aim.relays.is_empty() && !(aim.solid && medium.is_some()) && !in_named_mist {
+    // In a medium the light is attenuated up to where the ray meets the
+    // source: for a source sampled inside (a sphere), the loop finds that.
+    aim.relays.is_empty() && !(aim.solid && medium.is_some()) && !in_named_mist
+}
+
+/// How many of a bundle's patches (sorted, with their tails) the loop of
+/// [`run_shadow_bundle`] tests whatever their rays meet: it stops soonest
+/// where every tested ray reaches the source (the brightness known is then
+/// largest). Only which rays are traced ahead depends on it: a ray traced
+/// ahead whose answer the loop does not reach is not used.
+fn surely_tested(
+    patches: &[Contribution],
+    nshadcheck: usize,
+    thresh: f64,
+    reference: f64,
+) -> usize {
+    let n = patches.len();
+    let mut most = Color::ZERO;
+    for (sn, c) in patches.iter().enumerate() {
+        let pending = if sn + nshadcheck >= n {
+            c.tail
+        } else {
+            c.tail - patches[sn + nshadcheck].tail
+        };
+        if pending < thresh * (reference + brightness(most)) {
+            return sn;
+        }
+        most += c.val;
+    }
+    n
+}
+
+/// The any-hit answers of up to [`PACKET`] of a bundle's rays, traced
+/// together: `blocked[i]` for the patch `start + i`.
+struct PacketAnswers {
+    start: usize,
+    len: usize,
+    blocked: [bool; PACKET],
+}
+
+impl Default for PacketAnswers {
+    fn default() -> Self {
+        PacketAnswers {
+            start: 0,
+            len: 0,
+            blocked: [false; PACKET],
+        }
+    }
+}
+
+impl PacketAnswers {
+    /// Traces the rays of the first [`PACKET`] of `patches` as one packet.
+    fn trace<C: RayCaster + ?Sized>(
+        &mut self,
+        caster: &C,
+        b: &ShadowBundle,
+        aim: &ShadowAim,
+        patches: &[Contribution],
+    ) {
+        let k = patches.len().min(PACKET);
+        let none = Ray {
+            origin: Vec3::ZERO,
+            dir: Vec3::ZERO,
+        };
+        let mut rays = [(none, 0.0, 0.0); PACKET];
+        for (r, c) in rays.iter_mut().zip(&patches[..k]) {
+            let (ray, tmax) = shadow_segment(b.point, b.normal, b.offset_scale, c.dir, c.dist);
+            *r = (ray, 0.0, tmax);
+        }
+        let rays: &[Segment] = &rays[..k];
+        caster.occluded_packet(rays, aim.target, &mut self.blocked[..k]);
+        self.len = k;
+    }
+}
+
+/// [`shadow_transmission_aimed`], where `known` may hold the answer of its
+/// any-hit query, traced ahead (the same query: the same answer).
+#[allow(clippy::too_many_arguments)]
+pub fn shadow_transmission_known<C: RayCaster + ?Sized>(
+    ctx: &ShadeContext,
+    caster: &C,
+    p: Vec3,
+    n: Vec3,
+    offset_scale: f64,
+    dir: Vec3,
+    dist: f64,
+    aim: &ShadowAim,
+    clip: u64,
+    medium: Option<(Color, Medium)>,
+    counts: &mut ShadowCounts,
+    known: Option<bool>,
+) -> Color {
+    let (mut ray, tmax) = shadow_segment(p, n, offset_scale, dir, dist);
+    if one_query(ctx, aim, medium) {
         // Nothing but the source on the way: what the segment loop below
         // would also find (its first nearest hit is none or the source),
         // for one any-hit query.
-        let blocked = caster.occluded(&ray, 0.0, tmax, aim.target);
+        let blocked = known.unwrap_or_else(|| caster.occluded(&ray, 0.0, tmax, aim.target));
         if !blocked {
             return match medium {
                 None => Color::ONE,
