@@ -198,7 +198,7 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
             }
             packet.blocked[sn - packet.start]
         });
-        let t = shadow_transmission_known(
+        let t = shadow_transmission_aimed(
             ctx,
             caster,
             b.point,
@@ -283,48 +283,6 @@ impl<'a> ShadowAim<'a> {
 #[inline]
 fn bundle_medium(ctx: &ShadeContext, b: &ShadowBundle) -> Option<(Color, Medium)> {
     (ctx.media.active || b.extinction != Color::ZERO).then_some((b.extinction, b.medium))
-}
-
-/// Transmission along a shadow ray from the surface point `p` (normal `n`)
-/// in unit direction `dir` over `dist` (infinite for distant sources)
-/// towards `aim` (its source object does not count as an occluder), for a
-/// ray with antimatter clip set `clip`: 1 if unoccluded, 0 if blocked,
-/// between for glass on the way. `medium` is the extinction and medium the
-/// ray starts in (`None` outside media): the ray loses the absorbed part
-/// over every segment, and mists it crosses change the medium. As
-/// Radiance's shadow rays: glass and clear trans filter the ray, a
-/// dielectric or interface refracts it (with its Fresnel transmission and
-/// absorption; a refracted ray counts only if it still reaches the
-/// source), antimatter and clipped surfaces let it pass, and a virtual
-/// source's mirrors reflect it and its prisms redirect it in turn.
-#[allow(clippy::too_many_arguments)]
-pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
-    ctx: &ShadeContext,
-    caster: &C,
-    p: Vec3,
-    n: Vec3,
-    offset_scale: f64,
-    dir: Vec3,
-    dist: f64,
-    aim: &ShadowAim,
-    clip: u64,
-    medium: Option<(Color, Medium)>,
-    counts: &mut ShadowCounts,
-) -> Color {
-    shadow_transmission_known(
-        ctx,
-        caster,
-        p,
-        n,
-        offset_scale,
-        dir,
-        dist,
-        aim,
-        clip,
-        medium,
-        counts,
-        None,
-    )
 }
 
 /// The shadow ray [`shadow_transmission_aimed`] traces first: from `p`
@@ -428,10 +386,22 @@ impl PacketAnswers {
     }
 }
 
-/// [`shadow_transmission_aimed`], where `known` may hold the answer of its
-/// any-hit query, traced ahead (the same query: the same answer).
+/// Transmission along a shadow ray from the surface point `p` (normal `n`)
+/// in unit direction `dir` over `dist` (infinite for distant sources)
+/// towards `aim` (its source object does not count as an occluder), for a
+/// ray with antimatter clip set `clip`: 1 if unoccluded, 0 if blocked,
+/// between for glass on the way. `medium` is the extinction and medium the
+/// ray starts in (`None` outside media): the ray loses the absorbed part
+/// over every segment, and mists it crosses change the medium. As
+/// Radiance's shadow rays: glass and clear trans filter the ray, a
+/// dielectric or interface refracts it (with its Fresnel transmission and
+/// absorption; a refracted ray counts only if it still reaches the
+/// source), antimatter and clipped surfaces let it pass, and a virtual
+/// source's mirrors reflect it and its prisms redirect it in turn.
+/// `known` may hold the answer of its first any-hit query, traced ahead
+/// (the same query: the same answer).
 #[allow(clippy::too_many_arguments)]
-pub fn shadow_transmission_known<C: RayCaster + ?Sized>(
+pub fn shadow_transmission_aimed<C: RayCaster + ?Sized>(
     ctx: &ShadeContext,
     caster: &C,
     p: Vec3,
@@ -704,6 +674,7 @@ pub fn estimate_hit_ratios<C: RayCaster + ?Sized>(
                     0,
                     None,
                     &mut counts,
+                    None,
                 );
                 if intens(t) > FTINY {
                     hits += 1;
