@@ -176,18 +176,11 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
         0
     };
     let mut packet = PacketAnswers::default();
-    let pending = |sn: usize| {
-        if sn + nshadcheck >= n {
-            scratch[sn].tail
-        } else {
-            scratch[sn].tail - scratch[sn + nshadcheck].tail
-        }
-    };
     let mut acc = Color::ZERO;
     let mut nhits = 0u64;
     let mut sn = 0;
     while sn < n {
-        if pending(sn) < thresh * (b.reference + brightness(acc)) {
+        if pending(scratch, sn, nshadcheck) < thresh * (b.reference + brightness(acc)) {
             break;
         }
         let c = scratch[sn];
@@ -327,20 +320,25 @@ fn surely_tested(
     thresh: f64,
     reference: f64,
 ) -> usize {
-    let n = patches.len();
     let mut most = Color::ZERO;
     for (sn, c) in patches.iter().enumerate() {
-        let pending = if sn + nshadcheck >= n {
-            c.tail
-        } else {
-            c.tail - patches[sn + nshadcheck].tail
-        };
-        if pending < thresh * (reference + brightness(most)) {
+        if pending(patches, sn, nshadcheck) < thresh * (reference + brightness(most)) {
             return sn;
         }
         most += c.val;
     }
-    n
+    patches.len()
+}
+
+/// The potential of the next `nshadcheck` untested patches from `sn` on
+/// (sorted, with their tails), which adaptive testing weighs against the
+/// brightness known.
+#[inline]
+fn pending(patches: &[Contribution], sn: usize, nshadcheck: usize) -> f64 {
+    match patches.get(sn + nshadcheck) {
+        Some(next) => patches[sn].tail - next.tail,
+        None => patches[sn].tail,
+    }
 }
 
 /// The any-hit answers of up to [`PACKET`] of a bundle's rays, traced
