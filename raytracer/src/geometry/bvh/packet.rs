@@ -334,6 +334,19 @@ fn prepare(
 }
 
 impl Bvh {
+    /// Leaf child `l` of `n`: its blocks' triangles (where the blocks are
+    /// tested) and the ids left to test by id.
+    #[inline(always)]
+    fn leaf_parts(&self, n: &Wide, l: usize, blocks: bool) -> (&[leaf::Tri4], &[ObjectId]) {
+        let (s, count) = (n.link[l] as usize, n.count[l] as usize);
+        let (tris, polys) = if blocks {
+            self.blocks.leaf(s)
+        } else {
+            (&[][..], 0)
+        };
+        (tris, &self.ids[s + polys..s + count])
+    }
+
     /// Nearest hits of a packet of at most [`PACKET`] rays, each with its
     /// segment: `out[i]` is what [`Bvh::intersect`] answers for `rays[i]`,
     /// bit for bit. The rays should be coherent (one tile's primary rays):
@@ -492,13 +505,7 @@ impl Bvh {
                     }
                     for &(l, _) in &order[..k] {
                         shortened = true;
-                        let (s, count) = (n_.link[l] as usize, n_.count[l] as usize);
-                        let ids = &self.ids[s..s + count];
-                        let (tris, polys) = match blocks {
-                            Some(_) => self.blocks.leaf(s),
-                            None => (&[][..], 0),
-                        };
-                        let ids = &ids[polys..];
+                        let (tris, ids) = self.leaf_parts(n_, l, blocks.is_some());
                         let mut rm = in_leaf[l];
                         while rm != 0 {
                             let r = rm.trailing_zeros() as usize;
@@ -668,14 +675,7 @@ impl Bvh {
             while lm != 0 {
                 let l = lm.trailing_zeros() as usize;
                 lm &= lm - 1;
-                let (s, count) = (n_.link[l] as usize, n_.count[l] as usize);
-                let ids = &self.ids[s..s + count];
-                let (tris, polys) = if blocks {
-                    self.blocks.leaf(s)
-                } else {
-                    (&[][..], 0)
-                };
-                let ids = &ids[polys..];
+                let (tris, ids) = self.leaf_parts(n_, l, blocks);
                 let mut rm = in_leaf[l] & live;
                 while rm != 0 {
                     let r = rm.trailing_zeros() as usize;
