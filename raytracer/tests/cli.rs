@@ -375,14 +375,14 @@ fn parallel_render_writes_the_sequential_picture_and_a_report() {
 
 /// Soft shadows (`-ds 0.05 -dt 0`: every patch of an area light tested, a
 /// bundle's rays traced ahead as packets by the sequential renderer's
-/// hierarchy) give the picture processors give tracing one ray at a time
-/// through the octree, byte for byte.
+/// hierarchy, and by a processor holding the whole scene) give the
+/// picture processors give tracing one ray at a time through the octree
+/// and their hierarchies over copies, byte for byte.
 #[test]
 fn soft_shadows_traced_as_packets_equal_one_ray_at_a_time() {
     let d = tmpdir("packets");
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenes");
     let (rad, vf) = (root.join("studio.rad"), root.join("studio.vf"));
-    let (seq, par) = (d.join("seq.hdr"), d.join("par.hdr"));
     let base = [
         "render",
         rad.to_str().unwrap(),
@@ -397,22 +397,27 @@ fn soft_shadows_traced_as_packets_equal_one_ray_at_a_time() {
         "-dt",
         "0",
     ];
+    let seq = d.join("seq.hdr");
     let o = run(&[&base[..], &["-o", seq.to_str().unwrap()]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = run(&[
-        &base[..],
-        &[
-            "--procs",
-            "2",
-            "--distribution",
-            "octree",
-            "-o",
-            par.to_str().unwrap(),
-        ],
-    ]
-    .concat());
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert_eq!(std::fs::read(&seq).unwrap(), std::fs::read(&par).unwrap());
+    let seq = std::fs::read(&seq).unwrap();
+    for (name, procs) in [("whole", "1"), ("copies", "2")] {
+        let par = d.join(format!("{name}.hdr"));
+        let o = run(&[
+            &base[..],
+            &[
+                "--procs",
+                procs,
+                "--distribution",
+                "octree",
+                "-o",
+                par.to_str().unwrap(),
+            ],
+        ]
+        .concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(seq == std::fs::read(&par).unwrap(), "{name} differs");
+    }
 }
 
 #[test]

@@ -36,6 +36,7 @@ mod leaf;
 mod packet;
 mod single;
 
+pub(crate) use packet::PerRay;
 pub use packet::{Segment, PACKET};
 
 use std::mem::MaybeUninit;

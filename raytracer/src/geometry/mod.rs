@@ -20,6 +20,7 @@ mod triangulate;
 mod tripair;
 
 pub use aabb::Aabb;
+pub(crate) use bvh::PerRay;
 pub use bvh::{Bvh, BvhStats, Segment, PACKET};
 pub use ray::{PreparedRay, Ray};
 pub use robust::{offset_origin, offset_origin_scaled, FTINY};

@@ -39,7 +39,7 @@ use crate::accel::{
     GrownKernel, Hierarchy, HierarchyObjects, Hit, Judged, LeafObjects, LocalKernel, NodeId,
     ProcessorKernel as Kernel,
 };
-use crate::geometry::Ray;
+use crate::geometry::{Ray, Segment};
 use crate::render::{BvhCaster, RayCaster};
 use crate::scene::ObjectId;
 
@@ -514,6 +514,28 @@ impl RayCaster for CountingCaster<'_> {
                     .occluded_indexed(octree, ray, tmin, tmax, index, &|_| true, &|_| true)
                 {
                     Judged::Decided(b) | Judged::Partly(b) => b,
+                }
+            }
+        }
+    }
+
+    /// Where the hierarchy is the renderer's, whose leaves hold blocks of
+    /// triangles: a processor's hierarchy over its copies has none, and
+    /// through it packets cost more than the rays one at a time (see the
+    /// book's benchmarks chapter).
+    fn traces_packets(&self) -> bool {
+        matches!(self.inner, WholeSource::Scene(_))
+    }
+
+    fn occluded_packet(&self, rays: &[Segment], ignore: Option<ObjectId>, out: &mut [bool]) {
+        match &self.inner {
+            WholeSource::Scene(c) => {
+                self.queries.set(self.queries.get() + rays.len() as u64);
+                c.occluded_packet(rays, ignore, out)
+            }
+            WholeSource::Grown { .. } => {
+                for (&(ray, tmin, tmax), o) in rays.iter().zip(out) {
+                    *o = self.occluded(&ray, tmin, tmax, ignore);
                 }
             }
         }

@@ -43,7 +43,7 @@ use super::material::{
 use super::medium::{self, Medium};
 use super::rng::Rng;
 use crate::geometry::FTINY;
-use crate::geometry::{offset_origin_scaled, Ray, Segment, Vec3, PACKET};
+use crate::geometry::{offset_origin_scaled, PerRay, Ray, Segment, Vec3, PACKET};
 use crate::image::brightness;
 use crate::scene::{Color, Material, ObjectId};
 
@@ -369,17 +369,14 @@ impl PacketAnswers {
         patches: &[Contribution],
     ) {
         let k = patches.len().min(PACKET);
-        let none = Ray {
-            origin: Vec3::ZERO,
-            dir: Vec3::ZERO,
-        };
-        let mut rays = [(none, 0.0, 0.0); PACKET];
-        for (r, c) in rays.iter_mut().zip(&patches[..k]) {
+        // Only the rays written: an array of 64 zeroed first for every
+        // packet was 1.7% of the studio's instructions at `-ds 0.05`.
+        let mut rays = PerRay::<Segment>::new();
+        for c in &patches[..k] {
             let (ray, tmax) = shadow_segment(b.point, b.normal, b.offset_scale, c.dir, c.dist);
-            *r = (ray, 0.0, tmax);
+            rays.push((ray, 0.0, tmax));
         }
-        let rays: &[Segment] = &rays[..k];
-        caster.occluded_packet(rays, aim.target, &mut self.blocked[..k]);
+        caster.occluded_packet(&rays, aim.target, &mut self.blocked[..k]);
         self.len = k;
     }
 }

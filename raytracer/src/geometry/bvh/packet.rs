@@ -89,13 +89,14 @@ fn mark_entered(entered: &mut [u64; 4], lanes: u32, r: usize) {
 /// code), and which `SmallVec::with_capacity`, left out of line, returned
 /// by a copy of its 3 KiB (a `memcpy` for every primary packet). Nothing
 /// is written until pushed.
-struct Fixed<T: Copy, const N: usize> {
+pub(crate) struct Fixed<T: Copy, const N: usize> {
     len: usize,
     v: [MaybeUninit<T>; N],
 }
 
-/// Per-ray state of a packet.
-type PerRay<T> = Fixed<T, PACKET>;
+/// Per-ray state of a packet (and a packet's rays, as callers gather
+/// them).
+pub(crate) type PerRay<T> = Fixed<T, PACKET>;
 
 /// Pending nodes of a packet's traversal: each wide level of the tree
 /// leaves at most three (four children entered, one of them taken off
@@ -104,7 +105,7 @@ type Pending<T> = Fixed<T, { 3 * STACK + 1 }>;
 
 impl<T: Copy, const N: usize> Fixed<T, N> {
     #[inline(always)]
-    fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Fixed {
             len: 0,
             v: [const { MaybeUninit::uninit() }; N],
@@ -114,7 +115,7 @@ impl<T: Copy, const N: usize> Fixed<T, N> {
     /// # Panics
     /// If it holds `N` values already.
     #[inline(always)]
-    fn push(&mut self, x: T) {
+    pub(crate) fn push(&mut self, x: T) {
         self.v[self.len].write(x);
         self.len += 1;
     }
