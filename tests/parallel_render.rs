@@ -982,3 +982,54 @@ fn a_workload_runs_only_on_the_processor_count_it_was_built_for() {
         assert!(rt.run_blocking(wl.clone(), &Config::new(2)).is_ok());
     }
 }
+
+/// Diffuse inter-reflection without an irradiance cache or super-samples
+/// (`-ab 2 -aa 0 -as 0`) in the hybrid workload: every hemisphere's
+/// sample rays are data-parallel tasks that migrate to the cells they
+/// need, and each pixel's owner evaluates the hemispheres; the picture and
+/// every ray count are the sequential renderer's, on every runtime,
+/// distribution and cache (one that holds almost nothing included).
+#[test]
+fn hemisphere_rays_migrate_and_change_no_pixel() {
+    let mut o = RenderOptions::default();
+    (o.ab, o.aa, o.as_, o.ad) = (2, 0.0, 0, 16);
+    let c = case("cornell", 16, 16, o);
+    assert!(c.counts.ambient > 0, "the reference samples hemispheres");
+    let mut migrations = 0;
+    for (procs, runtime) in [
+        (1, RuntimeKind::Threads),
+        (2, RuntimeKind::Threads),
+        (3, RuntimeKind::Threads),
+        (5, RuntimeKind::Threads),
+        (3, RuntimeKind::Sim),
+        (2, RuntimeKind::Sequential),
+    ] {
+        for distribution in [Distribution::Octree, Distribution::Replicated] {
+            for cache in [CacheSize::Unlimited, CacheSize::Percent(10.0)] {
+                let mut p = ParallelOptions::new(procs);
+                p.runtime = runtime;
+                p.cache = cache;
+                p.workload.tile = 4;
+                p.workload.distribution = distribution;
+                let out = check(&c, &p);
+                let what = format!("{p:?}");
+                assert_eq!(out.work(Work::RaysAmbient), c.counts.ambient, "{what}");
+                migrations += out.stats.sum(|s| s.tasks.migrations);
+            }
+        }
+    }
+    assert!(migrations > 0, "no hemisphere ray ever migrated");
+    // Three bounces, the deepest hemispheres refused by -lw (their -av
+    // term carried in the point's record), -aw moving -av.
+    let mut o = RenderOptions::default();
+    (o.ab, o.aa, o.as_, o.ad, o.lw, o.aw) = (3, 0.0, 0, 16, 0.1, 2);
+    o.av = hybrid_rt::scene::Color::splat(0.1);
+    let c = case("cornell", 12, 12, o);
+    for procs in [1, 3] {
+        let mut p = ParallelOptions::new(procs);
+        p.cache = CacheSize::Percent(30.0);
+        p.workload.tile = 4;
+        let out = check(&c, &p);
+        assert_eq!(out.work(Work::RaysAmbient), c.counts.ambient, "{p:?}");
+    }
+}

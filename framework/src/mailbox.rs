@@ -56,6 +56,23 @@ impl<T> Mailbox<T> {
         Some(item)
     }
 
+    /// Takes the newest item of `class`.
+    pub(crate) fn pop_class_newest(&mut self, class: Class) -> Option<T> {
+        let item = self.queues[class.index()].pop_back()?;
+        self.len -= 1;
+        Some(item)
+    }
+
+    /// Takes a data-parallel task: the oldest, or the `newest`
+    /// ([`crate::Workload::data_parallel_newest_first`]).
+    pub(crate) fn pop_data_parallel(&mut self, newest: bool) -> Option<T> {
+        if newest {
+            self.pop_class_newest(Class::DataParallel)
+        } else {
+            self.pop_class(Class::DataParallel)
+        }
+    }
+
     /// The class [`Mailbox::pop`] would return from.
     pub(crate) fn peek_class(&self) -> Option<Class> {
         Class::ALL
@@ -107,6 +124,23 @@ mod tests {
         );
         assert!(m.is_empty());
         assert_eq!(m.high_water(), 7);
+    }
+
+    #[test]
+    fn newest_first_takes_the_class_backwards_and_leaves_the_others() {
+        let mut m = Mailbox::new();
+        for t in ["dp1", "dp2", "dp3"] {
+            m.push(Class::DataParallel, t);
+        }
+        m.push(Class::DemandDriven, "dd1");
+        assert_eq!(m.pop_class_newest(Class::DataParallel), Some("dp3"));
+        m.push(Class::DataParallel, "dp4");
+        assert_eq!(m.pop_class_newest(Class::DataParallel), Some("dp4"));
+        assert_eq!(m.pop_class(Class::DataParallel), Some("dp1"));
+        assert_eq!(m.pop_class_newest(Class::DataParallel), Some("dp2"));
+        assert_eq!(m.pop_class_newest(Class::DataParallel), None);
+        assert_eq!(m.pop(), Some((Class::DemandDriven, "dd1")));
+        assert!(m.is_empty());
     }
 
     proptest! {

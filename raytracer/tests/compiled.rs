@@ -415,22 +415,34 @@ fn renders_of_a_compiled_scene_equal_renders_of_its_sources() {
             );
         }
     }
-    // With -ab a compiled scene is loaded whole (hemisphere rays do not
-    // migrate), says so, and renders the sequential picture.
-    let ambient = |scene: &str, procs: &[&str], pic: &str| {
-        let ab = ["-ab", "1", "-ad", "32", "-as", "0", "-aa", "0.3"];
+    // With -ab and an irradiance cache a compiled scene is loaded whole
+    // (its hemisphere rays do not migrate), says so, and renders the
+    // sequential picture; without a cache or super-samples it is read
+    // processor by processor, the hemispheres' rays migrate, and the
+    // picture is the sequential one too.
+    let ambient = |scene: &str, aa: &str, procs: &[&str], pic: &str| {
+        let ab = ["-ab", "2", "-ad", "16", "-as", "0", "-aa", aa];
         let (vf, pic) = (dir.join("cornell.vf"), dir.join(pic));
         let o = render(&dir.join(scene), &vf, 16, &pic, &[&ab[..], procs].concat());
         assert!(o.status.success(), "{}", stderr(&o));
         (stderr(&o), std::fs::read(pic).unwrap())
     };
-    let (_, whole) = ambient("cornell.rad", &[], "ab0.hdr");
-    let (said, parallel) = ambient("cornell.hrtc", &["--procs", "2"], "ab1.hdr");
+    let (_, whole) = ambient("cornell.rad", "0.3", &[], "ab0.hdr");
+    let (said, parallel) = ambient("cornell.hrtc", "0.3", &["--procs", "2"], "ab1.hdr");
     assert!(
-        said.contains("hemisphere rays do not migrate") && said.contains("loaded whole"),
+        said.contains("do not migrate") && said.contains("loaded whole"),
         "{said}"
     );
-    assert!(whole == parallel, "-ab 1 --procs 2 on the compiled scene");
+    assert!(whole == parallel, "-ab 2 --procs 2 on the compiled scene");
+    let (_, whole) = ambient("cornell.rad", "0", &[], "ab2.hdr");
+    for procs in [&["--procs", "3"][..], &["--procs", "3", "--cache", "50%"]] {
+        let (said, parallel) = ambient("cornell.hrtc", "0", procs, "ab3.hdr");
+        assert!(!said.contains("loaded whole"), "{said}");
+        assert!(
+            whole == parallel,
+            "-ab 2 -aa 0 {procs:?} on the compiled scene"
+        );
+    }
 
     // The view stored in a compiled scene is the default view.
     let moved = dir.join("moved");

@@ -269,6 +269,45 @@ fn mpirun_renders_two_bounces_as_the_sequential_renderer() {
     }
 }
 
+/// Two bounces without an irradiance cache or super-samples run in the
+/// hybrid workload, the hemispheres' sample rays migrating between ranks
+/// to the cells they need: the sequential picture under `mpirun -np 3`,
+/// with a cache and with one that holds almost nothing.
+#[test]
+fn mpirun_migrates_hemisphere_rays_to_the_sequential_picture() {
+    let d = tmpdir("ab2-hybrid");
+    let (rad, vf) = cornell(&d);
+    let ab = ["-ab", "2", "-aa", "0", "-ad", "16", "-as", "0"];
+    let want = sequential_picture(&d, &rad, &vf, &ab);
+    for cache in ["100%", "10%"] {
+        let out = d.join(format!("mpi{}.hdr", cache.trim_end_matches('%')));
+        let mut args = base(&rad, &vf);
+        args.extend(ab);
+        args.extend([
+            "--runtime",
+            "mpi",
+            "--cache",
+            cache,
+            "--time-limit",
+            "200",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let r = mpirun(3, &args, &[], &d, &format!("ab2hybrid{cache}"));
+        assert!(r.status.success(), "--cache {cache}: {}", r.stderr);
+        assert!(
+            std::fs::read(&out).unwrap() == want,
+            "--cache {cache}: the picture differs from the sequential one"
+        );
+        // The hybrid workload's report, not the wave renderer's.
+        assert!(
+            !r.stderr.contains("parallel inter-reflection:"),
+            "{}",
+            r.stderr
+        );
+    }
+}
+
 /// A data request tagged for the owner's MPI thread that finds no data
 /// server there (one that arrives before the rank's run has installed it;
 /// `no-server:1` keeps rank 1's off for the whole run) is answered by the

@@ -82,6 +82,8 @@ pub(crate) struct Processor<W: Workload> {
     stats: ProcStats,
     max_waiting: usize,
     prefetch_work: bool,
+    /// [`crate::Workload::data_parallel_newest_first`].
+    dp_newest_first: bool,
     /// The work request outstanding at the master, if any: whether it
     /// allowed a root task.
     requested: Option<bool>,
@@ -162,6 +164,7 @@ impl<W: Workload> Processor<W> {
             stats: ProcStats::new(addr),
             max_waiting: config.max_waiting_tasks,
             prefetch_work: config.prefetch_work,
+            dp_newest_first: workload.data_parallel_newest_first(),
             requested: None,
             backlog_budget: config.backlog_budget_bytes(),
             hold_at: config.flight_bytes - config.flight_bytes / 4,
@@ -309,7 +312,7 @@ impl<W: Workload> Processor<W> {
             self.execute_dd(task, now)?;
             return Ok(Step::Worked(State::Executing));
         }
-        if let Some(inc) = self.mailbox.pop_class(Class::DataParallel) {
+        if let Some(inc) = self.mailbox.pop_data_parallel(self.dp_newest_first) {
             return self.handle(inc, now).map(Step::Worked);
         }
         // New demand-driven work only while there is room to wait for its

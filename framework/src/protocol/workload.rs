@@ -169,6 +169,17 @@ pub trait Workload: Send + Sync + Sized + 'static {
         None
     }
 
+    /// Whether a processor runs the data-parallel tasks it holds newest
+    /// first (depth first through the trees of tasks they spawn) rather
+    /// than oldest first (the default). For tasks that each spawn many
+    /// children (a hemisphere's sample rays, each of which may sample a
+    /// hemisphere of its own), oldest first holds a whole level of the
+    /// tree at once, and newest first about its depth times its fan-out.
+    /// The order changes only when tasks run, never a result
+    /// (SEMANTICS.md section 1).
+    fn data_parallel_newest_first(&self) -> bool {
+        false
+    }
     /// The replicated ownership directory for a run on `procs` processors.
     fn placement(&self, procs: usize) -> Vec<Placement<Self::DataId>>;
 

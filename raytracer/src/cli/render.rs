@@ -175,10 +175,11 @@ fn render(a: &RenderArgs) -> Result<()> {
         .filter(|p| would_distribute(a, p) && super::parallel::speaks(p))
     {
         eprintln!(
-            "warning: with -ab every processor traces whole ray trees over the whole scene \
-             (hemisphere rays do not migrate to the cells' owners yet): the compiled scene is \
+            "warning: with -ab and an irradiance cache or super-samples (-aa {} -as {}), every \
+             processor traces whole ray trees over the whole scene (their hemisphere rays do not \
+             migrate to the cells' owners; with -aa 0 -as 0 they do): the compiled scene is \
              loaded whole, not read processor by processor, and distribution {} does not apply",
-            p.workload.distribution
+            options.aa, options.as_, p.workload.distribution
         );
     }
     let t0 = std::time::Instant::now();
@@ -215,7 +216,7 @@ fn render(a: &RenderArgs) -> Result<()> {
     let ambient_file = ambient_file(a, &options)?;
     if let Some(popts) = popts {
         tracing::debug!(?popts, "parallel options");
-        if options.ab > 0 {
+        if options.ab > 0 && !crate::parallel::hybrid_interreflection(&options) {
             return run_ambient_parallel(
                 a,
                 scene,
@@ -378,14 +379,18 @@ fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
 /// Whether this render reads a compiled scene processor by processor: a
 /// compiled scene, rendered in parallel with a distribution that gives
 /// each processor its own cells (`octree`, `worst`, and `predicted` by the
-/// work predicted when the scene was compiled), without `-ab`.
+/// work predicted when the scene was compiled), without `-ab` or with the
+/// diffuse inter-reflection the hybrid workload computes (no cache, no
+/// super-samples: [`crate::parallel::hybrid_interreflection`]).
 fn distributes(a: &RenderArgs, popts: &ParallelOptions, options: &RenderOptions) -> bool {
-    would_distribute(a, popts) && options.ab == 0
+    would_distribute(a, popts)
+        && (options.ab == 0 || crate::parallel::hybrid_interreflection(options))
 }
 
 /// A compiled scene with a distribution that gives each processor its
 /// own cells: read processor by processor unless `-ab` asks for diffuse
-/// inter-reflection, which runs on the scene loaded whole.
+/// inter-reflection with a cache or super-samples, which runs on the
+/// scene loaded whole.
 fn would_distribute(a: &RenderArgs, popts: &ParallelOptions) -> bool {
     use crate::parallel::Distribution;
     matches!(a.scenes.as_slice(), [one] if crate::compiled::is_compiled(one))

@@ -138,6 +138,7 @@ impl RtWorkload {
             (Work::RaysReflection, c.reflection),
             (Work::RaysRefraction, c.refraction),
             (Work::RaysPassThrough, c.pass_through),
+            (Work::RaysAmbient, c.ambient),
         ] {
             ctx.charge(kind, n);
         }
@@ -303,6 +304,14 @@ impl RtWorkload {
                 }
             }
         }
+        self.spawn_hemispheres(
+            &key,
+            task,
+            &shaded.ambient,
+            requests.len(),
+            &mut children,
+            ctx,
+        );
         requests.clear();
         REQUESTS.set(requests);
         if let Some(caster) = &whole {
@@ -320,11 +329,12 @@ impl RtWorkload {
         // Where every child's value is known here (a processor holding the
         // scene ran its bundles and no ray was spawned), the node's value
         // goes as the merge would compute it.
+        let base = self.ambient_base(&shaded);
         let record = if whole.is_some() && children.iter().all(|c| !c.awaited()) {
-            Record::Value(evaluate(shaded.base, &children, &[], attenuation))
+            Record::Value(evaluate(base, &children, &[], attenuation))
         } else {
             Record::Shaded {
-                base: shaded.base,
+                base,
                 children,
                 attenuation,
             }

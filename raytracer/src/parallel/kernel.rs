@@ -298,7 +298,7 @@ impl RtWorkload {
         let st = self.trace_primaries_whole(t, &caster, ctx);
         self.charge_counts(&st, ctx);
         let c = &st.counts;
-        let rays = c.primary + c.reflection + c.refraction + c.pass_through;
+        let rays = c.primary + c.reflection + c.refraction + c.pass_through + c.ambient;
         for (kind, n) in [
             (Work::RaysSpawned, rays),
             (Work::RaysRetired, rays),

@@ -21,6 +21,7 @@ pub mod cost;
 pub mod distribution;
 mod execute;
 mod held;
+mod hemispheres;
 mod kernel;
 pub mod owners;
 pub mod partition;
@@ -45,9 +46,9 @@ use serde::Serialize;
 pub use completion::walks_worth_the_rest;
 pub use distribution::Distribution;
 pub use partition::Partition;
-pub use runtime::check_hybrid;
 #[cfg(feature = "mpi")]
 pub use runtime::mpi_world;
+pub use runtime::{check_hybrid, hybrid_interreflection};
 pub(crate) use runtime::{run_on, this_rank};
 pub use sizes::{CacheSize, FetchLimit};
 pub use tasks::{CellData, DdTask, DpTask};

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use hybrid_sched::{Config, Runtime, Sequential, Sim, Threads};
 
 use super::{cost, ParallelOptions, RuntimeKind};
-use crate::render::Renderer;
+use crate::render::{RenderOptions, Renderer};
 use crate::{Error, Result};
 
 /// Runs `wl` on the runtime, processors and flow control of `popts`,
@@ -83,15 +83,31 @@ pub(crate) fn this_rank() -> Result<usize> {
     mpi_runtime::<super::RtWorkload>().map(|_| 0)
 }
 
+/// Most strata of a hemisphere the hybrid-scheduled workload samples (a
+/// stratum's sample is named by a 16-bit step of its node's path).
+const MOST_STRATA: u32 = 60_000;
+
+/// Whether the hybrid-scheduled workload computes the diffuse
+/// inter-reflection `o` asks for: without an irradiance cache (`-aa 0`)
+/// and without super-samples (`-as 0`), a hemisphere is one sample per
+/// stratum whose value is a fixed function of theirs, so its sample rays
+/// are data-parallel tasks like any other ray's and the pixel's owner
+/// evaluates it. With a cache, or super-samples that depend on the first
+/// samples' values, `-ab` renders use the wave renderer
+/// ([`super::ambient`]).
+pub fn hybrid_interreflection(o: &RenderOptions) -> bool {
+    o.aa <= 0.0 && o.as_ == 0 && o.ad <= MOST_STRATA
+}
+
 /// The hybrid-scheduled workload assembles pixels from ray-tree records
 /// and has no irradiance cache: it refuses renders that need one (or more
 /// than one primary ray per pixel) instead of silently dropping the term.
 pub fn check_hybrid(renderer: &Renderer<'_>) -> Result<()> {
     let o = renderer.options();
-    if renderer.effects().diffuse_interreflection.enabled {
+    if renderer.effects().diffuse_interreflection.enabled && !hybrid_interreflection(o) {
         return Err(Error::Usage(format!(
-            "-ab {}: the hybrid-scheduled workload does not compute diffuse inter-reflection; with --procs, -ab renders use the wave renderer (parallel::ambient)",
-            o.ab
+            "-ab {} -aa {} -as {} -ad {}: the hybrid-scheduled workload computes diffuse inter-reflection only without an irradiance cache or super-samples (-aa 0 -as 0, -ad at most {MOST_STRATA}); with --procs, other -ab renders use the wave renderer (parallel::ambient)",
+            o.ab, o.aa, o.as_, o.ad
         )));
     }
     if o.pn > 1 {

@@ -15,7 +15,7 @@ use super::tasks::Tile;
 use super::work::Work;
 use super::workload::RtWorkload;
 use crate::accel::{NodeId, Pyramid};
-use crate::geometry::Vec3;
+use crate::geometry::{Aabb, Vec3};
 use crate::render::light::LightExtent;
 use crate::render::ShadowBundle;
 use crate::scene::ViewType;
@@ -110,6 +110,34 @@ impl RtWorkload {
                         < self.opts.shadow_dp_below
             }
         }
+    }
+
+    /// True if every leaf a bundle confined to `bounds` (`None`: anywhere)
+    /// can touch is resident on processor `proc`: its data selection would
+    /// fetch nothing, so clipping is skipped.
+    pub(super) fn all_resident(&self, bounds: Option<Aabb>, proc: usize) -> bool {
+        if self.subtree_owner.is_empty() {
+            return false;
+        }
+        if self.holds_everything(proc) {
+            return true;
+        }
+        let octree = self.renderer.octree();
+        let mut node: NodeId = 0;
+        if let Some(b) = bounds {
+            'descend: while let Some(children) = octree.children(node) {
+                for c in children {
+                    let cb = octree.node_bounds(c);
+                    if (cb.min.cmple(b.min) & cb.max.cmpge(b.max)).all() {
+                        node = c;
+                        continue 'descend;
+                    }
+                }
+                break;
+            }
+        }
+        let o = self.subtree_owner.get(node as usize);
+        o == EMPTY || o as usize == proc
     }
 
     /// Whether every cell a shadow ray of `b` can enter is resident on

@@ -71,12 +71,31 @@ pub enum Child {
     Known(Color),
     /// An in-scattering bundle run there: as [`Child::Scatter`], carried.
     KnownScatter(Color),
+    /// A hemisphere sampled for diffuse inter-reflection (without an
+    /// irradiance cache): `coef` times its value, added before the other
+    /// requests' (the sequential renderer's order).
+    Ambient(Color),
+    /// A sample ray of a hemisphere node ([`Record::Hemisphere`]): its
+    /// value enters the mean of its stratum.
+    Stratum,
+    /// Where no hemisphere is sampled (its rays would exceed `-lr` or fall
+    /// below `-lw`): the term, `coef` times the value taken instead
+    /// (`-av`), carried (one colour, as every other child: a record's
+    /// bytes are priced by its children).
+    AmbientKnown(Color),
 }
+
+// A record's bytes are priced by its children (the simulated runs').
+#[cfg(target_pointer_width = "64")]
+const _: () = assert!(std::mem::size_of::<Child>() == 32);
 
 impl Child {
     /// Whether its value arrives as a result of its own.
     pub(super) fn awaited(&self) -> bool {
-        !matches!(self, Child::Known(_) | Child::KnownScatter(_))
+        !matches!(
+            self,
+            Child::Known(_) | Child::KnownScatter(_) | Child::AmbientKnown(_)
+        )
     }
 }
 
@@ -98,6 +117,10 @@ pub enum Record {
     },
     /// A final value: a ray that left the scene, or a shadow bundle's result.
     Value(Color),
+    /// A hemisphere of `strata` sample rays, one per stratum (children
+    /// `0..strata`), whose value is the mean over the strata
+    /// ([`crate::render::ambient::strata_mean_of_first_pass`]).
+    Hemisphere { strata: u16 },
 }
 
 /// A result message: one node's record, sent to the pixel's owner.
@@ -112,7 +135,7 @@ impl ByteSize for RtResult {
     fn byte_size(&self) -> usize {
         let extra = match &self.record {
             Record::Shaded { children, .. } => children.len() * std::mem::size_of::<Child>(),
-            Record::Value(_) => 0,
+            Record::Value(_) | Record::Hemisphere { .. } => 0,
         };
         self.key.bytes() + std::mem::size_of::<Record>() + extra
     }
@@ -188,8 +211,17 @@ impl PixelTrees {
     /// Adds one result.
     pub fn merge(&mut self, r: RtResult) {
         self.records += 1;
-        match r.record {
+        let record = match r.record {
+            Record::Hemisphere { strata } => Record::Shaded {
+                base: Color::ZERO,
+                children: vec![Child::Stratum; usize::from(strata)],
+                attenuation: None,
+            },
+            record => record,
+        };
+        match record {
             Record::Value(c) => self.deliver(r.key, c),
+            Record::Hemisphere { .. } => unreachable!("made a node above"),
             Record::Shaded {
                 base,
                 children,
@@ -265,12 +297,26 @@ pub(super) fn evaluate(
             *slot = v;
         }
     }
+    if matches!(children.first(), Some(Child::Stratum)) {
+        return crate::render::ambient::strata_mean_of_first_pass(&values);
+    }
     let mut sum = base;
+    for (child, &v) in children.iter().zip(&values) {
+        match child {
+            Child::Ambient(coef) => sum += *coef * v,
+            Child::AmbientKnown(term) => sum += *term,
+            _ => {}
+        }
+    }
     for (child, &v) in children.iter().zip(&values) {
         match child {
             Child::Trace(coef) => sum += *coef * v,
             Child::Shadow | Child::Known(_) => sum += v,
-            Child::Scatter | Child::KnownScatter(_) => {}
+            Child::Scatter
+            | Child::KnownScatter(_)
+            | Child::Ambient(_)
+            | Child::AmbientKnown(_)
+            | Child::Stratum => {}
         }
     }
     if let Some((factor, add)) = attenuation {
@@ -360,6 +406,69 @@ mod tests {
             }
             assert_eq!(t.pixels, vec![(7, expected)], "order {order:?}");
             assert_eq!(t.pending(), 0);
+        }
+    }
+
+    /// A point with a reflection and a shadow bundle, a hemisphere of
+    /// three strata (one sample not finite) and a hemisphere not sampled:
+    /// the hemispheres' terms come before the requests', as the sequential
+    /// renderer adds them, in every order the results arrive in.
+    #[test]
+    fn hemispheres_are_added_first_whatever_the_order() {
+        let root = NodeKey::root(3);
+        let hemi = root.child(2);
+        let mut all = vec![
+            RtResult {
+                key: root.clone(),
+                record: Record::Shaded {
+                    base: c(0.1),
+                    children: vec![
+                        Child::Trace(c(0.5)),
+                        Child::Shadow,
+                        Child::Ambient(c(0.7)),
+                        Child::AmbientKnown(c(0.3) * c(0.2)),
+                    ],
+                    attenuation: None,
+                },
+            },
+            RtResult {
+                key: hemi.clone(),
+                record: Record::Hemisphere { strata: 3 },
+            },
+            RtResult {
+                key: root.child(0),
+                record: Record::Value(c(0.25)),
+            },
+            RtResult {
+                key: root.child(1),
+                record: Record::Value(c(0.125)),
+            },
+        ];
+        for (k, v) in [(0, c(0.4)), (1, Color::splat(f64::NAN)), (2, c(0.9))] {
+            all.push(RtResult {
+                key: hemi.child(k),
+                record: Record::Value(v),
+            });
+        }
+        let mean = (c(0.4) / 1.0 + Color::ZERO / 1.0 + c(0.9) / 1.0) / 3.0;
+        let mut expected = c(0.1);
+        expected += c(0.7) * mean;
+        expected += c(0.3) * c(0.2);
+        expected += c(0.5) * c(0.25);
+        expected += c(0.125);
+        // Every rotation of the list, forwards and backwards.
+        for shift in 0..all.len() {
+            let mut order: Vec<&RtResult> =
+                all.iter().cycle().skip(shift).take(all.len()).collect();
+            for _ in 0..2 {
+                let mut t = PixelTrees::default();
+                for r in &order {
+                    t.merge((*r).clone());
+                }
+                assert_eq!(t.pixels, vec![(3, expected)], "shift {shift}");
+                assert_eq!(t.pending(), 0);
+                order.reverse();
+            }
         }
     }
 

@@ -31,13 +31,12 @@ use hybrid_sched::serde::{Deserialize, Serialize};
 use hybrid_sched::{Ctx, DataView, DpOutcome, Placement, Workload};
 
 use super::caster::Replay;
-use super::distribution::{partition_for, subtree_owners, Distribution, EMPTY};
+use super::distribution::{partition_for, subtree_owners, Distribution};
 use super::partition::{object_bytes, Partition};
 use super::tasks::{CellData, DdTask, DpTask, RayJob, ShadowDp};
 use super::tree::{PixelTrees, RtResult};
 use super::work::Work;
 use crate::accel::{CellTable, LeafObjects, NodeId, ObjectCopies, TraceCursor};
-use crate::geometry::Aabb;
 use crate::render::Renderer;
 use crate::scene::View;
 
@@ -270,34 +269,6 @@ impl RtWorkload {
         }
     }
 
-    /// True if every leaf a bundle confined to `bounds` (`None`: anywhere)
-    /// can touch is resident on processor `proc`: its data selection would
-    /// fetch nothing, so clipping is skipped.
-    pub(super) fn all_resident(&self, bounds: Option<Aabb>, proc: usize) -> bool {
-        if self.subtree_owner.is_empty() {
-            return false;
-        }
-        if self.holds_everything(proc) {
-            return true;
-        }
-        let octree = self.renderer.octree();
-        let mut node: NodeId = 0;
-        if let Some(b) = bounds {
-            'descend: while let Some(children) = octree.children(node) {
-                for c in children {
-                    let cb = octree.node_bounds(c);
-                    if (cb.min.cmple(b.min) & cb.max.cmpge(b.max)).all() {
-                        node = c;
-                        continue 'descend;
-                    }
-                }
-                break;
-            }
-        }
-        let o = self.subtree_owner.get(node as usize);
-        o == EMPTY || o as usize == proc
-    }
-
     pub fn renderer(&self) -> &Renderer<'static> {
         &self.renderer
     }
@@ -392,6 +363,11 @@ impl Workload for RtWorkload {
     /// need not look at theirs.
     fn laid_out_for(&self) -> Option<usize> {
         Some(self.partition.procs() as usize)
+    }
+
+    /// With diffuse inter-reflection: hemispheres, depth first (`hemispheres.rs`).
+    fn data_parallel_newest_first(&self) -> bool {
+        self.renderer.effects().diffuse_interreflection.enabled
     }
 
     fn placement(&self, _procs: usize) -> Vec<Placement<NodeId>> {

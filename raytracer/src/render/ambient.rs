@@ -57,7 +57,7 @@ mod file;
 mod hemisphere;
 
 pub use file::{append_ambient_file, parse_ambient_file, read_ambient_file, AmbientFile};
-pub use hemisphere::Hemisphere;
+pub use hemisphere::{strata_mean_of_first_pass, Hemisphere};
 
 /// Radiance's assumed average reflectance (`AVGREFL`): ambient sample rays
 /// carry this share of the weight of the ray they start from, and a record

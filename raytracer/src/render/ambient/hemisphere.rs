@@ -90,6 +90,37 @@ fn square_to_disk(x: f64, y: f64) -> (f64, f64) {
     (r * phi.cos(), r * phi.sin())
 }
 
+/// The mean over the strata of each stratum's mean (`sums[k]` of
+/// `counts[k]` samples): a hemisphere's value ([`Hemisphere::finish`]).
+fn strata_mean(sums: &[Color], counts: &[u32]) -> Color {
+    let mut value = Color::ZERO;
+    for (&sum, &count) in sums.iter().zip(counts) {
+        value += sum / count.max(1) as f64;
+    }
+    value /= sums.len().max(1) as f64;
+    value
+}
+
+/// The value of a hemisphere sampled once per stratum (its first pass,
+/// no super-samples), `values[k]` stratum `k`'s sample: what
+/// [`Hemisphere::add`] then [`Hemisphere::finish`] compute, bit for bit
+/// (a sample that is not finite adds nothing). The parallel renderer
+/// evaluates a hemisphere whose samples were traced as tasks of their own
+/// with it.
+pub fn strata_mean_of_first_pass(values: &[Color]) -> Color {
+    let sums: Vec<Color> = values
+        .iter()
+        .map(|&v| {
+            let mut sum = Color::ZERO;
+            if v.is_finite() {
+                sum += v;
+            }
+            sum
+        })
+        .collect();
+    strata_mean(&sums, &vec![1; values.len()])
+}
+
 impl Hemisphere {
     /// A hemisphere for `req` at the hit of `task`, or `None` where the
     /// sample rays would exceed `-lr` or fall below `-lw` (the caller then
@@ -370,11 +401,7 @@ impl Hemisphere {
     /// with a cache, its record.
     pub fn finish(&self, s: &AmbientSettings) -> (Color, Option<AmbientRecord>) {
         let n = self.sums.len();
-        let mut value = Color::ZERO;
-        for k in 0..n {
-            value += self.mean(k);
-        }
-        value /= n.max(1) as f64;
+        let value = strata_mean(&self.sums, &self.counts);
         if !self.cached || self.ns < MINADIV || !value.is_finite() {
             return (value, None);
         }

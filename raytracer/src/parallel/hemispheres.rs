@@ -1,0 +1,96 @@
+//! Diffuse inter-reflection in the hybrid workload, without an irradiance
+//! cache or super-samples (the only kind it is given,
+//! [`super::runtime::check_hybrid`]): a shaded point's hemispheres are
+//! nodes of the pixel's ray tree whose sample rays are data-parallel tasks
+//! of their own, migrating to the cells they need like any other ray; the
+//! pixel's owner evaluates a hemisphere once every sample's value is in
+//! ([`super::tree::Record::Hemisphere`]), with the sequential renderer's
+//! operations, and adds it to its point's value before the point's other
+//! requests. The book's parallel renderer chapter, "Hemisphere rays".
+//!
+//! A hemisphere spawns 16 to thousands of tasks, each of which may spawn
+//! as many: oldest first, a processor held a whole level of those trees
+//! (the Cornell box at 48 x 48, `-ab 2 -ad 64`, three processors: 798 MB
+//! at the peak against 54 MB newest first and 8 MB for the sequential
+//! renderer), so the workload asks for the newest first
+//! ([`hybrid_sched::Workload::data_parallel_newest_first`]).
+
+use hybrid_sched::{Addr, Ctx};
+
+use super::tasks::{DpTask, RayJob};
+use super::tree::{Child, NodeKey, Record, RtResult};
+use super::work::Work;
+use super::workload::RtWorkload;
+use crate::accel::TraceCursor;
+use crate::render::ambient::{AmbientRequest, AmbientStore, Hemisphere};
+use crate::render::shading::Shaded;
+use crate::render::RayTask;
+use crate::scene::Color;
+
+impl RtWorkload {
+    /// Adds the ambient requests of the point `key` (at the hit of
+    /// `task`) to its `children`, after its `requests` others: each
+    /// hemisphere a node (key: the point's, then `requests` + its index)
+    /// whose record goes to the pixel's owner and whose samples are
+    /// spawned, one per stratum; where no hemisphere is sampled (its rays
+    /// would exceed `-lr` or fall below `-lw`), its term with `-av`,
+    /// carried.
+    pub(super) fn spawn_hemispheres(
+        &self,
+        key: &NodeKey,
+        task: &RayTask,
+        ambient: &[Option<AmbientRequest>],
+        requests: usize,
+        children: &mut Vec<Child>,
+        ctx: &mut Ctx<Self>,
+    ) {
+        let o = self.renderer.options();
+        let settings = self.renderer.ambient_settings();
+        for (j, req) in ambient.iter().flatten().enumerate() {
+            let node = key.child(requests + j);
+            let Some(h) = Hemisphere::new(settings, o, task, req) else {
+                // `-av`, moved to the average of the cache (of no records).
+                let av = AmbientStore::default().ambient_value(o.av, o.aw);
+                children.push(Child::AmbientKnown(req.coef * av));
+                continue;
+            };
+            let samples = h.first_pass();
+            debug_assert!(h.second_pass(settings.super_samples).is_empty());
+            children.push(Child::Ambient(req.coef));
+            ctx.charge(Work::RaysSpawned, samples.len() as u64);
+            ctx.emit_result(
+                Addr::Proc(ctx.origin()),
+                RtResult {
+                    key: node.clone(),
+                    record: Record::Hemisphere {
+                        strata: u16::try_from(samples.len()).unwrap_or(u16::MAX),
+                    },
+                },
+            );
+            for (stratum, sample) in samples {
+                ctx.spawn_dp(DpTask::Ray(RayJob {
+                    key: node.child(stratum),
+                    task: sample,
+                    cursor: TraceCursor::default(),
+                    next: None,
+                }));
+            }
+        }
+    }
+
+    /// The point's local part: with `-aw`, its `-av` term moved to the
+    /// cache's average (of no records here), with the sequential
+    /// renderer's operations.
+    pub(super) fn ambient_base(&self, shaded: &Shaded) -> Color {
+        let o = self.renderer.options();
+        let mut base = shaded.base;
+        if o.aw > 0
+            && shaded.constant != Color::ZERO
+            && self.renderer.effects().diffuse_interreflection.enabled
+        {
+            let av = AmbientStore::default().ambient_value(o.av, o.aw);
+            base += shaded.constant * (av - o.av);
+        }
+        base
+    }
+}
