@@ -211,37 +211,44 @@ impl PixelTrees {
     /// Adds one result.
     pub fn merge(&mut self, r: RtResult) {
         self.records += 1;
-        let record = match r.record {
-            Record::Hemisphere { strata } => Record::Shaded {
-                base: Color::ZERO,
-                children: vec![Child::Stratum; usize::from(strata)],
-                attenuation: None,
-            },
-            record => record,
-        };
-        match record {
+        match r.record {
             Record::Value(c) => self.deliver(r.key, c),
-            Record::Hemisphere { .. } => unreachable!("made a node above"),
             Record::Shaded {
                 base,
                 children,
                 attenuation,
-            } => {
-                let awaited = children.iter().filter(|c| c.awaited()).count();
-                if awaited == 0 {
-                    // Nothing to wait for: no entry at all.
-                    let v = evaluate(base, &children, &[], attenuation);
-                    self.deliver(r.key, v);
-                    return;
-                }
-                let entry = self.entry(r.key.pixel, &r.key.path);
-                debug_assert!(entry.record.is_none(), "node {:?} shaded twice", r.key);
-                entry.record = Some((base, children, attenuation));
-                entry.awaited = awaited;
-                if let Some(v) = self.complete(r.key.pixel, &r.key.path) {
-                    self.deliver(r.key, v);
-                }
-            }
+            } => self.shaded(r.key, base, children, attenuation),
+            // A node whose children are its strata.
+            Record::Hemisphere { strata } => self.shaded(
+                r.key,
+                Color::ZERO,
+                vec![Child::Stratum; usize::from(strata)],
+                None,
+            ),
+        }
+    }
+
+    /// Adds node `key`'s record: its local part and its children.
+    fn shaded(
+        &mut self,
+        key: NodeKey,
+        base: Color,
+        children: Vec<Child>,
+        attenuation: Option<Attenuation>,
+    ) {
+        let awaited = children.iter().filter(|c| c.awaited()).count();
+        if awaited == 0 {
+            // Nothing to wait for: no entry at all.
+            let v = evaluate(base, &children, &[], attenuation);
+            self.deliver(key, v);
+            return;
+        }
+        let entry = self.entry(key.pixel, &key.path);
+        debug_assert!(entry.record.is_none(), "node {key:?} shaded twice");
+        entry.record = Some((base, children, attenuation));
+        entry.awaited = awaited;
+        if let Some(v) = self.complete(key.pixel, &key.path) {
+            self.deliver(key, v);
         }
     }
 
