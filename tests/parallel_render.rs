@@ -130,6 +130,11 @@ fn check(c: &Case, popts: &ParallelOptions) -> ParallelRender {
         "{what}: refraction rays"
     );
     assert_eq!(
+        out.work(Work::RaysAmbient),
+        k.ambient,
+        "{what}: hemispheres' rays"
+    );
+    assert_eq!(
         out.work(Work::ShadowTested),
         k.shadow.tested,
         "{what}: shadow rays"
@@ -1012,8 +1017,6 @@ fn hemisphere_rays_migrate_and_change_no_pixel() {
                 p.workload.tile = 4;
                 p.workload.distribution = distribution;
                 let out = check(&c, &p);
-                let what = format!("{p:?}");
-                assert_eq!(out.work(Work::RaysAmbient), c.counts.ambient, "{what}");
                 migrations += out.stats.sum(|s| s.tasks.migrations);
             }
         }
@@ -1029,7 +1032,6 @@ fn hemisphere_rays_migrate_and_change_no_pixel() {
         let mut p = ParallelOptions::new(procs);
         p.cache = CacheSize::Percent(30.0);
         p.workload.tile = 4;
-        let out = check(&c, &p);
-        assert_eq!(out.work(Work::RaysAmbient), c.counts.ambient, "{p:?}");
+        check(&c, &p);
     }
 }
