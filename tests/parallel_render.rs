@@ -187,6 +187,21 @@ fn largest_cell(c: &Case) -> u64 {
     wl.placement(1).iter().map(|p| p.bytes).max().unwrap_or(1)
 }
 
+/// The options most runs here vary: `procs` processors, the data
+/// `distribution`, the `cache` and tiles of side `tile`.
+fn options(
+    procs: usize,
+    distribution: Distribution,
+    cache: CacheSize,
+    tile: usize,
+) -> ParallelOptions {
+    let mut p = ParallelOptions::new(procs);
+    p.cache = cache;
+    p.workload.tile = tile;
+    p.workload.distribution = distribution;
+    p
+}
+
 #[test]
 fn cornell_equals_sequential_for_every_procs_policy_cache_distribution() {
     let c = case("cornell", 24, 24, RenderOptions::default());
@@ -196,11 +211,8 @@ fn cornell_equals_sequential_for_every_procs_policy_cache_distribution() {
         for distribution in [Distribution::Octree, Distribution::Worst] {
             for cache in caches(&c) {
                 for policy in Policy::ALL {
-                    let mut p = ParallelOptions::new(procs);
+                    let mut p = options(procs, distribution, cache, 4);
                     p.policy = policy;
-                    p.cache = cache;
-                    p.workload.tile = 4;
-                    p.workload.distribution = distribution;
                     let out = check(&c, &p);
                     check_bounds(&out, &format!("{p:?}"));
                     fallbacks += out.stats.sum(|s| s.tasks.fallbacks);
@@ -538,10 +550,7 @@ fn views_without_a_tile_pyramid_equal_sequential() {
         for procs in [1, 3] {
             for distribution in [Distribution::Octree, Distribution::Worst] {
                 for cache in [CacheSize::Unlimited, CacheSize::Bytes(largest_cell(&c))] {
-                    let mut p = ParallelOptions::new(procs);
-                    p.cache = cache;
-                    p.workload.tile = 6;
-                    p.workload.distribution = distribution;
+                    let p = options(procs, distribution, cache, 6);
                     let out = check(&c, &p);
                     fallbacks += out.stats.sum(|s| s.tasks.fallbacks);
                 }
@@ -1011,11 +1020,8 @@ fn hemisphere_rays_migrate_and_change_no_pixel() {
     ] {
         for distribution in [Distribution::Octree, Distribution::Replicated] {
             for cache in [CacheSize::Unlimited, CacheSize::Percent(10.0)] {
-                let mut p = ParallelOptions::new(procs);
+                let mut p = options(procs, distribution, cache, 4);
                 p.runtime = runtime;
-                p.cache = cache;
-                p.workload.tile = 4;
-                p.workload.distribution = distribution;
                 let out = check(&c, &p);
                 migrations += out.stats.sum(|s| s.tasks.migrations);
             }
