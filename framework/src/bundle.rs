@@ -60,6 +60,9 @@ pub(crate) struct Outbox<W: Workload> {
     /// High-water mark of the work in flight here: input buffer bytes plus
     /// send backlog bytes, at the same moment.
     in_flight_high_water: usize,
+    /// Data-parallel tasks leave newest first
+    /// ([`crate::Workload::data_parallel_newest_first`]).
+    dp_newest_first: bool,
 }
 
 impl<W: Workload> Outbox<W> {
@@ -91,7 +94,13 @@ impl<W: Workload> Outbox<W> {
             backlog_bytes_high_water: 0,
             result_backlog_bytes: 0,
             in_flight_high_water: 0,
+            dp_newest_first: false,
         }
+    }
+
+    /// Sends data-parallel tasks newest first.
+    pub(crate) fn send_dp_newest_first(&mut self, yes: bool) {
+        self.dp_newest_first = yes;
     }
 
     /// A message of `class` from `from` arrived: whether it is
@@ -205,8 +214,14 @@ impl<W: Workload> Outbox<W> {
             };
             let mut items = Vec::new();
             let mut bytes = HEADER_BYTES;
+            let newest = self.dp_newest_first && class == Class::DataParallel;
             while items.len() < cap && bytes - HEADER_BYTES < self.bundle.max_bytes {
-                let Some(&(_, b, _)) = lane.items.front() else {
+                let next = if newest {
+                    lane.items.back()
+                } else {
+                    lane.items.front()
+                };
+                let Some(&(_, b, _)) = next else {
                     break;
                 };
                 // The byte window: a message that does not fit waits for
@@ -214,13 +229,23 @@ impl<W: Workload> Outbox<W> {
                 if !self.credits.fits(slot, pool, bytes - HEADER_BYTES, b) {
                     break;
                 }
-                let (msg, b, _) = lane.items.pop_front().expect("peeked");
+                let taken = if newest {
+                    lane.items.pop_back()
+                } else {
+                    lane.items.pop_front()
+                };
+                let (msg, b, _) = taken.expect("peeked");
                 lane.bytes -= b;
                 bytes += b;
                 items.push(msg);
             }
             if items.is_empty() {
                 return;
+            }
+            if newest {
+                // In the order they were made: the receiver, newest first
+                // too, takes the newest of them first.
+                items.reverse();
             }
             let payload = bytes - HEADER_BYTES;
             self.backlog -= items.len();

@@ -63,6 +63,21 @@ impl<T> Mailbox<T> {
         Some(item)
     }
 
+    /// Takes the newest item of `class` for which `pick` holds.
+    /// Scans from the newest; meant for rare exceptions (a processor's
+    /// one or two root tasks among its children).
+    pub(crate) fn pop_class_newest_where(
+        &mut self,
+        class: Class,
+        pick: impl Fn(&T) -> bool,
+    ) -> Option<T> {
+        let queue = &mut self.queues[class.index()];
+        let i = queue.iter().rposition(pick)?;
+        let item = queue.remove(i)?;
+        self.len -= 1;
+        Some(item)
+    }
+
     /// Takes a data-parallel task: the oldest, or the `newest`
     /// ([`crate::Workload::data_parallel_newest_first`]).
     pub(crate) fn pop_data_parallel(&mut self, newest: bool) -> Option<T> {
@@ -140,6 +155,28 @@ mod tests {
         assert_eq!(m.pop_class_newest(Class::DataParallel), Some("dp2"));
         assert_eq!(m.pop_class_newest(Class::DataParallel), None);
         assert_eq!(m.pop(), Some((Class::DemandDriven, "dd1")));
+        assert!(m.is_empty());
+    }
+
+    #[test]
+    fn newest_where_skips_what_is_not_picked() {
+        let mut m = Mailbox::new();
+        for t in ["root1", "dd1", "dd2", "root2"] {
+            m.push(Class::DemandDriven, t);
+        }
+        let child = |t: &&str| t.starts_with("dd");
+        assert_eq!(
+            m.pop_class_newest_where(Class::DemandDriven, child),
+            Some("dd2")
+        );
+        assert_eq!(
+            m.pop_class_newest_where(Class::DemandDriven, child),
+            Some("dd1")
+        );
+        assert_eq!(m.pop_class_newest_where(Class::DemandDriven, child), None);
+        assert_eq!(m.len(), 2);
+        assert_eq!(m.pop(), Some((Class::DemandDriven, "root1")));
+        assert_eq!(m.pop(), Some((Class::DemandDriven, "root2")));
         assert!(m.is_empty());
     }
 

@@ -143,6 +143,14 @@ impl<W: Workload> Processor<W> {
         let addr = Addr::Proc(id);
         let credits = config.credits_per_link as u32;
         let server = Arc::new(DataServer::new(id, store.resident_items()));
+        let mut outbox = Outbox::new(
+            addr,
+            procs,
+            config.bundle.clone(),
+            credits,
+            config.link_window_bytes(),
+        );
+        outbox.send_dp_newest_first(workload.data_parallel_newest_first());
         Ok(Processor {
             server,
             id,
@@ -152,13 +160,7 @@ impl<W: Workload> Processor<W> {
             ready: VecDeque::new(),
             deferred: VecDeque::new(),
             store,
-            outbox: Outbox::new(
-                addr,
-                procs,
-                config.bundle.clone(),
-                credits,
-                config.link_window_bytes(),
-            ),
+            outbox,
             placer: Placer::new(config.policy, id, procs),
             acc: W::Accumulator::default(),
             stats: ProcStats::new(addr),
@@ -312,6 +314,20 @@ impl<W: Workload> Processor<W> {
             self.execute_dd(task, now)?;
             return Ok(Step::Worked(State::Executing));
         }
+        // Depth first (`Workload::data_parallel_newest_first`): the newest
+        // child demand-driven task runs before any data-parallel one, so
+        // that the children of the tasks now running do not wait behind a
+        // stream of incoming tasks (their trees open meanwhile). Root
+        // tasks still wait for the data-parallel work (below).
+        if self.dp_newest_first && self.room_for_more_waiting() {
+            let child = |inc: &Incoming<W>| !matches!(&inc.msg, Msg::Dd(env) if env.handout);
+            if let Some(inc) = self
+                .mailbox
+                .pop_class_newest_where(Class::DemandDriven, child)
+            {
+                return self.start_dd(inc, now).map(Step::Worked);
+            }
+        }
         if let Some(inc) = self.mailbox.pop_data_parallel(self.dp_newest_first) {
             return self.handle(inc, now).map(Step::Worked);
         }
@@ -320,13 +336,7 @@ impl<W: Workload> Processor<W> {
         // in the (credit-bounded) input buffer.
         if self.room_for_more_waiting() {
             if let Some(inc) = self.mailbox.pop_class(Class::DemandDriven) {
-                let root = matches!(&inc.msg, Msg::Dd(env) if env.handout);
-                let state = self.handle(inc, now)?;
-                if root && self.prefetch_work && self.requested.is_none() {
-                    // One root in reserve: ask now, work while it comes.
-                    self.request_work(now);
-                }
-                return Ok(Step::Worked(state));
+                return self.start_dd(inc, now).map(Step::Worked);
             }
         }
         self.on_idle(now);
@@ -562,35 +572,5 @@ impl<W: Workload> Processor<W> {
             .unwrap_or_else(|| Ctx::new(self.id, self.procs));
         ctx.origin = origin.unwrap_or(self.id);
         ctx
-    }
-
-    fn on_idle(&mut self, now: Time) {
-        // Nothing else to do: waiting for fuller bundles would only add
-        // latency, so everything with credit goes now, and all owed credits
-        // go back.
-        self.outbox.pump(now, true);
-        self.outbox.return_credits(true, now);
-        if self.room_for_more_waiting() {
-            match self.requested {
-                None => self.request_work(now),
-                // Back under budget with a request for pooled work only
-                // parked: ask again, allowing a root (it replaces the other).
-                Some(false) if !self.over_budget() => self.request_work(now),
-                Some(_) => {}
-            }
-        }
-        if let Some(wave) = self.probe {
-            if self.is_passive() {
-                self.probe = None;
-                // With the requests and replies its data server handled.
-                let (sent, received) = self.server.basic();
-                let reply = Msg::ProbeReply {
-                    wave,
-                    sent: self.basic_sent + sent,
-                    received: self.basic_received + received,
-                };
-                self.send(Addr::Master, reply, now);
-            }
-        }
     }
 }

@@ -1,12 +1,14 @@
 //! Back-pressure: when a processor is over its budget of work in flight
-//! (SEMANTICS.md, section 5), when it waits for its results to leave, and
-//! its requests for work (a root task only under budget).
+//! (SEMANTICS.md, section 5) and when it waits for its results to leave;
+//! its requests for work (a root task only under budget); what it does
+//! when it has nothing to run.
 
 use super::Processor;
 use crate::clock::Time;
-use crate::protocol::message::Msg;
+use crate::protocol::message::{Incoming, Msg};
 use crate::protocol::workload::Workload;
 use crate::protocol::Addr;
+use crate::stats::State;
 
 impl<W: Workload> Processor<W> {
     /// Back-pressure: the send backlog holds more than its budget.
@@ -35,5 +37,47 @@ impl<W: Workload> Processor<W> {
         }
         self.requested = Some(roots);
         self.send(Addr::Master, Msg::WorkRequest { roots }, now);
+    }
+
+    /// Starts a demand-driven task from the mailbox; after a root, asks
+    /// for the next one.
+    pub(super) fn start_dd(&mut self, inc: Incoming<W>, now: Time) -> Result<State, String> {
+        let root = matches!(&inc.msg, Msg::Dd(env) if env.handout);
+        let state = self.handle(inc, now)?;
+        if root && self.prefetch_work && self.requested.is_none() {
+            // One root in reserve: ask now, work while it comes.
+            self.request_work(now);
+        }
+        Ok(state)
+    }
+
+    pub(super) fn on_idle(&mut self, now: Time) {
+        // Nothing else to do: waiting for fuller bundles would only add
+        // latency, so everything with credit goes now, and all owed credits
+        // go back.
+        self.outbox.pump(now, true);
+        self.outbox.return_credits(true, now);
+        if self.room_for_more_waiting() {
+            match self.requested {
+                None => self.request_work(now),
+                // Back under budget with a request for pooled work only
+                // parked: ask again, allowing a root (it replaces the other).
+                Some(false) if !self.over_budget() => self.request_work(now),
+                Some(_) => {}
+            }
+        }
+        if let Some(wave) = self.probe {
+            if self.is_passive() {
+                self.probe = None;
+                // With the requests and replies its data server handled.
+                let (sent, received) = self.server.basic();
+                let reply = Msg::ProbeReply {
+                    wave,
+                    sent: self.basic_sent + sent,
+                    received: self.basic_received + received,
+                };
+                self.send(Addr::Master, reply, now);
+            }
+        }
     }
 }

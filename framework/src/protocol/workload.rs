@@ -169,12 +169,14 @@ pub trait Workload: Send + Sync + Sized + 'static {
         None
     }
 
-    /// Whether a processor runs the data-parallel tasks it holds newest
-    /// first (depth first through the trees of tasks they spawn) rather
-    /// than oldest first (the default). For tasks that each spawn many
-    /// children (a hemisphere's sample rays, each of which may sample a
-    /// hemisphere of its own), oldest first holds a whole level of the
-    /// tree at once, and newest first about its depth times its fan-out.
+    /// Whether processors go depth first through the trees of tasks that
+    /// tasks spawn rather than oldest first (the default): a processor
+    /// runs the data-parallel tasks it holds newest first, the
+    /// demand-driven children of recent steps before them, and sends the
+    /// newest of its data-parallel tasks that wait for credit first
+    /// (SEMANTICS.md section 3). For tasks that each spawn many children
+    /// (a hemisphere's sample rays, each of which may sample a hemisphere
+    /// of its own), oldest first holds a whole level of the tree at once.
     /// The order changes only when tasks run, never a result
     /// (SEMANTICS.md section 1).
     fn data_parallel_newest_first(&self) -> bool {

@@ -153,3 +153,73 @@ fn the_byte_window_holds_messages_and_lets_a_large_one_go_alone() {
     assert_eq!(sent(&mut big), 1);
     assert!(big.is_empty());
 }
+
+/// Depth first ([`Workload::data_parallel_newest_first`]): data-parallel
+/// tasks waiting for credit leave newest first, each packet's in the order
+/// they were made (the receiver takes its newest first), and none is lost.
+#[test]
+fn newest_first_outbox_sends_the_newest_waiting_tasks_first() {
+    let walk = |key: u64| {
+        Msg::Dp(crate::protocol::message::DpEnvelope::<Mini> {
+            task: Walk {
+                key,
+                path: vec![1],
+                pos: 0,
+                acc: 0,
+                finish: None,
+            },
+            origin: None,
+        })
+    };
+    let keys = |packets: Vec<Packet<Mini>>| {
+        packets
+            .iter()
+            .map(|p| {
+                p.items
+                    .iter()
+                    .map(|m| match m {
+                        Msg::Dp(env) => env.task.key,
+                        other => panic!("unexpected {other:?}"),
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect::<Vec<_>>()
+    };
+    let to = Addr::Proc(1);
+    let mut out: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, bundle_of_two(), 2, 1 << 20);
+    out.send_dp_newest_first(true);
+    for k in 0..5 {
+        out.push(to, walk(k), 0);
+    }
+    // The first bundle of two left as soon as it was full, which spent
+    // the link's credits; the other three wait.
+    assert_eq!(keys(out.take_ready()), [vec![0, 1]]);
+    assert_eq!(out.backlog(), 3);
+    let b = (out.backlog_bytes() / 3) as u64;
+    // Credits back: the newest two of the three waiting go, then the last.
+    out.grant(to, [(2, 2 * b), (0, 0)], 0);
+    out.pump(0, true);
+    assert_eq!(keys(out.take_ready()), [vec![3, 4]]);
+    out.grant(to, [(2, 2 * b), (0, 0)], 0);
+    out.pump(0, true);
+    assert_eq!(keys(out.take_ready()), [vec![2]]);
+    assert!(out.is_empty());
+    // Oldest first (the default), the same pushes leave in order.
+    let mut fifo: Outbox<Mini> = Outbox::new(Addr::Proc(0), 2, bundle_of_two(), 2, 1 << 20);
+    for k in 0..5 {
+        fifo.push(to, walk(k), 0);
+    }
+    fifo.take_ready();
+    fifo.grant(to, [(2, 2 * b), (0, 0)], 0);
+    fifo.pump(0, true);
+    assert_eq!(keys(fifo.take_ready()), [vec![2, 3]]);
+}
+
+fn bundle_of_two() -> BundleConfig {
+    BundleConfig {
+        enabled: true,
+        max_items: 2,
+        max_bytes: 1 << 20,
+        max_age: std::time::Duration::from_secs(1),
+    }
+}

@@ -56,6 +56,8 @@ pub(crate) struct Mini {
     /// What caches charge for an item, in times its bytes
     /// ([`Workload::cache_charge`]).
     pub charge: u64,
+    /// [`Workload::data_parallel_newest_first`].
+    pub newest_first: bool,
 }
 
 /// How [`Mini`] answers [`Workload::locate`].
@@ -93,6 +95,7 @@ impl Default for Mini {
             complete_on_migrate: false,
             locating: Locating::No,
             charge: 1,
+            newest_first: false,
         }
     }
 }
@@ -217,6 +220,10 @@ impl Workload for Mini {
 
     fn laid_out_for(&self) -> Option<usize> {
         self.laid_out
+    }
+
+    fn data_parallel_newest_first(&self) -> bool {
+        self.newest_first
     }
 
     fn placement(&self, procs: usize) -> Vec<Placement<u32>> {

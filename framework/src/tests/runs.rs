@@ -28,6 +28,38 @@ fn lockstep_matches_sequential_for_all_policies_and_caches() {
     }
 }
 
+/// Depth first ([`Workload::data_parallel_newest_first`]: the newest
+/// data-parallel task first, children's demand-driven tasks before them,
+/// the newest waiting tasks sent first) changes when tasks run, never what
+/// they compute: every task once and the sequential results, under random
+/// interleavings, with every policy and cache, and few credits so that
+/// tasks wait to be sent.
+#[test]
+fn depth_first_runs_match_sequential_under_every_policy_and_cache() {
+    let w = Mini {
+        newest_first: true,
+        depth: 3,
+        roots: 16,
+        ..Mini::default()
+    };
+    let item = (24 + 8 * w.words) as u64;
+    for procs in 1..=4 {
+        for policy in Policy::ALL {
+            for cache in [Some(1), Some(2 * item), None] {
+                for seed in 0..3 {
+                    let cfg = Config::new(procs)
+                        .with_policy(policy)
+                        .with_cache_bytes(cache)
+                        .with_credits(2);
+                    let r = run_lockstep(Arc::new(w.clone()), &cfg, seed * 7 + procs as u64)
+                        .unwrap_or_else(|e| panic!("{procs} procs, {policy}, {cache:?}: {e}"));
+                    check_against_sequential(&w, &r);
+                }
+            }
+        }
+    }
+}
+
 /// A workload that locates its own data (its processors keep no
 /// directory) runs exactly as one whose processors list the placement; one
 /// whose answer disagrees with its placement is refused before the run,

@@ -12,8 +12,13 @@
 //! as many: oldest first, a processor held a whole level of those trees
 //! (the Cornell box at 48 x 48, `-ab 2 -ad 64`, three processors: 798 MB
 //! at the peak against 54 MB newest first and 8 MB for the sequential
-//! renderer), so the workload asks for the newest first
-//! ([`hybrid_sched::Workload::data_parallel_newest_first`]).
+//! renderer), so the workload asks for depth first
+//! ([`hybrid_sched::Workload::data_parallel_newest_first`]). Where nearly
+//! every sample ray migrates (a cache of 10%), newest first alone left
+//! the points' shadow bundles (demand-driven) queued behind the arriving
+//! rays and sent the oldest waiting rays first: 2.1 GB on two processors,
+//! against 64 to 68 MB now that those run and leave first (the book's
+//! parallel chapter).
 
 use hybrid_sched::{Addr, Ctx};
 
