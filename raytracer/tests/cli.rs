@@ -1160,3 +1160,31 @@ fn readme_command_extraction() {
     let bare = std::panic::catch_unwind(|| readme_commands("see `hybrid-rt render --help`"));
     assert!(bare.is_err());
 }
+
+/// The experiments beyond the paper need their render options, and say
+/// which: `interreflection` any `-ab`, `hemispheres` `-ab` without an
+/// irradiance cache or super-samples.
+#[test]
+fn extra_experiments_name_the_options_they_need() {
+    let dir = tmpdir("extra-experiments");
+    let out = dir.join("out");
+    let out = out.to_str().unwrap();
+    let tiny = ["--scene", "cornell", "--width", "8", "--height", "8"];
+    for (name, extra, says) in [
+        ("interreflection", &[][..], "give -ab 1 or more"),
+        ("hemispheres", &[][..], "-aa 0 -as 0"),
+        ("hemispheres", &["-ab", "1"][..], "-aa 0 -as 0"),
+    ] {
+        let mut args = vec!["experiment", name];
+        args.extend(tiny);
+        args.extend(extra);
+        args.extend(["--out", out]);
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(2), "{name} {extra:?}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains(says),
+            "{name} {extra:?}: {}",
+            stderr(&o)
+        );
+    }
+}

@@ -16,6 +16,9 @@
 //! - `experiments/ci/studio-soft`: the paper-like workload (the studio
 //!   with soft shadows, `-ds 0.05 -dt 0`: 33 shadow rays per bundle) on a
 //!   tiny picture; release only;
+//! - `experiments/hemispheres`: hemisphere rays migrating through a
+//!   distributed scene (the Cornell box, 1 to 32 simulated processors),
+//!   about 20 s in a release build; release only;
 //! - `experiments/interreflection`: diffuse inter-reflection on the
 //!   simulated cluster (the Cornell box, 1 to 32 processors), about 15 s
 //!   in a release build; release only;
@@ -241,6 +244,37 @@ const INTERREFLECTION: &[&str] = &[
 )]
 fn interreflection_experiment_equals_the_committed_files() {
     check_experiment("interreflection", "interreflection", INTERREFLECTION);
+}
+
+/// The arguments of `experiments/hemispheres`: hemisphere rays migrating
+/// through a distributed scene (`-ab 1 -aa 0 -as 0`) on the simulated
+/// cluster, 1 to 32 processors.
+const HEMISPHERES: &[&str] = &[
+    "--scene",
+    "cornell",
+    "--width",
+    "64",
+    "--height",
+    "64",
+    "--max-procs",
+    "32",
+    "-ab",
+    "1",
+    "-aa",
+    "0",
+    "-as",
+    "0",
+    "-ad",
+    "64",
+];
+
+#[test]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "release only (minutes in debug): scripts/test.sh runs it with --release"
+)]
+fn hemispheres_experiment_equals_the_committed_files() {
+    check_experiment("hemispheres", "hemispheres", HEMISPHERES);
 }
 
 #[test]

@@ -202,6 +202,10 @@ pub enum ExperimentName {
     /// Diffuse inter-reflection (`-ab`) on the simulated cluster, 1 to
     /// `--max-procs` processors (not in `all`).
     Interreflection,
+    /// Hemisphere rays migrating through a distributed scene (`-ab` with
+    /// `-aa 0 -as 0`) on the simulated cluster, 1 to `--max-procs`
+    /// processors, unlimited and 10% caches (not in `all`).
+    Hemispheres,
     All,
     Calibrate,
 }

@@ -77,6 +77,8 @@ pub(super) struct RunSpec {
     /// [`WorkloadOptions::inline_local_shadows`] (the paper has every
     /// shadow bundle a task of its own).
     pub(super) inline_shadows: bool,
+    /// Side of the screen tiles ([`WorkloadOptions::tile`]).
+    pub(super) tile: usize,
 }
 
 impl RunSpec {
@@ -91,6 +93,7 @@ impl RunSpec {
             small: false,
             clip_cache: false,
             inline_shadows: false,
+            tile: WorkloadOptions::default().tile,
         }
     }
 
@@ -162,6 +165,7 @@ impl Ctx<'_> {
             distribution: spec.distribution,
             clip_cache: spec.clip_cache,
             inline_local_shadows: spec.inline_shadows,
+            tile: spec.tile,
             // The simulated machine walks the octree (the cost model
             // prices the walk).
             local_kernel: false,

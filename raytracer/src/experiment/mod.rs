@@ -28,6 +28,7 @@ mod data;
 mod efficiency;
 mod flow;
 mod harness;
+mod hemispheres;
 mod interreflection;
 mod memory;
 mod speedup;
@@ -59,8 +60,9 @@ pub const NAMES: [&str; 11] = [
 ];
 
 /// Experiments beyond the paper's, not in `all` (they need other render
-/// options: `interreflection` needs `-ab`).
-pub const EXTRA: [&str; 1] = ["interreflection"];
+/// options: `interreflection` needs `-ab`, `hemispheres` `-ab` with `-aa 0
+/// -as 0`).
+pub const EXTRA: [&str; 2] = ["interreflection", "hemispheres"];
 
 /// Runs experiment `name` (or every one of [`NAMES`] for `all`), writing
 /// into `out`.
@@ -98,6 +100,7 @@ pub fn run(name: &str, setup: &Setup, out: &Path) -> Result<Vec<Output>> {
             "memory" => memory::memory(&mut cx)?,
             "flow" => flow::flow(&mut cx)?,
             "interreflection" => interreflection::interreflection(&mut cx)?,
+            "hemispheres" => hemispheres::hemispheres(&mut cx)?,
             _ => unreachable!("names are checked above"),
         }
     }
