@@ -78,6 +78,11 @@ impl<T> Mailbox<T> {
         Some(item)
     }
 
+    /// Every item queued in `class`, to change in place.
+    pub(crate) fn class_mut(&mut self, class: Class) -> impl Iterator<Item = &mut T> {
+        self.queues[class.index()].iter_mut()
+    }
+
     /// Takes a data-parallel task: the oldest, or the `newest`
     /// ([`crate::Workload::data_parallel_newest_first`]).
     pub(crate) fn pop_data_parallel(&mut self, newest: bool) -> Option<T> {

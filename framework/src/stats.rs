@@ -206,6 +206,13 @@ pub struct TaskCounters {
     /// unconsumed, over budget with results waiting for credit.
     #[serde(default)]
     pub held_for_results: u64,
+    /// Back-pressure, depth first only: steps in which this processor ran
+    /// nothing, its send backlog of tasks over budget.
+    #[serde(default)]
+    pub held_for_tasks: u64,
+    /// Tasks received while so held, whose credit went back at once.
+    #[serde(default)]
+    pub parked: u64,
     /// Results merged here.
     pub results_merged: u64,
 }

@@ -43,7 +43,7 @@ use crate::mailbox::Mailbox;
 use crate::policy::Placer;
 use crate::protocol::message::{DdEnvelope, DpEnvelope, Incoming, Msg, Packet};
 use crate::protocol::workload::{Ctx, Workload};
-use crate::protocol::{Addr, Class, DpOutcome};
+use crate::protocol::{Addr, Class, DpOutcome, Pool};
 use crate::server::DataServer;
 use crate::stats::{ProcStats, State};
 
@@ -84,6 +84,8 @@ pub(crate) struct Processor<W: Workload> {
     prefetch_work: bool,
     /// [`crate::Workload::data_parallel_newest_first`].
     dp_newest_first: bool,
+    /// Tasks arriving are parked ([`Processor::held_for_tasks`]).
+    parking: bool,
     /// The work request outstanding at the master, if any: whether it
     /// allowed a root task.
     requested: Option<bool>,
@@ -167,6 +169,7 @@ impl<W: Workload> Processor<W> {
             max_waiting: config.max_waiting_tasks,
             prefetch_work: config.prefetch_work,
             dp_newest_first: workload.data_parallel_newest_first(),
+            parking: false,
             requested: None,
             backlog_budget: config.backlog_budget_bytes(),
             hold_at: config.flight_bytes - config.flight_bytes / 4,
@@ -251,7 +254,13 @@ impl<W: Workload> Processor<W> {
                 msg => {
                     let class = msg.class();
                     let bytes = msg.byte_size();
-                    let credited = self.outbox.arrived(from, class, bytes);
+                    let mut credited = self.outbox.arrived(from, class, bytes);
+                    if credited && self.parking && class.pool() == Pool::Tasks {
+                        // Parked: its credit goes back now.
+                        self.outbox.consumed(from, Pool::Tasks, bytes, now);
+                        self.stats.tasks.parked += 1;
+                        credited = false;
+                    }
                     if let Msg::Dd(env) = &msg {
                         if env.root {
                             self.roots_held.0 += bytes;
@@ -310,6 +319,17 @@ impl<W: Workload> Processor<W> {
             self.on_idle(now);
             return Ok(Step::Idle);
         }
+        if self.held_for_tasks() {
+            self.stats.tasks.held_for_tasks += 1;
+            if !self.parking {
+                // From now on tasks are parked as they arrive.
+                self.park_received(now);
+                self.parking = true;
+            }
+            self.on_idle(now);
+            return Ok(Step::Idle);
+        }
+        self.parking = false;
         if let Some(task) = self.ready.pop_front() {
             self.execute_dd(task, now)?;
             return Ok(Step::Worked(State::Executing));

@@ -7,7 +7,7 @@ use super::Processor;
 use crate::clock::Time;
 use crate::protocol::message::{Incoming, Msg};
 use crate::protocol::workload::Workload;
-use crate::protocol::Addr;
+use crate::protocol::{Addr, Class};
 use crate::stats::State;
 
 impl<W: Workload> Processor<W> {
@@ -27,6 +27,34 @@ impl<W: Workload> Processor<W> {
         self.over_budget()
             && self.outbox.in_flight_bytes() > self.hold_at
             && self.outbox.result_backlog_bytes() > 0
+    }
+
+    /// Back-pressure, depth first only
+    /// ([`Workload::data_parallel_newest_first`]): the send backlog holds
+    /// more tasks than the budget. The processor then runs nothing (what it
+    /// would run spawns more for receivers that do not keep up) and parks
+    /// the tasks it receives: their credit goes back at once, so its
+    /// senders' backlogs always drain, whether they hold too or not, and
+    /// so does its own (SEMANTICS.md section 5).
+    pub(super) fn held_for_tasks(&self) -> bool {
+        self.dp_newest_first
+            && self.outbox.backlog_bytes() - self.outbox.result_backlog_bytes()
+                > self.backlog_budget
+    }
+
+    /// While [`Self::held_for_tasks`], gives the credit of every task
+    /// received and queued here back (once: it is then no longer
+    /// credited).
+    pub(super) fn park_received(&mut self, now: Time) {
+        for class in [Class::DataParallel, Class::DemandDriven] {
+            for inc in self.mailbox.class_mut(class) {
+                if inc.credited {
+                    inc.credited = false;
+                    self.outbox.consumed(inc.from, class.pool(), inc.bytes, now);
+                    self.stats.tasks.parked += 1;
+                }
+            }
+        }
     }
 
     /// Asks the master for work: a root task too unless over budget.

@@ -370,38 +370,50 @@ fn work_in_flight_stays_within_the_byte_budget_under_every_policy() {
 /// messages every processor is over it most of the time (it keeps its
 /// children and asks for pooled work only), and
 /// every policy, cache size and interleaving still ends with the
-/// sequential results.
+/// sequential results. Depth first too, where a processor with too many
+/// tasks waiting to leave runs nothing and parks what it receives.
 #[test]
 fn back_pressure_neither_loses_work_nor_deadlocks() {
     let mut kept = 0;
     let mut pooled_only = 0;
     let mut held = 0;
+    let (mut held_for_tasks, mut parked) = (0, 0);
     for hotspot in [false, true] {
-        let w = busy(hotspot);
-        for policy in Policy::ALL {
-            for cache in [Some(1), Some(200), None] {
-                for seed in [1, 2] {
-                    let cfg = Config::new(4)
-                        .with_policy(policy)
-                        .with_cache_bytes(cache)
-                        .with_credits(2)
-                        .with_flight_bytes(8);
-                    let r = run_lockstep(Arc::new(w.clone()), &cfg, seed).expect("terminates");
-                    check_against_sequential(&w, &r);
-                    kept += r.stats.sum(|p| p.tasks.kept_over_budget);
-                    pooled_only += r.stats.sum(|p| p.tasks.pooled_only_requests);
-                    held += r.stats.sum(|p| p.tasks.held_for_results);
+        for newest_first in [false, true] {
+            let w = Mini {
+                newest_first,
+                ..busy(hotspot)
+            };
+            for policy in Policy::ALL {
+                for cache in [Some(1), Some(200), None] {
+                    for seed in [1, 2] {
+                        let cfg = Config::new(4)
+                            .with_policy(policy)
+                            .with_cache_bytes(cache)
+                            .with_credits(2)
+                            .with_flight_bytes(8);
+                        let r = run_lockstep(Arc::new(w.clone()), &cfg, seed).expect("terminates");
+                        check_against_sequential(&w, &r);
+                        kept += r.stats.sum(|p| p.tasks.kept_over_budget);
+                        pooled_only += r.stats.sum(|p| p.tasks.pooled_only_requests);
+                        held += r.stats.sum(|p| p.tasks.held_for_results);
+                        held_for_tasks += r.stats.sum(|p| p.tasks.held_for_tasks);
+                        parked += r.stats.sum(|p| p.tasks.parked);
+                        if !newest_first {
+                            assert_eq!(r.stats.sum(|p| p.tasks.held_for_tasks), 0);
+                        }
+                    }
                 }
+                // And on real threads.
+                let cfg = Config::new(4)
+                    .with_policy(policy)
+                    .with_cache_bytes(Some(200))
+                    .with_credits(2)
+                    .with_flight_bytes(8)
+                    .with_time_limit(std::time::Duration::from_secs(60));
+                let r = run_threads(Arc::new(w.clone()), &cfg).expect("terminates");
+                check_against_sequential(&w, &r);
             }
-            // And on real threads.
-            let cfg = Config::new(4)
-                .with_policy(policy)
-                .with_cache_bytes(Some(200))
-                .with_credits(2)
-                .with_flight_bytes(8)
-                .with_time_limit(std::time::Duration::from_secs(60));
-            let r = run_threads(Arc::new(w.clone()), &cfg).expect("terminates");
-            check_against_sequential(&w, &r);
         }
     }
     assert!(
@@ -413,4 +425,6 @@ fn back_pressure_neither_loses_work_nor_deadlocks() {
         held > 0,
         "no processor ever waited for its results to leave"
     );
+    assert!(held_for_tasks > 0, "no processor ever held for its tasks");
+    assert!(parked > 0, "no task was ever parked");
 }
