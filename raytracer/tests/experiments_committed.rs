@@ -247,26 +247,10 @@ fn interreflection_experiment_equals_the_committed_files() {
 }
 
 /// The arguments of `experiments/hemispheres`: hemisphere rays migrating
-/// through a distributed scene (`-ab 1 -aa 0 -as 0`) on the simulated
-/// cluster, 1 to 32 processors.
-const HEMISPHERES: &[&str] = &[
-    "--scene",
-    "cornell",
-    "--width",
-    "64",
-    "--height",
-    "64",
-    "--max-procs",
-    "32",
-    "-ab",
-    "1",
-    "-aa",
-    "0",
-    "-as",
-    "0",
-    "-ad",
-    "64",
-];
+/// through a distributed scene (`-ab 1 -aa 0 -as 0 -ad 64`, otherwise
+/// `experiments/interreflection`'s) on the simulated cluster, 1 to 32
+/// processors.
+const HEMISPHERES: &[&str] = &["-aa", "0", "-as", "0", "-ad", "64"];
 
 #[test]
 #[cfg_attr(
@@ -274,7 +258,8 @@ const HEMISPHERES: &[&str] = &[
     ignore = "release only (minutes in debug): scripts/test.sh runs it with --release"
 )]
 fn hemispheres_experiment_equals_the_committed_files() {
-    check_experiment("hemispheres", "hemispheres", HEMISPHERES);
+    let args: Vec<&str> = INTERREFLECTION.iter().chain(HEMISPHERES).copied().collect();
+    check_experiment("hemispheres", "hemispheres", &args);
 }
 
 #[test]

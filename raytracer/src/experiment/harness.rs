@@ -137,6 +137,32 @@ pub(super) fn secs(ns: u64) -> f64 {
     ns as f64 * 1e-9
 }
 
+/// 1, 2, 4, ... up to `max` processors: the speed-up curves' counts.
+pub(super) fn doubling(max: usize) -> Vec<usize> {
+    std::iter::successors(Some(1usize), |&p| Some(p * 2))
+        .take_while(|&p| p == 1 || p <= max)
+        .collect()
+}
+
+/// Checks that every run of an experiment renders the first run's picture
+/// (`what` names the run): the first is kept in `first`.
+pub(super) fn same_picture(
+    first: &mut Option<Vec<crate::scene::Color>>,
+    film: &crate::image::Film,
+    what: &str,
+) -> Result<()> {
+    match first {
+        None => *first = Some(film.pixels().to_vec()),
+        Some(f) if f.as_slice() != film.pixels() => {
+            return Err(Error::Other(format!(
+                "{what} rendered another picture than 1"
+            )))
+        }
+        Some(_) => {}
+    }
+    Ok(())
+}
+
 pub(super) fn f3(x: f64) -> String {
     format!("{x:.3}")
 }

@@ -7,11 +7,9 @@
 //! processor holds (its cells and cache, its queued tasks, its work in
 //! flight), which the paper could not run for memory reasons.
 
-use std::sync::Arc;
-
 use serde_json::json;
 
-use super::harness::{f3, secs, Ctx, RunSpec};
+use super::harness::{doubling, f3, same_picture, secs, Ctx, RunSpec};
 use crate::parallel::{hybrid_interreflection, CacheSize};
 use crate::report::plot::{Chart, Mark, Series};
 use crate::report::table::Table;
@@ -36,10 +34,7 @@ pub(super) fn hemispheres(cx: &mut Ctx) -> Result<()> {
                 .into(),
         ));
     }
-    let mut counts = vec![1usize];
-    while counts.last().copied().unwrap_or(1) * 2 <= s.max_procs {
-        counts.push(counts.last().copied().unwrap_or(1) * 2);
-    }
+    let counts = doubling(s.max_procs);
     let kib = |b: u64| format!("{:.1}", b as f64 / 1024.0);
     let mut t = Table::new([
         "cache",
@@ -56,7 +51,7 @@ pub(super) fn hemispheres(cx: &mut Ctx) -> Result<()> {
         "most queued tasks",
         "most in flight KiB",
     ]);
-    let mut picture: Option<Arc<Vec<_>>> = None;
+    let mut picture = None;
     let mut series = Vec::new();
     let mut rows = Vec::new();
     for (name, cache) in CACHES {
@@ -70,15 +65,7 @@ pub(super) fn hemispheres(cx: &mut Ctx) -> Result<()> {
             })?;
             // Every run's picture is the first's (each is the sequential
             // renderer's: tests/parallel_render.rs).
-            match &picture {
-                None => picture = Some(Arc::new(r.film.pixels().to_vec())),
-                Some(first) if first.as_slice() != r.film.pixels() => {
-                    return Err(Error::Other(format!(
-                        "{p} processors ({name}) rendered another picture than 1"
-                    )))
-                }
-                Some(_) => {}
-            }
+            same_picture(&mut picture, &r.film, &format!("{p} processors ({name})"))?;
             let st = &r.stats;
             let tp = secs(st.elapsed_ns);
             let t1 = *base.get_or_insert(tp);

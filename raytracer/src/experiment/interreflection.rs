@@ -5,11 +5,9 @@
 //! results, the waves' records broadcast to every processor) and what each
 //! processor holds (the broadcast records).
 
-use std::sync::Arc;
-
 use serde_json::json;
 
-use super::harness::{f3, secs, Ctx};
+use super::harness::{doubling, f3, same_picture, secs, Ctx};
 use crate::parallel::ambient::render_ambient_parallel;
 use crate::parallel::{ParallelOptions, RuntimeKind};
 use crate::render::ambient::AmbientRecord;
@@ -24,10 +22,7 @@ pub(super) fn interreflection(cx: &mut Ctx) -> Result<()> {
             "experiment interreflection needs diffuse inter-reflection: give -ab 1 or more".into(),
         ));
     }
-    let mut counts = vec![1usize];
-    while counts.last().copied().unwrap_or(1) * 2 <= s.max_procs {
-        counts.push(counts.last().copied().unwrap_or(1) * 2);
-    }
+    let counts = doubling(s.max_procs);
     let mut t = Table::new([
         "processors",
         "time (s)",
@@ -61,15 +56,7 @@ pub(super) fn interreflection(cx: &mut Ctx) -> Result<()> {
         )?
         .ok_or_else(|| Error::Other("a simulated run has no MPI ranks".into()))?;
         // Every run's picture is the first's (and the sequential one's).
-        match &picture {
-            None => picture = Some(Arc::new(r.film.pixels().to_vec())),
-            Some(first) if first.as_slice() != r.film.pixels() => {
-                return Err(Error::Other(format!(
-                    "{p} processors rendered another picture than 1"
-                )))
-            }
-            Some(_) => {}
-        }
+        same_picture(&mut picture, &r.film, &format!("{p} processors"))?;
         let tp = secs(r.stats.elapsed_ns);
         let t1 = *base.get_or_insert(tp);
         let st = &r.stats;

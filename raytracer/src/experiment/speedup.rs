@@ -3,7 +3,7 @@
 
 use serde_json::{json, Value};
 
-use super::harness::{f3, secs, Ctx, RunSpec};
+use super::harness::{doubling, f3, secs, Ctx, RunSpec};
 use crate::report::plot::{Chart, Mark, Series};
 use crate::report::table::Table;
 use crate::Result;
@@ -25,10 +25,7 @@ fn variants() -> [Variant; 5] {
 
 pub(super) fn speedup(cx: &mut Ctx) -> Result<()> {
     let seq = cx.sequential_s()?;
-    let mut counts = vec![1usize];
-    while counts.last().copied().unwrap_or(1) * 2 <= cx.s.max_procs {
-        counts.push(counts.last().copied().unwrap_or(1) * 2);
-    }
+    let counts = doubling(cx.s.max_procs);
     let vs = variants();
     let mut header = vec!["processors".to_string()];
     for (name, _) in &vs {
