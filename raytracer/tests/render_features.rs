@@ -207,6 +207,74 @@ fn tile_order_does_not_change_pixels() {
     assert_ne!(whole, r2.render(&v, w, h).unwrap().0);
 }
 
+/// Primary rays traced as packets of a tile (the renderer's way) give
+/// the pixels of rays traced one at a time, bit for bit: through the
+/// hierarchy without packets and through the octree.
+#[test]
+fn primary_packets_equal_rays_one_at_a_time() {
+    use hybrid_rt::render::{BvhCaster, RayCaster};
+    /// The renderer's hierarchy, asked one ray at a time.
+    struct OneAtATime<'a>(BvhCaster<'a>);
+    impl RayCaster for OneAtATime<'_> {
+        fn intersect(
+            &self,
+            ray: &hybrid_rt::geometry::Ray,
+            tmin: f64,
+            tmax: f64,
+        ) -> Option<hybrid_rt::accel::Hit> {
+            self.0.intersect(ray, tmin, tmax)
+        }
+        fn occluded(
+            &self,
+            ray: &hybrid_rt::geometry::Ray,
+            tmin: f64,
+            tmax: f64,
+            ignore: Option<hybrid_rt::scene::ObjectId>,
+        ) -> bool {
+            self.0.occluded(ray, tmin, tmax, ignore)
+        }
+    }
+    let (s, v) = cornell();
+    let opts = RenderOptions {
+        dj: 0.7,
+        pj: 0.67,
+        seed: 7,
+        ..Default::default()
+    };
+    let r = Renderer::new(&s, opts).unwrap();
+    // Not a multiple of the tile side, so edge tiles are partial.
+    let (w, h) = (45, 37);
+    let (whole, stats) = r.render(&v, w, h).unwrap();
+    assert_eq!(stats.rays.primary, (w * h) as u64);
+    let single = OneAtATime(r.caster());
+    assert!(r.caster().traces_packets() && !single.traces_packets());
+    for (name, film) in [
+        ("one at a time", one_at_a_time(&r, &v, (w, h), &single)),
+        (
+            "the octree",
+            one_at_a_time(&r, &v, (w, h), &r.octree_caster()),
+        ),
+    ] {
+        assert!(whole == film, "packets differ from {name}");
+    }
+}
+
+fn one_at_a_time<C: hybrid_rt::render::RayCaster>(
+    r: &Renderer<'_>,
+    v: &hybrid_rt::scene::View,
+    (w, h): (usize, usize),
+    caster: &C,
+) -> Film {
+    let mut film = Film::new(w, h);
+    let mut st = TraceState::default();
+    for y in 0..h {
+        for x in 0..w {
+            film.set(x, y, r.pixel_with(v, (w, h), caster, (x, y), &mut st));
+        }
+    }
+    film
+}
+
 /// The Radiance Cornell box looks like itself: red wall left, blue right,
 /// lit floor, the light at the top, a sphere near the floor.
 #[test]

@@ -111,8 +111,8 @@ impl RtWorkload {
     }
 
     /// Each primary ray of tile `t` traced whole through `caster` by the
-    /// sequential renderer's code ([`crate::render::Renderer::trace_with`]),
-    /// its pixel's value sent to the tile's origin; returns the tally of
+    /// sequential renderer's code ([`crate::render::Renderer::trace_tasks`]:
+    /// as packets where `caster` traces them), its pixel's value sent to the tile's origin; returns the tally of
     /// what was traced.
     pub(super) fn trace_primaries_whole<C: RayCaster>(
         &self,
@@ -122,11 +122,16 @@ impl RtWorkload {
     ) -> crate::render::TraceState {
         let origin = Addr::Proc(ctx.origin());
         let mut st = crate::render::TraceState::default();
-        for (key, task) in self.tile_primaries(t, ctx.proc_id()) {
-            let (value, _) = self.renderer.trace_with(caster, &task, &mut st);
-            let record = Record::Value(value);
-            ctx.emit_result(origin, RtResult { key, record });
-        }
+        let (keys, tasks): (Vec<NodeKey>, Vec<RayTask>) =
+            self.tile_primaries(t, ctx.proc_id()).unzip();
+        let mut keys = keys.into_iter();
+        self.renderer
+            .trace_tasks(caster, &tasks, &mut st, &mut |value| {
+                if let Some(key) = keys.next() {
+                    let record = Record::Value(value);
+                    ctx.emit_result(origin, RtResult { key, record });
+                }
+            });
         st
     }
 

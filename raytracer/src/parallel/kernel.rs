@@ -540,4 +540,18 @@ impl RayCaster for CountingCaster<'_> {
             }
         }
     }
+
+    fn intersect_packet(&self, rays: &[Segment], out: &mut [Option<Hit>]) {
+        match &self.inner {
+            WholeSource::Scene(c) => {
+                self.queries.set(self.queries.get() + rays.len() as u64);
+                c.intersect_packet(rays, out)
+            }
+            WholeSource::Grown { .. } => {
+                for (&(ray, tmin, tmax), o) in rays.iter().zip(out) {
+                    *o = self.intersect(&ray, tmin, tmax);
+                }
+            }
+        }
+    }
 }

@@ -28,6 +28,14 @@ pub trait RayCaster {
             *o = self.occluded(ray, *tmin, *tmax, ignore);
         }
     }
+    /// `out[i]`: [`RayCaster::intersect`] of `rays[i]`, bit for bit, for at
+    /// most [`crate::geometry::PACKET`] rays (traced together where
+    /// [`RayCaster::traces_packets`]).
+    fn intersect_packet(&self, rays: &[Segment], out: &mut [Option<Hit>]) {
+        for ((ray, tmin, tmax), o) in rays.iter().zip(out) {
+            *o = self.intersect(ray, *tmin, *tmax);
+        }
+    }
 }
 
 /// Casts rays through an octree built over `objects`.
@@ -73,6 +81,10 @@ impl RayCaster for BvhCaster<'_> {
 
     fn occluded_packet(&self, rays: &[Segment], ignore: Option<ObjectId>, out: &mut [bool]) {
         self.bvh.occluded_packet(self.objects, rays, ignore, out)
+    }
+
+    fn intersect_packet(&self, rays: &[Segment], out: &mut [Option<Hit>]) {
+        self.bvh.intersect_packet(self.objects, rays, out)
     }
 }
 

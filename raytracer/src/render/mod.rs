@@ -31,6 +31,7 @@ pub mod light;
 pub mod material;
 pub mod medium;
 pub mod options;
+pub mod primary;
 pub use crate::geometry::rng;
 pub mod sequential;
 pub mod shading;

@@ -19,7 +19,7 @@ use super::rng::{child_seed, pixel_seed, Rng};
 use super::stats::{EffectTimes, RayCounts, RenderStats, Timings};
 use super::virtual_source::prepare_lights_relayed;
 use super::waves::render_in_waves;
-use crate::accel::{Bvh, Octree, OctreeParams};
+use crate::accel::{Bvh, Hit, Octree, OctreeParams};
 use crate::geometry::FTINY;
 use crate::geometry::{offset_origin_scaled, Ray, Vec3};
 use crate::image::Film;
@@ -108,12 +108,34 @@ impl TraceState {
 }
 
 #[derive(Clone, Copy)]
-enum Bucket {
+pub(super) enum Bucket {
     Primary,
     Direct,
     Reflection,
     Refraction,
     Ambient,
+}
+
+/// The bucket a ray of `kind` is timed in.
+fn bucket_of(kind: RayKind) -> Bucket {
+    match kind {
+        RayKind::Primary | RayKind::PassThrough => Bucket::Primary,
+        RayKind::Reflection => Bucket::Reflection,
+        RayKind::Refraction => Bucket::Refraction,
+        RayKind::Ambient => Bucket::Ambient,
+    }
+}
+
+/// Counts a ray of `kind` traced.
+fn count_ray(kind: RayKind, st: &mut TraceState) {
+    let c = &mut st.counts;
+    match kind {
+        RayKind::Primary => c.primary += 1,
+        RayKind::Reflection => c.reflection += 1,
+        RayKind::Refraction => c.refraction += 1,
+        RayKind::PassThrough => c.pass_through += 1,
+        RayKind::Ambient => c.ambient += 1,
+    }
 }
 
 /// A distant source as rays that leave the scene see it (Radiance's
@@ -517,7 +539,11 @@ impl<'s> Renderer<'s> {
         }
     }
 
-    fn timed<R>(st: &mut TraceState, bucket: Bucket, f: impl FnOnce(&mut TraceState) -> R) -> R {
+    pub(super) fn timed<R>(
+        st: &mut TraceState,
+        bucket: Bucket,
+        f: impl FnOnce(&mut TraceState) -> R,
+    ) -> R {
         if !st.timing {
             return f(st);
         }
@@ -560,29 +586,39 @@ impl<'s> Renderer<'s> {
         task: &RayTask,
         st: &mut TraceState,
     ) -> (Color, f64) {
-        let bucket = match task.kind {
-            RayKind::Primary | RayKind::PassThrough => Bucket::Primary,
-            RayKind::Reflection => Bucket::Reflection,
-            RayKind::Refraction => Bucket::Refraction,
-            RayKind::Ambient => Bucket::Ambient,
-        };
-        Self::timed(st, bucket, |st| self.radiance_untimed(caster, task, st))
+        Self::timed(st, bucket_of(task.kind), |st| {
+            count_ray(task.kind, st);
+            let hit = caster.intersect(&task.ray, task.tmin, task.tmax);
+            self.radiance_from(caster, task, hit, st)
+        })
     }
 
-    fn radiance_untimed<C: RayCaster>(
+    /// [`Renderer::trace_with`] where the nearest hit along `task`'s ray,
+    /// `hit`, is already known (`caster`'s answer: traced in a packet with
+    /// its neighbours, [`Renderer::trace_pixels`]). The same value, bit
+    /// for bit.
+    pub fn trace_from_hit<C: RayCaster>(
         &self,
         caster: &C,
         task: &RayTask,
+        hit: Option<Hit>,
         st: &mut TraceState,
     ) -> (Color, f64) {
-        match task.kind {
-            RayKind::Primary => st.counts.primary += 1,
-            RayKind::Reflection => st.counts.reflection += 1,
-            RayKind::Refraction => st.counts.refraction += 1,
-            RayKind::PassThrough => st.counts.pass_through += 1,
-            RayKind::Ambient => st.counts.ambient += 1,
-        }
-        let Some(hit) = caster.intersect(&task.ray, task.tmin, task.tmax) else {
+        Self::timed(st, bucket_of(task.kind), |st| {
+            count_ray(task.kind, st);
+            self.radiance_from(caster, task, hit, st)
+        })
+    }
+
+    /// Radiance along `task`'s ray given its nearest hit (none: the sky).
+    fn radiance_from<C: RayCaster>(
+        &self,
+        caster: &C,
+        task: &RayTask,
+        hit: Option<Hit>,
+        st: &mut TraceState,
+    ) -> (Color, f64) {
+        let Some(hit) = hit else {
             return (self.sky_seen(task), f64::INFINITY);
         };
         let ctx = self.context();
@@ -856,20 +892,7 @@ impl<'s> Renderer<'s> {
         y: usize,
         st: &mut TraceState,
     ) -> Color {
-        let n = self.options.pn.max(1);
-        if n == 1 {
-            return match self.primary_task(camera, width, height, x, y) {
-                Some(task) => self.radiance(&task, st),
-                None => Color::ZERO,
-            };
-        }
-        let mut sum = Color::ZERO;
-        for k in 0..n {
-            if let Some(task) = self.sample_task(camera, width, height, x, y, k) {
-                sum += self.radiance(&task, st);
-            }
-        }
-        sum / n as f64
+        self.pixel_with(camera, (width, height), &self.caster(), (x, y), st)
     }
 
     /// The primary ray of sample `k` of pixel (`x`, `y`) when `-pn` > 1:
@@ -934,7 +957,9 @@ impl<'s> Renderer<'s> {
         })
     }
 
-    /// Renders `region` of a `width` x `height` image into `film`.
+    /// Renders `region` of a `width` x `height` image into `film`: in
+    /// tiles whose primary rays go as packets ([`Renderer::trace_pixels`]),
+    /// or with `-ps` > 1 by the adaptive sampler.
     pub fn render_region<C: Camera + ?Sized>(
         &self,
         camera: &C,
@@ -954,11 +979,16 @@ impl<'s> Renderer<'s> {
             );
             return;
         }
-        for y in region.ys() {
-            for x in region.xs() {
-                let c = self.pixel(camera, width, height, x, y, st);
-                film.set(x, y, c);
-            }
+        let caster = self.caster();
+        for tile in super::primary::tiles(region.xs(), region.ys()) {
+            self.trace_pixels(
+                camera,
+                (width, height),
+                &caster,
+                &tile,
+                st,
+                &mut |x, y, c| film.set(x, y, c),
+            );
         }
     }
 
@@ -968,8 +998,10 @@ impl<'s> Renderer<'s> {
         Grid::new(width, height, self.options.ps, self.options.pt)
     }
 
-    /// Renders the whole image row by row, calling `progress(rows_done)`
-    /// after each row.
+    /// Renders the whole image, calling `progress(rows_done)` after each
+    /// band of rows (one row of tiles, [`super::primary::TILE`] rows, whose
+    /// primary rays go as packets; a row of the adaptive sampling grid
+    /// with `-ps` > 1; a wave's worth with the irradiance cache).
     pub fn render_with_progress<C: Camera + ?Sized>(
         &self,
         camera: &C,
@@ -1031,21 +1063,12 @@ impl<'s> Renderer<'s> {
             let stats = self.stats(width, height, &st, render_s);
             return Ok((film, stats, st.ambient));
         }
-        for y in 0..height {
-            self.render_region(
-                camera,
-                width,
-                height,
-                &Region {
-                    x0: 0,
-                    y0: y as u32,
-                    x1: width as u32,
-                    y1: y as u32 + 1,
-                },
-                &mut film,
-                &mut st,
-            );
-            progress(y + 1);
+        // A band of tiles at a time, their primary rays as packets.
+        for y in (0..height).step_by(super::primary::TILE) {
+            let y1 = (y + super::primary::TILE).min(height);
+            let band = Region::new(0..width, y..y1);
+            self.render_region(camera, width, height, &band, &mut film, &mut st);
+            progress(y1);
         }
         let render_s = t0.elapsed().as_secs_f64();
         let stats = self.stats(width, height, &st, render_s);
