@@ -22,8 +22,8 @@ use crate::scene::Color;
 thread_local! {
     /// The patch list of [`run_shadow_bundle`], reused by every bundle a
     /// thread runs (a fresh one per bundle grew on the hot path).
-    static SCRATCH: std::cell::RefCell<Vec<crate::render::direct::Contribution>> =
-        const { std::cell::RefCell::new(Vec::new()) };
+    static SCRATCH: std::cell::RefCell<crate::render::direct::Patches> =
+        std::cell::RefCell::new(crate::render::direct::Patches::default());
     /// A shaded point's requests, reused by every point a thread shades: a
     /// request is large, and a point lit by hundreds of sources grew a
     /// fresh vector through several copies (a sixth of the conference

@@ -93,20 +93,59 @@ pub struct Contribution {
     tail: f64,
 }
 
-/// Runs one shadow bundle; `scratch` is reused between calls so the hot
+/// A shadow bundle's patches, reused between bundles so that the hot
+/// path does not allocate: as made, their sort keys, and sorted.
+#[derive(Debug, Default)]
+pub struct Patches {
+    made: Vec<Contribution>,
+    keys: Vec<u128>,
+    sorted: Vec<Contribution>,
+}
+
+impl Patches {
+    /// Sorts the patches made by potential, largest first, ties in the
+    /// order they were made (a stable sort's order), into `sorted`.
+    ///
+    /// Every potential is positive and finite, where the bits of an
+    /// `f64` order as its values: the keys (the complemented bits above
+    /// the index, in a `u128`) sort as integers, and each patch is then
+    /// copied once. A stable sort of the patches themselves (72 bytes
+    /// each) took 9.3% of the sequential renderer's instructions with
+    /// soft shadows (`-ds 0.05`, the studio), the keys' sort 6.6% (the
+    /// book's benchmarks chapter).
+    fn sort(&mut self) -> &mut [Contribution] {
+        debug_assert!(self.made.iter().all(|c| c.brt > 0.0 && c.brt.is_finite()));
+        self.keys.clear();
+        self.keys.extend(
+            self.made
+                .iter()
+                .enumerate()
+                .map(|(i, c)| u128::from(!c.brt.to_bits()) << 64 | i as u128),
+        );
+        self.keys.sort_unstable();
+        self.sorted.clear();
+        let made = &self.made;
+        self.sorted
+            .extend(self.keys.iter().map(|&k| made[k as u64 as usize]));
+        &mut self.sorted
+    }
+}
+
+/// Runs one shadow bundle; `patches` is reused between calls so the hot
 /// path does not allocate.
 pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
     ctx: &ShadeContext,
     caster: &C,
     b: &ShadowBundle,
-    scratch: &mut Vec<Contribution>,
+    patches: &mut Patches,
     counts: &mut ShadowCounts,
 ) -> Color {
     let Some(light) = ctx.lights.get(b.light as usize) else {
         return Color::ZERO;
     };
     counts.bundles += 1;
-    scratch.clear();
+    let made = &mut patches.made;
+    made.clear();
     let mut rng = Rng::new(b.seed);
     let opts = ctx.options;
     let from = b.point;
@@ -123,7 +162,7 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
         let val = coef * light.emission(from, s);
         let brt = brightness(val);
         if brt > 0.0 && brt.is_finite() {
-            scratch.push(Contribution {
+            made.push(Contribution {
                 dir: s.dir,
                 dist: s.dist,
                 val,
@@ -143,13 +182,13 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
             add(surface.coefficient(ctx.scene, s.dir, s.omega), &s)
         }),
     }
-    let n = scratch.len();
+    let n = made.len();
     counts.patches += n as u64;
     if n == 0 {
         return Color::ZERO;
     }
-    // Largest potential first; the sort is stable, so ties keep patch order.
-    scratch.sort_by(|a, b| b.brt.total_cmp(&a.brt));
+    // Largest potential first; ties keep patch order.
+    let scratch = patches.sort();
     let mut tail = 0.0;
     for c in scratch.iter_mut().rev() {
         tail += c.brt;
@@ -678,4 +717,44 @@ pub fn estimate_hit_ratios<C: RayCaster + ?Sized>(
             hits as f64 / tests as f64
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn patch(brt: f64) -> Contribution {
+        Contribution {
+            dir: Vec3::Z,
+            dist: brt,
+            val: Color::ONE,
+            brt,
+            tail: 0.0,
+        }
+    }
+
+    proptest! {
+        /// The keys' sort is the stable sort by potential, largest first:
+        /// ties (drawn often here) keep the order the patches were made in,
+        /// tiny and huge potentials included.
+        #[test]
+        fn patches_sort_as_a_stable_sort_by_potential(
+            levels in prop::collection::vec(0usize..6, 0..300),
+            scale in prop::sample::select(vec![1e-300, 1e-9, 1.0, 1e9, 1e300]),
+        ) {
+            let mut p = Patches::default();
+            for (i, &l) in levels.iter().enumerate() {
+                // The index in `dist` tells equal potentials apart.
+                let mut c = patch(scale * (1.0 + l as f64));
+                c.dist = i as f64;
+                p.made.push(c);
+            }
+            let mut want = p.made.clone();
+            want.sort_by(|a, b| b.brt.total_cmp(&a.brt));
+            let got: Vec<(f64, f64)> = p.sort().iter().map(|c| (c.brt, c.dist)).collect();
+            let want: Vec<(f64, f64)> = want.iter().map(|c| (c.brt, c.dist)).collect();
+            prop_assert_eq!(got, want);
+        }
+    }
 }

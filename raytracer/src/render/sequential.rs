@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use super::adaptive::Grid;
 use super::ambient::{AmbientCache, AmbientRequest, AmbientSettings, AmbientStore, Hemisphere};
 use super::caster::{BvhCaster, OctreeCaster, RayCaster};
-use super::direct::{estimate_hit_ratios, run_shadow_bundle, Contribution};
+use super::direct::{estimate_hit_ratios, run_shadow_bundle, Patches};
 use super::effects::EffectsReport;
 use super::light::PreparedLight;
 use super::material::{shade, RayKind, RayTask, Request, ShadeContext};
@@ -85,7 +85,7 @@ impl Region {
 #[derive(Debug, Default)]
 pub struct TraceState {
     requests: Vec<Request>,
-    patches: Vec<Contribution>,
+    patches: Patches,
     pub counts: RayCounts,
     pub times: EffectTimes,
     /// Whether [`TraceState::times`] is measured: two clock readings per
