@@ -31,7 +31,6 @@ pub mod light;
 pub mod material;
 pub mod medium;
 pub mod options;
-pub mod primary;
 pub use crate::geometry::rng;
 pub mod sequential;
 pub mod shading;

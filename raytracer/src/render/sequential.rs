@@ -21,7 +21,7 @@ use super::virtual_source::prepare_lights_relayed;
 use super::waves::render_in_waves;
 use crate::accel::{Bvh, Hit, Octree, OctreeParams};
 use crate::geometry::FTINY;
-use crate::geometry::{offset_origin_scaled, Ray, Vec3};
+use crate::geometry::{offset_origin_scaled, Ray, Segment, Vec3, PACKET};
 use crate::image::Film;
 use crate::scene::{Color, LightKind, Material, MaterialId, Scene};
 use crate::{Error, Result};
@@ -108,7 +108,7 @@ impl TraceState {
 }
 
 #[derive(Clone, Copy)]
-pub(super) enum Bucket {
+enum Bucket {
     Primary,
     Direct,
     Reflection,
@@ -539,11 +539,7 @@ impl<'s> Renderer<'s> {
         }
     }
 
-    pub(super) fn timed<R>(
-        st: &mut TraceState,
-        bucket: Bucket,
-        f: impl FnOnce(&mut TraceState) -> R,
-    ) -> R {
+    fn timed<R>(st: &mut TraceState, bucket: Bucket, f: impl FnOnce(&mut TraceState) -> R) -> R {
         if !st.timing {
             return f(st);
         }
@@ -980,7 +976,7 @@ impl<'s> Renderer<'s> {
             return;
         }
         let caster = self.caster();
-        for tile in super::primary::tiles(region.xs(), region.ys()) {
+        for tile in tiles(region.xs(), region.ys()) {
             self.trace_pixels(
                 camera,
                 (width, height),
@@ -999,7 +995,7 @@ impl<'s> Renderer<'s> {
     }
 
     /// Renders the whole image, calling `progress(rows_done)` after each
-    /// band of rows (one row of tiles, [`super::primary::TILE`] rows, whose
+    /// band of rows (one row of tiles, [`TILE`] rows, whose
     /// primary rays go as packets; a row of the adaptive sampling grid
     /// with `-ps` > 1; a wave's worth with the irradiance cache).
     pub fn render_with_progress<C: Camera + ?Sized>(
@@ -1064,8 +1060,8 @@ impl<'s> Renderer<'s> {
             return Ok((film, stats, st.ambient));
         }
         // A band of tiles at a time, their primary rays as packets.
-        for y in (0..height).step_by(super::primary::TILE) {
-            let y1 = (y + super::primary::TILE).min(height);
+        for y in (0..height).step_by(TILE) {
+            let y1 = (y + TILE).min(height);
             let band = Region::new(0..width, y..y1);
             self.render_region(camera, width, height, &band, &mut film, &mut st);
             progress(y1);
@@ -1234,4 +1230,136 @@ enum Build {
     LazyBvh,
     /// None: the octree is a distributed scene's skeleton.
     Skeleton(Box<Octree>),
+}
+
+// Primary rays traced as packets: the pixels of a tile (8 x 8) have their
+// primary rays traced through the hierarchy together
+// (`Bvh::intersect_packet`), then each pixel is shaded from its known
+// nearest hit ([`Renderer::trace_from_hit`]). A packet's answers are the
+// single rays' bit for bit, so no picture changes; the book's benchmarks
+// chapter has what the packets save.
+
+/// The side of a square tile whose primary rays make one packet.
+pub const TILE: usize = 8;
+
+impl Renderer<'_> {
+    /// Radiance of pixel (`x`, `y`) traced through `caster` ([`Renderer::pixel`]
+    /// through another caster that answers as the renderer's own).
+    pub fn pixel_with<Cam: Camera + ?Sized, C: RayCaster>(
+        &self,
+        camera: &Cam,
+        (width, height): (usize, usize),
+        caster: &C,
+        (x, y): (usize, usize),
+        st: &mut TraceState,
+    ) -> Color {
+        let n = self.options().pn.max(1);
+        if n == 1 {
+            return match self.primary_task(camera, width, height, x, y) {
+                Some(task) => self.trace_with(caster, &task, st).0,
+                None => Color::ZERO,
+            };
+        }
+        let mut sum = Color::ZERO;
+        for k in 0..n {
+            if let Some(task) = self.sample_task(camera, width, height, x, y, k) {
+                sum += self.trace_with(caster, &task, st).0;
+            }
+        }
+        sum / n as f64
+    }
+
+    /// Shades the pixels `pixels` ((x, y), in order; best a tile of them)
+    /// of a `width` x `height` picture through `caster`, handing each value
+    /// to `out`: their primary rays traced as packets of at most
+    /// [`PACKET`] where `caster` traces packets and a pixel has one ray
+    /// (`-pn 1`), one at a time otherwise. The values are
+    /// [`Renderer::pixel_with`]'s, bit for bit.
+    pub fn trace_pixels<Cam: Camera + ?Sized, C: RayCaster>(
+        &self,
+        camera: &Cam,
+        (width, height): (usize, usize),
+        caster: &C,
+        pixels: &[(usize, usize)],
+        st: &mut TraceState,
+        out: &mut dyn FnMut(usize, usize, Color),
+    ) {
+        if self.options().pn > 1 || !caster.traces_packets() {
+            for &(x, y) in pixels {
+                out(
+                    x,
+                    y,
+                    self.pixel_with(camera, (width, height), caster, (x, y), st),
+                );
+            }
+            return;
+        }
+        let mut values = Vec::with_capacity(PACKET);
+        for chunk in pixels.chunks(PACKET) {
+            let tasks: Vec<Option<RayTask>> = chunk
+                .iter()
+                .map(|&(x, y)| self.primary_task(camera, width, height, x, y))
+                .collect();
+            let traced: Vec<RayTask> = tasks.iter().flatten().cloned().collect();
+            values.clear();
+            self.trace_tasks(caster, &traced, st, &mut |v| values.push(v));
+            let mut values = values.drain(..);
+            for (&(x, y), task) in chunk.iter().zip(&tasks) {
+                let value = if task.is_some() { values.next() } else { None };
+                out(x, y, value.unwrap_or(Color::ZERO));
+            }
+        }
+    }
+
+    /// Traces `tasks` (coherent rays, such as a tile's primary rays)
+    /// through `caster`, their nearest hits found as packets of at most
+    /// [`PACKET`] where `caster` traces packets; hands each ray's radiance
+    /// to `out`, in order. The values are [`Renderer::trace_with`]'s, bit
+    /// for bit.
+    pub fn trace_tasks<C: RayCaster>(
+        &self,
+        caster: &C,
+        tasks: &[RayTask],
+        st: &mut TraceState,
+        out: &mut dyn FnMut(Color),
+    ) {
+        if !caster.traces_packets() {
+            for task in tasks {
+                out(self.trace_with(caster, task, st).0);
+            }
+            return;
+        }
+        let mut segments: Vec<Segment> = Vec::with_capacity(PACKET);
+        let mut hits: [Option<Hit>; PACKET] = [None; PACKET];
+        for chunk in tasks.chunks(PACKET) {
+            segments.clear();
+            segments.extend(chunk.iter().map(|t| (t.ray, t.tmin, t.tmax)));
+            Self::timed(st, Bucket::Primary, |_| {
+                caster.intersect_packet(&segments, &mut hits[..chunk.len()])
+            });
+            for (task, hit) in chunk.iter().zip(hits) {
+                out(self.trace_from_hit(caster, task, hit, st).0);
+            }
+        }
+    }
+}
+
+/// The pixels of columns `xs` and rows `ys` in tiles of [`TILE`] x
+/// [`TILE`], tile after tile along the rows of tiles, each tile's pixels
+/// row by row: the order in which [`Renderer::trace_pixels`] traces them
+/// as packets.
+pub fn tiles(
+    xs: std::ops::Range<usize>,
+    ys: std::ops::Range<usize>,
+) -> impl Iterator<Item = Vec<(usize, usize)>> {
+    let (x0, x1) = (xs.start, xs.end);
+    ys.clone().step_by(TILE).flat_map(move |ty| {
+        let ty1 = (ty + TILE).min(ys.end);
+        (x0..x1).step_by(TILE).map(move |tx| {
+            let tx1 = (tx + TILE).min(x1);
+            (ty..ty1)
+                .flat_map(|y| (tx..tx1).map(move |x| (x, y)))
+                .collect()
+        })
+    })
 }
