@@ -1042,6 +1042,51 @@ fn hemisphere_rays_migrate_and_change_no_pixel() {
     }
 }
 
+/// A hemisphere's super-samples (`-as`) depend on its first samples'
+/// values: the pixel's owner makes them when the last of those is merged
+/// (`Workload::merge_in`) and spawns them as data-parallel tasks like the
+/// first. The picture and every ray count are the sequential renderer's,
+/// on every runtime, distribution and cache, with one bounce and two.
+#[test]
+fn super_samples_are_made_where_the_first_samples_meet_and_change_no_pixel() {
+    let mut o = RenderOptions::default();
+    (o.ab, o.aa, o.as_, o.ad) = (1, 0.0, 32, 64);
+    let c = case("cornell", 16, 16, o.clone());
+    o.as_ = 0;
+    let without = case("cornell", 16, 16, o);
+    assert!(
+        c.counts.ambient > without.counts.ambient,
+        "the reference takes super-samples ({} against {} ambient rays)",
+        c.counts.ambient,
+        without.counts.ambient
+    );
+    let mut migrations = 0;
+    for (procs, runtime) in [
+        (1, RuntimeKind::Threads),
+        (3, RuntimeKind::Threads),
+        (3, RuntimeKind::Sim),
+        (2, RuntimeKind::Sequential),
+    ] {
+        for distribution in [Distribution::Octree, Distribution::Replicated] {
+            for cache in [CacheSize::Unlimited, CacheSize::Percent(10.0)] {
+                let mut p = options(procs, distribution, cache, 4);
+                p.runtime = runtime;
+                let out = check(&c, &p);
+                migrations += out.stats.sum(|s| s.tasks.migrations);
+            }
+        }
+    }
+    assert!(migrations > 0, "no sample ray ever migrated");
+    let mut o = RenderOptions::default();
+    (o.ab, o.aa, o.as_, o.ad) = (2, 0.0, 16, 64);
+    let c = case("cornell", 8, 8, o);
+    for (procs, runtime) in [(3, RuntimeKind::Threads), (2, RuntimeKind::Sim)] {
+        let mut p = options(procs, Distribution::Octree, CacheSize::Percent(10.0), 4);
+        p.runtime = runtime;
+        check(&c, &p);
+    }
+}
+
 /// Where nearly every hemisphere ray migrates (a cache of 10% of the
 /// cells), depth first (`Workload::data_parallel_newest_first`) keeps the
 /// tasks queued short. On the simulated cluster (deterministic) with the

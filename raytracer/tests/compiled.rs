@@ -417,7 +417,7 @@ fn renders_of_a_compiled_scene_equal_renders_of_its_sources() {
     }
     // With -ab and an irradiance cache a compiled scene is loaded whole
     // (its hemisphere rays do not migrate), says so, and renders the
-    // sequential picture; without a cache or super-samples it is read
+    // sequential picture; without a cache it is read
     // processor by processor, the hemispheres' rays migrate, and the
     // picture is the sequential one too.
     let ambient = |scene: &str, aa: &str, procs: &[&str], pic: &str| {

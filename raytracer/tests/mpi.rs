@@ -269,18 +269,22 @@ fn mpirun_renders_two_bounces_as_the_sequential_renderer() {
     }
 }
 
-/// Two bounces without an irradiance cache or super-samples run in the
+/// Diffuse inter-reflection without an irradiance cache runs in the
 /// hybrid workload, the hemispheres' sample rays migrating between ranks
 /// to the cells they need: the sequential picture under `mpirun -np 3`,
-/// with a cache and with one that holds almost nothing.
+/// with two bounces (with a cache and with one that holds almost
+/// nothing), and with super-samples, which each pixel's owner makes when
+/// the last of a hemisphere's first samples is merged there.
 #[test]
 fn mpirun_migrates_hemisphere_rays_to_the_sequential_picture() {
     let d = tmpdir("ab2-hybrid");
     let (rad, vf) = cornell(&d);
-    let ab = ["-ab", "2", "-aa", "0", "-ad", "16", "-as", "0"];
-    let want = sequential_picture(&d, &rad, &vf, &ab);
-    for cache in ["100%", "10%"] {
-        let out = d.join(format!("mpi{}.hdr", cache.trim_end_matches('%')));
+    let two = ["-ab", "2", "-aa", "0", "-ad", "16", "-as", "0"];
+    let sup = ["-ab", "1", "-aa", "0", "-ad", "64", "-as", "16"];
+    for (ab, cache) in [(two, "100%"), (two, "10%"), (sup, "10%")] {
+        let want = sequential_picture(&d, &rad, &vf, &ab);
+        let what = format!("{} --cache {cache}", ab.join(" "));
+        let out = d.join(format!("mpi{}-{}.hdr", cache.trim_end_matches('%'), ab[1]));
         let mut args = base(&rad, &vf);
         args.extend(ab);
         args.extend([
@@ -293,11 +297,11 @@ fn mpirun_migrates_hemisphere_rays_to_the_sequential_picture() {
             "-o",
             out.to_str().unwrap(),
         ]);
-        let r = mpirun(3, &args, &[], &d, &format!("ab2hybrid{cache}"));
-        assert!(r.status.success(), "--cache {cache}: {}", r.stderr);
+        let r = mpirun(3, &args, &[], &d, &format!("ab{}hybrid{cache}", ab[1]));
+        assert!(r.status.success(), "{what}: {}", r.stderr);
         assert!(
             std::fs::read(&out).unwrap() == want,
-            "--cache {cache}: the picture differs from the sequential one"
+            "{what}: the picture differs from the sequential one"
         );
         // The hybrid workload's report, not the wave renderer's.
         assert!(

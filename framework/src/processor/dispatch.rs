@@ -83,10 +83,7 @@ impl<W: Workload> Processor<W> {
         }
         for (dest, result) in ctx.results.drain(..) {
             match dest {
-                d if d == self.addr => {
-                    self.workload.merge(&mut self.acc, result);
-                    self.stats.tasks.results_merged += 1;
-                }
+                d if d == self.addr => self.merge_result(result, now)?,
                 Addr::Proc(p) if p >= self.procs => {
                     return Err(format!(
                         "result sent to processor {p} but there are only {}",
@@ -97,6 +94,25 @@ impl<W: Workload> Processor<W> {
             }
         }
         Ok(())
+    }
+}
+
+impl<W: Workload> Processor<W> {
+    /// Merges a result sent here ([`Workload::merge_in`]) and schedules
+    /// what the merge emitted, with this processor as its origin.
+    pub(super) fn merge_result(&mut self, result: W::Result, now: Time) -> Result<(), String> {
+        self.stats.tasks.results_merged += 1;
+        let mut ctx = match self.spare_ctx.take() {
+            Some(ctx) => ctx,
+            None => Ctx::new(self.id, self.procs),
+        };
+        ctx.origin = self.id;
+        self.workload.merge_in(&mut self.acc, result, &mut ctx);
+        if ctx.charges.is_empty() && !ctx.has_emissions() && !ctx.complete {
+            self.spare_ctx = Some(ctx);
+            return Ok(());
+        }
+        self.dispatch(ctx, Some(self.id), now)
     }
 }
 

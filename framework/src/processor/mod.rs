@@ -396,8 +396,7 @@ impl<W: Workload> Processor<W> {
                 Ok(State::Receiving)
             }
             Msg::Result(r) => {
-                self.workload.merge(&mut self.acc, r);
-                self.stats.tasks.results_merged += 1;
+                self.merge_result(r, now)?;
                 Ok(State::Receiving)
             }
             Msg::Dp(env) => {

@@ -269,6 +269,19 @@ pub trait Workload: Send + Sync + Sized + 'static {
     /// Merges a result into the accumulator of the processor it was sent to.
     fn merge(&self, acc: &mut Self::Accumulator, result: Self::Result);
 
+    /// Merges a result sent to a processor, where the merge may start work
+    /// that only the whole of what has arrived decides (say, more samples
+    /// of a hemisphere whose first ones are all in): the tasks and results
+    /// it emits through `ctx` are scheduled as a step's are, with this
+    /// processor as their origin ([`Ctx::origin`]). Work it charges is
+    /// counted. The default calls [`Workload::merge`] and emits nothing.
+    /// Results sent to the master are merged with [`Workload::merge`]: the
+    /// master runs no tasks. See `SEMANTICS.md`, section 11.
+    fn merge_in(&self, acc: &mut Self::Accumulator, result: Self::Result, ctx: &mut Ctx<Self>) {
+        let _ = ctx;
+        self.merge(acc, result)
+    }
+
     /// Called on the master when epoch `ended` (0 the first, whose tasks are
     /// [`Workload::root_tasks`]) is over: every task of it and every task
     /// they spawned has finished, and every result sent to any actor is

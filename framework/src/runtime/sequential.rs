@@ -214,17 +214,27 @@ pub fn run_sequential_observed<W: Workload>(
         stats.tasks.children_spawned += ctx.dd.len() as u64;
         dd.extend(ctx.dd);
         dp.extend(ctx.dp);
-        for (dest, result) in ctx.results {
-            let acc = match dest {
-                Addr::Master => &mut master,
-                Addr::Proc(p) if p < procs => &mut accs[p],
+        // Results in the order sent; what merging one at a processor
+        // emits ([`Workload::merge_in`]) joins the queues and this list.
+        let mut results: VecDeque<(Addr, W::Result)> = ctx.results.into();
+        while let Some((dest, result)) = results.pop_front() {
+            match dest {
+                Addr::Master => workload.merge(&mut master, result),
+                Addr::Proc(p) if p < procs => {
+                    let mut merged = Ctx::new(p, procs);
+                    workload.merge_in(&mut accs[p], result, &mut merged);
+                    stats.charge(merged.charges());
+                    stats.tasks.children_spawned += merged.dd.len() as u64;
+                    dd.extend(merged.dd);
+                    dp.extend(merged.dp);
+                    results.extend(merged.results);
+                }
                 Addr::Proc(p) => {
                     return Err(err(format!(
                         "result sent to processor {p} but there are only {procs}"
                     )))
                 }
-            };
-            workload.merge(acc, result);
+            }
             stats.tasks.results_merged += 1;
         }
         stats.time_ns.add(state, clock.now() - t0);

@@ -10,6 +10,7 @@
 //! ([`runtime_api`]) and the data store's completion ([`store`]).
 
 mod epochs;
+mod merges;
 mod messages;
 mod runs;
 mod runtime_api;
@@ -58,7 +59,13 @@ pub(crate) struct Mini {
     pub charge: u64,
     /// [`Workload::data_parallel_newest_first`].
     pub newest_first: bool,
+    /// Merging some results at a processor starts a follow-up task
+    /// ([`Workload::merge_in`]).
+    pub merge_spawns: bool,
 }
+
+/// The key bit of a follow-up task started by a merge, and of its results.
+pub(crate) const FOLLOW_UP: u64 = 1 << 62;
 
 /// How [`Mini`] answers [`Workload::locate`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -96,6 +103,7 @@ impl Default for Mini {
             locating: Locating::No,
             charge: 1,
             newest_first: false,
+            merge_spawns: false,
         }
     }
 }
@@ -189,7 +197,9 @@ impl Mini {
                 });
             }
         }
-        if self.hops > 0 && mix(t.key ^ 6) % 2 == 0 {
+        // A follow-up starts no walk (whose key a follow-up of a walk's
+        // result may take).
+        if self.hops > 0 && t.key & FOLLOW_UP == 0 && mix(t.key ^ 6) % 2 == 0 {
             ctx.spawn_dp(Walk {
                 key: t.key | (1 << 63),
                 path: self.ids(t.key, 2, self.hops as u64),
@@ -331,6 +341,33 @@ impl Workload for Mini {
     fn merge(&self, acc: &mut Acc, r: Res) {
         let e = acc.entry(r.key).or_insert((0, r.value));
         e.0 += 1;
+    }
+    /// With `merge_spawns`, half the results merged at a processor start a
+    /// follow-up (a demand-driven task or a walk, by the key) whose result
+    /// starts none: what it starts depends on the result alone, so the
+    /// accumulators do not depend on the order of the merges.
+    fn merge_in(&self, acc: &mut Acc, r: Res, ctx: &mut Ctx<Self>) {
+        let follow = self.merge_spawns && r.key & FOLLOW_UP == 0 && mix(r.key ^ 11) % 2 == 0;
+        let (key, value) = (r.key | FOLLOW_UP, r.value);
+        self.merge(acc, r);
+        if !follow {
+            return;
+        }
+        ctx.charge(MiniWork::Work, 1);
+        if mix(key ^ 12) % 2 == 0 {
+            ctx.spawn_dd(Task {
+                key,
+                depth: self.depth,
+            });
+        } else {
+            ctx.spawn_dp(Walk {
+                key,
+                path: self.ids(key, 3, self.hops.max(1) as u64),
+                pos: 0,
+                acc: value,
+                finish: None,
+            });
+        }
     }
 }
 

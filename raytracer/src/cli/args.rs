@@ -203,7 +203,7 @@ pub enum ExperimentName {
     /// `--max-procs` processors (not in `all`).
     Interreflection,
     /// Hemisphere rays migrating through a distributed scene (`-ab` with
-    /// `-aa 0 -as 0`) on the simulated cluster, 1 to `--max-procs`
+    /// `-aa 0`) on the simulated cluster, 1 to `--max-procs`
     /// processors, unlimited and 10% caches (not in `all`).
     Hemispheres,
     All,

@@ -1,7 +1,7 @@
 //! Diffuse inter-reflection on a distributed scene, on the simulated
 //! cluster: the hybrid workload with hemisphere rays as data-parallel
 //! tasks that migrate to the cells they need (`parallel/hemispheres.rs`;
-//! `-aa 0 -as 0`), 1 to `max_procs` processors, with an unlimited cache and
+//! `-aa 0`), 1 to `max_procs` processors, with an unlimited cache and
 //! with caches of 10% of the cell data. Speed-up, efficiency, what travels
 //! (migrating tasks, fetched cells, results) and what the busiest
 //! processor holds (its cells and cache, its queued tasks, its work in
@@ -29,8 +29,8 @@ pub(super) fn hemispheres(cx: &mut Ctx) -> Result<()> {
     let s = cx.s;
     if s.options.ab == 0 || !hybrid_interreflection(&s.options) {
         return Err(Error::Usage(
-            "experiment hemispheres needs diffuse inter-reflection without an irradiance cache \
-             or super-samples: give -ab 1 or more with -aa 0 -as 0"
+            "experiment hemispheres needs diffuse inter-reflection without an irradiance cache: \
+             give -ab 1 or more with -aa 0 (and -pn 1)"
                 .into(),
         ));
     }

@@ -1,12 +1,20 @@
 //! Diffuse inter-reflection in the hybrid workload, without an irradiance
-//! cache or super-samples (the only kind it is given,
-//! [`super::runtime::check_hybrid`]): a shaded point's hemispheres are
-//! nodes of the pixel's ray tree whose sample rays are data-parallel tasks
-//! of their own, migrating to the cells they need like any other ray; the
-//! pixel's owner evaluates a hemisphere once every sample's value is in
+//! cache (the only kind it is given, [`super::runtime::check_hybrid`]): a
+//! shaded point's hemispheres are nodes of the pixel's ray tree whose
+//! sample rays are data-parallel tasks of their own, migrating to the
+//! cells they need like any other ray; the pixel's owner evaluates a
+//! hemisphere once every sample's value is in
 //! ([`super::tree::Record::Hemisphere`]), with the sequential renderer's
 //! operations, and adds it to its point's value before the point's other
-//! requests. The book's parallel renderer chapter, "Hemisphere rays".
+//! requests. A hemisphere that may take super-samples (`-as`, which go
+//! where the first samples differ most) is handed to the workload when
+//! the last of its first samples is merged at the pixel's owner
+//! ([`super::tree::Record::SuperHemisphere`],
+//! [`hybrid_sched::Workload::merge_in`]): the owner makes it again from
+//! its seed, adds the first samples' values as the sequential renderer
+//! does, and spawns the super-samples from there, which migrate like the
+//! first; once they are in, it finishes the hemisphere the same way. The
+//! book's parallel renderer chapter, "Hemisphere rays".
 //!
 //! A hemisphere spawns 16 to thousands of tasks, each of which may spawn
 //! as many: oldest first, a processor held a whole level of those trees
@@ -23,7 +31,7 @@
 use hybrid_sched::{Addr, Ctx};
 
 use super::tasks::{DpTask, RayJob};
-use super::tree::{Child, NodeKey, Record, RtResult};
+use super::tree::{Child, HemisphereSeed, NodeKey, PixelTrees, Record, RtResult, SuperState};
 use super::work::Work;
 use super::workload::RtWorkload;
 use crate::accel::TraceCursor;
@@ -60,25 +68,68 @@ impl RtWorkload {
                 continue;
             };
             let samples = h.first_pass();
-            debug_assert!(h.second_pass(settings.super_samples).is_empty());
             children.push(Child::Ambient(req.coef));
-            ctx.charge(Work::RaysSpawned, samples.len() as u64);
-            ctx.emit_result(
-                Addr::Proc(ctx.origin()),
-                RtResult {
-                    key: node.clone(),
-                    record: Record::Hemisphere {
-                        strata: u16::try_from(samples.len()).unwrap_or(u16::MAX),
-                    },
-                },
-            );
-            for (stratum, sample) in samples {
-                ctx.spawn_dp(DpTask::Ray(RayJob {
-                    key: node.child(stratum),
-                    task: sample,
-                    cursor: TraceCursor::default(),
-                    next: None,
-                }));
+            let strata = u16::try_from(samples.len()).unwrap_or(u16::MAX);
+            let record = if h.most_super_samples(settings.super_samples) > 0 {
+                let seed = HemisphereSeed {
+                    task: *task,
+                    req: *req,
+                };
+                Record::SuperHemisphere {
+                    strata,
+                    seed: Box::new(seed),
+                }
+            } else {
+                Record::Hemisphere { strata }
+            };
+            let key = node.clone();
+            ctx.emit_result(Addr::Proc(ctx.origin()), RtResult { key, record });
+            spawn_samples(&node, 0, samples, ctx);
+        }
+    }
+
+    /// After a merge: makes the super-samples of the hemispheres whose
+    /// first samples are all in (spawned from here, the pixel's owner), and
+    /// the value of those whose samples are all in, as the sequential
+    /// renderer does (`Renderer::ambient_value`: the first pass added
+    /// stratum by stratum, the second pass sample by sample, then
+    /// [`Hemisphere::finish`]).
+    pub(super) fn super_sample(&self, acc: &mut PixelTrees, ctx: &mut Ctx<Self>) {
+        let o = self.renderer.options();
+        let settings = self.renderer.ambient_settings();
+        while let Some(w) = acc.wanted.pop() {
+            let seed = &w.state.seed;
+            let Some(mut h) = Hemisphere::new(settings, o, &seed.task, &seed.req) else {
+                debug_assert!(false, "a hemisphere made once is made again");
+                continue;
+            };
+            let n = h.divisions();
+            // Distances serve only records, which a render without a cache
+            // makes none of.
+            for (k, &v) in w.values.iter().take(n).enumerate() {
+                h.add(k, v, f64::INFINITY);
+            }
+            match &w.state.second {
+                None => {
+                    let more = h.second_pass(settings.super_samples);
+                    if more.is_empty() {
+                        acc.deliver(w.key, h.finish(settings).0);
+                        continue;
+                    }
+                    let strata = more.iter().map(|&(k, _)| k as u16).collect();
+                    let state = SuperState {
+                        seed: w.state.seed.clone(),
+                        second: Some(strata),
+                    };
+                    acc.await_second(&w.key, state, &w.values[..n]);
+                    spawn_samples(&w.key, n, more, ctx);
+                }
+                Some(strata) => {
+                    for (&k, &v) in strata.iter().zip(&w.values[n..]) {
+                        h.add(usize::from(k), v, f64::INFINITY);
+                    }
+                    acc.deliver(w.key, h.finish(settings).0);
+                }
             }
         }
     }
@@ -97,5 +148,24 @@ impl RtWorkload {
             base += shaded.constant * (av - o.av);
         }
         base
+    }
+}
+
+/// Spawns a hemisphere's `samples` (stratum, ray) as data-parallel tasks,
+/// children `first..` of its node `node`.
+fn spawn_samples(
+    node: &NodeKey,
+    first: usize,
+    samples: Vec<(usize, RayTask)>,
+    ctx: &mut Ctx<RtWorkload>,
+) {
+    ctx.charge(Work::RaysSpawned, samples.len() as u64);
+    for (i, (_, sample)) in samples.into_iter().enumerate() {
+        ctx.spawn_dp(DpTask::Ray(RayJob {
+            key: node.child(first + i),
+            task: sample,
+            cursor: TraceCursor::default(),
+            next: None,
+        }));
     }
 }

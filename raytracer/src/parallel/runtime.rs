@@ -83,20 +83,23 @@ pub(crate) fn this_rank() -> Result<usize> {
     mpi_runtime::<super::RtWorkload>().map(|_| 0)
 }
 
-/// Most strata of a hemisphere the hybrid-scheduled workload samples (a
-/// stratum's sample is named by a 16-bit step of its node's path).
+/// Most samples of a hemisphere the hybrid-scheduled workload takes,
+/// strata and super-samples (a sample is named by a 16-bit step of its
+/// node's path).
 const MOST_STRATA: u32 = 60_000;
 
 /// Whether the hybrid-scheduled workload computes the diffuse
-/// inter-reflection `o` asks for: without an irradiance cache (`-aa 0`)
-/// and without super-samples (`-as 0`), a hemisphere is one sample per
-/// stratum whose value is a fixed function of theirs, so its sample rays
-/// are data-parallel tasks like any other ray's and the pixel's owner
-/// evaluates it. With a cache, or super-samples that depend on the first
-/// samples' values, `-ab` renders use the wave renderer
+/// inter-reflection `o` asks for: without an irradiance cache (`-aa 0`),
+/// a hemisphere's sample rays are data-parallel tasks like any other
+/// ray's, and the pixel's owner evaluates it once their values are in;
+/// its super-samples (`-as`), which depend on the first samples' values,
+/// are made there when the last of those is merged
+/// ([`hybrid_sched::Workload::merge_in`]) and traced the same way. With a
+/// cache, or more than one primary ray per pixel (`-pn`, which the
+/// hybrid workload does not trace), `-ab` renders use the wave renderer
 /// ([`super::ambient`]).
 pub fn hybrid_interreflection(o: &RenderOptions) -> bool {
-    o.aa <= 0.0 && o.as_ == 0 && o.ad <= MOST_STRATA
+    o.aa <= 0.0 && o.pn <= 1 && u64::from(o.ad) + u64::from(o.as_) <= u64::from(MOST_STRATA)
 }
 
 /// The hybrid-scheduled workload assembles pixels from ray-tree records
@@ -104,16 +107,16 @@ pub fn hybrid_interreflection(o: &RenderOptions) -> bool {
 /// than one primary ray per pixel) instead of silently dropping the term.
 pub fn check_hybrid(renderer: &Renderer<'_>) -> Result<()> {
     let o = renderer.options();
-    if renderer.effects().diffuse_interreflection.enabled && !hybrid_interreflection(o) {
-        return Err(Error::Usage(format!(
-            "-ab {} -aa {} -as {} -ad {}: the hybrid-scheduled workload computes diffuse inter-reflection only without an irradiance cache or super-samples (-aa 0 -as 0, -ad at most {MOST_STRATA}); with --procs, other -ab renders use the wave renderer (parallel::ambient)",
-            o.ab, o.aa, o.as_, o.ad
-        )));
-    }
     if o.pn > 1 {
         return Err(Error::Usage(format!(
             "-pn {}: the hybrid-scheduled workload traces one primary ray per pixel",
             o.pn
+        )));
+    }
+    if renderer.effects().diffuse_interreflection.enabled && !hybrid_interreflection(o) {
+        return Err(Error::Usage(format!(
+            "-ab {} -aa {} -as {} -ad {}: the hybrid-scheduled workload computes diffuse inter-reflection only without an irradiance cache (-aa 0, -ad plus -as at most {MOST_STRATA}); with --procs, other -ab renders use the wave renderer (parallel::ambient)",
+            o.ab, o.aa, o.as_, o.ad
         )));
     }
     Ok(())

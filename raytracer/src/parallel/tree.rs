@@ -19,6 +19,8 @@
 use hybrid_sched::serde::{Deserialize, Serialize};
 use hybrid_sched::ByteSize;
 
+use crate::render::ambient::AmbientRequest;
+use crate::render::RayTask;
 use crate::scene::Color;
 
 /// Names one node of a pixel's ray tree: the pixel (row-major index) and
@@ -121,6 +123,45 @@ pub enum Record {
     /// `0..strata`), whose value is the mean over the strata
     /// ([`crate::render::ambient::strata_mean_of_first_pass`]).
     Hemisphere { strata: u16 },
+    /// A hemisphere of `strata` first samples (children `0..strata`) that
+    /// may take super-samples (`-as`), which depend on the first samples'
+    /// values: with what the pixel's owner needs to make them once those
+    /// are in ([`PixelTrees::wanted`]).
+    SuperHemisphere {
+        strata: u16,
+        seed: Box<HemisphereSeed>,
+    },
+}
+
+/// What a hemisphere is made from: the ray whose hit it samples and the
+/// point's request ([`crate::render::ambient::Hemisphere::new`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct HemisphereSeed {
+    pub task: RayTask,
+    pub req: AmbientRequest,
+}
+
+/// A super-sampling hemisphere at the pixel's owner.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct SuperState {
+    pub seed: HemisphereSeed,
+    /// The strata of the super-samples, in the order they were made
+    /// (children `strata..`), once they are.
+    pub second: Option<Vec<u16>>,
+}
+
+/// A super-sampling hemisphere whose samples so far are all in: its node,
+/// its state and its children's values by index, for the workload to make
+/// its super-samples or its value ([`PixelTrees::await_second`],
+/// [`PixelTrees::deliver`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct Wanted {
+    pub key: NodeKey,
+    pub state: SuperState,
+    pub values: Vec<Color>,
 }
 
 /// A result message: one node's record, sent to the pixel's owner.
@@ -136,6 +177,7 @@ impl ByteSize for RtResult {
         let extra = match &self.record {
             Record::Shaded { children, .. } => children.len() * std::mem::size_of::<Child>(),
             Record::Value(_) | Record::Hemisphere { .. } => 0,
+            Record::SuperHemisphere { .. } => std::mem::size_of::<HemisphereSeed>(),
         };
         self.key.bytes() + std::mem::size_of::<Record>() + extra
     }
@@ -150,6 +192,9 @@ struct Pending {
     awaited: usize,
     /// Child values by request index (may arrive before the record).
     values: Vec<(u16, Color)>,
+    /// A hemisphere that may take super-samples.
+    #[serde(default)]
+    super_state: Option<Box<SuperState>>,
 }
 
 /// The per-processor accumulator: finished pixels and the trees in flight.
@@ -166,6 +211,10 @@ pub struct PixelTrees {
     pub peak_pending: usize,
     /// Records merged.
     pub records: u64,
+    /// Super-sampling hemispheres whose samples so far are all in, for the
+    /// workload ([`Wanted`]); empty between merges.
+    #[serde(default)]
+    pub wanted: Vec<Wanted>,
 }
 
 impl PixelTrees {
@@ -225,7 +274,37 @@ impl PixelTrees {
                 vec![Child::Stratum; usize::from(strata)],
                 None,
             ),
+            Record::SuperHemisphere { strata, seed } => {
+                let state = SuperState {
+                    seed: *seed,
+                    second: None,
+                };
+                self.await_samples(&r.key, state, &[], usize::from(strata));
+            }
         }
+    }
+
+    /// Makes node `key` a super-sampling hemisphere in `state` awaiting
+    /// `more` samples after those whose values are `known` (children
+    /// `0..known.len()`); once they are in, it is [`Wanted`].
+    fn await_samples(&mut self, key: &NodeKey, state: SuperState, known: &[Color], more: usize) {
+        let n = known.len() + more;
+        let entry = self.entry(key.pixel, &key.path);
+        debug_assert!(entry.record.is_none(), "node {key:?} shaded twice");
+        entry.record = Some((Color::ZERO, vec![Child::Stratum; n], None));
+        entry.awaited = n;
+        let first = known.iter().enumerate().map(|(i, &v)| (i as u16, v));
+        entry.values.extend(first);
+        entry.super_state = Some(Box::new(state));
+        let _ = self.complete(key.pixel, &key.path);
+    }
+
+    /// Node `key`, a super-sampling hemisphere whose first samples' values
+    /// are `first`, awaits the `second` super-samples made (children
+    /// `first.len()..`), whose strata `state` holds.
+    pub fn await_second(&mut self, key: &NodeKey, state: SuperState, first: &[Color]) {
+        let more = state.second.as_ref().map_or(0, Vec::len);
+        self.await_samples(key, state, first, more);
     }
 
     /// Adds node `key`'s record: its local part and its children.
@@ -253,7 +332,7 @@ impl PixelTrees {
     }
 
     /// Hands the value of node `key` to its parent (or finishes the pixel).
-    fn deliver(&mut self, key: NodeKey, value: Color) {
+    pub fn deliver(&mut self, key: NodeKey, value: Color) {
         let pixel = key.pixel;
         let mut path = key.path;
         let mut value = value;
@@ -276,6 +355,24 @@ impl PixelTrees {
             return None;
         }
         let mut entry = self.remove(pixel, path)?;
+        if let Some(state) = entry.super_state.take() {
+            // The workload makes its super-samples, or its value.
+            let mut values = vec![Color::ZERO; entry.awaited];
+            for (i, v) in entry.values {
+                if let Some(slot) = values.get_mut(usize::from(i)) {
+                    *slot = v;
+                }
+            }
+            self.wanted.push(Wanted {
+                key: NodeKey {
+                    pixel,
+                    path: path.to_vec(),
+                },
+                state: *state,
+                values,
+            });
+            return None;
+        }
         let (base, children, attenuation) = entry.record.take()?;
         Some(evaluate(base, &children, &entry.values, attenuation))
     }
@@ -347,201 +444,5 @@ fn same_path(a: &[u16], b: &[u16]) -> bool {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn c(v: f64) -> Color {
-        Color::splat(v)
-    }
-
-    #[test]
-    fn out_of_order_results_give_the_in_order_value() {
-        // root: base 0.1, children [Trace(0.5), Shadow]; child 0: base 0.2,
-        // children [Shadow]; attenuation at the root.
-        let root = RtResult {
-            key: NodeKey::root(7),
-            record: Record::Shaded {
-                base: c(0.1),
-                children: vec![Child::Trace(c(0.5)), Child::Shadow],
-                attenuation: Some((c(0.9), Color::ZERO)),
-            },
-        };
-        let k0 = NodeKey::root(7).child(0);
-        let child = RtResult {
-            key: k0.clone(),
-            record: Record::Shaded {
-                base: c(0.2),
-                children: vec![Child::Shadow],
-                attenuation: None,
-            },
-        };
-        let grandchild = RtResult {
-            key: k0.child(0),
-            record: Record::Value(c(0.3)),
-        };
-        let shadow = RtResult {
-            key: NodeKey::root(7).child(1),
-            record: Record::Value(c(0.4)),
-        };
-        let expected = (c(0.1) + c(0.5) * (c(0.2) + c(0.3)) + c(0.4)) * c(0.9);
-        let all = [root, child, grandchild, shadow];
-        // Every arrival order.
-        let mut orders = vec![vec![0, 1, 2, 3]];
-        for _ in 0..23 {
-            let mut next = orders.last().unwrap().clone();
-            // next permutation
-            let mut i = 3;
-            while i > 0 && next[i - 1] >= next[i] {
-                i -= 1;
-            }
-            if i == 0 {
-                break;
-            }
-            let mut j = 3;
-            while next[j] <= next[i - 1] {
-                j -= 1;
-            }
-            next.swap(i - 1, j);
-            next[i..].reverse();
-            orders.push(next);
-        }
-        assert_eq!(orders.len(), 24);
-        for order in orders {
-            let mut t = PixelTrees::default();
-            for &i in &order {
-                t.merge(all[i].clone());
-            }
-            assert_eq!(t.pixels, vec![(7, expected)], "order {order:?}");
-            assert_eq!(t.pending(), 0);
-        }
-    }
-
-    /// A point with a reflection and a shadow bundle, a hemisphere of
-    /// three strata (one sample not finite) and a hemisphere not sampled:
-    /// the hemispheres' terms come before the requests', as the sequential
-    /// renderer adds them, in every order the results arrive in.
-    #[test]
-    fn hemispheres_are_added_first_whatever_the_order() {
-        let root = NodeKey::root(3);
-        let hemi = root.child(2);
-        let mut all = vec![
-            RtResult {
-                key: root.clone(),
-                record: Record::Shaded {
-                    base: c(0.1),
-                    children: vec![
-                        Child::Trace(c(0.5)),
-                        Child::Shadow,
-                        Child::Ambient(c(0.7)),
-                        Child::AmbientKnown(c(0.3) * c(0.2)),
-                    ],
-                    attenuation: None,
-                },
-            },
-            RtResult {
-                key: hemi.clone(),
-                record: Record::Hemisphere { strata: 3 },
-            },
-            RtResult {
-                key: root.child(0),
-                record: Record::Value(c(0.25)),
-            },
-            RtResult {
-                key: root.child(1),
-                record: Record::Value(c(0.125)),
-            },
-        ];
-        for (k, v) in [(0, c(0.4)), (1, Color::splat(f64::NAN)), (2, c(0.9))] {
-            all.push(RtResult {
-                key: hemi.child(k),
-                record: Record::Value(v),
-            });
-        }
-        let mean = (c(0.4) / 1.0 + Color::ZERO / 1.0 + c(0.9) / 1.0) / 3.0;
-        let mut expected = c(0.1);
-        expected += c(0.7) * mean;
-        expected += c(0.3) * c(0.2);
-        expected += c(0.5) * c(0.25);
-        expected += c(0.125);
-        // Every rotation of the list, forwards and backwards.
-        for shift in 0..all.len() {
-            let mut order: Vec<&RtResult> =
-                all.iter().cycle().skip(shift).take(all.len()).collect();
-            for _ in 0..2 {
-                let mut t = PixelTrees::default();
-                for r in &order {
-                    t.merge((*r).clone());
-                }
-                assert_eq!(t.pixels, vec![(3, expected)], "shift {shift}");
-                assert_eq!(t.pending(), 0);
-                order.reverse();
-            }
-        }
-    }
-
-    #[test]
-    fn a_missing_child_leaves_the_pixel_pending() {
-        let mut t = PixelTrees::default();
-        t.merge(RtResult {
-            key: NodeKey::root(1),
-            record: Record::Shaded {
-                base: c(0.1),
-                children: vec![Child::Shadow, Child::Shadow],
-                attenuation: None,
-            },
-        });
-        t.merge(RtResult {
-            key: NodeKey::root(1).child(1),
-            record: Record::Value(c(0.2)),
-        });
-        assert!(t.pixels.is_empty());
-        assert_eq!(t.pending(), 1);
-    }
-
-    /// A bundle run where its point was shaded carries its value in the
-    /// record: the pixel equals the one whose every bundle sent a result,
-    /// bit for bit, with scattering added after the attenuation either way,
-    /// and a record awaiting nothing is never held.
-    #[test]
-    fn carried_values_give_the_value_of_results_sent() {
-        let key = NodeKey::root(3);
-        let record = |children| RtResult {
-            key: key.clone(),
-            record: Record::Shaded {
-                base: c(0.1),
-                children,
-                attenuation: Some((c(0.7), c(0.01))),
-            },
-        };
-        let value = |i: usize, v: f64| RtResult {
-            key: key.child(i),
-            record: Record::Value(c(v)),
-        };
-        let mut sent = PixelTrees::default();
-        sent.merge(value(2, 0.3));
-        sent.merge(record(vec![Child::Shadow, Child::Shadow, Child::Scatter]));
-        sent.merge(value(0, 0.123));
-        sent.merge(value(1, 0.456));
-        let mut mixed = PixelTrees::default();
-        mixed.merge(record(vec![
-            Child::Known(c(0.123)),
-            Child::Shadow,
-            Child::KnownScatter(c(0.3)),
-        ]));
-        assert!(mixed.pixels.is_empty());
-        assert_eq!(mixed.pending(), 1);
-        mixed.merge(value(1, 0.456));
-        let mut carried = PixelTrees::default();
-        carried.merge(record(vec![
-            Child::Known(c(0.123)),
-            Child::Known(c(0.456)),
-            Child::KnownScatter(c(0.3)),
-        ]));
-        assert_eq!(carried.peak_pending, 0, "nothing awaited, nothing held");
-        let expected = (c(0.1) + c(0.123) + c(0.456)) * c(0.7) + c(0.01) + c(0.3);
-        for t in [&sent, &mixed, &carried] {
-            assert_eq!(t.pixels, vec![(3, expected)]);
-            assert_eq!(t.pending(), 0);
-        }
-    }
-}
+#[path = "tree_tests.rs"]
+mod tests;

@@ -566,6 +566,25 @@ impl Workload for RtWorkload {
     fn merge(&self, acc: &mut PixelTrees, result: RtResult) {
         let before = acc.pixels.len();
         acc.merge(result);
+        // Only a processor's merge makes super-samples (no result of a
+        // pixel goes to the master).
+        debug_assert!(acc.wanted.is_empty(), "super-samples left unmade");
+        self.count_progress(acc, before);
+    }
+
+    /// A hemisphere's super-samples are made where its first samples'
+    /// values meet: at the pixel's owner, when the last of them is merged.
+    fn merge_in(&self, acc: &mut PixelTrees, result: RtResult, ctx: &mut Ctx<Self>) {
+        let before = acc.pixels.len();
+        acc.merge(result);
+        self.super_sample(acc, ctx);
+        self.count_progress(acc, before);
+    }
+}
+
+impl RtWorkload {
+    /// Counts the pixels finished since there were `before`.
+    fn count_progress(&self, acc: &PixelTrees, before: usize) {
         if let Some(p) = &self.progress {
             let done = acc.pixels.len().saturating_sub(before) as u64;
             if done > 0 {

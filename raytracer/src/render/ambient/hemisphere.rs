@@ -341,17 +341,27 @@ impl Hemisphere {
         e
     }
 
-    /// Super-samples (call after the first pass's results are in):
-    /// `super_samples` times the hemisphere's weight, spread over the
-    /// strata in proportion to their estimated variance; none for
-    /// hemispheres of at most 7 x 7 strata or fewer than 9 super-samples.
-    pub fn second_pass(&self, super_samples: u32) -> Vec<(usize, RayTask)> {
+    /// How many super-samples [`Hemisphere::second_pass`] may make at
+    /// most, whatever the first pass's values: `super_samples` times the
+    /// hemisphere's weight; none for hemispheres of at most 7 x 7 strata
+    /// or fewer than 9 super-samples.
+    pub fn most_super_samples(&self, super_samples: u32) -> usize {
         let ns = self.ns as usize;
         if ns * ns <= (MINADIV * MINADIV) as usize {
-            return Vec::new();
+            return 0;
         }
-        let mut cnt = (super_samples as f64 * self.wt + 0.5) as i64;
-        if cnt <= 8 {
+        match (super_samples as f64 * self.wt + 0.5) as i64 {
+            cnt if cnt <= 8 => 0,
+            cnt => cnt as usize,
+        }
+    }
+
+    /// Super-samples (call after the first pass's results are in):
+    /// [`Hemisphere::most_super_samples`] at most, spread over the strata
+    /// in proportion to their estimated variance.
+    pub fn second_pass(&self, super_samples: u32) -> Vec<(usize, RayTask)> {
+        let mut cnt = self.most_super_samples(super_samples) as i64;
+        if cnt == 0 {
             return Vec::new();
         }
         let e = self.differences();
