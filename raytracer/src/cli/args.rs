@@ -536,14 +536,9 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub distribution: DistributionArg,
-    /// Side of the square screen tiles handed out as primary tasks, in pixels.
-    #[arg(
-        long,
-        default_value_t = 16,
-        value_name = "PIXELS",
-        help_heading = "Parallel rendering"
-    )]
-    pub tile: usize,
+    /// Side of the square screen tiles handed out as primary tasks, in pixels [default: 16; with diffuse inter-reflection in the hybrid workload (-ab with -aa 0), the largest power of two up to 16 whose tile starts at most 16384 hemisphere samples (-ad plus -as per pixel): 4 at rpict's -ad 512 -as 128].
+    #[arg(long, value_name = "PIXELS", help_heading = "Parallel rendering")]
+    pub tile: Option<usize>,
     /// Shadow bundles with fewer (estimated) rays than this run data-parallel instead of being clipped.
     #[arg(
         long = "shadow-dp-below",

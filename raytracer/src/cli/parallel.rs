@@ -57,7 +57,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
     if procs == 0 {
         return Err(usage("--procs 0: at least one processor is needed"));
     }
-    if a.tile == 0 {
+    if a.tile == Some(0) {
         return Err(usage("--tile 0: tiles must be at least one pixel wide"));
     }
     if a.threads == Some(0) {
@@ -92,7 +92,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
         complete_cache: a.complete_cache.0,
         data_service: a.serve_data.into(),
         workload: WorkloadOptions {
-            tile: a.tile,
+            tile: a.tile.unwrap_or(WorkloadOptions::default().tile),
             shadow_dp_below: a.shadow_dp_below,
             distribution: a.distribution.into(),
             clip_cache: a.clip_cache,

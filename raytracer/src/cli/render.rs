@@ -161,7 +161,10 @@ fn render(a: &RenderArgs) -> Result<()> {
         default_view(&a.scenes)?
     };
 
-    let popts = super::parallel::resolve(&a.parallel)?;
+    let mut popts = super::parallel::resolve(&a.parallel)?;
+    if let Some(p) = popts.as_mut().filter(|_| a.parallel.tile.is_none()) {
+        p.workload.tile = crate::parallel::hemisphere_tile(&options, p.workload.tile);
+    }
     if let Some(popts) = popts.as_ref().filter(|p| distributes(a, p, &options)) {
         let Some(view) = view else {
             return Err(usage(

@@ -48,7 +48,7 @@ pub use distribution::Distribution;
 pub use partition::Partition;
 #[cfg(feature = "mpi")]
 pub use runtime::mpi_world;
-pub use runtime::{check_hybrid, hybrid_interreflection};
+pub use runtime::{check_hybrid, hemisphere_tile, hybrid_interreflection};
 pub(crate) use runtime::{run_on, this_rank};
 pub use sizes::{CacheSize, FetchLimit};
 pub use tasks::{CellData, DdTask, DpTask};

@@ -102,6 +102,31 @@ pub fn hybrid_interreflection(o: &RenderOptions) -> bool {
     o.aa <= 0.0 && o.pn <= 1 && u64::from(o.ad) + u64::from(o.as_) <= u64::from(MOST_STRATA)
 }
 
+/// Most hemisphere samples the primary rays of one tile start at once, for
+/// [`hemisphere_tile`].
+const TILE_SAMPLES: u64 = 16_384;
+
+/// The tile side for a render with diffuse inter-reflection in the hybrid
+/// workload ([`hybrid_interreflection`]) where none was asked for: the
+/// largest power of two up to `side` whose tile starts at most
+/// [`TILE_SAMPLES`] hemisphere samples (`-ad` plus `-as` per pixel). Each of
+/// a tile's pixels starts a hemisphere of its own when the tile runs, and
+/// its samples wait as tasks, so what a processor holds grows with the
+/// tile's area: the Cornell box at 96 x 96, `-ab 1 -aa 0` (`-ad 512 -as
+/// 128`), two processors, peaked at 12, 32, 128 and 528 MB with tiles of 4,
+/// 8, 16 and 32 pixels. Without `-ab` (or with a cache) it is `side`.
+pub fn hemisphere_tile(o: &RenderOptions, side: usize) -> usize {
+    if o.ab == 0 || !hybrid_interreflection(o) {
+        return side;
+    }
+    let per_pixel = (u64::from(o.ad) + u64::from(o.as_)).max(1);
+    let mut t = 1;
+    while t * 2 <= side && ((t * 2) as u64).pow(2) * per_pixel <= TILE_SAMPLES {
+        t *= 2;
+    }
+    t
+}
+
 /// The hybrid-scheduled workload assembles pixels from ray-tree records
 /// and has no irradiance cache: it refuses renders that need one (or more
 /// than one primary ray per pixel) instead of silently dropping the term.
@@ -120,4 +145,41 @@ pub fn check_hybrid(renderer: &Renderer<'_>) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The tile for hemispheres: rpict's settings give 4, fewer samples a
+    /// larger tile up to the side asked for, a cache (or no `-ab`) the side.
+    #[test]
+    fn hemisphere_tiles_keep_a_tiles_samples_bounded() {
+        let o = |ab, aa, ad, as_| RenderOptions {
+            ab,
+            aa,
+            ad,
+            as_,
+            ..RenderOptions::default()
+        };
+        assert_eq!(hemisphere_tile(&o(1, 0.0, 512, 128), 16), 4);
+        assert_eq!(hemisphere_tile(&o(2, 0.0, 64, 0), 16), 16);
+        assert_eq!(hemisphere_tile(&o(1, 0.0, 128, 0), 16), 8);
+        assert_eq!(hemisphere_tile(&o(1, 0.0, 4096, 512), 16), 1);
+        assert_eq!(hemisphere_tile(&o(1, 0.0, 16, 0), 8), 8);
+        assert_eq!(hemisphere_tile(&o(1, 0.2, 512, 128), 16), 16);
+        assert_eq!(hemisphere_tile(&o(0, 0.0, 512, 128), 16), 16);
+        for ad in [1, 7, 64, 100, 640, 5000] {
+            let t = hemisphere_tile(&o(1, 0.0, ad, 0), 32) as u64;
+            assert!(t.is_power_of_two() && t <= 32);
+            assert!(
+                t == 1 || t * t * u64::from(ad) <= TILE_SAMPLES,
+                "-ad {ad}: {t}"
+            );
+            assert!(
+                t == 32 || 4 * t * t * u64::from(ad) > TILE_SAMPLES,
+                "-ad {ad}: {t}"
+            );
+        }
+    }
 }
