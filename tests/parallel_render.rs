@@ -1087,6 +1087,42 @@ fn super_samples_are_made_where_the_first_samples_meet_and_change_no_pixel() {
     }
 }
 
+/// Several primary rays per pixel (`-pn`): each sample's ray is a ray job
+/// of its own and the pixel the mean of its samples, in sample order
+/// (`Child::Mean`). Three samples (a division that is not a power of two),
+/// jittered, and two with hemispheres: the sequential picture and ray
+/// counts on every runtime and distribution.
+#[test]
+fn pixel_samples_are_ray_jobs_and_change_no_pixel() {
+    let mut o = RenderOptions {
+        pn: 3,
+        pj: 0.67,
+        ..RenderOptions::default()
+    };
+    let c = case("studio", 24, 18, o.clone());
+    assert_eq!(c.counts.primary, 3 * 24 * 18, "three samples a pixel");
+    for (procs, runtime) in [
+        (1, RuntimeKind::Threads),
+        (3, RuntimeKind::Threads),
+        (3, RuntimeKind::Sim),
+        (2, RuntimeKind::Sequential),
+    ] {
+        for distribution in [Distribution::Octree, Distribution::Replicated] {
+            for cache in [CacheSize::Unlimited, CacheSize::Percent(10.0)] {
+                let mut p = options(procs, distribution, cache, 4);
+                p.runtime = runtime;
+                check(&c, &p);
+            }
+        }
+    }
+    (o.pn, o.ab, o.aa, o.as_, o.ad) = (2, 1, 0.0, 16, 64);
+    let c = case("cornell", 8, 8, o);
+    check(
+        &c,
+        &options(3, Distribution::Octree, CacheSize::Percent(10.0), 4),
+    );
+}
+
 /// Where nearly every hemisphere ray migrates (a cache of 10% of the
 /// cells), depth first (`Workload::data_parallel_newest_first`) keeps the
 /// tasks queued short. On the simulated cluster (deterministic) with the

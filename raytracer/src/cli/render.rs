@@ -178,12 +178,11 @@ fn render(a: &RenderArgs) -> Result<()> {
         .filter(|p| would_distribute(a, p) && super::parallel::speaks(p))
     {
         eprintln!(
-            "warning: with -ab and an irradiance cache (-aa {}) or several rays per pixel \
-             (-pn {}), every processor traces whole ray trees over the whole scene (their \
-             hemisphere rays do not migrate to the cells' owners; with -aa 0 -pn 1 they do): the \
-             compiled scene is loaded whole, not read processor by processor, and distribution {} \
-             does not apply",
-            options.aa, options.pn, p.workload.distribution
+            "warning: with -ab and an irradiance cache (-aa {}), every processor traces whole ray \
+             trees over the whole scene (their hemisphere rays do not migrate to the cells' \
+             owners; with -aa 0 they do): the compiled scene is loaded whole, not read processor \
+             by processor, and distribution {} does not apply",
+            options.aa, p.workload.distribution
         );
     }
     let t0 = std::time::Instant::now();
@@ -384,8 +383,8 @@ fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
 /// compiled scene, rendered in parallel with a distribution that gives
 /// each processor its own cells (`octree`, `worst`, and `predicted` by the
 /// work predicted when the scene was compiled), without `-ab` or with the
-/// diffuse inter-reflection the hybrid workload computes (no cache, one
-/// ray per pixel: [`crate::parallel::hybrid_interreflection`]).
+/// diffuse inter-reflection the hybrid workload computes (no cache:
+/// [`crate::parallel::hybrid_interreflection`]).
 fn distributes(a: &RenderArgs, popts: &ParallelOptions, options: &RenderOptions) -> bool {
     would_distribute(a, popts)
         && (options.ab == 0 || crate::parallel::hybrid_interreflection(options))
@@ -393,7 +392,7 @@ fn distributes(a: &RenderArgs, popts: &ParallelOptions, options: &RenderOptions)
 
 /// A compiled scene with a distribution that gives each processor its
 /// own cells: read processor by processor unless `-ab` asks for diffuse
-/// inter-reflection with a cache (or `-pn` above 1), which runs on the
+/// inter-reflection with a cache, which runs on the
 /// scene loaded whole.
 fn would_distribute(a: &RenderArgs, popts: &ParallelOptions) -> bool {
     use crate::parallel::Distribution;

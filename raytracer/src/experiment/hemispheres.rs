@@ -30,7 +30,7 @@ pub(super) fn hemispheres(cx: &mut Ctx) -> Result<()> {
     if s.options.ab == 0 || !hybrid_interreflection(&s.options) {
         return Err(Error::Usage(
             "experiment hemispheres needs diffuse inter-reflection without an irradiance cache: \
-             give -ab 1 or more with -aa 0 (and -pn 1)"
+             give -ab 1 or more with -aa 0"
                 .into(),
         ));
     }

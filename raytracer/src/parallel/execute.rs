@@ -120,6 +120,9 @@ impl RtWorkload {
         caster: &C,
         ctx: &mut Ctx<Self>,
     ) -> crate::render::TraceState {
+        if self.renderer.options().pn > 1 {
+            return self.trace_samples_whole(t, caster, ctx);
+        }
         let origin = Addr::Proc(ctx.origin());
         let mut st = crate::render::TraceState::default();
         let (keys, tasks): (Vec<NodeKey>, Vec<RayTask>) =

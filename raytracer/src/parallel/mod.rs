@@ -27,6 +27,7 @@ pub mod owners;
 pub mod partition;
 pub mod predict;
 mod runtime;
+mod samples;
 mod selection;
 mod sizes;
 pub mod tasks;

@@ -95,11 +95,9 @@ const MOST_STRATA: u32 = 60_000;
 /// its super-samples (`-as`), which depend on the first samples' values,
 /// are made there when the last of those is merged
 /// ([`hybrid_sched::Workload::merge_in`]) and traced the same way. With a
-/// cache, or more than one primary ray per pixel (`-pn`, which the
-/// hybrid workload does not trace), `-ab` renders use the wave renderer
-/// ([`super::ambient`]).
+/// cache, `-ab` renders use the wave renderer ([`super::ambient`]).
 pub fn hybrid_interreflection(o: &RenderOptions) -> bool {
-    o.aa <= 0.0 && o.pn <= 1 && u64::from(o.ad) + u64::from(o.as_) <= u64::from(MOST_STRATA)
+    o.aa <= 0.0 && u64::from(o.ad) + u64::from(o.as_) <= u64::from(MOST_STRATA)
 }
 
 /// Most hemisphere samples the primary rays of one tile start at once, for
@@ -109,7 +107,8 @@ const TILE_SAMPLES: u64 = 16_384;
 /// The tile side for a render with diffuse inter-reflection in the hybrid
 /// workload ([`hybrid_interreflection`]) where none was asked for: the
 /// largest power of two up to `side` whose tile starts at most
-/// [`TILE_SAMPLES`] hemisphere samples (`-ad` plus `-as` per pixel). Each of
+/// [`TILE_SAMPLES`] hemisphere samples (`-ad` plus `-as` per primary ray,
+/// `-pn` of them per pixel). Each of
 /// a tile's pixels starts a hemisphere of its own when the tile runs, and
 /// its samples wait as tasks, so what a processor holds grows with the
 /// tile's area: the Cornell box at 96 x 96, `-ab 1 -aa 0` (`-ad 512 -as
@@ -119,7 +118,7 @@ pub fn hemisphere_tile(o: &RenderOptions, side: usize) -> usize {
     if o.ab == 0 || !hybrid_interreflection(o) {
         return side;
     }
-    let per_pixel = (u64::from(o.ad) + u64::from(o.as_)).max(1);
+    let per_pixel = (u64::from(o.pn.max(1)) * (u64::from(o.ad) + u64::from(o.as_))).max(1);
     let mut t = 1;
     while t * 2 <= side && ((t * 2) as u64).pow(2) * per_pixel <= TILE_SAMPLES {
         t *= 2;
@@ -128,16 +127,10 @@ pub fn hemisphere_tile(o: &RenderOptions, side: usize) -> usize {
 }
 
 /// The hybrid-scheduled workload assembles pixels from ray-tree records
-/// and has no irradiance cache: it refuses renders that need one (or more
-/// than one primary ray per pixel) instead of silently dropping the term.
+/// and has no irradiance cache: it refuses renders that need one instead
+/// of silently dropping the term.
 pub fn check_hybrid(renderer: &Renderer<'_>) -> Result<()> {
     let o = renderer.options();
-    if o.pn > 1 {
-        return Err(Error::Usage(format!(
-            "-pn {}: the hybrid-scheduled workload traces one primary ray per pixel",
-            o.pn
-        )));
-    }
     if renderer.effects().diffuse_interreflection.enabled && !hybrid_interreflection(o) {
         return Err(Error::Usage(format!(
             "-ab {} -aa {} -as {} -ad {}: the hybrid-scheduled workload computes diffuse inter-reflection only without an irradiance cache (-aa 0, -ad plus -as at most {MOST_STRATA}); with --procs, other -ab renders use the wave renderer (parallel::ambient)",
@@ -167,6 +160,11 @@ mod tests {
         assert_eq!(hemisphere_tile(&o(1, 0.0, 128, 0), 16), 8);
         assert_eq!(hemisphere_tile(&o(1, 0.0, 4096, 512), 16), 1);
         assert_eq!(hemisphere_tile(&o(1, 0.0, 16, 0), 8), 8);
+        let four = RenderOptions {
+            pn: 4,
+            ..o(1, 0.0, 128, 0)
+        };
+        assert_eq!(hemisphere_tile(&four, 16), 4);
         assert_eq!(hemisphere_tile(&o(1, 0.2, 512, 128), 16), 16);
         assert_eq!(hemisphere_tile(&o(0, 0.0, 512, 128), 16), 16);
         for ad in [1, 7, 64, 100, 640, 5000] {

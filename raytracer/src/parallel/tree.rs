@@ -85,6 +85,10 @@ pub enum Child {
     /// (`-av`), carried (one colour, as every other child: a record's
     /// bytes are priced by its children).
     AmbientKnown(Color),
+    /// First child of a pixel of several primary rays (`-pn`, the count):
+    /// the node's value is the sum of its other children's values, in
+    /// order, divided by it (`Renderer::pixel`). Carried.
+    Mean(u32),
 }
 
 // A record's bytes are priced by its children (the simulated runs').
@@ -96,7 +100,7 @@ impl Child {
     pub(super) fn awaited(&self) -> bool {
         !matches!(
             self,
-            Child::Known(_) | Child::KnownScatter(_) | Child::AmbientKnown(_)
+            Child::Known(_) | Child::KnownScatter(_) | Child::AmbientKnown(_) | Child::Mean(_)
         )
     }
 }
@@ -404,6 +408,13 @@ pub(super) fn evaluate(
     if matches!(children.first(), Some(Child::Stratum)) {
         return crate::render::ambient::strata_mean_of_first_pass(&values);
     }
+    if let Some(&Child::Mean(n)) = children.first() {
+        let mut sum = Color::ZERO;
+        for &v in &values[1..] {
+            sum += v;
+        }
+        return sum / f64::from(n);
+    }
     let mut sum = base;
     for (child, &v) in children.iter().zip(&values) {
         match child {
@@ -420,7 +431,8 @@ pub(super) fn evaluate(
             | Child::KnownScatter(_)
             | Child::Ambient(_)
             | Child::AmbientKnown(_)
-            | Child::Stratum => {}
+            | Child::Stratum
+            | Child::Mean(_) => {}
         }
     }
     if let Some((factor, add)) = attenuation {

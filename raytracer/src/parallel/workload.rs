@@ -482,7 +482,7 @@ impl Workload for RtWorkload {
             DdTask::Tile(t) if self.replicated() => self.trace_tile_whole(&t, ctx),
             DdTask::Tile(t) if self.trace_tile_held(&t, ctx) => {}
             DdTask::Tile(t) => {
-                for (key, task) in self.tile_primaries(&t, ctx.proc_id()) {
+                for (key, task) in self.tile_jobs(&t, ctx) {
                     ctx.charge(Work::RaysSpawned, 1);
                     let job = RayJob {
                         key,
@@ -516,7 +516,7 @@ impl Workload for RtWorkload {
     fn to_data_parallel(&self, task: DdTask, ctx: &mut Ctx<Self>) {
         match task {
             DdTask::Tile(t) => {
-                for (key, task) in self.tile_primaries(&t, ctx.proc_id()) {
+                for (key, task) in self.tile_jobs(&t, ctx) {
                     ctx.charge(Work::RaysSpawned, 1);
                     ctx.spawn_dp(DpTask::Ray(RayJob {
                         key,
