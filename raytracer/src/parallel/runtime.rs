@@ -107,7 +107,7 @@ const TILE_SAMPLES: u64 = 16_384;
 /// The tile side for a render with diffuse inter-reflection in the hybrid
 /// workload ([`hybrid_interreflection`]) where none was asked for: the
 /// largest power of two up to `side` whose tile starts at most
-/// [`TILE_SAMPLES`] hemisphere samples (`-ad` plus `-as` per primary ray,
+/// 16,384 hemisphere samples (`-ad` plus `-as` per primary ray,
 /// `-pn` of them per pixel). Each of
 /// a tile's pixels starts a hemisphere of its own when the tile runs, and
 /// its samples wait as tasks, so what a processor holds grows with the
