@@ -997,6 +997,33 @@ fn a_workload_runs_only_on_the_processor_count_it_was_built_for() {
     }
 }
 
+/// One processor, three on threads and on the simulated cluster, two on
+/// the sequential runtime.
+const FOUR_RUNS: [(usize, RuntimeKind); 4] = [
+    (1, RuntimeKind::Threads),
+    (3, RuntimeKind::Threads),
+    (3, RuntimeKind::Sim),
+    (2, RuntimeKind::Sequential),
+];
+
+/// [`check`] for each of `runs` (processors, runtime) with the octree and
+/// the replicated distribution, an unlimited cache and one of 10%, tiles
+/// of 4 pixels; returns the migrations.
+fn check_everywhere(c: &Case, runs: &[(usize, RuntimeKind)]) -> u64 {
+    let mut migrations = 0;
+    for &(procs, runtime) in runs {
+        for distribution in [Distribution::Octree, Distribution::Replicated] {
+            for cache in [CacheSize::Unlimited, CacheSize::Percent(10.0)] {
+                let mut p = options(procs, distribution, cache, 4);
+                p.runtime = runtime;
+                let out = check(c, &p);
+                migrations += out.stats.sum(|s| s.tasks.migrations);
+            }
+        }
+    }
+    migrations
+}
+
 /// Diffuse inter-reflection without an irradiance cache or super-samples
 /// (`-ab 2 -aa 0 -as 0`) in the hybrid workload: every hemisphere's
 /// sample rays are data-parallel tasks that migrate to the cells they
@@ -1009,24 +1036,15 @@ fn hemisphere_rays_migrate_and_change_no_pixel() {
     (o.ab, o.aa, o.as_, o.ad) = (2, 0.0, 0, 16);
     let c = case("cornell", 16, 16, o);
     assert!(c.counts.ambient > 0, "the reference samples hemispheres");
-    let mut migrations = 0;
-    for (procs, runtime) in [
+    let runs = [
         (1, RuntimeKind::Threads),
         (2, RuntimeKind::Threads),
         (3, RuntimeKind::Threads),
         (5, RuntimeKind::Threads),
         (3, RuntimeKind::Sim),
         (2, RuntimeKind::Sequential),
-    ] {
-        for distribution in [Distribution::Octree, Distribution::Replicated] {
-            for cache in [CacheSize::Unlimited, CacheSize::Percent(10.0)] {
-                let mut p = options(procs, distribution, cache, 4);
-                p.runtime = runtime;
-                let out = check(&c, &p);
-                migrations += out.stats.sum(|s| s.tasks.migrations);
-            }
-        }
-    }
+    ];
+    let migrations = check_everywhere(&c, &runs);
     assert!(migrations > 0, "no hemisphere ray ever migrated");
     // Three bounces, the deepest hemispheres refused by -lw (their -av
     // term carried in the point's record), -aw moving -av.
@@ -1060,23 +1078,10 @@ fn super_samples_are_made_where_the_first_samples_meet_and_change_no_pixel() {
         c.counts.ambient,
         without.counts.ambient
     );
-    let mut migrations = 0;
-    for (procs, runtime) in [
-        (1, RuntimeKind::Threads),
-        (3, RuntimeKind::Threads),
-        (3, RuntimeKind::Sim),
-        (2, RuntimeKind::Sequential),
-    ] {
-        for distribution in [Distribution::Octree, Distribution::Replicated] {
-            for cache in [CacheSize::Unlimited, CacheSize::Percent(10.0)] {
-                let mut p = options(procs, distribution, cache, 4);
-                p.runtime = runtime;
-                let out = check(&c, &p);
-                migrations += out.stats.sum(|s| s.tasks.migrations);
-            }
-        }
-    }
-    assert!(migrations > 0, "no sample ray ever migrated");
+    assert!(
+        check_everywhere(&c, &FOUR_RUNS) > 0,
+        "no sample ray ever migrated"
+    );
     let mut o = RenderOptions::default();
     (o.ab, o.aa, o.as_, o.ad) = (2, 0.0, 16, 64);
     let c = case("cornell", 8, 8, o);
@@ -1101,20 +1106,7 @@ fn pixel_samples_are_ray_jobs_and_change_no_pixel() {
     };
     let c = case("studio", 24, 18, o.clone());
     assert_eq!(c.counts.primary, 3 * 24 * 18, "three samples a pixel");
-    for (procs, runtime) in [
-        (1, RuntimeKind::Threads),
-        (3, RuntimeKind::Threads),
-        (3, RuntimeKind::Sim),
-        (2, RuntimeKind::Sequential),
-    ] {
-        for distribution in [Distribution::Octree, Distribution::Replicated] {
-            for cache in [CacheSize::Unlimited, CacheSize::Percent(10.0)] {
-                let mut p = options(procs, distribution, cache, 4);
-                p.runtime = runtime;
-                check(&c, &p);
-            }
-        }
-    }
+    check_everywhere(&c, &FOUR_RUNS);
     (o.pn, o.ab, o.aa, o.as_, o.ad) = (2, 1, 0.0, 16, 64);
     let c = case("cornell", 8, 8, o);
     check(
