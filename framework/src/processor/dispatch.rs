@@ -102,17 +102,10 @@ impl<W: Workload> Processor<W> {
     /// what the merge emitted, with this processor as its origin.
     pub(super) fn merge_result(&mut self, result: W::Result, now: Time) -> Result<(), String> {
         self.stats.tasks.results_merged += 1;
-        let mut ctx = match self.spare_ctx.take() {
-            Some(ctx) => ctx,
-            None => Ctx::new(self.id, self.procs),
-        };
-        ctx.origin = self.id;
+        let origin = Some(self.id);
+        let mut ctx = self.new_ctx(origin);
         self.workload.merge_in(&mut self.acc, result, &mut ctx);
-        if ctx.charges.is_empty() && !ctx.has_emissions() && !ctx.complete {
-            self.spare_ctx = Some(ctx);
-            return Ok(());
-        }
-        self.dispatch(ctx, Some(self.id), now)
+        self.dispatch(ctx, origin, now)
     }
 }
 

@@ -55,13 +55,9 @@ impl RtWorkload {
         t: &Tile,
         proc: usize,
     ) -> impl Iterator<Item = (NodeKey, RayTask)> + '_ {
-        self.note_tile(proc, t);
-        let shard = &self.tile_rays[proc % self.tile_rays.len()];
-        let left = shard
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .remove(&(t.x0, t.y0));
-        let rays = left.unwrap_or_else(|| self.compute_tile_rays(t));
+        let rays = self
+            .take_tile(t, proc)
+            .unwrap_or_else(|| self.compute_tile_rays(t));
         let (x0, y0, w) = (t.x0, t.y0, (t.x1 - t.x0).max(1));
         let width = self.width as u32;
         rays.into_iter().enumerate().filter_map(move |(i, task)| {

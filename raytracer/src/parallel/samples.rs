@@ -23,7 +23,8 @@ impl RtWorkload {
         if n <= 1 {
             return self.tile_primaries(t, ctx.proc_id()).collect();
         }
-        self.forget_tile_rays(t, ctx.proc_id());
+        // With one sample a pixel, which these do not use.
+        let _ = self.take_tile(t, ctx.proc_id());
         let origin = Addr::Proc(ctx.origin());
         let mut jobs = Vec::new();
         for (x, y) in pixels(t) {
@@ -60,7 +61,8 @@ impl RtWorkload {
         caster: &C,
         ctx: &mut Ctx<Self>,
     ) -> TraceState {
-        self.forget_tile_rays(t, ctx.proc_id());
+        // With one sample a pixel, which these do not use.
+        let _ = self.take_tile(t, ctx.proc_id());
         let origin = Addr::Proc(ctx.origin());
         let mut st = TraceState::default();
         let size = (self.width, self.height);
@@ -74,16 +76,6 @@ impl RtWorkload {
             ctx.emit_result(origin, RtResult { key, record });
         }
         st
-    }
-
-    /// Notes tile `t` as taken on processor `proc` and drops the primary
-    /// rays its selection left ([`RtWorkload::tile_primaries`] takes them
-    /// with one sample a pixel).
-    fn forget_tile_rays(&self, t: &Tile, proc: usize) {
-        self.note_tile(proc, t);
-        let shard = &self.tile_rays[proc % self.tile_rays.len()];
-        let mut left = shard.lock().unwrap_or_else(|e| e.into_inner());
-        left.remove(&(t.x0, t.y0));
     }
 }
 

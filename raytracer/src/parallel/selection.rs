@@ -17,7 +17,7 @@ use super::workload::RtWorkload;
 use crate::accel::{NodeId, Pyramid};
 use crate::geometry::{Aabb, Vec3};
 use crate::render::light::LightExtent;
-use crate::render::ShadowBundle;
+use crate::render::{RayTask, ShadowBundle};
 use crate::scene::ViewType;
 
 impl RtWorkload {
@@ -68,6 +68,15 @@ impl RtWorkload {
             .insert((t.x0, t.y0), rays);
         ctx.charge(Work::ClipNodes, visits);
         self.nonempty(leaves)
+    }
+
+    /// Notes tile `t` as taken on processor `proc` and takes the primary
+    /// rays (one a pixel) its selection left, if it left them.
+    pub(super) fn take_tile(&self, t: &Tile, proc: usize) -> Option<Vec<Option<RayTask>>> {
+        self.note_tile(proc, t);
+        let shard = &self.tile_rays[proc % self.tile_rays.len()];
+        let mut left = shard.lock().unwrap_or_else(|e| e.into_inner());
+        left.remove(&(t.x0, t.y0))
     }
 
     /// Data selection for a shadow bundle: the pyramid from the shaded
