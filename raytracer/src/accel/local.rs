@@ -251,14 +251,22 @@ impl Hierarchy<'_> {
         // A blocker here blocks the segment for the octree too, wherever
         // the segment goes: the leaf holding the blocking point lists it.
         // Only "unblocked" needs every leaf along the segment judged.
-        let blocked = match self.objects {
-            HierarchyObjects::Scene(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
-            HierarchyObjects::Copies(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
-        };
+        let blocked = self.blocks(ray, tmin, tmax, ignore);
         if blocked || octree.leaves_along_all(ray, tmin, tmax, tmax, owned, resident) {
             Judged::Decided(blocked)
         } else {
             Judged::Partly(false)
+        }
+    }
+}
+
+impl Hierarchy<'_> {
+    /// Whether an object of the hierarchy other than the one of index
+    /// `ignore` ([`Hierarchy::index_of`]) blocks the segment.
+    pub fn blocks(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> bool {
+        match self.objects {
+            HierarchyObjects::Scene(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
+            HierarchyObjects::Copies(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
         }
     }
 }

@@ -380,3 +380,87 @@ fn boundary_scene() -> (Vec<Object>, Octree, Vec<Ray>) {
     }
     (objects, tree, rays)
 }
+
+/// The judgement of a box ([`Octree::leaves_in_box_all`], a shadow
+/// bundle's region): with budget to spare it says whether every
+/// non-empty leaf whose cell meets the box is held (checked leaf by
+/// leaf), and where it says so, every segment inside the box is judged
+/// held one by one too ([`Octree::leaves_along_all`]), for random scenes
+/// at every scale and split, and segments exactly along cell faces.
+#[test]
+fn a_held_box_holds_every_leaf_a_segment_inside_it_enters() {
+    type Scene = (Vec<Object>, Octree, Vec<(Ray, f64)>);
+    let mut scenes: Vec<Scene> = Vec::new();
+    for (seed, n, size) in [(31u64, 300usize, 10.0f64), (32, 150, 1e-5), (33, 150, 1e5)] {
+        let objects = random_scene(seed, n, size);
+        let tree = Octree::build(
+            &objects,
+            &OctreeParams {
+                max_objects: 2,
+                ..OctreeParams::default()
+            },
+        );
+        let mut s = seed;
+        let mut rnd = move || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((s >> 11) as f64) / ((1u64 << 53) as f64)
+        };
+        let segments = (0..300)
+            .map(|_| {
+                let o = Vec3::new(rnd(), rnd(), rnd()) * 1.2 * size - Vec3::splat(0.1 * size);
+                let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5 + 1e-3).normalize();
+                // Short segments (a bundle towards a near light) to long.
+                (Ray::new(o, d), rnd() * rnd() * size)
+            })
+            .collect();
+        scenes.push((objects, tree, segments));
+    }
+    let (objects, tree, rays) = boundary_scene();
+    scenes.push((objects, tree, rays.into_iter().map(|r| (r, 3.0)).collect()));
+    let (mut held, mut judged) = (0, 0);
+    for (objects, tree, segments) in &scenes {
+        let leaves: Vec<NodeId> = tree
+            .leaves()
+            .filter(|&l| !tree.leaf_objects(l).is_empty())
+            .collect();
+        for (places, salt) in [(1u32, 0u32), (2, 7), (3, 1), (5, 99)] {
+            for me in 0..places {
+                let p = Place::new(tree, objects, places, salt, me);
+                let (owned, resident) = (|n| p.owned(n), |l| p.resident(l));
+                for (ray, tmax) in segments {
+                    let (a, b) = (ray.at(0.0), ray.at(*tmax));
+                    let (lo, hi) = (a.min(b), a.max(b));
+                    let slack = Vec3::splat(tree.box_slack(lo, hi));
+                    let (lo, hi) = (lo - slack, hi + slack);
+                    let mut budget = u32::MAX;
+                    let all = tree.leaves_in_box_all(lo, hi, &owned, &resident, &mut budget);
+                    let meets = |l: NodeId| {
+                        let c = tree.node_bounds(l);
+                        c.min.cmple(hi).all() && c.max.cmpge(lo).all()
+                    };
+                    let want = leaves.iter().all(|&l| !meets(l) || p.resident(l));
+                    assert_eq!(all, want, "box {lo:?} {hi:?}, {places} places");
+                    if all {
+                        assert!(
+                            tree.leaves_along_all(ray, 0.0, *tmax, *tmax, &owned, &resident),
+                            "a held box, a segment inside it entering a leaf held elsewhere"
+                        );
+                        held += 1;
+                    }
+                    judged += 1;
+                    // Out of budget: not known to be held.
+                    let mut none = 0;
+                    let small = tree.leaves_in_box_all(lo, hi, &owned, &resident, &mut none);
+                    assert!(!small || all);
+                }
+            }
+        }
+    }
+    // Both verdicts are common.
+    assert!(
+        held * 10 > judged && held * 10 < judged * 9,
+        "{held} of {judged}"
+    );
+}

@@ -1331,6 +1331,80 @@ impl Octree {
         full & (1 << child) == 0 || self.judge_node(r, first + child, t, t1, cut, skip, ok)
     }
 
+    /// True if `ok(leaf)` holds for every non-empty leaf whose cell meets
+    /// the closed box `[lo, hi]`, without visiting the subtrees `skip`
+    /// vouches for; false as soon as one does not, or once `budget`
+    /// internal nodes have been opened (the answer is then unknown, and
+    /// false is the safe one). Every leaf a traversal of a segment inside
+    /// the box visits meets the box (up to the traversal's rounding, which
+    /// a box enlarged by [`Octree::box_slack`] covers), so a true answer
+    /// stands for [`Octree::leaves_along_all`]'s of every such segment: the
+    /// judgement of a bundle of rays at once.
+    pub fn leaves_in_box_all<S: NodeTest + ?Sized, K: NodeTest + ?Sized>(
+        &self,
+        lo: Vec3,
+        hi: Vec3,
+        skip: &S,
+        ok: &K,
+        budget: &mut u32,
+    ) -> bool {
+        if self.nodes.is_empty() || skip(0) {
+            return true;
+        }
+        let (lo, hi) = (lo.to_array(), hi.to_array());
+        self.box_node(0, 0, &lo, &hi, skip, ok, budget)
+    }
+
+    /// How much to enlarge a segment's bounding box (its endpoints' box)
+    /// so that it holds every leaf a traversal of the segment visits:
+    /// the traversal's plane crossings are rounded within a few units in
+    /// the last place of the coordinates and of the segment's length, far
+    /// below a billionth of the larger of the root cell and the endpoints'
+    /// coordinates.
+    pub fn box_slack(&self, lo: Vec3, hi: Vec3) -> f64 {
+        let far = lo.abs().max(hi.abs()).max_element();
+        (self.root_cell.half + far) * 1e-9
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn box_node<S: NodeTest + ?Sized, K: NodeTest + ?Sized>(
+        &self,
+        id: NodeId,
+        depth: usize,
+        lo: &[f64; 3],
+        hi: &[f64; 3],
+        skip: &S,
+        ok: &K,
+        budget: &mut u32,
+    ) -> bool {
+        let node = &self.nodes[id as usize];
+        if node.is_leaf() {
+            return node.meta & !LEAF == 0 || ok(id);
+        }
+        if *budget == 0 {
+            return false;
+        }
+        *budget -= 1;
+        let (c, h) = (node.center(), self.half_at[depth]);
+        // Per axis, which halves the box meets: bit 0 the lower, bit 1
+        // the upper.
+        let mut halves = [0u8; 3];
+        for a in 0..3 {
+            halves[a] = (lo[a] <= c[a] && hi[a] >= c[a] - h) as u8
+                | (((hi[a] >= c[a] && lo[a] <= c[a] + h) as u8) << 1);
+        }
+        for child in 0..8u32 {
+            let met = (0..3).all(|a| halves[a] & (1 << ((child >> a) & 1)) != 0);
+            if met && node.meta & (1 << child) != 0 {
+                let id = node.first + child;
+                if !skip(id) && !self.box_node(id, depth + 1, lo, hi, skip, ok, budget) {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
     /// The leaves a ray passes through, in order along the ray (the cells a
     /// migrating ray visits). Zero-length spans appear where the ray passes
     /// exactly through a cell edge or corner.

@@ -19,7 +19,7 @@ use std::cell::{Cell, RefCell};
 use hybrid_sched::serde::{Deserialize, Serialize};
 
 use crate::accel::{Hit, Judged, LeafObjects, NodeId, Octree, Partial, TraceCursor};
-use crate::geometry::{ObjectTable, Ray};
+use crate::geometry::{Aabb, ObjectTable, Ray};
 use crate::render::RayCaster;
 use crate::scene::ObjectId;
 
@@ -49,6 +49,8 @@ pub trait LocalQueries {
     fn occluded(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> Judged<bool>;
     /// Leaves whose every object the hierarchy holds.
     fn holds(&self, leaf: NodeId) -> bool;
+    /// See [`RayCaster::begin_bundle`].
+    fn begin_bundle(&self, region: Option<&Aabb>);
 }
 
 /// See the module documentation. `cell(leaf)` gives a non-empty leaf's
@@ -260,6 +262,12 @@ impl<'c, F: Fn(NodeId) -> Option<&'c LeafObjects>> RayCaster for PartialCaster<'
                 self.block(leaf, cursor);
                 true
             }
+        }
+    }
+
+    fn begin_bundle(&self, region: Option<&Aabb>) {
+        if let Some(l) = self.local {
+            l.begin_bundle(region);
         }
     }
 }

@@ -30,6 +30,7 @@ use std::sync::Arc;
 
 use hybrid_sched::{Ctx, DataView};
 
+use super::bundle_judge::BundleJudge;
 use super::caster::LocalQueries;
 use super::distribution::EMPTY;
 use super::tasks::{CellData, Tile};
@@ -39,7 +40,7 @@ use crate::accel::{
     GrownKernel, Hierarchy, HierarchyObjects, Hit, Judged, LeafObjects, LocalKernel, NodeId,
     ProcessorKernel as Kernel,
 };
-use crate::geometry::{Ray, Segment};
+use crate::geometry::{Aabb, Ray, Segment};
 use crate::render::{BvhCaster, RayCaster};
 use crate::scene::ObjectId;
 
@@ -51,6 +52,8 @@ pub struct LocalPath<'a> {
     /// The last object ignored by an any-hit query, and its index in the
     /// hierarchy (a point's shadow rays all ignore its surface).
     ignored: std::cell::Cell<Option<(ObjectId, Option<ObjectId>)>>,
+    /// What the current shadow bundle's rays have found.
+    bundle: BundleJudge,
 }
 
 enum Source<'a> {
@@ -71,6 +74,10 @@ impl LocalQueries for LocalPath<'_> {
 
     fn holds(&self, leaf: NodeId) -> bool {
         LocalPath::holds(self, leaf)
+    }
+
+    fn begin_bundle(&self, region: Option<&Aabb>) {
+        self.bundle.begin(region);
     }
 }
 
@@ -105,14 +112,22 @@ impl LocalPath<'_> {
         // compiled for each source: it is asked at every node a judged
         // segment crosses.
         match &self.source {
-            Source::Resident(h) => h.intersect(octree, ray, tmin, tmax, &|n| self.owned(n), &|l| {
-                self.resident(l)
-            }),
+            Source::Resident(h) => {
+                let (owned, resident) = (|n| self.owned(n), |l| self.resident(l));
+                let skip = |n| {
+                    self.bundle
+                        .vouches(octree, n, (ray, tmin, tmax), &owned, &resident)
+                };
+                h.intersect(octree, ray, tmin, tmax, &skip, &resident)
+            }
             Source::Grown(g) => {
-                let covered = |n| g.covers(n);
-                let held = |l| g.holds(l);
+                let (covered, held) = (|n| g.covers(n), |l| g.holds(l));
+                let skip = |n| {
+                    self.bundle
+                        .vouches(octree, n, (ray, tmin, tmax), &covered, &held)
+                };
                 g.hierarchy()
-                    .intersect(octree, ray, tmin, tmax, &covered, &held)
+                    .intersect(octree, ray, tmin, tmax, &skip, &held)
             }
         }
     }
@@ -137,22 +152,38 @@ impl LocalPath<'_> {
                 }
             })
         };
-        match &self.source {
-            Source::Resident(h) => h.occluded_indexed(
-                octree,
-                ray,
-                tmin,
-                tmax,
-                index(h),
-                &|n| self.owned(n),
-                &|l| self.resident(l),
-            ),
+        // A bundle whose judgements fail goes to the walk unjudged.
+        if self.bundle.walks() {
+            let h = match &self.source {
+                Source::Resident(h) => *h,
+                Source::Grown(g) => g.hierarchy(),
+            };
+            return match h.blocks(ray, tmin, tmax, index(&h)) {
+                true => Judged::Decided(true),
+                false => Judged::Partly(false),
+            };
+        }
+        let r = match &self.source {
+            Source::Resident(h) => {
+                let (owned, resident) = (|n| self.owned(n), |l| self.resident(l));
+                let skip = |n| {
+                    self.bundle
+                        .vouches(octree, n, (ray, tmin, tmax), &owned, &resident)
+                };
+                h.occluded_indexed(octree, ray, tmin, tmax, index(h), &skip, &resident)
+            }
             Source::Grown(g) => {
                 let h = g.hierarchy();
                 let (covered, held) = (|n| g.covers(n), |l| g.holds(l));
-                h.occluded_indexed(octree, ray, tmin, tmax, index(&h), &covered, &held)
+                let skip = |n| {
+                    self.bundle
+                        .vouches(octree, n, (ray, tmin, tmax), &covered, &held)
+                };
+                h.occluded_indexed(octree, ray, tmin, tmax, index(&h), &skip, &held)
             }
-        }
+        };
+        self.bundle.judged(r);
+        r
     }
 }
 
@@ -365,6 +396,7 @@ impl RtWorkload {
             wl: self,
             proc: proc as u32,
             ignored: std::cell::Cell::new(None),
+            bundle: BundleJudge::default(),
         })
     }
 

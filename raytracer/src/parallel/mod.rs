@@ -14,6 +14,7 @@
 //! and distribution.
 
 pub mod ambient;
+mod bundle_judge;
 pub mod caster;
 mod clip_memory;
 mod completion;

@@ -6,7 +6,7 @@
 //! implement [`RayCaster`] too.
 
 use crate::accel::{intersect_brute_force, occluded_brute_force, Bvh, Hit, Octree};
-use crate::geometry::{Ray, Segment};
+use crate::geometry::{Aabb, Ray, Segment};
 use crate::scene::{Object, ObjectId};
 
 /// Ray queries against scene geometry.
@@ -36,6 +36,12 @@ pub trait RayCaster {
             *o = self.intersect(ray, *tmin, *tmax);
         }
     }
+    /// Tells the caster that the queries to come are one shadow bundle's
+    /// (rays from one point towards one light), lying mostly inside
+    /// `region` where it is given, so that it may share among them what it
+    /// learns from the first (see `parallel/bundle_judge.rs`). A hint
+    /// only: every answer stays the same.
+    fn begin_bundle(&self, _region: Option<&Aabb>) {}
 }
 
 /// Casts rays through an octree built over `objects`.

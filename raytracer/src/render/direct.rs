@@ -205,6 +205,7 @@ pub fn run_shadow_bundle<C: RayCaster + ?Sized>(
         tail += c.brt;
         c.tail = tail;
     }
+    caster.begin_bundle(light.shadow_bounds(from, b.offset_scale).as_ref());
     let nshadcheck = (((n as f64).powf(opts.dc) + 0.5) as usize).max(1);
     let thresh = if b.weight > 0.0 {
         opts.dt / b.weight
