@@ -234,6 +234,16 @@ impl Hierarchy<'_> {
         }
     }
 
+    /// Whether an object of the hierarchy other than the one of index
+    /// `ignore` ([`Hierarchy::index_of`]) blocks the segment, without the
+    /// judgement of the leaves along it.
+    pub fn blocks(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> bool {
+        match self.objects {
+            HierarchyObjects::Scene(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
+            HierarchyObjects::Copies(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
+        }
+    }
+
     /// [`Hierarchy::occluded`] with the object to ignore given by its
     /// index here ([`Hierarchy::index_of`]: the many shadow rays from one
     /// point look it up once).
@@ -256,17 +266,6 @@ impl Hierarchy<'_> {
             Judged::Decided(blocked)
         } else {
             Judged::Partly(false)
-        }
-    }
-}
-
-impl Hierarchy<'_> {
-    /// Whether an object of the hierarchy other than the one of index
-    /// `ignore` ([`Hierarchy::index_of`]) blocks the segment.
-    pub fn blocks(&self, ray: &Ray, tmin: f64, tmax: f64, ignore: Option<ObjectId>) -> bool {
-        match self.objects {
-            HierarchyObjects::Scene(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
-            HierarchyObjects::Copies(o) => self.bvh.occluded(o, ray, tmin, tmax, ignore),
         }
     }
 }

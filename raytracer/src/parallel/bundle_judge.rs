@@ -13,8 +13,9 @@
 //!
 //! * once one ray's judgement fails, the bundle's further rays are walked
 //!   without one (they would mostly fail too: on four processors with 10%
-//!   caches, 82% of all judgements failed, and nearly all of them in
-//!   bundles where an earlier ray's had);
+//!   caches, 81% of all judgements failed, and about 96% of the failures
+//!   came after an earlier failure in their bundle; the book's benchmarks
+//!   chapter has the counts);
 //! * once one ray's judgement passes, the bundle's region (the box of the
 //!   point and the light, [`RayCaster::begin_bundle`]) is judged whole,
 //!   and where every non-empty leaf it meets is held, every segment inside
@@ -93,7 +94,6 @@ impl BundleJudge {
     /// lies inside a held region, the region judged here the first time a
     /// segment inside it asks after a ray's judgement has passed.
     #[inline]
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn vouches<S: NodeTest + ?Sized, K: NodeTest + ?Sized>(
         &self,
         octree: &Octree,
