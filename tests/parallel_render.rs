@@ -641,6 +641,45 @@ fn stopped_data_parallel_bundles_join_their_points_task() {
     }
 }
 
+/// Finished pixels travel to the master in batches
+/// (`WorkloadOptions::pixel_batch`), so a processor holds fewer than a
+/// batch at the end of the run, whatever the runtime; the picture is the
+/// sequential one.
+#[test]
+fn finished_pixels_sent_to_the_master_in_batches_change_no_pixel() {
+    let c = case("cornell", 20, 20, RenderOptions::default());
+    for runtime in [
+        RuntimeKind::Threads,
+        RuntimeKind::Sim,
+        RuntimeKind::Sequential,
+    ] {
+        for (batch, distribution) in [(7, Distribution::Octree), (1, Distribution::Replicated)] {
+            let mut p = options(3, distribution, CacheSize::Percent(10.0), 5);
+            p.runtime = runtime;
+            p.workload.pixel_batch = batch;
+            let out = check(&c, &p);
+            let what = format!("{runtime:?}, batches of {batch}, {distribution}");
+            let pixels: usize = out.procs.iter().map(|s| s.pixels).sum();
+            let sent: usize = out.procs.iter().map(|s| s.pixels_sent).sum();
+            assert_eq!(pixels, 400, "{what}: pixels assembled");
+            assert!(sent > 0, "{what}: no batch was sent");
+            for (i, s) in out.procs.iter().enumerate() {
+                assert!(
+                    s.pixels - s.pixels_sent < batch,
+                    "{what}: processor {i} kept {} of its {} pixels",
+                    s.pixels - s.pixels_sent,
+                    s.pixels
+                );
+            }
+        }
+    }
+    // Held to the end (0): nothing is sent.
+    let mut p = options(3, Distribution::Octree, CacheSize::Unlimited, 5);
+    p.workload.pixel_batch = 0;
+    let out = check(&c, &p);
+    assert!(out.procs.iter().all(|s| s.pixels_sent == 0));
+}
+
 #[test]
 fn jittered_pixels_and_sources_and_the_framework_sequential_runtime() {
     let options = RenderOptions {

@@ -137,7 +137,17 @@ fn mpirun_renders_the_sequential_picture() {
         (2, &["--procs", "2"][..]),
         (
             4,
-            &["--cache", "10%", "--policy", "round-robin", "--tile", "8"][..],
+            // Finished pixels sent to rank 0's master in batches of 5.
+            &[
+                "--cache",
+                "10%",
+                "--policy",
+                "round-robin",
+                "--tile",
+                "8",
+                "--pixel-batch",
+                "5",
+            ][..],
         ),
         // Every rank asks for the rest of the scene at its first fetch
         // (large data replies), and the paper's cache.
@@ -198,6 +208,22 @@ fn mpirun_renders_the_sequential_picture() {
                 assert_eq!(completed, Some(true), "-np {np} {extra:?}: {p}");
             }
         }
+        let summaries = stats["procs"].as_array().unwrap();
+        let count = |k: &str| {
+            summaries
+                .iter()
+                .map(|p| p[k].as_u64().unwrap())
+                .sum::<u64>()
+        };
+        assert!(
+            count("pixels") >= count("pixels_sent"),
+            "-np {np} {extra:?}"
+        );
+        assert_eq!(
+            count("pixels_sent") > 0,
+            extra.contains(&"--pixel-batch"),
+            "-np {np} {extra:?}: pixels sent in batches"
+        );
         let ranks = stats["ranks"].as_array().unwrap();
         assert_eq!(ranks.len(), np);
         for (i, t) in ranks.iter().enumerate() {

@@ -591,6 +591,14 @@ pub struct ParallelArgs {
         help_heading = "Parallel rendering"
     )]
     pub tail_tiles: bool,
+    /// Finished pixels a processor holds before sending them to the master in one message (32 bytes each), so its memory does not grow with the picture; 0 holds them all to the end.
+    #[arg(
+        long = "pixel-batch",
+        default_value_t = crate::parallel::PIXEL_BATCH,
+        value_name = "PIXELS",
+        help_heading = "Parallel rendering"
+    )]
+    pub pixel_batch: usize,
     /// Simulated machine for --runtime sim: parsytec-cc (the paper's) or 10gbe.
     #[arg(
         long,

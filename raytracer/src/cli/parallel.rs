@@ -99,6 +99,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
             inline_local_shadows: a.inline_shadows,
             local_kernel: a.local_kernel,
             tail_tiles: a.tail_tiles,
+            pixel_batch: a.pixel_batch,
         },
         threads: a.threads,
         time_limit,

@@ -24,6 +24,7 @@ mod execute;
 mod held;
 mod hemispheres;
 mod kernel;
+mod options;
 pub mod owners;
 pub mod partition;
 pub mod predict;
@@ -55,13 +56,13 @@ pub(crate) use runtime::{run_on, this_rank};
 pub use sizes::{CacheSize, FetchLimit};
 pub use tasks::{CellData, DdTask, DpTask};
 pub use work::Work;
-pub use workload::{RtWorkload, WorkloadOptions};
+pub use workload::{RtWorkload, WorkloadOptions, PIXEL_BATCH};
 
 use crate::accel::OctreeParams;
 use crate::image::Film;
 use crate::render::effects::EffectsReport;
 use crate::render::{check_resolution, RenderOptions, Renderer};
-use crate::scene::{Scene, View};
+use crate::scene::{Color, Scene, View};
 use crate::{Error, Result};
 
 /// Which runtime drives the processors.
@@ -199,6 +200,9 @@ pub struct ProcSummary {
     pub cost: u64,
     /// Pixels assembled here.
     pub pixels: usize,
+    /// Of those, the pixels sent to the master in batches during the run
+    /// ([`WorkloadOptions::pixel_batch`]); the rest stayed here to the end.
+    pub pixels_sent: usize,
     /// Most ray-tree nodes held at once while assembling pixels.
     pub peak_tree_nodes: usize,
     /// False for a processor of another MPI rank holding part of a
@@ -439,14 +443,8 @@ fn run_workload(
     let mut film = Film::new(width, height);
     let mut seen = vec![false; width * height];
     let mut procs = Vec::with_capacity(popts.procs);
-    for (p, acc) in report.procs.iter().enumerate() {
-        if acc.pending() != 0 {
-            return Err(Error::Other(format!(
-                "parallel render lost results: processor {p} still waits for {} ray-tree nodes",
-                acc.pending()
-            )));
-        }
-        for &(pixel, c) in &acc.pixels {
+    let mut place = |pixels: &[(u32, Color)]| {
+        for &(pixel, c) in pixels {
             let i = pixel as usize;
             if i >= seen.len() || std::mem::replace(&mut seen[i], true) {
                 return Err(Error::Other(format!(
@@ -455,9 +453,26 @@ fn run_workload(
             }
             film.set(i % width, i / width, c);
         }
+        Ok(())
+    };
+    // The batches processors sent (`WorkloadOptions::pixel_batch`).
+    if report.master.pending() != 0 {
+        return Err(Error::Other(
+            "parallel render sent ray-tree records to the master".into(),
+        ));
+    }
+    place(&report.master.pixels)?;
+    for (p, acc) in report.procs.iter().enumerate() {
+        if acc.pending() != 0 {
+            return Err(Error::Other(format!(
+                "parallel render lost results: processor {p} still waits for {} ray-tree nodes",
+                acc.pending()
+            )));
+        }
+        place(&acc.pixels)?;
         tracing::debug!(
             proc = p,
-            pixels = acc.pixels.len(),
+            pixels = acc.finished(),
             peak_tree_nodes = acc.peak_pending,
             "processor finished"
         );
@@ -470,7 +485,8 @@ fn run_workload(
                 copy_bytes,
                 hierarchy_bytes: wl.hierarchy_bytes(p),
                 cost: part.cost().get(p).copied().unwrap_or(0),
-                pixels: acc.pixels.len(),
+                pixels: acc.finished(),
+                pixels_sent: acc.shipped,
                 peak_tree_nodes: acc.peak_pending,
                 measured: true,
             });
@@ -500,7 +516,8 @@ fn run_workload(
             },
             hierarchy_bytes: wl.hierarchy_bytes(p),
             cost: part.cost().get(p).copied().unwrap_or(0),
-            pixels: acc.pixels.len(),
+            pixels: acc.finished(),
+            pixels_sent: acc.shipped,
             peak_tree_nodes: acc.peak_pending,
             measured: !elsewhere,
         });
@@ -511,11 +528,6 @@ fn run_workload(
     let o = wl.renderer().options();
     if o.ps > 1 && !replicated {
         film = crate::render::adaptive::resample(&film, o.ps, o.pt);
-    }
-    if report.master.pending() != 0 || !report.master.pixels.is_empty() {
-        return Err(Error::Other(
-            "parallel render sent pixel results to the master".into(),
-        ));
     }
     Ok(Some(ParallelRender {
         effects: wl.renderer().effects().clone(),

@@ -135,6 +135,9 @@ pub enum Record {
         strata: u16,
         seed: Box<HemisphereSeed>,
     },
+    /// Finished pixels (row-major index, radiance) a processor sends to
+    /// the master ([`PixelTrees::ship_pixels`]); the key names no node.
+    Pixels(Vec<(u32, Color)>),
 }
 
 /// What a hemisphere is made from: the ray whose hit it samples and the
@@ -182,6 +185,7 @@ impl ByteSize for RtResult {
             Record::Shaded { children, .. } => children.len() * std::mem::size_of::<Child>(),
             Record::Value(_) | Record::Hemisphere { .. } => 0,
             Record::SuperHemisphere { .. } => std::mem::size_of::<HemisphereSeed>(),
+            Record::Pixels(p) => std::mem::size_of_val(p.as_slice()),
         };
         self.key.bytes() + std::mem::size_of::<Record>() + extra
     }
@@ -205,8 +209,12 @@ struct Pending {
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 #[serde(crate = "hybrid_sched::serde")]
 pub struct PixelTrees {
-    /// Finished pixels: (row-major index, radiance).
+    /// Finished pixels: (row-major index, radiance), those not yet sent to
+    /// the master.
     pub pixels: Vec<(u32, Color)>,
+    /// Pixels finished here and sent to the master.
+    #[serde(default)]
+    pub shipped: usize,
     /// Nodes in flight, per pixel (a pixel's tree is small: linear search).
     pending: hybrid_sched::IdMap<u32, Vec<(Vec<u16>, Pending)>>,
     /// Number of nodes in `pending`.
@@ -226,6 +234,22 @@ impl PixelTrees {
     /// result was lost).
     pub fn pending(&self) -> usize {
         self.nodes
+    }
+
+    /// Pixels finished here, sent to the master or not.
+    pub fn finished(&self) -> usize {
+        self.shipped + self.pixels.len()
+    }
+
+    /// The finished pixels held, as a result for the master, which merges
+    /// them into its own.
+    pub fn ship_pixels(&mut self) -> RtResult {
+        let pixels = std::mem::take(&mut self.pixels);
+        self.shipped += pixels.len();
+        RtResult {
+            key: NodeKey::default(),
+            record: Record::Pixels(pixels),
+        }
     }
 
     /// The entry of node (`pixel`, `path`), created if absent.
@@ -285,6 +309,7 @@ impl PixelTrees {
                 };
                 self.await_samples(&r.key, state, &[], usize::from(strata));
             }
+            Record::Pixels(p) => self.pixels.extend(p),
         }
     }
 

@@ -264,3 +264,37 @@ fn super_sampling_hemispheres_are_wanted_after_each_pass() {
         assert_eq!(t.pending(), 0);
     }
 }
+
+#[test]
+fn shipped_pixels_leave_the_processor_and_join_the_master() {
+    let mut proc = PixelTrees::default();
+    let mut master = PixelTrees::default();
+    for (i, p) in [4u32, 9, 2].into_iter().enumerate() {
+        proc.merge(RtResult {
+            key: NodeKey::root(p),
+            record: Record::Value(c(i as f64)),
+        });
+    }
+    assert_eq!(proc.finished(), 3);
+    let batch = proc.ship_pixels();
+    // Priced by its pixels, as the runtimes' byte counts see it.
+    let bare = RtResult {
+        key: NodeKey::default(),
+        record: Record::Pixels(Vec::new()),
+    };
+    assert_eq!(batch.byte_size(), bare.byte_size() + 3 * 32);
+    assert!(proc.pixels.is_empty());
+    assert_eq!((proc.shipped, proc.finished()), (3, 3));
+    master.merge(batch);
+    proc.merge(RtResult {
+        key: NodeKey::root(5),
+        record: Record::Value(c(7.0)),
+    });
+    master.merge(proc.ship_pixels());
+    assert_eq!(
+        master.pixels,
+        vec![(4, c(0.0)), (9, c(1.0)), (2, c(2.0)), (5, c(7.0))]
+    );
+    assert_eq!((master.pending(), master.finished()), (0, 4));
+    assert_eq!(proc.finished(), 4);
+}
