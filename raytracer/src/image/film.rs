@@ -20,6 +20,16 @@ impl Film {
         }
     }
 
+    /// A film of `width` x `height` pixels, row-major from the top row;
+    /// `None` if `pixels` holds another number.
+    pub fn from_pixels(width: usize, height: usize, pixels: Vec<Color>) -> Option<Self> {
+        (width.checked_mul(height) == Some(pixels.len())).then_some(Self {
+            width,
+            height,
+            pixels,
+        })
+    }
+
     pub fn width(&self) -> usize {
         self.width
     }

@@ -27,6 +27,7 @@ mod kernel;
 mod options;
 pub mod owners;
 pub mod partition;
+mod picture;
 pub mod predict;
 mod runtime;
 mod samples;
@@ -49,6 +50,7 @@ use serde::Serialize;
 pub use completion::walks_worth_the_rest;
 pub use distribution::Distribution;
 pub use partition::Partition;
+pub use picture::Picture;
 #[cfg(feature = "mpi")]
 pub use runtime::mpi_world;
 pub use runtime::{check_hybrid, hemisphere_tile, hybrid_interreflection};
@@ -62,7 +64,7 @@ use crate::accel::OctreeParams;
 use crate::image::Film;
 use crate::render::effects::EffectsReport;
 use crate::render::{check_resolution, RenderOptions, Renderer};
-use crate::scene::{Color, Scene, View};
+use crate::scene::{Scene, View};
 use crate::{Error, Result};
 
 /// Which runtime drives the processors.
@@ -440,28 +442,19 @@ fn run_workload(
         (popts.runtime == RuntimeKind::Sim).then_some(report.stats.elapsed_ns as f64 * 1e-9);
     let render_s = t1.elapsed().as_secs_f64();
 
-    let mut film = Film::new(width, height);
-    let mut seen = vec![false; width * height];
-    let mut procs = Vec::with_capacity(popts.procs);
-    let mut place = |pixels: &[(u32, Color)]| {
-        for &(pixel, c) in pixels {
-            let i = pixel as usize;
-            if i >= seen.len() || std::mem::replace(&mut seen[i], true) {
-                return Err(Error::Other(format!(
-                    "parallel render produced pixel {i} twice or out of range"
-                )));
-            }
-            film.set(i % width, i / width, c);
-        }
-        Ok(())
-    };
-    // The batches processors sent (`WorkloadOptions::pixel_batch`).
+    // The batches processors sent (`WorkloadOptions::pixel_batch`), in
+    // place at the master; the rest joins them here.
     if report.master.pending() != 0 {
         return Err(Error::Other(
             "parallel render sent ray-tree records to the master".into(),
         ));
     }
-    place(&report.master.pixels)?;
+    let mut picture = report
+        .master
+        .picture
+        .take()
+        .unwrap_or_else(|| Picture::new(width * height));
+    let mut procs = Vec::with_capacity(popts.procs);
     for (p, acc) in report.procs.iter().enumerate() {
         if acc.pending() != 0 {
             return Err(Error::Other(format!(
@@ -469,7 +462,9 @@ fn run_workload(
                 acc.pending()
             )));
         }
-        place(&acc.pixels)?;
+        for &(pixel, c) in &acc.pixels {
+            picture.place(pixel, c);
+        }
         tracing::debug!(
             proc = p,
             pixels = acc.finished(),
@@ -522,6 +517,16 @@ fn run_workload(
             measured: !elsewhere,
         });
     }
+    if let Some(i) = picture.fault() {
+        return Err(Error::Other(format!(
+            "parallel render produced pixel {i} twice or out of range"
+        )));
+    }
+    let Some(mut film) = picture.into_film(width, height) else {
+        return Err(Error::Other(format!(
+            "parallel render's picture is not {width} x {height} pixels"
+        )));
+    };
     // -ps > 1: replicated tiles sample adaptively; the other distributions
     // traced every pixel (a tile's pixels finish out of order), and keep
     // the adaptive sampler's picture of them, equal to the sequential one.

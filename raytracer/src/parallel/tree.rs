@@ -19,6 +19,7 @@
 use hybrid_sched::serde::{Deserialize, Serialize};
 use hybrid_sched::ByteSize;
 
+use super::picture::Picture;
 use crate::render::ambient::AmbientRequest;
 use crate::render::RayTask;
 use crate::scene::Color;
@@ -136,8 +137,12 @@ pub enum Record {
         seed: Box<HemisphereSeed>,
     },
     /// Finished pixels (row-major index, radiance) a processor sends to
-    /// the master ([`PixelTrees::ship_pixels`]); the key names no node.
-    Pixels(Vec<(u32, Color)>),
+    /// the master ([`PixelTrees::ship_pixels`]), of a picture of `total`
+    /// pixels; the key names no node.
+    Pixels {
+        total: u32,
+        pixels: Vec<(u32, Color)>,
+    },
 }
 
 /// What a hemisphere is made from: the ray whose hit it samples and the
@@ -185,7 +190,7 @@ impl ByteSize for RtResult {
             Record::Shaded { children, .. } => children.len() * std::mem::size_of::<Child>(),
             Record::Value(_) | Record::Hemisphere { .. } => 0,
             Record::SuperHemisphere { .. } => std::mem::size_of::<HemisphereSeed>(),
-            Record::Pixels(p) => std::mem::size_of_val(p.as_slice()),
+            Record::Pixels { pixels, .. } => std::mem::size_of_val(pixels.as_slice()),
         };
         self.key.bytes() + std::mem::size_of::<Record>() + extra
     }
@@ -215,6 +220,9 @@ pub struct PixelTrees {
     /// Pixels finished here and sent to the master.
     #[serde(default)]
     pub shipped: usize,
+    /// The master's: the pixels processors sent, in place.
+    #[serde(default)]
+    pub picture: Option<Picture>,
     /// Nodes in flight, per pixel (a pixel's tree is small: linear search).
     pending: hybrid_sched::IdMap<u32, Vec<(Vec<u16>, Pending)>>,
     /// Number of nodes in `pending`.
@@ -241,14 +249,14 @@ impl PixelTrees {
         self.shipped + self.pixels.len()
     }
 
-    /// The finished pixels held, as a result for the master, which merges
-    /// them into its own.
-    pub fn ship_pixels(&mut self) -> RtResult {
+    /// The finished pixels held, of a picture of `total` pixels, as a
+    /// result for the master, which places them in its [`Picture`].
+    pub fn ship_pixels(&mut self, total: u32) -> RtResult {
         let pixels = std::mem::take(&mut self.pixels);
         self.shipped += pixels.len();
         RtResult {
             key: NodeKey::default(),
-            record: Record::Pixels(pixels),
+            record: Record::Pixels { total, pixels },
         }
     }
 
@@ -309,7 +317,14 @@ impl PixelTrees {
                 };
                 self.await_samples(&r.key, state, &[], usize::from(strata));
             }
-            Record::Pixels(p) => self.pixels.extend(p),
+            Record::Pixels { total, pixels } => {
+                let picture = self
+                    .picture
+                    .get_or_insert_with(|| Picture::new(total as usize));
+                for (i, c) in pixels {
+                    picture.place(i, c);
+                }
+            }
         }
     }
 

@@ -266,7 +266,7 @@ fn super_sampling_hemispheres_are_wanted_after_each_pass() {
 }
 
 #[test]
-fn shipped_pixels_leave_the_processor_and_join_the_master() {
+fn shipped_pixels_leave_the_processor_and_join_the_masters_picture() {
     let mut proc = PixelTrees::default();
     let mut master = PixelTrees::default();
     for (i, p) in [4u32, 9, 2].into_iter().enumerate() {
@@ -276,11 +276,14 @@ fn shipped_pixels_leave_the_processor_and_join_the_master() {
         });
     }
     assert_eq!(proc.finished(), 3);
-    let batch = proc.ship_pixels();
+    let batch = proc.ship_pixels(12);
     // Priced by its pixels, as the runtimes' byte counts see it.
     let bare = RtResult {
         key: NodeKey::default(),
-        record: Record::Pixels(Vec::new()),
+        record: Record::Pixels {
+            total: 12,
+            pixels: Vec::new(),
+        },
     };
     assert_eq!(batch.byte_size(), bare.byte_size() + 3 * 32);
     assert!(proc.pixels.is_empty());
@@ -290,11 +293,18 @@ fn shipped_pixels_leave_the_processor_and_join_the_master() {
         key: NodeKey::root(5),
         record: Record::Value(c(7.0)),
     });
-    master.merge(proc.ship_pixels());
-    assert_eq!(
-        master.pixels,
-        vec![(4, c(0.0)), (9, c(1.0)), (2, c(2.0)), (5, c(7.0))]
-    );
-    assert_eq!((master.pending(), master.finished()), (0, 4));
+    master.merge(proc.ship_pixels(12));
     assert_eq!(proc.finished(), 4);
+    assert_eq!(master.pending(), 0);
+    let picture = master.picture.take().expect("the master's picture");
+    assert_eq!(
+        (picture.len(), picture.placed(), picture.fault()),
+        (12, 4, None)
+    );
+    let film = picture.into_film(4, 3).expect("12 pixels");
+    let want = [(4, 0.0), (9, 1.0), (2, 2.0), (5, 7.0)];
+    for i in 0..12 {
+        let v = want.iter().find(|w| w.0 == i).map_or(0.0, |w| w.1);
+        assert_eq!(film.get(i % 4, i / 4), c(v), "pixel {i}");
+    }
 }

@@ -525,7 +525,9 @@ impl Workload for RtWorkload {
         self.count_progress(acc, before);
         let batch = self.opts.pixel_batch;
         if batch > 0 && acc.pixels.len() >= batch {
-            ctx.emit_result(Addr::Master, acc.ship_pixels());
+            // Pixel indices are u32 (`check_resolution`).
+            let total = (self.width * self.height) as u32;
+            ctx.emit_result(Addr::Master, acc.ship_pixels(total));
         }
     }
 }
