@@ -318,9 +318,12 @@ impl PixelTrees {
                 self.await_samples(&r.key, state, &[], usize::from(strata));
             }
             Record::Pixels { total, pixels } => {
-                let picture = self
-                    .picture
-                    .get_or_insert_with(|| Picture::new(total as usize));
+                // A size no picture has gets none: its pixels are the
+                // picture's fault, reported, not an allocation.
+                let total = Some(total as usize)
+                    .filter(|&t| t <= crate::render::sequential::MAX_PIXELS)
+                    .unwrap_or(0);
+                let picture = self.picture.get_or_insert_with(|| Picture::new(total));
                 for (i, c) in pixels {
                     picture.place(i, c);
                 }

@@ -308,3 +308,17 @@ fn shipped_pixels_leave_the_processor_and_join_the_masters_picture() {
         assert_eq!(film.get(i % 4, i / 4), c(v), "pixel {i}");
     }
 }
+
+#[test]
+fn a_batch_of_an_impossible_picture_is_a_fault_not_an_allocation() {
+    let mut master = PixelTrees::default();
+    master.merge(RtResult {
+        key: NodeKey::default(),
+        record: Record::Pixels {
+            total: u32::MAX,
+            pixels: vec![(5, c(1.0))],
+        },
+    });
+    let picture = master.picture.expect("a picture");
+    assert_eq!((picture.len(), picture.fault()), (0, Some(5)));
+}
