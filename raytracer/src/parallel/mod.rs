@@ -454,6 +454,9 @@ fn run_workload(
         .picture
         .take()
         .unwrap_or_else(|| Picture::new(width * height));
+    for &(pixel, c) in &report.master.pixels {
+        picture.place(pixel, c);
+    }
     let mut procs = Vec::with_capacity(popts.procs);
     for (p, acc) in report.procs.iter().enumerate() {
         if acc.pending() != 0 {

@@ -137,12 +137,9 @@ pub enum Record {
         seed: Box<HemisphereSeed>,
     },
     /// Finished pixels (row-major index, radiance) a processor sends to
-    /// the master ([`PixelTrees::ship_pixels`]), of a picture of `total`
-    /// pixels; the key names no node.
-    Pixels {
-        total: u32,
-        pixels: Vec<(u32, Color)>,
-    },
+    /// the master ([`PixelTrees::ship_pixels`]), which places them in its
+    /// picture ([`PixelTrees::place_batch`]); the key names no node.
+    Pixels(Vec<(u32, Color)>),
 }
 
 /// What a hemisphere is made from: the ray whose hit it samples and the
@@ -190,7 +187,7 @@ impl ByteSize for RtResult {
             Record::Shaded { children, .. } => children.len() * std::mem::size_of::<Child>(),
             Record::Value(_) | Record::Hemisphere { .. } => 0,
             Record::SuperHemisphere { .. } => std::mem::size_of::<HemisphereSeed>(),
-            Record::Pixels { pixels, .. } => std::mem::size_of_val(pixels.as_slice()),
+            Record::Pixels(pixels) => std::mem::size_of_val(pixels.as_slice()),
         };
         self.key.bytes() + std::mem::size_of::<Record>() + extra
     }
@@ -249,14 +246,22 @@ impl PixelTrees {
         self.shipped + self.pixels.len()
     }
 
-    /// The finished pixels held, of a picture of `total` pixels, as a
-    /// result for the master, which places them in its [`Picture`].
-    pub fn ship_pixels(&mut self, total: u32) -> RtResult {
+    /// The finished pixels held, as a result for the master.
+    pub fn ship_pixels(&mut self) -> RtResult {
         let pixels = std::mem::take(&mut self.pixels);
         self.shipped += pixels.len();
         RtResult {
             key: NodeKey::default(),
-            record: Record::Pixels { total, pixels },
+            record: Record::Pixels(pixels),
+        }
+    }
+
+    /// The master's merge of a batch: `pixels` placed in its [`Picture`]
+    /// of `total` pixels (made at the first batch).
+    pub fn place_batch(&mut self, total: usize, pixels: Vec<(u32, Color)>) {
+        let picture = self.picture.get_or_insert_with(|| Picture::new(total));
+        for (i, c) in pixels {
+            picture.place(i, c);
         }
     }
 
@@ -317,17 +322,9 @@ impl PixelTrees {
                 };
                 self.await_samples(&r.key, state, &[], usize::from(strata));
             }
-            Record::Pixels { total, pixels } => {
-                // A size no picture has gets none: its pixels are the
-                // picture's fault, reported, not an allocation.
-                let total = Some(total as usize)
-                    .filter(|&t| t <= crate::render::sequential::MAX_PIXELS)
-                    .unwrap_or(0);
-                let picture = self.picture.get_or_insert_with(|| Picture::new(total));
-                for (i, c) in pixels {
-                    picture.place(i, c);
-                }
-            }
+            // The workload's master places batches (`place_batch`); held
+            // here, they are assembled with the processors' own.
+            Record::Pixels(pixels) => self.pixels.extend(pixels),
         }
     }
 

@@ -276,24 +276,33 @@ fn shipped_pixels_leave_the_processor_and_join_the_masters_picture() {
         });
     }
     assert_eq!(proc.finished(), 3);
-    let batch = proc.ship_pixels(12);
+    let batch = proc.ship_pixels();
     // Priced by its pixels, as the runtimes' byte counts see it.
     let bare = RtResult {
         key: NodeKey::default(),
-        record: Record::Pixels {
-            total: 12,
-            pixels: Vec::new(),
-        },
+        record: Record::Pixels(Vec::new()),
     };
     assert_eq!(batch.byte_size(), bare.byte_size() + 3 * 32);
     assert!(proc.pixels.is_empty());
     assert_eq!((proc.shipped, proc.finished()), (3, 3));
-    master.merge(batch);
+    let place = |master: &mut PixelTrees, batch: RtResult| match batch.record {
+        Record::Pixels(pixels) => master.place_batch(12, pixels),
+        other => panic!("not a batch: {other:?}"),
+    };
+    place(&mut master, batch);
     proc.merge(RtResult {
         key: NodeKey::root(5),
         record: Record::Value(c(7.0)),
     });
-    master.merge(proc.ship_pixels(12));
+    place(&mut master, proc.ship_pixels());
+    // Merged without the workload, a batch is held as the processors'
+    // pixels are.
+    let mut held = PixelTrees::default();
+    held.merge(RtResult {
+        key: NodeKey::default(),
+        record: Record::Pixels(vec![(3, c(1.0))]),
+    });
+    assert_eq!(held.pixels, vec![(3, c(1.0))]);
     assert_eq!(proc.finished(), 4);
     assert_eq!(master.pending(), 0);
     let picture = master.picture.take().expect("the master's picture");
@@ -307,18 +316,4 @@ fn shipped_pixels_leave_the_processor_and_join_the_masters_picture() {
         let v = want.iter().find(|w| w.0 == i).map_or(0.0, |w| w.1);
         assert_eq!(film.get(i % 4, i / 4), c(v), "pixel {i}");
     }
-}
-
-#[test]
-fn a_batch_of_an_impossible_picture_is_a_fault_not_an_allocation() {
-    let mut master = PixelTrees::default();
-    master.merge(RtResult {
-        key: NodeKey::default(),
-        record: Record::Pixels {
-            total: u32::MAX,
-            pixels: vec![(5, c(1.0))],
-        },
-    });
-    let picture = master.picture.expect("a picture");
-    assert_eq!((picture.len(), picture.fault()), (0, Some(5)));
 }

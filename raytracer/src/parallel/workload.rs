@@ -33,7 +33,7 @@ use super::caster::Replay;
 use super::distribution::{partition_for, subtree_owners, Distribution};
 use super::partition::{object_bytes, Partition};
 use super::tasks::{CellData, DdTask, DpTask, RayJob, ShadowDp};
-use super::tree::{PixelTrees, RtResult};
+use super::tree::{PixelTrees, Record, RtResult};
 use super::work::Work;
 use crate::accel::{CellTable, LeafObjects, NodeId, ObjectCopies, TraceCursor};
 use crate::render::Renderer;
@@ -507,10 +507,15 @@ impl Workload for RtWorkload {
     }
 
     fn merge(&self, acc: &mut PixelTrees, result: RtResult) {
+        // The master: batches of finished pixels, placed in the picture.
+        if let Record::Pixels(pixels) = result.record {
+            acc.place_batch(self.width * self.height, pixels);
+            return;
+        }
         let before = acc.pixels.len();
         acc.merge(result);
-        // Only a processor's merge makes super-samples (no result of a
-        // pixel goes to the master).
+        // Only a processor's merge makes super-samples (no ray-tree record
+        // goes to the master).
         debug_assert!(acc.wanted.is_empty(), "super-samples left unmade");
         self.count_progress(acc, before);
     }
@@ -525,9 +530,7 @@ impl Workload for RtWorkload {
         self.count_progress(acc, before);
         let batch = self.opts.pixel_batch;
         if batch > 0 && acc.pixels.len() >= batch {
-            // Pixel indices are u32 (`check_resolution`).
-            let total = (self.width * self.height) as u32;
-            ctx.emit_result(Addr::Master, acc.ship_pixels(total));
+            ctx.emit_result(Addr::Master, acc.ship_pixels());
         }
     }
 }
