@@ -104,7 +104,9 @@ impl<W: Workload> Processor<W> {
         self.stats.tasks.results_merged += 1;
         let origin = Some(self.id);
         let mut ctx = self.new_ctx(origin);
-        self.workload.merge_in(&mut self.acc, result, &mut ctx);
+        let data = self.store.view();
+        self.workload
+            .merge_in(&mut self.acc, result, &data, &mut ctx);
         self.dispatch(ctx, origin, now)
     }
 }

@@ -274,11 +274,19 @@ pub trait Workload: Send + Sync + Sized + 'static {
     /// of a hemisphere whose first ones are all in): the tasks and results
     /// it emits through `ctx` are scheduled as a step's are, with this
     /// processor as their origin ([`Ctx::origin`]). Work it charges is
-    /// counted. The default calls [`Workload::merge`] and emits nothing.
-    /// Results sent to the master are merged with [`Workload::merge`]: the
-    /// master runs no tasks. See `SEMANTICS.md`, section 11.
-    fn merge_in(&self, acc: &mut Self::Accumulator, result: Self::Result, ctx: &mut Ctx<Self>) {
-        let _ = ctx;
+    /// counted. `data` is what the processor holds, as a step sees it
+    /// (its broadcast data included; reading it touches no cache recency).
+    /// The default calls [`Workload::merge`] and emits nothing. Results
+    /// sent to the master are merged with [`Workload::merge`]: the master
+    /// runs no tasks. See `SEMANTICS.md`, section 11.
+    fn merge_in(
+        &self,
+        acc: &mut Self::Accumulator,
+        result: Self::Result,
+        data: &DataView<'_, Self>,
+        ctx: &mut Ctx<Self>,
+    ) {
+        let _ = (data, ctx);
         self.merge(acc, result)
     }
 

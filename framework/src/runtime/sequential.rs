@@ -222,7 +222,8 @@ pub fn run_sequential_observed<W: Workload>(
                 Addr::Master => workload.merge(&mut master, result),
                 Addr::Proc(p) if p < procs => {
                     let mut merged = Ctx::new(p, procs);
-                    workload.merge_in(&mut accs[p], result, &mut merged);
+                    let view = DataView::new(&data, None);
+                    workload.merge_in(&mut accs[p], result, &view, &mut merged);
                     stats.charge(merged.charges());
                     stats.tasks.children_spawned += merged.dd.len() as u64;
                     dd.extend(merged.dd);

@@ -346,7 +346,7 @@ impl Workload for Mini {
     /// follow-up (a demand-driven task or a walk, by the key) whose result
     /// starts none: what it starts depends on the result alone, so the
     /// accumulators do not depend on the order of the merges.
-    fn merge_in(&self, acc: &mut Acc, r: Res, ctx: &mut Ctx<Self>) {
+    fn merge_in(&self, acc: &mut Acc, r: Res, _data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
         let follow = self.merge_spawns && r.key & FOLLOW_UP == 0 && mix(r.key ^ 11) % 2 == 0;
         let (key, value) = (r.key | FOLLOW_UP, r.value);
         self.merge(acc, r);

@@ -108,6 +108,7 @@ pub(super) fn options(a: &ParallelArgs, procs: usize) -> Result<ParallelOptions>
         credits: a.credits,
         flight_bytes: a.flight_bytes,
         prefetch_work: !a.no_prefetch,
+        ambient_records: Default::default(),
     })
 }
 

@@ -177,14 +177,8 @@ impl RtWorkload {
         ctx.charge(Work::RaysRetired, 1);
         let dest = Addr::Proc(ctx.origin());
         let Some(hit) = hit else {
-            let sky = self.renderer.sky_seen(task);
-            ctx.emit_result(
-                dest,
-                RtResult {
-                    key,
-                    record: Record::Value(sky),
-                },
-            );
+            let record = self.sky_record(self.renderer.sky_seen(task));
+            ctx.emit_result(dest, RtResult { key, record });
             return;
         };
         ctx.charge(Work::Shade, 1);
@@ -308,14 +302,13 @@ impl RtWorkload {
                 }
             }
         }
-        self.spawn_hemispheres(
-            &key,
-            task,
-            &shaded.ambient,
-            requests.len(),
-            &mut children,
-            ctx,
-        );
+        // With a cache, the pixel's owner decides the ambient terms.
+        let deferred = (self.irradiance.is_some())
+            .then(|| self.defer_ambient(task, &shaded, &requests, &mut children));
+        if deferred.is_none() {
+            let n = requests.len();
+            self.spawn_hemispheres(&key, task, &shaded.ambient, n, &mut children, ctx);
+        }
         requests.clear();
         REQUESTS.set(requests);
         if let Some(caster) = &whole {
@@ -334,7 +327,9 @@ impl RtWorkload {
         // scene ran its bundles and no ray was spawned), the node's value
         // goes as the merge would compute it.
         let base = self.ambient_base(&shaded);
-        let record = if whole.is_some() && children.iter().all(|c| !c.awaited()) {
+        let record = if let Some(d) = deferred {
+            d.record(shaded.base, children, attenuation, hit.t)
+        } else if whole.is_some() && children.iter().all(|c| !c.awaited()) {
             Record::Value(evaluate(base, &children, &[], attenuation))
         } else {
             Record::Shaded {
@@ -527,7 +522,7 @@ impl RtWorkload {
             let again = PartialCaster::new(
                 octree,
                 shared,
-                |l| data.peek(&l).map(|c| &c.cell),
+                |l| data.peek(&l).and_then(super::tasks::Item::cell),
                 Replay::default(),
                 local,
             );

@@ -153,7 +153,7 @@ impl RtWorkload {
 
 /// Spawns a hemisphere's `samples` (stratum, ray) as data-parallel tasks,
 /// children `first..` of its node `node`.
-fn spawn_samples(
+pub(super) fn spawn_samples(
     node: &NodeKey,
     first: usize,
     samples: Vec<(usize, RayTask)>,

@@ -426,7 +426,8 @@ impl RtWorkload {
             let t0 = std::time::Instant::now();
             let g = GrownKernel::build(
                 self.renderer.octree(),
-                data.local_items().map(|(&leaf, c)| (leaf, &c.cell)),
+                data.local_items()
+                    .filter_map(|(&leaf, c)| Some((leaf, c.cell()?))),
                 self.renderer.scene().table(),
             );
             tracing::debug!(

@@ -19,10 +19,12 @@ pub mod caster;
 mod clip_memory;
 mod completion;
 pub mod cost;
+mod cursor;
 pub mod distribution;
 mod execute;
 mod held;
 mod hemispheres;
+mod irradiance;
 mod kernel;
 mod options;
 pub mod owners;
@@ -49,6 +51,7 @@ use serde::Serialize;
 
 pub use completion::walks_worth_the_rest;
 pub use distribution::Distribution;
+pub use irradiance::WaveSummary;
 pub use partition::Partition;
 pub use picture::Picture;
 #[cfg(feature = "mpi")]
@@ -56,7 +59,7 @@ pub use runtime::mpi_world;
 pub use runtime::{check_hybrid, hemisphere_tile, hybrid_interreflection};
 pub(crate) use runtime::{run_on, this_rank};
 pub use sizes::{CacheSize, FetchLimit};
-pub use tasks::{CellData, DdTask, DpTask};
+pub use tasks::{CellData, DdTask, DpTask, Item};
 pub use work::Work;
 pub use workload::{RtWorkload, WorkloadOptions, PIXEL_BATCH};
 
@@ -147,6 +150,10 @@ pub struct ParallelOptions {
     /// [`hybrid_sched::Config::prefetch_work`]); `false`: the paper's
     /// ask-when-idle.
     pub prefetch_work: bool,
+    /// With an irradiance cache, the records it starts from (an ambient
+    /// file's, `-af`).
+    #[serde(skip)]
+    pub ambient_records: Arc<Vec<crate::render::ambient::AmbientRecord>>,
 }
 
 impl ParallelOptions {
@@ -178,6 +185,7 @@ impl ParallelOptions {
             credits: Config::new(1).credits_per_link,
             flight_bytes: RENDER_FLIGHT_BYTES,
             prefetch_work: Config::new(1).prefetch_work,
+            ambient_records: Arc::default(),
         }
     }
 }
@@ -256,6 +264,9 @@ pub struct ParallelRender {
     /// rank); empty for the other runtimes.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub ranks: Vec<RankTraffic>,
+    /// With an irradiance cache, what it did (`irradiance.rs`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ambient: Option<WaveSummary>,
 }
 
 impl ParallelRender {
@@ -417,6 +428,10 @@ fn run_workload(
         Some(p) => wl.with_progress(p),
         None => wl,
     };
+    let wl = match popts.ambient_records.is_empty() {
+        true => wl,
+        false => wl.with_ambient_records(&popts.ambient_records),
+    };
     // One processor per process: the copies a rank receives share the
     // ones it holds.
     let wl = if popts.runtime == RuntimeKind::Mpi {
@@ -441,6 +456,7 @@ fn run_workload(
     let simulated_s =
         (popts.runtime == RuntimeKind::Sim).then_some(report.stats.elapsed_ns as f64 * 1e-9);
     let render_s = t1.elapsed().as_secs_f64();
+    let waves = wl.finish_waves(&mut report.master).transpose()?;
 
     // The batches processors sent (`WorkloadOptions::pixel_batch`), in
     // place at the master; the rest joins them here.
@@ -525,18 +541,26 @@ fn run_workload(
             "parallel render produced pixel {i} twice or out of range"
         )));
     }
-    let Some(mut film) = picture.into_film(width, height) else {
-        return Err(Error::Other(format!(
-            "parallel render's picture is not {width} x {height} pixels"
-        )));
+    let (film, ambient) = match waves {
+        // With a cache, the waves' picture (adaptive sampling included).
+        Some((film, summary)) => (film, Some(summary)),
+        None => {
+            let Some(mut film) = picture.into_film(width, height) else {
+                return Err(Error::Other(format!(
+                    "parallel render's picture is not {width} x {height} pixels"
+                )));
+            };
+            // -ps > 1: replicated tiles sample adaptively; the other
+            // distributions traced every pixel (a tile's pixels finish out
+            // of order), and keep the adaptive sampler's picture of them,
+            // equal to the sequential one.
+            let o = wl.renderer().options();
+            if o.ps > 1 && !replicated {
+                film = crate::render::adaptive::resample(&film, o.ps, o.pt);
+            }
+            (film, None)
+        }
     };
-    // -ps > 1: replicated tiles sample adaptively; the other distributions
-    // traced every pixel (a tile's pixels finish out of order), and keep
-    // the adaptive sampler's picture of them, equal to the sequential one.
-    let o = wl.renderer().options();
-    if o.ps > 1 && !replicated {
-        film = crate::render::adaptive::resample(&film, o.ps, o.pt);
-    }
     Ok(Some(ParallelRender {
         effects: wl.renderer().effects().clone(),
         film,
@@ -553,5 +577,6 @@ fn run_workload(
         timeline,
         peak_resident_bytes: hybrid_sched::stats::peak_resident_bytes(),
         ranks,
+        ambient,
     }))
 }

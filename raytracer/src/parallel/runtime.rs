@@ -95,9 +95,13 @@ const MOST_STRATA: u32 = 60_000;
 /// its super-samples (`-as`), which depend on the first samples' values,
 /// are made there when the last of those is merged
 /// ([`hybrid_sched::Workload::merge_in`]) and traced the same way. With a
-/// cache, `-ab` renders use the wave renderer ([`super::ambient`]).
+/// cache, pixels are shaded in waves and each pixel's owner decides its
+/// lookups in the sequential renderer's order (`irradiance.rs`,
+/// `cursor.rs`), its hemispheres' rays traced the same way. Hemispheres of
+/// more samples than a ray-tree path can name (`-ad` plus `-as` above
+/// 60,000) are not.
 pub fn hybrid_interreflection(o: &RenderOptions) -> bool {
-    o.aa <= 0.0 && u64::from(o.ad) + u64::from(o.as_) <= u64::from(MOST_STRATA)
+    u64::from(o.ad) + u64::from(o.as_) <= u64::from(MOST_STRATA)
 }
 
 /// Most hemisphere samples the primary rays of one tile start at once, for
@@ -113,9 +117,10 @@ const TILE_SAMPLES: u64 = 16_384;
 /// its samples wait as tasks, so what a processor holds grows with the
 /// tile's area: the Cornell box at 96 x 96, `-ab 1 -aa 0` (`-ad 512 -as
 /// 128`), two processors, peaked at 12, 32, 128 and 528 MB with tiles of 4,
-/// 8, 16 and 32 pixels. Without `-ab` (or with a cache) it is `side`.
+/// 8, 16 and 32 pixels. Without `-ab` (or with a cache, which shades
+/// pixels in waves, not tiles) it is `side`.
 pub fn hemisphere_tile(o: &RenderOptions, side: usize) -> usize {
-    if o.ab == 0 || !hybrid_interreflection(o) {
+    if o.ab == 0 || o.aa > 0.0 || !hybrid_interreflection(o) {
         return side;
     }
     let per_pixel = (u64::from(o.pn.max(1)) * (u64::from(o.ad) + u64::from(o.as_))).max(1);
@@ -126,15 +131,15 @@ pub fn hemisphere_tile(o: &RenderOptions, side: usize) -> usize {
     t
 }
 
-/// The hybrid-scheduled workload assembles pixels from ray-tree records
-/// and has no irradiance cache: it refuses renders that need one instead
-/// of silently dropping the term.
+/// The hybrid-scheduled workload names a hemisphere's samples by 16-bit
+/// steps of their ray-tree paths: it refuses hemispheres of more samples
+/// than that instead of losing some.
 pub fn check_hybrid(renderer: &Renderer<'_>) -> Result<()> {
     let o = renderer.options();
     if renderer.effects().diffuse_interreflection.enabled && !hybrid_interreflection(o) {
         return Err(Error::Usage(format!(
-            "-ab {} -aa {} -as {} -ad {}: the hybrid-scheduled workload computes diffuse inter-reflection only without an irradiance cache (-aa 0, -ad plus -as at most {MOST_STRATA}); with --procs, other -ab renders use the wave renderer (parallel::ambient)",
-            o.ab, o.aa, o.as_, o.ad
+            "-ab {} -as {} -ad {}: the hybrid-scheduled workload samples hemispheres of at most {MOST_STRATA} rays (-ad plus -as)",
+            o.ab, o.as_, o.ad
         )));
     }
     Ok(())

@@ -9,6 +9,8 @@ use hybrid_sched::ByteSize;
 use super::caster::{Answer, Replay};
 use super::tree::NodeKey;
 use crate::accel::{LeafObjects, NodeId, TraceCursor};
+use crate::geometry::Vec3;
+use crate::render::ambient::{AmbientRecord, AmbientRequest};
 use crate::render::{RayTask, ShadowBundle};
 
 /// One octree leaf's objects as a data item: the leaf's own copies of its
@@ -33,6 +35,43 @@ impl ByteSize for CellData {
     }
 }
 
+/// A data item: an octree leaf's objects, or the irradiance-cache records
+/// one wave of pixels made, broadcast to every processor when the wave is
+/// over (`irradiance.rs`; ids [`wave_item`]).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub enum Item {
+    Cell(CellData),
+    Records(Vec<AmbientRecord>),
+}
+
+impl Item {
+    /// The leaf's objects (`None` for records).
+    #[inline]
+    pub fn cell(&self) -> Option<&LeafObjects> {
+        match self {
+            Item::Cell(c) => Some(&c.cell),
+            Item::Records(_) => None,
+        }
+    }
+}
+
+impl ByteSize for Item {
+    fn byte_size(&self) -> usize {
+        match self {
+            Item::Cell(c) => c.byte_size(),
+            Item::Records(r) => 8 + std::mem::size_of_val(r.as_slice()),
+        }
+    }
+}
+
+/// The data id of the records wave `wave` made: ids counted down from
+/// below `u32::MAX` (an octree numbers far fewer nodes; `u32::MAX` itself
+/// marks "no leaf").
+pub fn wave_item(wave: u32) -> NodeId {
+    u32::MAX - 1 - wave
+}
+
 /// A tile: a rectangle of pixels, the renderer's [`Region`](crate::render::Region).
 pub type Tile = crate::render::Region;
 
@@ -44,14 +83,24 @@ pub struct ShadowJob {
     pub bundle: ShadowBundle,
 }
 
+/// Pixels (row-major indices) of one wave of a render with an irradiance
+/// cache (`irradiance.rs`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct WaveChunk {
+    pub wave: u32,
+    pub pixels: Vec<u32>,
+}
+
 /// Demand-driven tasks: a tile of primary rays, or the shadow bundles of
 /// one shaded point that need cells their processor does not hold (one
-/// task, one selection: the union of theirs).
+/// task, one selection: the union of theirs), or pixels of a wave.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(crate = "hybrid_sched::serde")]
 pub enum DdTask {
     Tile(Tile),
     Shadows(Vec<ShadowJob>),
+    Wave(Box<WaveChunk>),
 }
 
 /// Bytes of the task's origin, which its envelope carries (the framework
@@ -65,6 +114,7 @@ impl ByteSize for DdTask {
             + ORIGIN_BYTES
             + match self {
                 DdTask::Tile(_) => 0,
+                DdTask::Wave(w) => 4 * w.pixels.len(),
                 DdTask::Shadows(jobs) => jobs
                     .iter()
                     .map(|j| std::mem::size_of::<ShadowJob>() + 2 * j.key.path.len())
@@ -94,8 +144,23 @@ pub struct ShadowDp {
     pub next: Option<NodeId>,
 }
 
+/// The leak tests of one irradiance-cache lookup (Radiance's
+/// `plugaleak`), migrating with their recorded answers like a shadow
+/// bundle: each test a segment from a point (origin, unit direction,
+/// length) that an opaque surface may cross, run in order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct LeakDp {
+    /// The pixel whose lookup waits (the path names the shaded point).
+    pub key: NodeKey,
+    pub req: AmbientRequest,
+    pub tests: Vec<(Vec3, Vec3, f64)>,
+    pub replay: Replay,
+    pub next: Option<NodeId>,
+}
+
 /// Data-parallel tasks.
-// Both variants travel by value between processors; a shadow bundle carries
+// The variants travel by value between processors; a shadow bundle carries
 // its medium, and boxing it would cost an allocation per task.
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -103,6 +168,7 @@ pub struct ShadowDp {
 pub enum DpTask {
     Ray(RayJob),
     Shadow(ShadowDp),
+    Leak(LeakDp),
 }
 
 impl ByteSize for DpTask {
@@ -113,6 +179,11 @@ impl ByteSize for DpTask {
                 DpTask::Ray(j) => 2 * j.key.path.len(),
                 DpTask::Shadow(s) => {
                     2 * s.key.path.len() + s.replay.answers.len() * std::mem::size_of::<Answer>()
+                }
+                DpTask::Leak(l) => {
+                    2 * l.key.path.len()
+                        + std::mem::size_of_val(l.tests.as_slice())
+                        + l.replay.answers.len() * std::mem::size_of::<Answer>()
                 }
             }
     }

@@ -20,7 +20,7 @@ use hybrid_sched::serde::{Deserialize, Serialize};
 use hybrid_sched::ByteSize;
 
 use super::picture::Picture;
-use crate::render::ambient::AmbientRequest;
+use crate::render::ambient::{AmbientCounts, AmbientRecord, AmbientRequest};
 use crate::render::RayTask;
 use crate::scene::Color;
 
@@ -86,6 +86,10 @@ pub enum Child {
     /// (`-av`), carried (one colour, as every other child: a record's
     /// bytes are priced by its children).
     AmbientKnown(Color),
+    /// With an irradiance cache: a point's `-aw` term (its `-av` term moved
+    /// to the cache's average), decided where the pixel is assembled
+    /// (`cursor.rs`) and added as it arrives, before the hemispheres'.
+    AmbientTerm,
     /// First child of a pixel of several primary rays (`-pn`, the count):
     /// the node's value is the sum of its other children's values, in
     /// order, divided by it (`Renderer::pixel`). Carried.
@@ -136,10 +140,52 @@ pub enum Record {
         strata: u16,
         seed: Box<HemisphereSeed>,
     },
+    /// With an irradiance cache: a ray's node with what the pixel's owner
+    /// decides in the sequential renderer's order (`cursor.rs`).
+    Traced(Box<Traced>),
+    /// The answers to a lookup's leak tests ([`super::tasks::LeakDp`]),
+    /// for the pixel's owner.
+    Leaks(Vec<bool>),
+    /// With an irradiance cache, for the master: finished pixels of the
+    /// wave running with the records each made, and the cache's counts.
+    WavePixels(Box<WaveBatch>),
     /// Finished pixels (row-major index, radiance) a processor sends to
     /// the master ([`PixelTrees::ship_pixels`]), which places them in its
     /// picture ([`PixelTrees::place_batch`]); the key names no node.
     Pixels(Vec<(u32, Color)>),
+}
+
+/// A ray's node when the pixel's owner decides the irradiance cache's
+/// lookups: its [`Record::Shaded`] parts, with the ambient requests and
+/// the `-aw` term left to the owner, and what a hemisphere's record needs
+/// of its sample rays (the distance to the surface hit).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct Traced {
+    pub base: Color,
+    /// The requests' children, then [`Child::AmbientTerm`] if `aw`, then a
+    /// [`Child::Ambient`] per ambient request.
+    pub children: Vec<Child>,
+    pub attenuation: Option<Attenuation>,
+    /// Distance to the hit (infinite: the ray left the scene).
+    pub t: f64,
+    /// The surface only passes the ray on: its distance is the hit's plus
+    /// its first child's (Radiance's `raytrans()`).
+    pub passes_on: bool,
+    /// `-aw`: the point's constant term, whose `-av` moves to the cache's
+    /// average.
+    pub aw: Option<Color>,
+    /// The ambient requests, in order, with the ray they are made for.
+    pub requests: Vec<HemisphereSeed>,
+}
+
+/// Finished pixels of a wave: (row-major index, value, the records its
+/// trace made in order), and what the irradiance cache did for them.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "hybrid_sched::serde")]
+pub struct WaveBatch {
+    pub pixels: Vec<(u32, Color, Vec<AmbientRecord>)>,
+    pub counts: AmbientCounts,
 }
 
 /// What a hemisphere is made from: the ray whose hit it samples and the
@@ -188,6 +234,17 @@ impl ByteSize for RtResult {
             Record::Value(_) | Record::Hemisphere { .. } => 0,
             Record::SuperHemisphere { .. } => std::mem::size_of::<HemisphereSeed>(),
             Record::Pixels(pixels) => std::mem::size_of_val(pixels.as_slice()),
+            Record::Traced(t) => {
+                std::mem::size_of::<Traced>()
+                    + std::mem::size_of_val(t.children.as_slice())
+                    + std::mem::size_of_val(t.requests.as_slice())
+            }
+            Record::Leaks(answers) => answers.len(),
+            Record::WavePixels(b) => b
+                .pixels
+                .iter()
+                .map(|p| 32 + std::mem::size_of_val(p.2.as_slice()))
+                .sum(),
         };
         self.key.bytes() + std::mem::size_of::<Record>() + extra
     }
@@ -232,6 +289,21 @@ pub struct PixelTrees {
     /// workload ([`Wanted`]); empty between merges.
     #[serde(default)]
     pub wanted: Vec<Wanted>,
+    /// With an irradiance cache, per pixel in flight: where its owner is in
+    /// the sequential renderer's order (`cursor.rs`).
+    #[serde(skip)]
+    pub(super) cursors: hybrid_sched::IdMap<u32, super::cursor::PixelCursor>,
+    /// With an irradiance cache, what it did at this processor.
+    #[serde(default)]
+    pub ambient: AmbientCounts,
+    /// With an irradiance cache, the master's: the pixels of the wave
+    /// running, with their records.
+    #[serde(default)]
+    pub wave: std::collections::BTreeMap<u32, (Color, Vec<AmbientRecord>)>,
+    /// Wave pixels the master received twice (none, unless a task ran
+    /// twice).
+    #[serde(default)]
+    pub wave_duplicates: u64,
 }
 
 impl PixelTrees {
@@ -325,13 +397,36 @@ impl PixelTrees {
             // The workload's master places batches (`place_batch`); held
             // here, they are assembled with the processors' own.
             Record::Pixels(pixels) => self.pixels.extend(pixels),
+            Record::Traced(t) => {
+                let t = *t;
+                self.cursors
+                    .entry(r.key.pixel)
+                    .or_default()
+                    .arrive(r.key.path.clone(), &t);
+                self.shaded(r.key, t.base, t.children, t.attenuation);
+            }
+            Record::Leaks(answers) => self.cursors.entry(r.key.pixel).or_default().answer(answers),
+            Record::WavePixels(b) => {
+                self.ambient.add(&b.counts);
+                for (i, c, records) in b.pixels {
+                    if self.wave.insert(i, (c, records)).is_some() {
+                        self.wave_duplicates += 1;
+                    }
+                }
+            }
         }
     }
 
     /// Makes node `key` a super-sampling hemisphere in `state` awaiting
     /// `more` samples after those whose values are `known` (children
     /// `0..known.len()`); once they are in, it is [`Wanted`].
-    fn await_samples(&mut self, key: &NodeKey, state: SuperState, known: &[Color], more: usize) {
+    pub(super) fn await_samples(
+        &mut self,
+        key: &NodeKey,
+        state: SuperState,
+        known: &[Color],
+        more: usize,
+    ) {
         let n = known.len() + more;
         let entry = self.entry(key.pixel, &key.path);
         debug_assert!(entry.record.is_none(), "node {key:?} shaded twice");
@@ -460,6 +555,7 @@ pub(super) fn evaluate(
         match child {
             Child::Ambient(coef) => sum += *coef * v,
             Child::AmbientKnown(term) => sum += *term,
+            Child::AmbientTerm => sum += v,
             _ => {}
         }
     }
@@ -471,6 +567,7 @@ pub(super) fn evaluate(
             | Child::KnownScatter(_)
             | Child::Ambient(_)
             | Child::AmbientKnown(_)
+            | Child::AmbientTerm
             | Child::Stratum
             | Child::Mean(_) => {}
         }

@@ -52,5 +52,11 @@ hybrid_sched::work_kinds! {
         /// `local_kernel`): no leaves walked.
         TraceLocal = "trace.local",
         Shade = "shade",
+        /// With an irradiance cache: lookups decided at pixels' owners.
+        AmbientLookups = "ambient.lookups",
+        /// Leak tests run (Radiance's `plugaleak`), where they ran.
+        LeakTests = "ambient.leak_tests",
+        /// Lookups whose leak tests left the pixel's owner as a task.
+        LeakJobs = "ambient.leak_jobs",
     }
 }

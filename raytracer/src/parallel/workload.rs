@@ -27,12 +27,12 @@
 use rustc_hash::FxHashSet;
 use std::sync::{Arc, Mutex};
 
-use hybrid_sched::{Addr, Ctx, DataView, DpOutcome, Placement, Workload};
+use hybrid_sched::{Addr, Ctx, DataView, DpOutcome, Epoch, Placement, Workload};
 
 use super::caster::Replay;
 use super::distribution::{partition_for, subtree_owners, Distribution};
 use super::partition::{object_bytes, Partition};
-use super::tasks::{CellData, DdTask, DpTask, RayJob, ShadowDp};
+use super::tasks::{CellData, DdTask, DpTask, Item, RayJob, ShadowDp};
 use super::tree::{PixelTrees, Record, RtResult};
 use super::work::Work;
 use crate::accel::{CellTable, LeafObjects, NodeId, ObjectCopies, TraceCursor};
@@ -76,6 +76,8 @@ pub struct RtWorkload {
     /// A distributed compiled scene: the renderer holds its replicated
     /// part, each processor reads its cells ([`RtWorkload::distributed`]).
     pub(super) held: Option<Held>,
+    /// With an irradiance cache, its waves (`irradiance.rs`).
+    pub(super) irradiance: Option<super::irradiance::Irradiance>,
 }
 
 /// A processor's cells as it loads them.
@@ -116,6 +118,23 @@ impl RtWorkload {
     /// (what is computed does not change).
     pub fn with_progress(mut self, counter: Arc<std::sync::atomic::AtomicU64>) -> Self {
         self.progress = Some(counter);
+        self
+    }
+
+    /// With an irradiance cache, the render starts from `records` (an
+    /// ambient file's, Radiance's `-af`) instead of none.
+    pub fn with_ambient_records(
+        mut self,
+        records: &[crate::render::ambient::AmbientRecord],
+    ) -> Self {
+        let procs = self.partition.procs() as usize;
+        self.irradiance = super::irradiance::Irradiance::new(
+            &self.renderer,
+            self.width,
+            self.height,
+            procs,
+            records,
+        );
         self
     }
 
@@ -185,7 +204,9 @@ impl RtWorkload {
         };
         let partition = partition_for(&renderer, opts.distribution, procs, &predicted);
         let subtree_owner = super::owners::NodeOwners::new(subtree_owners(&renderer, &partition));
+        let irradiance = super::irradiance::Irradiance::new(&renderer, width, height, procs, &[]);
         RtWorkload {
+            irradiance,
             subtree_owner,
             clip_cache: (0..procs.max(1))
                 .map(|_| Mutex::new(Default::default()))
@@ -262,7 +283,7 @@ impl RtWorkload {
     /// scene and never come here.)
     #[inline]
     pub(super) fn cell<'v>(view: &DataView<'v, Self>, leaf: NodeId) -> Option<&'v LeafObjects> {
-        view.get(&leaf).map(|c| &c.cell)
+        view.get(&leaf).and_then(Item::cell)
     }
 
     /// Whether `leaf`'s objects are held on processor `proc`: resident by
@@ -293,7 +314,7 @@ impl RtWorkload {
 }
 impl Workload for RtWorkload {
     type DataId = NodeId;
-    type DataItem = CellData;
+    type DataItem = Item;
     type DdTask = DdTask;
     type DpTask = DpTask;
     type Result = RtResult;
@@ -338,7 +359,189 @@ impl Workload for RtWorkload {
         self.held_charge(*leaf, bytes)
     }
 
-    fn load_partition(&self, proc: usize, procs: usize) -> Vec<(NodeId, CellData)> {
+    fn load_partition(&self, proc: usize, procs: usize) -> Vec<(NodeId, Item)> {
+        let cells = self.load_cells(proc, procs);
+        cells.into_iter().map(|(l, c)| (l, Item::Cell(c))).collect()
+    }
+
+    fn root_tasks(&self, procs: usize) -> Vec<DdTask> {
+        if let Some(irr) = &self.irradiance {
+            return irr.roots();
+        }
+        let ps = self.renderer.options().ps as usize;
+        // Tiles aligned to the adaptive sampling grid where replicated: a
+        // tile then shares only its border grid rows and columns with others.
+        let align = if ps > 1 && self.replicated() { ps } else { 1 };
+        let side = self.opts.tile.div_ceil(align) * align;
+        let tail = self.opts.tail_tiles;
+        super::tasks::screen_tiles(self.width, self.height, side, align, procs, tail)
+            .into_iter()
+            .map(DdTask::Tile)
+            .collect()
+    }
+
+    fn next_epoch(&self, ended: usize, acc: &mut PixelTrees) -> Option<Epoch<Self>> {
+        self.next_wave(ended, acc)
+    }
+    fn select_data(&self, task: &DdTask, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
+        match task {
+            DdTask::Tile(t) => self.select_tile(t, None, ctx),
+            DdTask::Shadows(jobs) => jobs
+                .iter()
+                .flat_map(|j| self.select_shadow(&j.bundle, None, ctx))
+                .collect(),
+            // A wave's pixels are scattered: their rays go to their cells.
+            DdTask::Wave(_) => Vec::new(),
+        }
+    }
+
+    fn select_data_in(
+        &self,
+        task: &DdTask,
+        local: &DataView<'_, Self>,
+        ctx: &mut Ctx<Self>,
+    ) -> Vec<NodeId> {
+        match task {
+            DdTask::Tile(t) => self.select_tile(t, Some(local), ctx),
+            DdTask::Shadows(jobs) => jobs
+                .iter()
+                .flat_map(|j| self.select_shadow(&j.bundle, Some(local), ctx))
+                .collect(),
+            DdTask::Wave(_) => Vec::new(),
+        }
+    }
+
+    fn execute_dd(&self, task: DdTask, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
+        match task {
+            DdTask::Wave(w) => self.run_wave(&w, Some(data), ctx),
+            DdTask::Tile(t) if self.replicated() => self.trace_tile_whole(&t, ctx),
+            DdTask::Tile(t) if self.trace_tile_held(&t, ctx) => {}
+            DdTask::Tile(t) => {
+                for (key, task) in self.tile_jobs(&t, ctx) {
+                    ctx.charge(Work::RaysSpawned, 1);
+                    let job = RayJob {
+                        key,
+                        task,
+                        cursor: TraceCursor::default(),
+                        next: None,
+                    };
+                    if let Some(job) = self.advance_ray(job, data, ctx) {
+                        ctx.charge(Work::ClipMisses, 1);
+                        ctx.spawn_dp(DpTask::Ray(job));
+                    }
+                }
+            }
+            DdTask::Shadows(jobs) => {
+                for j in jobs {
+                    let job = ShadowDp {
+                        key: j.key,
+                        bundle: j.bundle,
+                        replay: Replay::default(),
+                        next: None,
+                    };
+                    if let Some(job) = self.advance_shadow(job, data, ctx) {
+                        ctx.charge(Work::ClipMisses, 1);
+                        ctx.spawn_dp(DpTask::Shadow(job));
+                    }
+                }
+            }
+        }
+    }
+
+    fn to_data_parallel(&self, task: DdTask, ctx: &mut Ctx<Self>) {
+        match task {
+            DdTask::Wave(w) => self.run_wave(&w, None, ctx),
+            DdTask::Tile(t) => {
+                for (key, task) in self.tile_jobs(&t, ctx) {
+                    ctx.charge(Work::RaysSpawned, 1);
+                    ctx.spawn_dp(DpTask::Ray(RayJob {
+                        key,
+                        task,
+                        cursor: TraceCursor::default(),
+                        next: None,
+                    }));
+                }
+            }
+            DdTask::Shadows(jobs) => {
+                for j in jobs {
+                    ctx.charge(Work::ShadowBundlesDp, 1);
+                    ctx.spawn_dp(DpTask::Shadow(ShadowDp {
+                        key: j.key,
+                        bundle: j.bundle,
+                        replay: Replay::default(),
+                        next: None,
+                    }));
+                }
+            }
+        }
+    }
+
+    fn route_dp(&self, task: &DpTask) -> Option<NodeId> {
+        match task {
+            DpTask::Ray(j) => j.next,
+            DpTask::Shadow(s) => s.next,
+            DpTask::Leak(l) => l.next,
+        }
+    }
+
+    fn execute_dp(
+        &self,
+        task: DpTask,
+        data: &DataView<'_, Self>,
+        ctx: &mut Ctx<Self>,
+    ) -> DpOutcome<DpTask> {
+        let next = match task {
+            DpTask::Ray(j) => self.advance_ray(j, data, ctx).map(DpTask::Ray),
+            DpTask::Shadow(s) => self.advance_shadow(s, data, ctx).map(DpTask::Shadow),
+            DpTask::Leak(l) => self.advance_leaks(l, data, ctx).map(DpTask::Leak),
+        };
+        match next {
+            Some(t) => DpOutcome::Migrate(t),
+            None => DpOutcome::Finished,
+        }
+    }
+
+    fn merge(&self, acc: &mut PixelTrees, result: RtResult) {
+        // The master: batches of finished pixels, placed in the picture.
+        if let Record::Pixels(pixels) = result.record {
+            acc.place_batch(self.width * self.height, pixels);
+            return;
+        }
+        let before = acc.pixels.len();
+        acc.merge(result);
+        // Only a processor's merge makes super-samples (no ray-tree record
+        // goes to the master).
+        debug_assert!(acc.wanted.is_empty(), "super-samples left unmade");
+        self.count_progress(acc, before);
+    }
+
+    /// A hemisphere's super-samples are made where its first samples'
+    /// values meet: at the pixel's owner, when the last of them is merged.
+    fn merge_in(
+        &self,
+        acc: &mut PixelTrees,
+        result: RtResult,
+        data: &DataView<'_, Self>,
+        ctx: &mut Ctx<Self>,
+    ) {
+        if self.irradiance.is_some() {
+            return self.merge_wave(acc, result, data, ctx);
+        }
+        let before = acc.pixels.len();
+        acc.merge(result);
+        self.super_sample(acc, ctx);
+        // The master holds the picture; a processor a batch at most.
+        self.count_progress(acc, before);
+        let batch = self.opts.pixel_batch;
+        if batch > 0 && acc.pixels.len() >= batch {
+            ctx.emit_result(Addr::Master, acc.ship_pixels());
+        }
+    }
+}
+
+impl RtWorkload {
+    /// Processor `proc`'s cells, read or copied (see `load_partition`).
+    fn load_cells(&self, proc: usize, procs: usize) -> Vec<(NodeId, CellData)> {
         tracing::debug!(proc, procs, "processor starting: loading its partition");
         if let Some(h) = &self.held {
             let read = h
@@ -382,160 +585,6 @@ impl Workload for RtWorkload {
         cells
     }
 
-    fn root_tasks(&self, procs: usize) -> Vec<DdTask> {
-        let ps = self.renderer.options().ps as usize;
-        // Tiles aligned to the adaptive sampling grid where replicated: a
-        // tile then shares only its border grid rows and columns with others.
-        let align = if ps > 1 && self.replicated() { ps } else { 1 };
-        let side = self.opts.tile.div_ceil(align) * align;
-        let tail = self.opts.tail_tiles;
-        super::tasks::screen_tiles(self.width, self.height, side, align, procs, tail)
-            .into_iter()
-            .map(DdTask::Tile)
-            .collect()
-    }
-
-    fn select_data(&self, task: &DdTask, ctx: &mut Ctx<Self>) -> Vec<NodeId> {
-        match task {
-            DdTask::Tile(t) => self.select_tile(t, None, ctx),
-            DdTask::Shadows(jobs) => jobs
-                .iter()
-                .flat_map(|j| self.select_shadow(&j.bundle, None, ctx))
-                .collect(),
-        }
-    }
-
-    fn select_data_in(
-        &self,
-        task: &DdTask,
-        local: &DataView<'_, Self>,
-        ctx: &mut Ctx<Self>,
-    ) -> Vec<NodeId> {
-        match task {
-            DdTask::Tile(t) => self.select_tile(t, Some(local), ctx),
-            DdTask::Shadows(jobs) => jobs
-                .iter()
-                .flat_map(|j| self.select_shadow(&j.bundle, Some(local), ctx))
-                .collect(),
-        }
-    }
-
-    fn execute_dd(&self, task: DdTask, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
-        match task {
-            DdTask::Tile(t) if self.replicated() => self.trace_tile_whole(&t, ctx),
-            DdTask::Tile(t) if self.trace_tile_held(&t, ctx) => {}
-            DdTask::Tile(t) => {
-                for (key, task) in self.tile_jobs(&t, ctx) {
-                    ctx.charge(Work::RaysSpawned, 1);
-                    let job = RayJob {
-                        key,
-                        task,
-                        cursor: TraceCursor::default(),
-                        next: None,
-                    };
-                    if let Some(job) = self.advance_ray(job, data, ctx) {
-                        ctx.charge(Work::ClipMisses, 1);
-                        ctx.spawn_dp(DpTask::Ray(job));
-                    }
-                }
-            }
-            DdTask::Shadows(jobs) => {
-                for j in jobs {
-                    let job = ShadowDp {
-                        key: j.key,
-                        bundle: j.bundle,
-                        replay: Replay::default(),
-                        next: None,
-                    };
-                    if let Some(job) = self.advance_shadow(job, data, ctx) {
-                        ctx.charge(Work::ClipMisses, 1);
-                        ctx.spawn_dp(DpTask::Shadow(job));
-                    }
-                }
-            }
-        }
-    }
-
-    fn to_data_parallel(&self, task: DdTask, ctx: &mut Ctx<Self>) {
-        match task {
-            DdTask::Tile(t) => {
-                for (key, task) in self.tile_jobs(&t, ctx) {
-                    ctx.charge(Work::RaysSpawned, 1);
-                    ctx.spawn_dp(DpTask::Ray(RayJob {
-                        key,
-                        task,
-                        cursor: TraceCursor::default(),
-                        next: None,
-                    }));
-                }
-            }
-            DdTask::Shadows(jobs) => {
-                for j in jobs {
-                    ctx.charge(Work::ShadowBundlesDp, 1);
-                    ctx.spawn_dp(DpTask::Shadow(ShadowDp {
-                        key: j.key,
-                        bundle: j.bundle,
-                        replay: Replay::default(),
-                        next: None,
-                    }));
-                }
-            }
-        }
-    }
-
-    fn route_dp(&self, task: &DpTask) -> Option<NodeId> {
-        match task {
-            DpTask::Ray(j) => j.next,
-            DpTask::Shadow(s) => s.next,
-        }
-    }
-
-    fn execute_dp(
-        &self,
-        task: DpTask,
-        data: &DataView<'_, Self>,
-        ctx: &mut Ctx<Self>,
-    ) -> DpOutcome<DpTask> {
-        let next = match task {
-            DpTask::Ray(j) => self.advance_ray(j, data, ctx).map(DpTask::Ray),
-            DpTask::Shadow(s) => self.advance_shadow(s, data, ctx).map(DpTask::Shadow),
-        };
-        match next {
-            Some(t) => DpOutcome::Migrate(t),
-            None => DpOutcome::Finished,
-        }
-    }
-
-    fn merge(&self, acc: &mut PixelTrees, result: RtResult) {
-        // The master: batches of finished pixels, placed in the picture.
-        if let Record::Pixels(pixels) = result.record {
-            acc.place_batch(self.width * self.height, pixels);
-            return;
-        }
-        let before = acc.pixels.len();
-        acc.merge(result);
-        // Only a processor's merge makes super-samples (no ray-tree record
-        // goes to the master).
-        debug_assert!(acc.wanted.is_empty(), "super-samples left unmade");
-        self.count_progress(acc, before);
-    }
-
-    /// A hemisphere's super-samples are made where its first samples'
-    /// values meet: at the pixel's owner, when the last of them is merged.
-    fn merge_in(&self, acc: &mut PixelTrees, result: RtResult, ctx: &mut Ctx<Self>) {
-        let before = acc.pixels.len();
-        acc.merge(result);
-        self.super_sample(acc, ctx);
-        // The master holds the picture; a processor a batch at most.
-        self.count_progress(acc, before);
-        let batch = self.opts.pixel_batch;
-        if batch > 0 && acc.pixels.len() >= batch {
-            ctx.emit_result(Addr::Master, acc.ship_pixels());
-        }
-    }
-}
-
-impl RtWorkload {
     /// Counts the pixels finished since there were `before`.
     fn count_progress(&self, acc: &PixelTrees, before: usize) {
         if let Some(p) = &self.progress {

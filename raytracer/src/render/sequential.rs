@@ -762,7 +762,7 @@ impl<'s> Renderer<'s> {
     /// `dir`. Nominally transparent surfaces (Radiance's `T_TRANSP` types:
     /// glass, dielectrics, `trans` and the like, mist, antimatter) are
     /// passed whatever they transmit.
-    fn leak_occluded<C: RayCaster>(
+    pub(crate) fn leak_occluded<C: RayCaster + ?Sized>(
         &self,
         caster: &C,
         req: &AmbientRequest,
