@@ -180,3 +180,31 @@ fn leak_tests_travel_and_the_picture_is_the_sequential_one() {
         "no leak test left its pixel's owner"
     );
 }
+
+#[test]
+fn without_a_cache_parallel_equals_sequential() {
+    let (scene, view, w, h) = cornell(10);
+    for ps in [1, 3] {
+        let o = RenderOptions {
+            aa: 0.0,
+            ps,
+            ..options()
+        };
+        let (seq, _) = Renderer::new(&scene, o.clone())
+            .unwrap()
+            .render(&view, w, h)
+            .unwrap();
+        for p in every_kind(2) {
+            let out = render_parallel(scene.clone(), o.clone(), &view, w, h, &p).unwrap();
+            assert!(out.film.pixels() == seq.pixels(), "-ps {ps}: {p:?}");
+            assert!(out.ambient.is_none(), "no cache, no waves");
+        }
+    }
+}
+
+#[test]
+fn bad_parallel_options_are_usage_errors() {
+    let (scene, view, w, h) = cornell(8);
+    let e = render_parallel(scene, options(), &view, w, h, &ParallelOptions::new(0)).unwrap_err();
+    assert_eq!(e.exit_code(), 2, "{e}");
+}

@@ -655,7 +655,9 @@ fn parallel_inter_reflection_writes_the_sequential_picture() {
         "the simulated render differs from the sequential one"
     );
     assert!(
-        e.contains("parallel inter-reflection: 3 processors (sim)") && e.contains("simulated s"),
+        e.contains("parallel render: 3 processors, sim runtime")
+            && e.contains("simulated on")
+            && e.contains("irradiance cache:"),
         "{e}"
     );
     let (threads, e) = render("threads.hdr", &["--procs", "2"]);
@@ -663,7 +665,10 @@ fn parallel_inter_reflection_writes_the_sequential_picture() {
         threads == want,
         "the threaded render differs from the sequential one"
     );
-    assert!(e.contains("2 processors (threads)"), "{e}");
+    assert!(
+        e.contains("parallel render: 2 processors, threads runtime"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -1162,8 +1167,8 @@ fn readme_command_extraction() {
 }
 
 /// The experiments beyond the paper need their render options, and say
-/// which: `interreflection` any `-ab`, `hemispheres` `-ab` without an
-/// irradiance cache.
+/// which: `interreflection` `-ab` with an irradiance cache, `hemispheres`
+/// `-ab` without one.
 #[test]
 fn extra_experiments_name_the_options_they_need() {
     let dir = tmpdir("extra-experiments");
@@ -1172,6 +1177,7 @@ fn extra_experiments_name_the_options_they_need() {
     let tiny = ["--scene", "cornell", "--width", "8", "--height", "8"];
     for (name, extra, says) in [
         ("interreflection", &[][..], "give -ab 1 or more"),
+        ("interreflection", &["-ab", "1", "-aa", "0"][..], "-aa above 0"),
         ("hemispheres", &[][..], "with -aa 0"),
         ("hemispheres", &["-ab", "1"][..], "with -aa 0"),
     ] {

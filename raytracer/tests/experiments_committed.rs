@@ -19,9 +19,9 @@
 //! - `experiments/hemispheres`: hemisphere rays migrating through a
 //!   distributed scene (the Cornell box, 1 to 32 simulated processors),
 //!   about 20 s in a release build; release only;
-//! - `experiments/interreflection`: diffuse inter-reflection on the
-//!   simulated cluster (the Cornell box, 1 to 32 processors), about 15 s
-//!   in a release build; release only;
+//! - `experiments/interreflection`: diffuse inter-reflection with an
+//!   irradiance cache on a distributed scene, simulated (the Cornell box, 1
+//!   to 32 processors), about 35 s in a release build; release only;
 //! - `experiments/studio`, `experiments/studio-soft` (the paper-like
 //!   workload at full size) and `experiments/conference`: minutes each,
 //!   ignored by default; `cargo test --release -p hybrid-rt --test
@@ -223,7 +223,8 @@ fn small_paper_like_experiments_equal_the_committed_files() {
 }
 
 /// The arguments of `experiments/interreflection`: diffuse inter-reflection
-/// (`-ab 1`) on the simulated cluster, 1 to 32 processors.
+/// with an irradiance cache (`-ab 1 -ad 64 -as 16`) on the simulated
+/// cluster, 1 to 32 processors.
 const INTERREFLECTION: &[&str] = &[
     "--scene",
     "cornell",
@@ -235,6 +236,10 @@ const INTERREFLECTION: &[&str] = &[
     "32",
     "-ab",
     "1",
+    "-ad",
+    "64",
+    "-as",
+    "16",
 ];
 
 #[test]
@@ -247,10 +252,26 @@ fn interreflection_experiment_equals_the_committed_files() {
 }
 
 /// The arguments of `experiments/hemispheres`: hemisphere rays migrating
-/// through a distributed scene (`-ab 1 -aa 0 -as 0 -ad 64`, otherwise
-/// `experiments/interreflection`'s) on the simulated cluster, 1 to 32
-/// processors.
-const HEMISPHERES: &[&str] = &["-aa", "0", "-as", "0", "-ad", "64"];
+/// through a distributed scene without an irradiance cache (`-ab 1 -aa 0
+/// -as 0 -ad 64`) on the simulated cluster, 1 to 32 processors.
+const HEMISPHERES: &[&str] = &[
+    "--scene",
+    "cornell",
+    "--width",
+    "64",
+    "--height",
+    "64",
+    "--max-procs",
+    "32",
+    "-ab",
+    "1",
+    "-aa",
+    "0",
+    "-as",
+    "0",
+    "-ad",
+    "64",
+];
 
 #[test]
 #[cfg_attr(
@@ -258,8 +279,7 @@ const HEMISPHERES: &[&str] = &["-aa", "0", "-as", "0", "-ad", "64"];
     ignore = "release only (minutes in debug): scripts/test.sh runs it with --release"
 )]
 fn hemispheres_experiment_equals_the_committed_files() {
-    let args: Vec<&str> = INTERREFLECTION.iter().chain(HEMISPHERES).copied().collect();
-    check_experiment("hemispheres", "hemispheres", &args);
+    check_experiment("hemispheres", "hemispheres", HEMISPHERES);
 }
 
 #[test]

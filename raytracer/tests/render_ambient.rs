@@ -331,17 +331,14 @@ fn ambient_weight_averages_the_constant_ambient() {
     heavy.aw = 1_000_000_000;
     let (back, _) = render(&s, &v, 12, 12, heavy);
     assert!(mean_rel_diff(&back, &plain) < 1e-6);
-    let par = hybrid_rt::parallel::ambient::render_ambient_parallel(
+    let par = hybrid_rt::parallel::render_parallel(
         std::sync::Arc::new(s),
         weighted,
         &v,
         12,
         12,
         &hybrid_rt::parallel::ParallelOptions::new(3),
-        &[],
-        None,
     )
-    .unwrap()
     .unwrap();
     assert_eq!(par.film.pixels(), avg.pixels());
 }

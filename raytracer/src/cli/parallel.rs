@@ -29,17 +29,6 @@ pub(super) fn resolve(a: &ParallelArgs) -> Result<Option<ParallelOptions>> {
     }
 }
 
-/// Whether this process speaks for the run: always, but under MPI only
-/// rank 0 (every rank would print the same warning).
-pub(super) fn speaks(p: &ParallelOptions) -> bool {
-    #[cfg(feature = "mpi")]
-    if p.runtime == RuntimeKind::Mpi {
-        return hybrid_sched::runtime::mpi::last_world().is_none_or(|w| w.rank == 0);
-    }
-    let _ = p;
-    true
-}
-
 #[cfg(feature = "mpi")]
 fn mpi_world() -> Result<(usize, usize)> {
     crate::parallel::mpi_world()
@@ -293,6 +282,21 @@ pub fn summary(r: &ParallelRender) -> String {
                 bound
             );
         }
+    }
+    if let Some(a) = &r.ambient {
+        let c = &a.counts;
+        let _ = writeln!(
+            s,
+            "irradiance cache: {} waves, {} lookups ({} interpolated, {} fell back to -av), {} hemispheres, {} leak tests ({} lookups sent theirs away), {} records",
+            a.waves,
+            c.lookups,
+            c.hits,
+            c.fallbacks,
+            c.hemispheres,
+            r.work(Work::LeakTests),
+            r.work(Work::LeakJobs),
+            a.records
+        );
     }
     s
 }

@@ -165,25 +165,18 @@ fn render(a: &RenderArgs) -> Result<()> {
     if let Some(p) = popts.as_mut().filter(|_| a.parallel.tile.is_none()) {
         p.workload.tile = crate::parallel::hemisphere_tile(&options, p.workload.tile);
     }
+    let ambient_file = ambient_file(a, &options)?;
+    if let (Some(p), Some(f)) = (popts.as_mut(), &ambient_file) {
+        p.ambient_records = Arc::new(f.records.clone());
+    }
     if let Some(popts) = popts.as_ref().filter(|p| distributes(a, p, &options)) {
         let Some(view) = view else {
             return Err(usage(
                 "a distributed render of a compiled scene needs a view: give one (-vf, -vp ...) or compile the scene with one",
             ));
         };
-        return run_held(a, options, view, popts, exposure, start);
-    }
-    if let Some(p) = popts
-        .as_ref()
-        .filter(|p| would_distribute(a, p) && super::parallel::speaks(p))
-    {
-        eprintln!(
-            "warning: with -ab and an irradiance cache (-aa {}), every processor traces whole ray \
-             trees over the whole scene (their hemisphere rays do not migrate to the cells' \
-             owners; with -aa 0 they do): the compiled scene is loaded whole, not read processor \
-             by processor, and distribution {} does not apply",
-            options.aa, p.workload.distribution
-        );
+        let file = ambient_file.as_ref();
+        return run_held(a, options, view, popts, exposure, start, file);
     }
     let t0 = std::time::Instant::now();
     let scene = Arc::new(crate::compiled::load(&a.scenes)?);
@@ -216,24 +209,19 @@ fn render(a: &RenderArgs) -> Result<()> {
         "scene loaded"
     );
     tracing::debug!(?options, width, height, view = %view.to_options(), "render options");
-    let ambient_file = ambient_file(a, &options)?;
     if let Some(popts) = popts {
         tracing::debug!(?popts, "parallel options");
-        if options.ab > 0 && !crate::parallel::hybrid_interreflection(&options) {
-            return run_ambient_parallel(
-                a,
-                scene,
-                options,
-                &view,
-                (width, height),
-                &popts,
-                exposure,
-                start,
-                ambient_file.as_ref(),
-            );
-        }
+        let file = ambient_file.as_ref();
         return run_parallel(
-            a, scene, options, &view, width, height, &popts, exposure, start,
+            a,
+            scene,
+            options,
+            &view,
+            (width, height),
+            &popts,
+            exposure,
+            start,
+            file,
         );
     }
     let renderer = Renderer::new(&scene, options)?.with_effect_times(a.stats.is_some());
@@ -412,7 +400,9 @@ fn run_held(
     popts: &ParallelOptions,
     exposure: Option<f64>,
     start: Instant,
+    ambient_file: Option<&AmbientFileUse>,
 ) -> Result<()> {
+    let file = ambient_file.map(|f| (f, options.clone()));
     let compiled = crate::compiled::CompiledScene::open(&a.scenes[0])?;
     let part = compiled.held_part(&crate::scene::LoadOptions::from_env())?;
     print_scene_warnings(&part.scene);
@@ -430,7 +420,14 @@ fn run_held(
         Some(progress.counter()),
     );
     progress.finish();
-    finish_parallel(a, out?, &view, width, height, exposure, start)
+    let done = Finish {
+        view: &view,
+        size: (width, height),
+        exposure,
+        start,
+        ambient_file: file,
+    };
+    finish_parallel(a, out?, done)
 }
 
 /// The `--procs` path: the hybrid-scheduled renderer.
@@ -440,12 +437,13 @@ fn run_parallel(
     scene: Arc<scene::Scene>,
     options: RenderOptions,
     view: &View,
-    width: usize,
-    height: usize,
+    (width, height): (usize, usize),
     popts: &ParallelOptions,
     exposure: Option<f64>,
     start: Instant,
+    ambient_file: Option<&AmbientFileUse>,
 ) -> Result<()> {
+    let file = ambient_file.map(|f| (f, options.clone()));
     let progress = Progress::start((width * height) as u64, "pixels", a.report, true);
     let out = render_parallel_with_progress(
         scene,
@@ -457,24 +455,50 @@ fn run_parallel(
         Some(progress.counter()),
     );
     progress.finish();
-    finish_parallel(a, out?, view, width, height, exposure, start)
+    let done = Finish {
+        view,
+        size: (width, height),
+        exposure,
+        start,
+        ambient_file: file,
+    };
+    finish_parallel(a, out?, done)
 }
 
-/// Writes a parallel render's picture and reports (rank 0 only).
+/// What writing a parallel render's picture needs besides the render.
+struct Finish<'a> {
+    view: &'a View,
+    size: (usize, usize),
+    exposure: Option<f64>,
+    start: Instant,
+    /// `-af`: the file and the options to write its header with.
+    ambient_file: Option<(&'a AmbientFileUse, RenderOptions)>,
+}
+
+/// Writes a parallel render's picture and reports (rank 0 only), and
+/// appends the records the render made to the ambient file (`-af`).
 fn finish_parallel(
     a: &RenderArgs,
     out: Option<crate::parallel::ParallelRender>,
-    view: &View,
-    width: usize,
-    height: usize,
-    exposure: Option<f64>,
-    start: Instant,
+    done: Finish<'_>,
 ) -> Result<()> {
     let Some(out) = out else {
         // An MPI rank other than 0: rank 0 writes the picture and reports.
         return Ok(());
     };
+    let Finish {
+        view,
+        size: (width, height),
+        exposure,
+        start,
+        ambient_file,
+    } = done;
     eprint!("{}", super::parallel::summary(&out));
+    if let Some(s) = &out.ambient {
+        if let Some((f, o)) = &ambient_file {
+            f.append(o, &s.new_records)?;
+        }
+    }
     write_film(a, &out.film, view, exposure)?;
     {
         use crate::parallel::Work;
@@ -505,71 +529,6 @@ fn finish_parallel(
         eprintln!(
             "warning: --stats describes sequential renders; use --parallel-stats with --procs"
         );
-    }
-    Ok(())
-}
-
-/// `--procs` or `--runtime` with `-ab`: the irradiance cache in waves on
-/// the framework (any runtime).
-#[allow(clippy::too_many_arguments)]
-fn run_ambient_parallel(
-    a: &RenderArgs,
-    scene: Arc<scene::Scene>,
-    options: RenderOptions,
-    view: &View,
-    (width, height): (usize, usize),
-    popts: &ParallelOptions,
-    exposure: Option<f64>,
-    start: Instant,
-    ambient_file: Option<&AmbientFileUse>,
-) -> Result<()> {
-    use crate::parallel::ambient::render_ambient_parallel;
-    let file_options = options.clone();
-    let progress = Progress::start((width * height) as u64, "pixels", a.report, true);
-    let out = render_ambient_parallel(
-        scene,
-        options,
-        view,
-        width,
-        height,
-        popts,
-        ambient_file.map_or(&[][..], |f| &f.records[..]),
-        Some(progress.counter()),
-    );
-    progress.finish();
-    let Some(out) = out? else {
-        // An MPI rank other than 0: rank 0 writes the picture and reports.
-        return Ok(());
-    };
-    if let Some(f) = ambient_file {
-        f.append(&file_options, &out.new_records)?;
-    }
-    let simulated = out
-        .simulated_s
-        .map_or(String::new(), |s| format!(" ({s:.3} simulated s)"));
-    eprintln!(
-        "parallel inter-reflection: {} processors ({}): {:.3} s{simulated}; {} waves, {} hemispheres, {} records",
-        popts.procs,
-        out.stats.runtime,
-        out.render_s,
-        out.waves,
-        out.hemispheres,
-        out.records
-    );
-    write_film(a, &out.film, view, exposure)?;
-    eprintln!(
-        "{}",
-        summary_line(
-            width,
-            height,
-            start.elapsed().as_secs_f64(),
-            out.render_s,
-            Rays::from(&out.rays),
-            &out.effects.enabled_names(),
-        )
-    );
-    if let Some(path) = a.parallel.parallel_stats.as_ref().or(a.stats.as_ref()) {
-        write_json(path, &out)?;
     }
     Ok(())
 }

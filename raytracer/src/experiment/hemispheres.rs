@@ -27,7 +27,7 @@ const CACHES: [(&str, CacheSize); 2] = [
 
 pub(super) fn hemispheres(cx: &mut Ctx) -> Result<()> {
     let s = cx.s;
-    if s.options.ab == 0 || !hybrid_interreflection(&s.options) {
+    if s.options.ab == 0 || s.options.aa > 0.0 || !hybrid_interreflection(&s.options) {
         return Err(Error::Usage(
             "experiment hemispheres needs diffuse inter-reflection without an irradiance cache: \
              give -ab 1 or more with -aa 0"

@@ -13,7 +13,6 @@
 //! renderer's bit for bit for any number of processors, policy, cache size
 //! and distribution.
 
-pub mod ambient;
 mod bundle_judge;
 pub mod caster;
 mod clip_memory;
