@@ -1177,7 +1177,11 @@ fn extra_experiments_name_the_options_they_need() {
     let tiny = ["--scene", "cornell", "--width", "8", "--height", "8"];
     for (name, extra, says) in [
         ("interreflection", &[][..], "give -ab 1 or more"),
-        ("interreflection", &["-ab", "1", "-aa", "0"][..], "-aa above 0"),
+        (
+            "interreflection",
+            &["-ab", "1", "-aa", "0"][..],
+            "-aa above 0",
+        ),
         ("hemispheres", &[][..], "with -aa 0"),
         ("hemispheres", &["-ab", "1"][..], "with -aa 0"),
     ] {

@@ -394,3 +394,52 @@ fn a_cached_cell_is_charged_what_its_copies_take() {
     assert!(per_listing.is_some(), "no cell charged its copies");
     assert!(charged > placed, "{charged} <= {placed}");
 }
+
+/// Diffuse inter-reflection with an irradiance cache on a distributed
+/// compiled scene: processors hold their own cells, hemisphere rays and
+/// leak tests travel to the cells they need, each pixel's owner decides
+/// its lookups in the sequential order; the picture is the whole scene's
+/// sequential render, bit for bit.
+#[test]
+fn the_irradiance_cache_on_a_distributed_scene_gives_the_sequential_picture() {
+    let dir = tmpdir("irradiance");
+    let (w, h) = (24, 18);
+    for (name, ab) in [("cornell", 2), ("studio", 1)] {
+        let (path, view) = compiled_scene(&dir, name, Storage::Once);
+        let whole = c_scene(&path);
+        let options = RenderOptions {
+            ab,
+            aa: 0.2,
+            ad: 32,
+            as_: 8,
+            ..RenderOptions::default()
+        };
+        let want = Renderer::new(&whole, options.clone())
+            .unwrap()
+            .render(&view, w, h)
+            .unwrap()
+            .0;
+        for (procs, distribution, cache) in [
+            (3, Distribution::Octree, CacheSize::Percent(5.0)),
+            (4, Distribution::Worst, CacheSize::Unlimited),
+        ] {
+            let mut popts = ParallelOptions::new(procs);
+            popts.workload.distribution = distribution;
+            popts.cache = cache;
+            popts.threads = Some(2);
+            let part = CompiledScene::open(&path)
+                .unwrap()
+                .held_part(&LoadOptions::default())
+                .unwrap();
+            let out = render_parallel_held(part, options.clone(), &view, w, h, &popts, None)
+                .unwrap()
+                .unwrap();
+            assert!(
+                out.film.pixels() == want.pixels(),
+                "{name} -ab {ab}: {procs} processors, {distribution}: the picture differs"
+            );
+            let a = out.ambient.as_ref().expect("a render with a cache");
+            assert!(a.waves > 1 && a.counts.hemispheres > 0, "{name}");
+        }
+    }
+}

@@ -268,23 +268,36 @@ fn mpirun_renders_two_bounces_as_the_sequential_renderer() {
         "-ab", "2", "-aa", ".2", "-ad", "32", "-as", "8", "-ar", "16", "-aw", "2",
     ];
     let want = sequential_picture(&d, &rad, &vf, &ab);
-    for np in [1, 3] {
-        let out = d.join(format!("mpi{np}.hdr"));
-        let mut args = base(&rad, &vf);
+    // And the scene compiled: each rank reads only its own cells, with a
+    // cache of 10%.
+    let hrtc = d.join("cornell.hrtc").to_string_lossy().into_owned();
+    let r = hybrid_rt(&["compile", &rad, "-o", &hrtc], &d, "compile");
+    assert!(r.status.success(), "{}", r.stderr);
+    for (np, scene, cache) in [(1, &rad, "100%"), (3, &rad, "100%"), (3, &hrtc, "10%")] {
+        let out = d.join(format!("mpi{np}-{cache}.hdr"));
+        let mut args = base(scene, &vf);
         args.extend(ab);
         args.extend([
             "--runtime",
             "mpi",
+            "--cache",
+            cache,
             "--time-limit",
             "200",
             "-o",
             out.to_str().unwrap(),
         ]);
-        let r = mpirun(np, &args, &[], &d, &format!("ab2np{np}"));
-        assert!(r.status.success(), "-np {np}: {}", r.stderr);
+        let r = mpirun(
+            np,
+            &args,
+            &[],
+            &d,
+            &format!("ab2np{np}{}", cache.trim_end_matches('%')),
+        );
+        assert!(r.status.success(), "-np {np} {scene}: {}", r.stderr);
         assert!(
             std::fs::read(&out).unwrap() == want,
-            "-np {np}: the picture differs from the sequential one"
+            "-np {np} {scene}: the picture differs from the sequential one"
         );
         // Rank 0 reports, once; more than one wave ran.
         let e = &r.stderr;
