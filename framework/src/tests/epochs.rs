@@ -2,7 +2,8 @@
 //! SEMANTICS.md section 10): a workload in rounds, each reading what every
 //! round before it made, gives the sequential reference's results on every
 //! runtime, processor count, policy and cache size, and every task of a
-//! round sees all of the earlier rounds' broadcasts.
+//! round, and every merge at a processor of a result of one
+//! ([`Workload::merge_in`]), sees all of the earlier rounds' broadcasts.
 
 use super::*;
 use crate::runtime::sim::{run_sim, CostModel, Network, Sim};
@@ -87,15 +88,16 @@ impl Rounds {
             }
         }
         let key = u64::from(t.i) << 8 | u64::from(t.depth);
-        ctx.emit_result(
-            Addr::Master,
-            Got {
-                round: t.round,
-                key,
-                value: v,
-                missing,
-            },
-        );
+        let got = Got {
+            round: t.round,
+            key,
+            value: v,
+            missing,
+        };
+        // And to the processor that ran the task's root, whose merge reads
+        // the broadcasts too.
+        ctx.emit_result(Addr::Proc(ctx.origin()), got.clone());
+        ctx.emit_result(Addr::Master, got);
         if t.depth > 0 {
             for c in 0..2 {
                 ctx.spawn_dd(RoundTask {
@@ -188,6 +190,15 @@ impl Workload for Rounds {
         }
     }
 
+    /// A processor's merge: the earlier rounds' broadcasts it does not
+    /// find count as missing.
+    fn merge_in(&self, acc: &mut RoundsAcc, r: Got, data: &DataView<'_, Self>, _: &mut Ctx<Self>) {
+        acc.missing += (0..r.round)
+            .filter(|rr| data.get(&(BASE + rr)).is_none())
+            .count() as u32;
+        self.merge(acc, r);
+    }
+
     fn next_epoch(&self, ended: usize, acc: &mut RoundsAcc) -> Option<Epoch<Self>> {
         let round = ended as u32;
         // In key order: the same sum whatever order the results came in.
@@ -213,9 +224,18 @@ fn rounds() -> Rounds {
 }
 
 /// Every task of every round ran once, saw every earlier broadcast, and
-/// the results are the sequential reference's.
-fn check(w: &Rounds, got: &RoundsAcc, want: &RoundsAcc, what: &str) {
+/// the results are the sequential reference's; every result merged at a
+/// processor (`procs`' accumulators) was merged once, and its merge saw
+/// every broadcast its task did.
+fn check(w: &Rounds, r: &RunReport<Rounds>, want: &RoundsAcc, what: &str) {
+    let got = &r.master;
     let per_round = w.tasks * ((1 << (w.depth + 1)) - 1);
+    let at_procs: usize = r.procs.iter().map(|a| a.got.len()).sum();
+    assert_eq!(at_procs as u32, w.rounds * per_round, "{what}");
+    for a in &r.procs {
+        assert_eq!(a.missing, 0, "{what}: a merge missed an earlier broadcast");
+        assert_eq!(a.duplicates, 0, "{what}");
+    }
     assert_eq!(got.got.len() as u32, w.rounds * per_round, "{what}");
     assert_eq!(got.missing, 0, "{what}: a task missed an earlier broadcast");
     assert_eq!(got.duplicates, 0, "{what}");
@@ -226,10 +246,10 @@ fn check(w: &Rounds, got: &RoundsAcc, want: &RoundsAcc, what: &str) {
 #[test]
 fn rounds_equal_the_sequential_reference_on_every_runtime() {
     let w = rounds();
-    let want = run_sequential(&w, 1).unwrap();
-    assert_eq!(want.stats.master.epochs, u64::from(w.rounds - 1));
-    let want = want.master;
-    check(&w, &want, &want, "sequential");
+    let seq = run_sequential(&w, 1).unwrap();
+    assert_eq!(seq.stats.master.epochs, u64::from(w.rounds - 1));
+    let want = seq.master.clone();
+    check(&w, &seq, &want, "sequential");
     let item = 8 + 4;
     for procs in [1, 2, 3, 5] {
         for policy in Policy::ALL {
@@ -240,18 +260,18 @@ fn rounds_equal_the_sequential_reference_on_every_runtime() {
                 let what = format!("{procs} procs, {policy:?}, cache {cache:?}");
                 let r = run_lockstep(Arc::new(w.clone()), &cfg, procs as u64 * 7 + 1)
                     .unwrap_or_else(|e| panic!("lockstep, {what}: {e}"));
-                check(&w, &r.master, &want, &format!("lockstep, {what}"));
+                check(&w, &r, &want, &format!("lockstep, {what}"));
                 assert_eq!(r.stats.master.epochs, u64::from(w.rounds - 1));
                 let r = run_threads(Arc::new(w.clone()), &cfg)
                     .unwrap_or_else(|e| panic!("threads, {what}: {e}"));
-                check(&w, &r.master, &want, &format!("threads, {what}"));
+                check(&w, &r, &want, &format!("threads, {what}"));
                 let sim = Sim::new(
                     CostModel::default().with_unit(RoundsWork::Work, 20_000.0),
                     Network::parsytec_cc(),
                 );
                 let r = run_sim(Arc::new(w.clone()), &cfg, &sim)
                     .unwrap_or_else(|e| panic!("sim, {what}: {e}"));
-                check(&w, &r.master, &want, &format!("sim, {what}"));
+                check(&w, &r, &want, &format!("sim, {what}"));
             }
         }
     }
@@ -269,7 +289,7 @@ proptest! {
         let mut cfg = Config::new(procs);
         cfg.policy = Policy::ALL[(seed % Policy::ALL.len() as u64) as usize];
         let r = run_lockstep(Arc::new(w.clone()), &cfg, seed).expect("terminates");
-        check(&w, &r.master, &want, "lockstep");
+        check(&w, &r, &want, "lockstep");
     }
 }
 
