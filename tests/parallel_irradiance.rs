@@ -92,6 +92,12 @@ fn every_kind(procs: usize) -> Vec<ParallelOptions> {
         runs.push(popts(procs, d, CacheSize::Unlimited));
     }
     runs.push(popts(procs, Distribution::Octree, CacheSize::Percent(10.0)));
+    // Without hierarchies of their own, processors that come to hold every
+    // cell still decide each pixel's lookups as their records arrive
+    // (with them, they trace such pixels whole).
+    let mut own = popts(procs, Distribution::Octree, CacheSize::Unlimited);
+    own.workload.local_kernel = false;
+    runs.push(own);
     for runtime in [RuntimeKind::Sim, RuntimeKind::Sequential] {
         let mut p = popts(procs, Distribution::Octree, CacheSize::Percent(10.0));
         p.runtime = runtime;
@@ -162,16 +168,19 @@ fn leak_tests_travel_and_the_picture_is_the_sequential_one() {
     let mut runs = every_kind(2);
     runs.push(popts(4, Distribution::Octree, CacheSize::Percent(5.0)));
     let renders = agrees(&o, 32, &runs);
-    // (Replicated, pixels are traced whole by the sequential renderer.)
-    let replicated =
-        |r: &&ParallelRender| r.options.workload.distribution == Distribution::Replicated;
-    for r in renders.iter().filter(|r| !replicated(r)) {
+    // Where the pixels' owners decide: a processor holding every cell
+    // traces its pixels whole (with a hierarchy of its own), as under the
+    // replicated distribution and the framework's sequential reference.
+    let decided = |r: &&ParallelRender| {
+        let o = &r.options;
+        o.runtime != RuntimeKind::Sequential
+            && o.workload.distribution != Distribution::Replicated
+            && (o.cache != CacheSize::Unlimited || !o.workload.local_kernel)
+    };
+    for r in renders.iter().filter(decided) {
         assert!(r.work(Work::LeakTests) > 0, "{:?}", r.options);
     }
-    // (The framework's sequential reference holds everything on one.)
-    let bounded = |r: &&ParallelRender| {
-        r.options.cache != CacheSize::Unlimited && r.options.runtime != RuntimeKind::Sequential
-    };
+    let bounded = |r: &&ParallelRender| decided(r) && r.options.cache != CacheSize::Unlimited;
     assert!(
         renders
             .iter()
@@ -207,4 +216,41 @@ fn bad_parallel_options_are_usage_errors() {
     let (scene, view, w, h) = cornell(8);
     let e = render_parallel(scene, options(), &view, w, h, &ParallelOptions::new(0)).unwrap_err();
     assert_eq!(e.exit_code(), 2, "{e}");
+}
+
+/// Radiance's ambient file (`-af`) in parallel: a render that starts from
+/// an earlier render's records gives the sequential renderer's picture
+/// and adds the same records, on a distributed scene and replicated.
+#[test]
+fn records_of_an_earlier_render_start_the_cache_as_sequentially() {
+    let (scene, view, w, h) = cornell(16);
+    let o = options();
+    let r = Renderer::new(&scene, o.clone()).unwrap();
+    // The records of a first frame (smaller: its points are not the
+    // second's), then a second frame from them.
+    let (_, small, sw, sh) = cornell(6);
+    let (_, _, first) = r
+        .render_with_cache(&small, sw, sh, &mut |_| {}, Default::default())
+        .unwrap();
+    let earlier = first.records_since(0);
+    assert!(!earlier.is_empty());
+    let (want, _, after) = r
+        .render_with_cache(&view, w, h, &mut |_| {}, r.ambient_cache(&earlier))
+        .unwrap();
+    let added = after.records_since(earlier.len());
+    assert!(
+        !added.is_empty(),
+        "the second frame samples hemispheres of its own"
+    );
+    for mut p in [
+        popts(3, Distribution::Octree, CacheSize::Percent(10.0)),
+        popts(2, Distribution::Replicated, CacheSize::Unlimited),
+    ] {
+        p.ambient_records = Arc::new(earlier.clone());
+        let out = render_parallel(scene.clone(), o.clone(), &view, w, h, &p).unwrap();
+        assert!(out.film.pixels() == want.pixels(), "{p:?}");
+        let a = out.ambient.expect("a render with a cache");
+        assert_eq!(a.new_records, added, "{p:?}");
+        assert_eq!(a.records, earlier.len() + added.len());
+    }
 }

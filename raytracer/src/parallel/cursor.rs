@@ -89,11 +89,13 @@ enum Frame {
         next_trace: usize,
         first_dist: f64,
     },
-    /// A hemisphere being sampled: the strata of its samples (first pass,
-    /// then super-samples), the samples entered, their distances, and
-    /// their values once all are in.
+    /// A hemisphere being sampled: it (with its first samples added once
+    /// they are in), the strata of its samples (first pass, then
+    /// super-samples), the samples entered, their distances, and their
+    /// values once all are in.
     Hemisphere {
         path: Vec<u16>,
+        h: Box<Hemisphere>,
         seed: Box<HemisphereSeed>,
         divs: Vec<usize>,
         first: usize,
@@ -124,6 +126,19 @@ impl PixelCursor {
     /// Node `path`'s record is in.
     pub(super) fn arrive(&mut self, path: Vec<u16>, t: &Traced) {
         self.arrived.insert(path, NodeInfo::of(t));
+    }
+
+    /// Node `path`, which has nothing to decide nor children to enter, is
+    /// in; its hit is `t` away.
+    pub(super) fn arrive_leaf(&mut self, path: Vec<u16>, t: f64) {
+        let info = NodeInfo {
+            t,
+            passes_on: false,
+            aw: None,
+            requests: Vec::new(),
+            traces: Vec::new(),
+        };
+        self.arrived.insert(path, info);
     }
 
     /// The leak tests of the lookup waiting are answered.
@@ -258,10 +273,15 @@ impl RtWorkload {
                         None => return Step::Wait,
                     }
                 } else if *next_trace < info.traces.len() {
+                    let c = info.traces[*next_trace];
                     let mut child = path.clone();
-                    child.push(info.traces[*next_trace] as u16);
+                    child.push(c as u16);
                     *next_trace += 1;
-                    cur.stack.push(node_frame(child));
+                    match pass_leaf(&mut cur.arrived, &child) {
+                        Some(d) if c == 0 => *first_dist = d,
+                        Some(_) => {}
+                        None => cur.stack.push(node_frame(child)),
+                    }
                 } else {
                     // Radiance's `raytrans()`: a surface that only passes
                     // the ray on measures the surface beyond.
@@ -283,6 +303,7 @@ impl RtWorkload {
             }
             Frame::Hemisphere {
                 path,
+                h,
                 seed,
                 divs,
                 first,
@@ -295,21 +316,20 @@ impl RtWorkload {
                     let mut child = path.clone();
                     child.push(*entered as u16);
                     *entered += 1;
-                    cur.stack.push(node_frame(child));
+                    match pass_leaf(&mut cur.arrived, &child) {
+                        Some(d) => dists.push(d),
+                        None => cur.stack.push(node_frame(child)),
+                    }
                     return Step::Continue;
                 }
                 let Some(v) = values.take() else {
                     return Step::Wait;
                 };
                 let s = self.renderer.ambient_settings();
-                let Some(mut h) = Hemisphere::new(s, o, &seed.task, &seed.req) else {
-                    debug_assert!(false, "a hemisphere made once is made again");
-                    return Step::Wait;
-                };
-                for i in 0..*first {
-                    h.add(divs[i], v[i], dists[i]);
-                }
                 if !*second {
+                    for i in 0..*first {
+                        h.add(divs[i], v[i], dists[i]);
+                    }
                     let more = h.second_pass(s.super_samples);
                     if !more.is_empty() {
                         *second = true;
@@ -409,6 +429,7 @@ impl RtWorkload {
         spawn_samples(&at, 0, samples, ctx);
         Some(Some(Frame::Hemisphere {
             path: at.path,
+            h: Box::new(h),
             seed: Box::new(seed),
             first: divs.len(),
             divs,
@@ -503,6 +524,19 @@ impl RtWorkload {
             None => LeakRun::Done(answers),
         }
     }
+}
+
+/// The distance of node `path` if its record is in `arrived` and it has
+/// nothing to decide nor children to enter: the walk passes it without
+/// entering it.
+fn pass_leaf(arrived: &mut FxHashMap<Vec<u16>, NodeInfo>, path: &[u16]) -> Option<f64> {
+    let i = arrived.get(path)?;
+    if i.aw.is_some() || !i.requests.is_empty() || !i.traces.is_empty() || i.passes_on {
+        return None;
+    }
+    let t = i.t;
+    arrived.remove(path);
+    Some(t)
 }
 
 fn node_frame(path: Vec<u16>) -> Frame {

@@ -215,8 +215,19 @@ impl RtWorkload {
                 slot.current = slot.current.max(chunk.wave);
             }
         }
-        if let (true, Some(data)) = (self.replicated(), data) {
-            return self.run_wave_whole(chunk, data, ctx);
+        if let Some(data) = data {
+            if self.replicated() {
+                let caster = self.renderer.caster();
+                let st = self.run_wave_whole(chunk, data, &caster, ctx);
+                return self.charge_counts(&st, ctx);
+            }
+            // A processor holding every cell traces its pixels whole too,
+            // through its hierarchy, which answers as the renderer's does.
+            let held = self.whole_caster(proc);
+            if let Some(caster) = held.filter(|_| self.opts.inline_local_shadows) {
+                let st = self.run_wave_whole(chunk, data, &caster, ctx);
+                return self.charge_held(&st, caster.queries.get(), ctx);
+            }
         }
         let origin = Addr::Proc(ctx.origin());
         let (w, h) = (self.width, self.height);
@@ -291,22 +302,29 @@ impl RtWorkload {
         }
     }
 
-    /// [`Self::run_wave`] under the replicated distribution: each pixel
-    /// traced whole by the sequential renderer against the wave's cache.
-    fn run_wave_whole(&self, chunk: &WaveChunk, data: &DataView<'_, Self>, ctx: &mut Ctx<Self>) {
+    /// [`Self::run_wave`] where the processor holds the scene: each pixel
+    /// traced whole through `caster` by the sequential renderer's code
+    /// against the wave's cache; the tally of what was traced.
+    fn run_wave_whole<C: crate::render::RayCaster>(
+        &self,
+        chunk: &WaveChunk,
+        data: &DataView<'_, Self>,
+        caster: &C,
+        ctx: &mut Ctx<Self>,
+    ) -> TraceState {
         let cache = self.wave_cache(ctx.proc_id(), Some(chunk.wave), data);
         let mut st = TraceState::default();
         let mut batch = WaveBatch::default();
+        let size = (self.width, self.height);
         for &i in &chunk.pixels {
             let (x, y) = (i as usize % self.width, i as usize / self.width);
             st.ambient = Renderer::frozen_state(&cache);
             let c = self
                 .renderer
-                .pixel(&self.view, self.width, self.height, x, y, &mut st);
+                .pixel_with(&self.view, size, caster, (x, y), &mut st);
             batch.pixels.push((i, c, st.ambient.take_own()));
         }
         batch.counts = st.counts.ambient_cache;
-        self.charge_counts(&st, ctx);
         self.count_finished(batch.pixels.len());
         ctx.emit_result(
             Addr::Master,
@@ -315,6 +333,7 @@ impl RtWorkload {
                 record: Record::WavePixels(Box::new(batch)),
             },
         );
+        st
     }
 
     /// A result merged at a processor of a render with a cache: the
@@ -437,7 +456,8 @@ pub(super) struct Deferred {
 }
 
 impl Deferred {
-    /// The node's record, its hit `t` away.
+    /// The node's record, its hit `t` away: with nothing to decide and
+    /// every child's value known, its value.
     pub(super) fn record(
         self,
         base: Color,
@@ -445,6 +465,10 @@ impl Deferred {
         attenuation: Option<super::tree::Attenuation>,
         t: f64,
     ) -> Record {
+        if self.aw.is_none() && self.requests.is_empty() && !children.iter().any(Child::awaited) {
+            let value = super::tree::evaluate(base, &children, &[], attenuation);
+            return Record::Leaf(value, t);
+        }
         Record::Traced(Box::new(Traced {
             base,
             children,

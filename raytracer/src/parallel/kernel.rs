@@ -327,7 +327,20 @@ impl RtWorkload {
             return false;
         };
         let st = self.trace_primaries_whole(t, &caster, ctx);
-        self.charge_counts(&st, ctx);
+        self.charge_held(&st, caster.queries.get(), ctx);
+        true
+    }
+
+    /// Charges what a processor holding everything traced whole (`st`,
+    /// `queries` of its hierarchy), as the replicated path charges, with
+    /// each ray and bundle spawned, retired and (a bundle) run inline.
+    pub(super) fn charge_held(
+        &self,
+        st: &crate::render::TraceState,
+        queries: u64,
+        ctx: &mut Ctx<Self>,
+    ) {
+        self.charge_counts(st, ctx);
         let c = &st.counts;
         let rays = c.primary + c.reflection + c.refraction + c.pass_through + c.ambient;
         for (kind, n) in [
@@ -338,11 +351,10 @@ impl RtWorkload {
             (Work::ShadowBundlesInline, c.shadow.bundles),
             (Work::TraceLeaves, 0),
             (Work::TraceObjects, 0),
-            (Work::TraceLocal, caster.queries.get()),
+            (Work::TraceLocal, queries),
         ] {
             ctx.charge(kind, n);
         }
-        true
     }
 
     /// Whether processor `proc` holds every non-empty cell: resident (one

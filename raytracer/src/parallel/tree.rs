@@ -143,6 +143,10 @@ pub enum Record {
     /// With an irradiance cache: a ray's node with what the pixel's owner
     /// decides in the sequential renderer's order (`cursor.rs`).
     Traced(Box<Traced>),
+    /// With an irradiance cache: a ray's node with nothing for the owner
+    /// to decide and every child's value known: its value, and the
+    /// distance to its hit (infinite: it left the scene).
+    Leaf(Color, f64),
     /// The answers to a lookup's leak tests ([`super::tasks::LeakDp`]),
     /// for the pixel's owner.
     Leaks(Vec<bool>),
@@ -231,7 +235,7 @@ impl ByteSize for RtResult {
     fn byte_size(&self) -> usize {
         let extra = match &self.record {
             Record::Shaded { children, .. } => children.len() * std::mem::size_of::<Child>(),
-            Record::Value(_) | Record::Hemisphere { .. } => 0,
+            Record::Value(_) | Record::Leaf(..) | Record::Hemisphere { .. } => 0,
             Record::SuperHemisphere { .. } => std::mem::size_of::<HemisphereSeed>(),
             Record::Pixels(pixels) => std::mem::size_of_val(pixels.as_slice()),
             Record::Traced(t) => {
@@ -292,7 +296,7 @@ pub struct PixelTrees {
     /// With an irradiance cache, per pixel in flight: where its owner is in
     /// the sequential renderer's order (`cursor.rs`).
     #[serde(skip)]
-    pub(super) cursors: hybrid_sched::IdMap<u32, super::cursor::PixelCursor>,
+    pub(super) cursors: hybrid_sched::IdMap<u32, Box<super::cursor::PixelCursor>>,
     /// With an irradiance cache, what it did at this processor.
     #[serde(default)]
     pub ambient: AmbientCounts,
@@ -375,6 +379,11 @@ impl PixelTrees {
         self.records += 1;
         match r.record {
             Record::Value(c) => self.deliver(r.key, c),
+            Record::Leaf(c, t) => {
+                let cursor = self.cursors.entry(r.key.pixel).or_default();
+                cursor.arrive_leaf(r.key.path.clone(), t);
+                self.deliver(r.key, c);
+            }
             Record::Shaded {
                 base,
                 children,
