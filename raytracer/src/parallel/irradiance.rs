@@ -25,140 +25,20 @@
 //! renderer's cache at that wave. Under the replicated distribution a
 //! chunk's pixels are traced whole by the sequential renderer's code.
 
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use hybrid_sched::{Addr, Ctx, DataView, Epoch};
 
-use super::tasks::{wave_item, DdTask, DpTask, Item, RayJob, WaveChunk};
+use super::tasks::{wave_item, DpTask, Item, RayJob, WaveChunk};
 use super::tree::{Child, NodeKey, PixelTrees, Record, RtResult, Traced, WaveBatch};
+use super::wave_driver::WaveSummary;
+use super::work::Work;
 use super::workload::RtWorkload;
 use crate::accel::TraceCursor;
 use crate::image::Film;
-use crate::render::ambient::{AmbientCache, AmbientRecord};
-use crate::render::waves::Waves;
+use crate::render::ambient::AmbientCache;
 use crate::render::{Renderer, TraceState};
 use crate::scene::Color;
-
-/// Most pixels of a chunk: many enough that handing them out costs little.
-const CHUNK: usize = 16;
-
-/// Pixels per chunk for a wave of `len` pixels on `procs` processors: at
-/// most [`CHUNK`], and few enough that every processor gets about four (a
-/// wave is a barrier: a coarse wave of 64 pixels in chunks of 16 would
-/// keep all but four processors waiting).
-fn chunk_len(len: usize, procs: usize) -> usize {
-    len.div_ceil(4 * procs.max(1)).clamp(1, CHUNK)
-}
-
-/// The waves of a render with an irradiance cache.
-#[derive(Debug)]
-pub(super) struct Irradiance {
-    /// Records the render starts from (`-af`).
-    initial: Arc<AmbientCache>,
-    /// Per processor, the cache of the wave it shades.
-    slots: Vec<Mutex<WaveSlot>>,
-    /// The master's.
-    driver: Mutex<Driver>,
-    procs: usize,
-}
-
-/// A processor's cache: the wave it shades, and the broadcasts it holds
-/// added so far.
-#[derive(Debug)]
-struct WaveSlot {
-    current: u32,
-    built: u32,
-    cache: Arc<AmbientCache>,
-}
-
-struct Driver {
-    waves: Option<Waves>,
-    /// The pixels of the wave running.
-    current: Vec<u32>,
-    /// What went wrong between waves (a lost pixel), reported at the end.
-    error: Option<String>,
-}
-
-impl std::fmt::Debug for Driver {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Driver")
-            .field("current", &self.current.len())
-            .field("error", &self.error)
-            .finish()
-    }
-}
-
-/// What the cache did in a render: the waves, the counts, the records at
-/// the end and those the render added.
-#[derive(Clone, Debug, Default, serde::Serialize)]
-pub struct WaveSummary {
-    pub waves: usize,
-    pub counts: crate::render::ambient::AmbientCounts,
-    pub records: usize,
-    #[serde(skip)]
-    pub new_records: Vec<AmbientRecord>,
-}
-
-impl Irradiance {
-    /// The waves of `renderer`'s render at `width` x `height` on `procs`
-    /// processors, from the records `initial`; `None` without a cache.
-    pub(super) fn new(
-        renderer: &Renderer<'static>,
-        width: usize,
-        height: usize,
-        procs: usize,
-        initial: &[AmbientRecord],
-    ) -> Option<Self> {
-        if !renderer.caches_ambient() {
-            return None;
-        }
-        let s = *renderer.ambient_settings();
-        let mut base = AmbientCache::default();
-        for r in initial {
-            base.insert(&s, *r);
-        }
-        let initial = Arc::new(base);
-        let o = renderer.options();
-        let mut waves = Waves::new(width, height, (o.ps, o.pt), s, initial.clone());
-        let current = waves.next_wave().unwrap_or_default();
-        Some(Irradiance {
-            slots: (0..procs.max(1))
-                .map(|_| {
-                    Mutex::new(WaveSlot {
-                        current: 0,
-                        built: 0,
-                        cache: initial.clone(),
-                    })
-                })
-                .collect(),
-            initial,
-            driver: Mutex::new(Driver {
-                waves: Some(waves),
-                current,
-                error: None,
-            }),
-            procs,
-        })
-    }
-
-    fn chunks(&self, wave: u32, pixels: &[u32]) -> Vec<DdTask> {
-        pixels
-            .chunks(chunk_len(pixels.len(), self.procs))
-            .map(|c| {
-                DdTask::Wave(Box::new(WaveChunk {
-                    wave,
-                    pixels: c.to_vec(),
-                }))
-            })
-            .collect()
-    }
-
-    /// The first wave's chunks.
-    pub(super) fn roots(&self) -> Vec<DdTask> {
-        let d = self.driver.lock().unwrap_or_else(|e| e.into_inner());
-        self.chunks(0, &d.current)
-    }
-}
 
 impl RtWorkload {
     /// The cache processor `proc` shades its pixels against: the starting
@@ -437,6 +317,32 @@ impl RtWorkload {
                 new_records: out.cache.records()[loaded.min(records)..].to_vec(),
             },
         )))
+    }
+
+    /// Charges what a processor holding everything traced whole (`st`,
+    /// `queries` of its hierarchy), as the replicated path charges, with
+    /// each ray and bundle spawned, retired and (a bundle) run inline.
+    pub(super) fn charge_held(
+        &self,
+        st: &crate::render::TraceState,
+        queries: u64,
+        ctx: &mut Ctx<Self>,
+    ) {
+        self.charge_counts(st, ctx);
+        let c = &st.counts;
+        let rays = c.primary + c.reflection + c.refraction + c.pass_through + c.ambient;
+        for (kind, n) in [
+            (Work::RaysSpawned, rays),
+            (Work::RaysRetired, rays),
+            (Work::ShadowSpawned, c.shadow.bundles),
+            (Work::ShadowRetired, c.shadow.bundles),
+            (Work::ShadowBundlesInline, c.shadow.bundles),
+            (Work::TraceLeaves, 0),
+            (Work::TraceObjects, 0),
+            (Work::TraceLocal, queries),
+        ] {
+            ctx.charge(kind, n);
+        }
     }
 
     /// Counts `n` pixels finished, for a progress display.

@@ -34,7 +34,6 @@ use super::bundle_judge::BundleJudge;
 use super::caster::LocalQueries;
 use super::distribution::EMPTY;
 use super::tasks::{CellData, Tile};
-use super::work::Work;
 use super::workload::RtWorkload;
 use crate::accel::{
     GrownKernel, Hierarchy, HierarchyObjects, Hit, Judged, LeafObjects, LocalKernel, NodeId,
@@ -329,32 +328,6 @@ impl RtWorkload {
         let st = self.trace_primaries_whole(t, &caster, ctx);
         self.charge_held(&st, caster.queries.get(), ctx);
         true
-    }
-
-    /// Charges what a processor holding everything traced whole (`st`,
-    /// `queries` of its hierarchy), as the replicated path charges, with
-    /// each ray and bundle spawned, retired and (a bundle) run inline.
-    pub(super) fn charge_held(
-        &self,
-        st: &crate::render::TraceState,
-        queries: u64,
-        ctx: &mut Ctx<Self>,
-    ) {
-        self.charge_counts(st, ctx);
-        let c = &st.counts;
-        let rays = c.primary + c.reflection + c.refraction + c.pass_through + c.ambient;
-        for (kind, n) in [
-            (Work::RaysSpawned, rays),
-            (Work::RaysRetired, rays),
-            (Work::ShadowSpawned, c.shadow.bundles),
-            (Work::ShadowRetired, c.shadow.bundles),
-            (Work::ShadowBundlesInline, c.shadow.bundles),
-            (Work::TraceLeaves, 0),
-            (Work::TraceObjects, 0),
-            (Work::TraceLocal, queries),
-        ] {
-            ctx.charge(kind, n);
-        }
     }
 
     /// Whether processor `proc` holds every non-empty cell: resident (one

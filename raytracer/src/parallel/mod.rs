@@ -30,12 +30,15 @@ pub mod owners;
 pub mod partition;
 mod picture;
 pub mod predict;
+pub mod records;
 mod runtime;
 mod samples;
 mod selection;
 mod sizes;
 pub mod tasks;
 pub mod tree;
+mod walk;
+mod wave_driver;
 pub mod work;
 pub mod workload;
 
@@ -50,7 +53,6 @@ use serde::Serialize;
 
 pub use completion::walks_worth_the_rest;
 pub use distribution::Distribution;
-pub use irradiance::WaveSummary;
 pub use partition::Partition;
 pub use picture::Picture;
 #[cfg(feature = "mpi")]
@@ -59,6 +61,7 @@ pub use runtime::{check_hybrid, hemisphere_tile, hybrid_interreflection};
 pub(crate) use runtime::{run_on, this_rank};
 pub use sizes::{CacheSize, FetchLimit};
 pub use tasks::{CellData, DdTask, DpTask, Item};
+pub use wave_driver::WaveSummary;
 pub use work::Work;
 pub use workload::{RtWorkload, WorkloadOptions, PIXEL_BATCH};
 

@@ -1,6 +1,7 @@
 //! Tests of the assembly of pixels from ray-tree records.
 
 use super::*;
+use hybrid_sched::ByteSize;
 
 fn c(v: f64) -> Color {
     Color::splat(v)

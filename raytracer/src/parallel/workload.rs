@@ -77,7 +77,7 @@ pub struct RtWorkload {
     /// part, each processor reads its cells ([`RtWorkload::distributed`]).
     pub(super) held: Option<Held>,
     /// With an irradiance cache, its waves (`irradiance.rs`).
-    pub(super) irradiance: Option<super::irradiance::Irradiance>,
+    pub(super) irradiance: Option<super::wave_driver::Irradiance>,
 }
 
 /// A processor's cells as it loads them.
@@ -128,7 +128,7 @@ impl RtWorkload {
         records: &[crate::render::ambient::AmbientRecord],
     ) -> Self {
         let procs = self.partition.procs() as usize;
-        self.irradiance = super::irradiance::Irradiance::new(
+        self.irradiance = super::wave_driver::Irradiance::new(
             &self.renderer,
             self.width,
             self.height,
@@ -204,7 +204,7 @@ impl RtWorkload {
         };
         let partition = partition_for(&renderer, opts.distribution, procs, &predicted);
         let subtree_owner = super::owners::NodeOwners::new(subtree_owners(&renderer, &partition));
-        let irradiance = super::irradiance::Irradiance::new(&renderer, width, height, procs, &[]);
+        let irradiance = super::wave_driver::Irradiance::new(&renderer, width, height, procs, &[]);
         RtWorkload {
             irradiance,
             subtree_owner,
