@@ -254,3 +254,22 @@ fn records_of_an_earlier_render_start_the_cache_as_sequentially() {
         assert_eq!(a.records, earlier.len() + added.len());
     }
 }
+
+/// Hemispheres of more samples than a ray-tree path can name are refused
+/// with a usage error, with a cache and without, not sampled in part.
+#[test]
+fn hemispheres_too_large_to_name_are_refused() {
+    let (scene, view, w, h) = cornell(4);
+    for aa in [0.2, 0.0] {
+        let o = RenderOptions {
+            aa,
+            ad: 60_000,
+            as_: 1,
+            ..options()
+        };
+        let e =
+            render_parallel(scene.clone(), o, &view, w, h, &ParallelOptions::new(2)).unwrap_err();
+        assert_eq!(e.exit_code(), 2, "{e}");
+        assert!(e.to_string().contains("-ad plus -as"), "{e}");
+    }
+}
