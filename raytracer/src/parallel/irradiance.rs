@@ -155,14 +155,7 @@ impl RtWorkload {
             );
         }
         if !unseen.pixels.is_empty() {
-            self.count_finished(unseen.pixels.len());
-            ctx.emit_result(
-                Addr::Master,
-                RtResult {
-                    key: NodeKey::default(),
-                    record: Record::WavePixels(Box::new(unseen)),
-                },
-            );
+            self.ship_wave(unseen, ctx);
         }
         for (key, task) in jobs {
             ctx.charge(super::work::Work::RaysSpawned, 1);
@@ -205,7 +198,17 @@ impl RtWorkload {
             batch.pixels.push((i, c, st.ambient.take_own()));
         }
         batch.counts = st.counts.ambient_cache;
-        self.count_finished(batch.pixels.len());
+        self.ship_wave(batch, ctx);
+        st
+    }
+
+    /// Sends finished pixels of the wave to the master (and counts them
+    /// for a progress display).
+    fn ship_wave(&self, batch: WaveBatch, ctx: &mut Ctx<Self>) {
+        if let Some(p) = &self.progress {
+            let n = batch.pixels.len() as u64;
+            p.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+        }
         ctx.emit_result(
             Addr::Master,
             RtResult {
@@ -213,7 +216,6 @@ impl RtWorkload {
                 record: Record::WavePixels(Box::new(batch)),
             },
         );
-        st
     }
 
     /// A result merged at a processor of a render with a cache: the
@@ -243,14 +245,7 @@ impl RtWorkload {
         }
         batch.counts = std::mem::take(&mut acc.ambient);
         acc.shipped += batch.pixels.len();
-        self.count_finished(batch.pixels.len());
-        ctx.emit_result(
-            Addr::Master,
-            RtResult {
-                key: NodeKey::default(),
-                record: Record::WavePixels(Box::new(batch)),
-            },
-        );
+        self.ship_wave(batch, ctx);
     }
 
     /// A wave is over: its values and records go to the waves' state
@@ -342,13 +337,6 @@ impl RtWorkload {
             (Work::TraceLocal, queries),
         ] {
             ctx.charge(kind, n);
-        }
-    }
-
-    /// Counts `n` pixels finished, for a progress display.
-    fn count_finished(&self, n: usize) {
-        if let Some(p) = &self.progress {
-            p.fetch_add(n as u64, std::sync::atomic::Ordering::Relaxed);
         }
     }
 }
