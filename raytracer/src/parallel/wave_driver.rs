@@ -5,7 +5,7 @@
 use std::sync::{Arc, Mutex};
 
 use super::tasks::{DdTask, WaveChunk};
-use crate::render::ambient::{AmbientCache, AmbientRecord};
+use crate::render::ambient::{AmbientCache, AmbientRecord, AmbientSettings};
 use crate::render::waves::Waves;
 use crate::render::Renderer;
 
@@ -30,6 +30,9 @@ pub(super) struct Irradiance {
     /// The master's.
     pub(super) driver: Mutex<Driver>,
     procs: usize,
+    /// The picture's size, its adaptive sampling (`-ps`, `-pt`) and the
+    /// cache's settings: what the master makes the waves from.
+    plan: (usize, usize, (u32, f64), AmbientSettings),
 }
 
 /// A processor's cache: the wave it shades, and the broadcasts it holds
@@ -89,9 +92,8 @@ impl Irradiance {
         }
         let initial = Arc::new(base);
         let o = renderer.options();
-        let mut waves = Waves::new(width, height, (o.ps, o.pt), s, initial.clone());
-        let current = waves.next_wave().unwrap_or_default();
         Some(Irradiance {
+            plan: (width, height, (o.ps, o.pt), s),
             slots: (0..procs.max(1))
                 .map(|_| {
                     Mutex::new(WaveSlot {
@@ -102,9 +104,11 @@ impl Irradiance {
                 })
                 .collect(),
             initial,
+            // Made by the master when it asks for the roots: no other MPI
+            // rank holds the waves' picture.
             driver: Mutex::new(Driver {
-                waves: Some(waves),
-                current,
+                waves: None,
+                current: Vec::new(),
                 error: None,
             }),
             procs,
@@ -123,9 +127,15 @@ impl Irradiance {
             .collect()
     }
 
-    /// The first wave's chunks.
+    /// The first wave's chunks (on the master, which makes the waves).
     pub(super) fn roots(&self) -> Vec<DdTask> {
-        let d = self.driver.lock().unwrap_or_else(|e| e.into_inner());
+        let mut d = self.driver.lock().unwrap_or_else(|e| e.into_inner());
+        if d.waves.is_none() {
+            let (w, h, ps, s) = self.plan;
+            let mut waves = Waves::new(w, h, ps, s, self.initial.clone());
+            d.current = waves.next_wave().unwrap_or_default();
+            d.waves = Some(waves);
+        }
         self.chunks(0, &d.current)
     }
 }
