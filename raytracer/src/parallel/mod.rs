@@ -3,10 +3,13 @@
 //! shadow bundles, migrating rays and cells onto the framework). By concept:
 //! [`tasks`] holds everything that travels between processors, [`work`] the
 //! kinds of work charged, [`distribution`] and [`partition`] who owns which
-//! cell, `selection` and `execute` what a task needs and does, [`tree`]
-//! how pixels are assembled exactly, [`caster`] restartable shadow bundles,
-//! [`cost`] and [`predict`] the simulator's cost model and the predicted
-//! distribution.
+//! cell, `selection` and `execute` what a task needs and does, [`records`]
+//! what travels to a pixel's owner and [`tree`] how pixels are assembled
+//! exactly, [`caster`] restartable shadow bundles, `hemispheres` diffuse
+//! inter-reflection's sample rays, `irradiance` and `cursor` the
+//! irradiance cache (waves of pixels as epochs, and each pixel's lookups
+//! decided in the sequential order), [`cost`] and [`predict`] the
+//! simulator's cost model and the predicted distribution.
 //!
 //! [`render_parallel`] runs it on a chosen runtime and returns the image
 //! with the framework's statistics; the image equals the sequential
