@@ -137,6 +137,41 @@ pub(super) fn secs(ns: u64) -> f64 {
     ns as f64 * 1e-9
 }
 
+/// What a simulated run moved and held, as the diffuse inter-reflection
+/// experiments tabulate it: data-parallel migrations, cells fetched,
+/// bytes of tasks (migrating and demand-driven, the master's hand-outs
+/// included), of cells and of results sent, and the most any processor
+/// held (resident cells and cache), queued (tasks, parked ones included)
+/// and had in flight.
+pub(super) struct Traffic {
+    pub(super) migrations: u64,
+    pub(super) fetched: u64,
+    pub(super) tasks: u64,
+    pub(super) cells: u64,
+    pub(super) results: u64,
+    pub(super) most_held: u64,
+    pub(super) most_queued: u64,
+    pub(super) most_in_flight: u64,
+}
+
+impl Traffic {
+    pub(super) fn of(st: &hybrid_sched::RunStats) -> Self {
+        let most =
+            |f: &dyn Fn(&hybrid_sched::ProcStats) -> u64| st.procs.iter().map(f).max().unwrap_or(0);
+        Traffic {
+            migrations: st.sum(|q| q.tasks.migrations),
+            fetched: st.sum(|q| q.data_items_requested),
+            tasks: st.sum(|q| q.sent.data_parallel.bytes + q.sent.demand_driven.bytes)
+                + st.master.sent.demand_driven.bytes,
+            cells: st.sum(|q| q.sent.data.bytes),
+            results: st.sum(|q| q.sent.result.bytes),
+            most_held: most(&|q| q.memory.resident_bytes + q.memory.cached_bytes),
+            most_queued: most(&|q| q.memory.queued_tasks as u64),
+            most_in_flight: most(&|q| q.memory.in_flight_bytes as u64),
+        }
+    }
+}
+
 /// 1, 2, 4, ... up to `max` processors: the speed-up curves' counts.
 pub(super) fn doubling(max: usize) -> Vec<usize> {
     std::iter::successors(Some(1usize), |&p| Some(p * 2))

@@ -9,7 +9,7 @@
 
 use serde_json::json;
 
-use super::harness::{doubling, f3, same_picture, secs, Ctx, RunSpec};
+use super::harness::{doubling, f3, same_picture, secs, Ctx, RunSpec, Traffic};
 use crate::parallel::{hybrid_interreflection, CacheSize};
 use crate::report::plot::{Chart, Mark, Series};
 use crate::report::table::Table;
@@ -71,32 +71,21 @@ pub(super) fn hemispheres(cx: &mut Ctx) -> Result<()> {
             let t1 = *base.get_or_insert(tp);
             let (sp, eff) = (t1 / tp, t1 / tp / p as f64);
             speedup.push((p as f64, sp));
-            let migrations = st.sum(|q| q.tasks.migrations);
-            let fetched = st.sum(|q| q.data_items_requested);
-            let tasks = st.sum(|q| q.sent.data_parallel.bytes + q.sent.demand_driven.bytes)
-                + st.master.sent.demand_driven.bytes;
-            let cells = st.sum(|q| q.sent.data.bytes);
-            let results = st.sum(|q| q.sent.result.bytes);
-            let most = |f: &dyn Fn(&hybrid_sched::ProcStats) -> u64| {
-                st.procs.iter().map(f).max().unwrap_or(0)
-            };
-            let held = most(&|q| q.memory.resident_bytes + q.memory.cached_bytes);
-            let queued = most(&|q| q.memory.queued_tasks as u64);
-            let flight = most(&|q| q.memory.in_flight_bytes as u64);
+            let tr = Traffic::of(st);
             t.row([
                 name.to_string(),
                 p.to_string(),
                 f3(tp),
                 format!("{sp:.2}"),
                 format!("{:.1}%", 100.0 * eff),
-                migrations.to_string(),
-                fetched.to_string(),
-                kib(tasks),
-                kib(cells),
-                kib(results),
-                kib(held),
-                queued.to_string(),
-                kib(flight),
+                tr.migrations.to_string(),
+                tr.fetched.to_string(),
+                kib(tr.tasks),
+                kib(tr.cells),
+                kib(tr.results),
+                kib(tr.most_held),
+                tr.most_queued.to_string(),
+                kib(tr.most_in_flight),
             ]);
             rows.push(json!({
                 "cache": name,
@@ -104,14 +93,14 @@ pub(super) fn hemispheres(cx: &mut Ctx) -> Result<()> {
                 "time_s": tp,
                 "speedup": sp,
                 "efficiency": eff,
-                "migrations": migrations,
-                "cells_fetched": fetched,
-                "task_bytes": tasks,
-                "cell_bytes": cells,
-                "result_bytes": results,
-                "most_held_bytes": held,
-                "most_queued_tasks": queued,
-                "most_in_flight_bytes": flight,
+                "migrations": tr.migrations,
+                "cells_fetched": tr.fetched,
+                "task_bytes": tr.tasks,
+                "cell_bytes": tr.cells,
+                "result_bytes": tr.results,
+                "most_held_bytes": tr.most_held,
+                "most_queued_tasks": tr.most_queued,
+                "most_in_flight_bytes": tr.most_in_flight,
             }));
         }
         series.push(Series::new(name, speedup, Mark::LinePoints));

@@ -11,7 +11,7 @@
 
 use serde_json::json;
 
-use super::harness::{doubling, f3, same_picture, secs, Ctx, RunSpec};
+use super::harness::{doubling, f3, same_picture, secs, Ctx, RunSpec, Traffic};
 use crate::parallel::{CacheSize, Work};
 use crate::render::ambient::AmbientRecord;
 use crate::report::plot::{Chart, Mark, Series};
@@ -77,19 +77,9 @@ pub(super) fn interreflection(cx: &mut Ctx) -> Result<()> {
             let t1 = *base.get_or_insert(tp);
             let (sp, eff) = (t1 / tp, t1 / tp / p as f64);
             speedup.push((p as f64, sp));
-            let migrations = st.sum(|q| q.tasks.migrations);
-            let fetched = st.sum(|q| q.data_items_requested);
-            let tasks = st.sum(|q| q.sent.data_parallel.bytes + q.sent.demand_driven.bytes)
-                + st.master.sent.demand_driven.bytes;
-            let cells = st.sum(|q| q.sent.data.bytes);
-            let results = st.sum(|q| q.sent.result.bytes);
+            let tr = Traffic::of(st);
             // The master sends the broadcasts (its only data).
             let broadcast = st.master.sent.data.bytes;
-            let most = |f: &dyn Fn(&hybrid_sched::ProcStats) -> u64| {
-                st.procs.iter().map(f).max().unwrap_or(0)
-            };
-            let held = most(&|q| q.memory.resident_bytes + q.memory.cached_bytes);
-            let queued = most(&|q| q.memory.queued_tasks as u64);
             let records = (a.records * std::mem::size_of::<AmbientRecord>()) as u64;
             let leaks = r.work(Work::LeakJobs);
             t.row([
@@ -100,16 +90,16 @@ pub(super) fn interreflection(cx: &mut Ctx) -> Result<()> {
                 format!("{:.1}%", 100.0 * eff),
                 a.waves.to_string(),
                 a.counts.hemispheres.to_string(),
-                migrations.to_string(),
+                tr.migrations.to_string(),
                 leaks.to_string(),
-                fetched.to_string(),
-                kib(tasks),
-                kib(cells),
-                kib(results),
+                tr.fetched.to_string(),
+                kib(tr.tasks),
+                kib(tr.cells),
+                kib(tr.results),
                 kib(broadcast),
-                kib(held),
+                kib(tr.most_held),
                 kib(records),
-                queued.to_string(),
+                tr.most_queued.to_string(),
             ]);
             rows.push(json!({
                 "cache": name,
@@ -120,16 +110,16 @@ pub(super) fn interreflection(cx: &mut Ctx) -> Result<()> {
                 "waves": a.waves,
                 "hemispheres": a.counts.hemispheres,
                 "records": a.records,
-                "migrations": migrations,
+                "migrations": tr.migrations,
                 "leak_tests_sent": leaks,
-                "cells_fetched": fetched,
-                "task_bytes": tasks,
-                "cell_bytes": cells,
-                "result_bytes": results,
+                "cells_fetched": tr.fetched,
+                "task_bytes": tr.tasks,
+                "cell_bytes": tr.cells,
+                "result_bytes": tr.results,
                 "broadcast_bytes": broadcast,
-                "most_held_bytes": held,
+                "most_held_bytes": tr.most_held,
                 "record_bytes_per_processor": records,
-                "most_queued_tasks": queued,
+                "most_queued_tasks": tr.most_queued,
             }));
         }
         series.push(Series::new(name, speedup, Mark::LinePoints));
