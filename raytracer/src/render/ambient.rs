@@ -346,8 +346,17 @@ impl Hasher for CellHasher {
         self.0
     }
 
+    /// Eight bytes a word: a key's `[i64; 3]` arrives here whole (the
+    /// standard library hashes a slice of integers as its bytes), and a
+    /// byte a round cost 1.7% of a render with `-ab 1`.
     fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
+        let mut words = bytes.chunks_exact(8);
+        for w in &mut words {
+            let mut b = [0u8; 8];
+            b.copy_from_slice(w);
+            self.add(u64::from_le_bytes(b));
+        }
+        for &b in words.remainder() {
             self.add(u64::from(b));
         }
     }

@@ -729,18 +729,19 @@ impl PreparedLight {
                 }
                 let frame = (origin, u, v);
                 let to3 = |q: DVec2| *frame.0 + *frame.1 * q.x + *frame.2 * q.y;
-                let mut leaf = |r: [f64; 4], rng: &mut Rng| {
+                let mut leaf = |r: [f64; 4], centre: Vec3, rng: &mut Rng| {
                     if *rectangular {
                         let area = (r[1] - r[0]) * (r[3] - r[2]);
                         let (cu, cv) = (0.5 * (r[0] + r[1]), 0.5 * (r[2] + r[3]));
+                        // Without jitter, the cell's centre (`centre` below).
                         let q = if dj > 0.0 {
                             let uu = r[0] + rng.next_f64() * (r[1] - r[0]);
                             let vv = r[2] + rng.next_f64() * (r[3] - r[2]);
-                            DVec2::new(jitter(cu, uu, dj), jitter(cv, vv, dj))
+                            to3(DVec2::new(jitter(cu, uu, dj), jitter(cv, vv, dj)))
                         } else {
-                            DVec2::new(cu, cv)
+                            centre
                         };
-                        if let Some(s) = flat_sample(p, to3(q), *normal, area) {
+                        if let Some(s) = flat_sample(p, q, *normal, area) {
                             f(s);
                         }
                         return;
@@ -827,7 +828,7 @@ impl PreparedLight {
                         + (pm - shape.sample(um, c[3]).0).length();
                     (du, dv, pm)
                 };
-                let mut leaf = |c: [f64; 4], rng: &mut Rng| {
+                let mut leaf = |c: [f64; 4], _: Vec3, rng: &mut Rng| {
                     let cell_area = area * (c[1] - c[0]) * (c[3] - c[2]);
                     let uu = jitter(
                         0.5 * (c[0] + c[1]),
@@ -882,7 +883,7 @@ fn polar_patches<F: FnMut(PatchSample)>(
         let (rm, pm) = (0.5 * (c[0] + c[1]), 0.5 * (c[2] + c[3]));
         (c[1] - c[0], rm * (c[3] - c[2]), point(rm, pm))
     };
-    let mut leaf = |c: [f64; 4], rng: &mut Rng| {
+    let mut leaf = |c: [f64; 4], _: Vec3, rng: &mut Rng| {
         let (r0, r1) = (c[0], c[1]);
         let area = 0.5 * (c[3] - c[2]) * (r1 - r0) * (r1 + r0);
         if area <= 0.0 {
@@ -952,7 +953,8 @@ fn flat_sample(p: Vec3, q: Vec3, n: Vec3, area: f64) -> Option<PatchSample> {
 /// Radiance's recursive partition (`flt_partit`): split the cell along its
 /// longer dimension while its size over the distance from `p` exceeds
 /// `ds`, giving each half half of the remaining patch budget `mp`.
-/// `dims(cell)` returns the cell's two world-space sizes and its centre.
+/// `dims(cell)` returns the cell's two world-space sizes and its centre,
+/// which `leaf(cell, centre, rng)` is given with the cell.
 /// Returns the number of leaves produced.
 fn split_rect<D, L>(
     cell: [f64; 4],
@@ -965,13 +967,13 @@ fn split_rect<D, L>(
 ) -> usize
 where
     D: Fn([f64; 4]) -> (f64, f64, Vec3),
-    L: FnMut([f64; 4], &mut Rng),
+    L: FnMut([f64; 4], Vec3, &mut Rng),
 {
     let (su, sv, c) = dims(cell);
     let d2 = (c - p).length_squared();
     let lim = ds * ds * d2;
     if mp < 2 || ds <= 0.0 || (su * su <= lim && sv * sv <= lim) {
-        leaf(cell, rng);
+        leaf(cell, c, rng);
         return 1;
     }
     let (a, b) = if su >= sv {
@@ -1322,7 +1324,7 @@ mod tests {
             p,
             0.2,
             &mut rng,
-            &mut |c, _| cells.push(c),
+            &mut |c, _, _| cells.push(c),
         );
         assert_eq!(n, cells.len());
         let area: f64 = cells.iter().map(|c| (c[1] - c[0]) * (c[3] - c[2])).sum();
@@ -1339,7 +1341,7 @@ mod tests {
             Vec3::new(0.5, 0.5, 0.01),
             0.2,
             &mut rng,
-            &mut |_, _| count += 1,
+            &mut |_, _, _| count += 1,
         );
         assert!(count <= MAX_PATCHES && count > 16, "{count}");
         let mut one = 0;
@@ -1350,7 +1352,7 @@ mod tests {
             p,
             0.0,
             &mut rng,
-            &mut |_, _| one += 1,
+            &mut |_, _, _| one += 1,
         );
         assert_eq!(one, 1, "-ds 0 means no subdivision");
     }

@@ -189,7 +189,7 @@ impl Hemisphere {
             ns,
             ux,
             uy,
-            first: Vec::with_capacity(n),
+            first: Vec::new(),
             sums: vec![Color::ZERO; n],
             counts: vec![0; n],
             first_dist: vec![f64::INFINITY; n],
@@ -232,31 +232,41 @@ impl Hemisphere {
     fn choose_first_directions(&mut self) {
         let ns = self.ns as usize;
         let n = ns * ns;
-        let mut dirs = vec![Vec3::ZERO; n];
-        let mut seeds = vec![0u64; n];
+        let mut first = vec![(Vec3::ZERO, 0u64); n];
         // Minimum spacing: a quarter stratum.
         let a = (PI / 4.0) / ns as f64;
         let cos_thresh = 1.0 - 0.5 * a * a;
         for div in (0..n).rev() {
             let (i, j) = (div / ns, div % ns);
+            // The neighbours chosen before this stratum (those after it):
+            // the next in its row, and the three next to it in the next row.
+            let mut before = [usize::MAX; 4];
+            if j + 1 < ns {
+                before[0] = div + 1;
+            }
+            if i + 1 < ns {
+                before[1] = div + ns;
+                if j > 0 {
+                    before[2] = div + ns - 1;
+                }
+                if j + 1 < ns {
+                    before[3] = div + ns + 1;
+                }
+            }
             let (mut dir, mut rng) = self.jittered(div, 0);
             for _ in 0..64 {
-                let collides = (i.saturating_sub(1)..=(i + 1).min(ns - 1)).any(|ii| {
-                    (j.saturating_sub(1)..=(j + 1).min(ns - 1)).any(|jj| {
-                        let k = ii * ns + jj;
-                        k > div && dirs[k].dot(dir) >= cos_thresh
-                    })
-                });
+                let collides = before
+                    .iter()
+                    .any(|&k| k != usize::MAX && first[k].0.dot(dir) >= cos_thresh);
                 if !collides {
                     break;
                 }
                 let (s0, s1) = (rng.next_f64(), rng.next_f64());
                 dir = self.in_stratum(div, s0, s1);
             }
-            dirs[div] = dir;
-            seeds[div] = rng.next_u64();
+            first[div] = (dir, rng.next_u64());
         }
-        self.first = dirs.into_iter().zip(seeds).collect();
+        self.first = first;
     }
 
     fn task(&self, dir: Vec3, seed: u64) -> RayTask {
