@@ -729,17 +729,18 @@ impl PreparedLight {
                 }
                 let frame = (origin, u, v);
                 let to3 = |q: DVec2| *frame.0 + *frame.1 * q.x + *frame.2 * q.y;
-                let mut leaf = |r: [f64; 4], centre: Vec3, rng: &mut Rng| {
+                let mut leaf = |r: [f64; 4], mid: Vec3, rng: &mut Rng| {
                     if *rectangular {
                         let area = (r[1] - r[0]) * (r[3] - r[2]);
                         let (cu, cv) = (0.5 * (r[0] + r[1]), 0.5 * (r[2] + r[3]));
-                        // Without jitter, the cell's centre (`centre` below).
+                        // Without jitter, the cell's centre as the split
+                        // computed it (`centre` below), the same bits.
                         let q = if dj > 0.0 {
                             let uu = r[0] + rng.next_f64() * (r[1] - r[0]);
                             let vv = r[2] + rng.next_f64() * (r[3] - r[2]);
                             to3(DVec2::new(jitter(cu, uu, dj), jitter(cv, vv, dj)))
                         } else {
-                            centre
+                            mid
                         };
                         if let Some(s) = flat_sample(p, q, *normal, area) {
                             f(s);
