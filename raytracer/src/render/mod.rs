@@ -44,6 +44,8 @@ pub mod waves;
 mod aniso_tests;
 #[cfg(test)]
 mod bsdf_tests;
+#[cfg(test)]
+mod shading_tests;
 
 pub use caster::{BruteForceCaster, BvhCaster, OctreeCaster, RayCaster};
 pub use effects::{Effect, EffectsReport};
