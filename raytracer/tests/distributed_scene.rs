@@ -8,7 +8,7 @@ use std::sync::Arc;
 use hybrid_rt::accel::{Octree, OctreeParams};
 use hybrid_rt::compiled::{self, CompiledScene, Storage};
 use hybrid_rt::parallel::{
-    render_parallel_held, CacheSize, Distribution, ParallelOptions, RtWorkload,
+    render_parallel_held, CacheSize, Distribution, ParallelOptions, ParallelRender, RtWorkload,
 };
 use hybrid_rt::render::{RenderOptions, Renderer};
 use hybrid_rt::scene::{generate, LoadOptions, View};
@@ -112,6 +112,28 @@ fn c_scene(path: &Path) -> hybrid_rt::scene::Scene {
     compiled::load_scene(path).unwrap()
 }
 
+/// The compiled scene at `path` rendered at `w` x `h` by `procs` processors
+/// on two threads, each reading its own part (`distribution`, `cache`).
+fn render_held(
+    path: &Path,
+    options: &RenderOptions,
+    view: &View,
+    (w, h): (usize, usize),
+    (procs, distribution, cache): (usize, Distribution, CacheSize),
+) -> ParallelRender {
+    let mut popts = ParallelOptions::new(procs);
+    popts.workload.distribution = distribution;
+    popts.cache = cache;
+    popts.threads = Some(2);
+    let part = CompiledScene::open(path)
+        .unwrap()
+        .held_part(&LoadOptions::default())
+        .unwrap();
+    render_parallel_held(part, options.clone(), view, w, h, &popts, None)
+        .unwrap()
+        .unwrap()
+}
+
 /// What a processor reads: its leaves' objects (and, stored once, nothing
 /// beyond the objects its leaves list), never the whole scene.
 #[test]
@@ -173,17 +195,7 @@ fn distributed_renders_equal_the_whole_scenes_sequential_render() {
             (3, Distribution::Octree, CacheSize::Percent(5.0)),
             (4, Distribution::Worst, CacheSize::Percent(10.0)),
         ] {
-            let mut popts = ParallelOptions::new(procs);
-            popts.workload.distribution = distribution;
-            popts.cache = cache;
-            popts.threads = Some(2);
-            let part = CompiledScene::open(&path)
-                .unwrap()
-                .held_part(&LoadOptions::default())
-                .unwrap();
-            let out = render_parallel_held(part, options.clone(), &view, w, h, &popts, None)
-                .unwrap()
-                .unwrap();
+            let out = render_held(&path, &options, &view, (w, h), (procs, distribution, cache));
             assert!(
                 out.film.pixels() == want.pixels(),
                 "{name}: {procs} processors, {distribution}: the picture differs"
@@ -423,17 +435,7 @@ fn the_irradiance_cache_on_a_distributed_scene_gives_the_sequential_picture() {
             (3, Distribution::Octree, CacheSize::Percent(5.0)),
             (4, Distribution::Worst, CacheSize::Unlimited),
         ] {
-            let mut popts = ParallelOptions::new(procs);
-            popts.workload.distribution = distribution;
-            popts.cache = cache;
-            popts.threads = Some(2);
-            let part = CompiledScene::open(&path)
-                .unwrap()
-                .held_part(&LoadOptions::default())
-                .unwrap();
-            let out = render_parallel_held(part, options.clone(), &view, w, h, &popts, None)
-                .unwrap()
-                .unwrap();
+            let out = render_held(&path, &options, &view, (w, h), (procs, distribution, cache));
             assert!(
                 out.film.pixels() == want.pixels(),
                 "{name} -ab {ab}: {procs} processors, {distribution}: the picture differs"
